@@ -1,0 +1,47 @@
+"""Exceptions of :mod:`radialopt`: one base, specific subclasses.
+
+Every bad-input error is a :class:`RadialError`, which is a :class:`ValueError`, so callers
+can catch the whole family at once or a single case.
+"""
+
+from __future__ import annotations
+
+
+class RadialError(ValueError):
+    """Base of every error raised by :mod:`radialopt`."""
+
+
+class ShapeError(RadialError):
+    """An array does not have the expected shape."""
+
+
+class NonFiniteError(RadialError):
+    """A value is NaN or infinite."""
+
+
+class NonPositiveSigmaError(RadialError):
+    """A standard deviation is zero or negative."""
+
+
+class NegativeRadiusError(RadialError):
+    """A sphere radius is negative."""
+
+
+class CoincidentCentersError(RadialError):
+    """Two sphere centres coincide, so their pair gives no restriction."""
+
+
+class TooFewSpheresError(RadialError):
+    """Fewer spheres than the operation needs."""
+
+
+class UnknownMethodError(RadialError):
+    """A method or solver name that is not available."""
+
+
+class SolverError(RadialError, RuntimeError):
+    """A solver failed and no answer can be trusted."""
+
+
+class VerificationError(SolverError):
+    """``check=True`` found a disagreement with the vertex-enumeration reference."""

@@ -1,0 +1,442 @@
+"""The normalised radial projection (paper section 4.4, DESIGN.md items 4-6).
+
+Given measured radii ``r`` (ranges of the percepts) that do not make every pair of spheres
+meet, find the adjusted radii ``r'`` in the restriction polytope ``A r' <= b`` that lose the
+least density, i.e. minimise ``|H (r' - r)|^2`` with ``H = diag(1/sigma)`` (eqs. 16-19).
+All methods solve it in whitened variables ``z = H (r' - r)``::
+
+    minimise |z|^2  subject to  (A H^-1) z <= b - A r
+
+which is a least-distance problem.  Four methods, one entry point :func:`project_radii`:
+
+``"active_set"`` (default, the fast path)
+    Lawson and Hanson's least-distance programming: the problem becomes a non-negative least
+    squares problem (Solving Least Squares Problems, 1974, ch. 23), solved by
+    :func:`scipy.optimize.nnls` in compiled code, then polished by an exact equality-
+    constrained solve on the active rows and a KKT check.
+``"cvxpy"``
+    The reference formulation of the design card, compiled once per (sphere count, solver)
+    with DPP parameters and re-used; Clarabel with tight tolerances by default, any installed
+    cvxpy solver by name.
+``"vertices"``
+    Explicit vertex enumeration of the polyhedron and the projection solved in V-form
+    (:mod:`radialopt.vertices`).
+``"paper"``
+    Eq. 17 as written: project onto single hyperplanes in ``Sd^n`` and keep the closest
+    feasible point; when no single projection is feasible, continue to ridges (pairs, then
+    triples of hyperplanes), as the paper's words "the closest point ... on the cells or
+    ridges" suggest.  Not optimal when the answer lies on a ridge but a farther single-
+    hyperplane projection happens to be feasible; it is never better than the exact methods.
+
+``check=True`` verifies any method's answer against the vertex enumeration (V-form optimality
+certificate and the V-form optimum) and raises :class:`~radialopt.errors.VerificationError`
+on disagreement.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property, lru_cache
+from itertools import combinations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import nnls
+
+from .errors import SolverError, UnknownMethodError, VerificationError
+from .polytope import RestrictionPolytope, pair_pattern
+from .spheres import (
+    TOLERANCES,
+    GaussianSphere,
+    Tolerances,
+    check_distinct_centers,
+    sphere_arrays,
+)
+
+#: The shared status set every backend maps its native status onto.
+STATUSES = ("optimal", "optimal_inaccurate", "infeasible", "error")
+
+#: Clarabel settings that make the QP agree with the exact answer (DESIGN practical notes).
+CLARABEL_TIGHT = {
+    "tol_gap_abs": 1e-10,
+    "tol_gap_rel": 1e-10,
+    "tol_feas": 1e-10,
+    "tol_ktratio": 1e-8,
+}
+
+
+@dataclass(frozen=True)
+class RadialSolution:
+    """Result of :func:`project_radii` (one dataclass for every backend).
+
+    Attributes
+    ----------
+    radii : (n,) float
+        Adjusted radii r' (metres), in the restriction polytope.
+    displacement : (n,) float
+        ``r' - r`` (metres): how much each sphere was dilated (+) or contracted (-).
+    density : float
+        ``exp(-1/2 |H (r' - r)|^2)`` in (0, 1]: the density kept (eq. 18-20); 1 when the
+        measured configuration was already valid.
+    status : str
+        One of :data:`STATUSES`.
+    method : str
+        ``"active_set"``, ``"cvxpy"``, ``"vertices"`` or ``"paper"``.
+    solver : str or None
+        The cvxpy solver name for ``method="cvxpy"``, else None.
+    solve_time : float
+        Wall time of the solve, seconds.
+    active_rows : tuple of int
+        Rows of the polytope's ``A`` that are tight at the answer.
+    normalized_displacement : float
+        ``|H (r' - r)|``, the length of the optimal offset V_opt in ``Sd^n``;
+        ``density = exp(-normalized_displacement**2 / 2)`` (which underflows to 0 beyond ~38).
+    """
+
+    radii: NDArray[np.float64]
+    displacement: NDArray[np.float64]
+    density: float
+    status: str
+    method: str
+    solver: str | None
+    solve_time: float
+    active_rows: tuple[int, ...] = field(default=())
+    normalized_displacement: float = 0.0
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """A projection instance in whitened form: min |z|^2 s.t. G z <= h, G = A diag(sigma)."""
+
+    centers: NDArray[np.float64]
+    radii: NDArray[np.float64]
+    sigmas: NDArray[np.float64]
+    G: NDArray[np.float64]
+    h: NDArray[np.float64]
+    b: NDArray[np.float64]
+
+    @classmethod
+    def build(cls, spheres: Sequence[GaussianSphere], tol: Tolerances) -> _Problem:
+        centers, radii, sigmas = sphere_arrays(spheres, min_count=2, tol=tol, check_centers=False)
+        iu, ju, A, b_sign = pair_pattern(len(radii))
+        d = np.sqrt(np.sum((centers[iu] - centers[ju]) ** 2, axis=1))
+        if np.any(d <= tol.coincident):
+            check_distinct_centers(centers, tol)  # raises, naming the pair
+        b = b_sign * np.repeat(d, 3)
+        return cls(centers, radii, sigmas, A * sigmas, b - A @ radii, b)
+
+    @cached_property
+    def polytope(self) -> RestrictionPolytope:
+        return RestrictionPolytope.from_centers(self.centers, self.sigmas)
+
+    @property
+    def scale(self) -> float:
+        """Typical length of the instance, for relative tolerances."""
+        return max(float(np.max(np.abs(self.b))), float(np.max(self.radii)), 1.0)
+
+    def solution(
+        self, z: NDArray[np.float64], status: str, method: str, solver: str | None, t0: float
+    ) -> RadialSolution:
+        radii = self.radii + self.sigmas * z
+        slack = self.h - self.G @ z
+        active = tuple(np.flatnonzero(np.abs(slack) <= 1e-7 * self.scale).tolist())
+        return RadialSolution(
+            radii=radii,
+            displacement=radii - self.radii,
+            density=float(np.exp(-0.5 * float(z @ z))),
+            status=status,
+            method=method,
+            solver=solver,
+            solve_time=time.perf_counter() - t0,
+            active_rows=active,
+            normalized_displacement=float(np.sqrt(z @ z)),
+        )
+
+
+# --------------------------------------------------------------------------- active set
+def least_distance(G: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[NDArray[np.float64], str]:
+    """Solve ``min |z|^2 s.t. G z <= h`` exactly (Lawson-Hanson LDP via NNLS, then polish).
+
+    Returns ``(z, status)`` with status ``"optimal"`` or ``"infeasible"``.
+    """
+    n = G.shape[1]
+    if h.min() >= 0:
+        return np.zeros(n), "optimal"
+    # LDP in Lawson-Hanson form: min |z| s.t. E z >= f with E = -G, f = -h.
+    M = np.vstack([-G.T, -h[None, :]])
+    e = np.zeros(n + 1)
+    e[n] = 1.0
+    u, _ = nnls(M, e, maxiter=50 * M.shape[1])
+    resid = M @ u - e
+    if abs(resid[n]) <= 1e-14 or np.linalg.norm(resid) <= 1e-12:
+        return np.full(n, np.nan), "infeasible"
+    z = -resid[:n] / resid[n]
+    return _polish(G, h, z, u > 0), "optimal"
+
+
+def _polish(
+    G: NDArray[np.float64], h: NDArray[np.float64], z: NDArray[np.float64], support: NDArray[np.bool_]
+) -> NDArray[np.float64]:
+    """Finish exactly: an active-set loop on ``min |z|^2 s.t. G_S z = h_S`` seeded by NNLS.
+
+    On a working set S the answer is ``z = -G_S^T y`` with ``(G_S G_S^T) y = -h_S`` and KKT
+    multipliers ``y >= 0``.  Rows with a
+    negative multiplier leave S, the most violated row joins it; at most a few steps are
+    needed from the NNLS support.  Falls back to the NNLS answer if the loop does not settle.
+    """
+    tol = 1e-12 * max(float(np.abs(h).max()), 1.0)
+    work = list(np.flatnonzero(support))
+    if not work:
+        return z
+    for _ in range(2 * G.shape[0]):
+        GS = G[work]
+        gram = GS @ GS.T
+        try:
+            y = np.linalg.solve(gram, -h[work])
+        except np.linalg.LinAlgError:  # dependent rows at a degenerate vertex
+            y = np.linalg.lstsq(gram, -h[work], rcond=None)[0]
+        k = int(np.argmin(y))
+        if y[k] < -tol:
+            del work[k]
+            if not work:
+                return z
+            continue
+        z2 = -GS.T @ y
+        viol = G @ z2 - h
+        j = int(np.argmax(viol))
+        if viol[j] > tol:
+            if j in work:
+                return z
+            work.append(j)
+            continue
+        return z2
+    return z
+
+
+def _solve_active_set(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
+    return least_distance(p.G, p.h)
+
+
+# --------------------------------------------------------------------------------- cvxpy
+@lru_cache(maxsize=1)
+def installed_cvxpy_solvers() -> tuple[str, ...]:
+    """``cvxpy.installed_solvers()``, asked once (it costs milliseconds per call)."""
+    import cvxpy as cp
+
+    return tuple(cp.installed_solvers())
+
+
+@lru_cache(maxsize=64)
+def _cvxpy_problem(n: int, m: int):  # noqa: ANN202 - returns (problem, z, G, h)
+    """The DPP-parametrised least-distance problem for n spheres, compiled on first solve."""
+    import cvxpy as cp
+
+    z = cp.Variable(n)
+    G = cp.Parameter((m, n))
+    h = cp.Parameter(m)
+    prob = cp.Problem(cp.Minimize(cp.sum_squares(z)), [G @ z <= h])
+    return prob, z, G, h
+
+
+def fresh_cvxpy_problem(G: NDArray[np.float64], h: NDArray[np.float64]):  # noqa: ANN201
+    """A freshly built (not cached) cvxpy problem for the same instance: the benchmark baseline."""
+    import cvxpy as cp
+
+    z = cp.Variable(G.shape[1])
+    return cp.Problem(cp.Minimize(cp.sum_squares(z)), [G @ z <= h]), z
+
+
+_CVXPY_STATUS = {
+    "optimal": "optimal",
+    "optimal_inaccurate": "optimal_inaccurate",
+    "infeasible": "infeasible",
+    "infeasible_inaccurate": "infeasible",
+    "unbounded": "error",
+    "unbounded_inaccurate": "error",
+    "user_limit": "error",
+    "solver_error": "error",
+}
+
+
+def solver_options(solver: str) -> dict:
+    """Per-solver keyword options: tight tolerances for Clarabel, defaults elsewhere."""
+    return dict(CLARABEL_TIGHT) if solver.upper() == "CLARABEL" else {}
+
+
+def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
+    import cvxpy as cp
+
+    name = (solver or "CLARABEL").upper()
+    if name not in installed_cvxpy_solvers():
+        raise UnknownMethodError(
+            f"cvxpy solver {name!r} is not installed; installed: "
+            f"{', '.join(installed_cvxpy_solvers())}. Install e.g. `pip install osqp scs ecos`."
+        )
+    prob, z, G, h = _cvxpy_problem(*p.G.shape[::-1])
+    G.value = p.G
+    h.value = p.h
+    try:
+        prob.solve(solver=name, **solver_options(name))
+    except cp.error.SolverError as exc:
+        raise SolverError(f"cvxpy solver {name} failed: {exc}") from exc
+    status = _CVXPY_STATUS.get(str(prob.status), "error")
+    if status in ("error", "infeasible") or z.value is None:
+        # The restriction polytope is never empty, so 'infeasible' is a solver failure too.
+        raise SolverError(f"cvxpy solver {name} returned status {prob.status!r}; no answer")
+    return np.asarray(z.value, dtype=np.float64), status
+
+
+# --------------------------------------------------------------------------------- paper
+def _solve_paper(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
+    """Eq. 17 in Sd^n: single-hyperplane projections, then ridges if none is feasible."""
+    Pd = p.polytope.normalized()
+    x0 = p.radii / p.sigmas
+    if Pd.contains(x0, tol.feasibility):
+        return np.zeros_like(x0), "optimal"
+    A, b = Pd.A, Pd.b
+    m, n = A.shape
+    feas_tol = tol.feasibility * max(1.0, float(np.max(np.abs(b))))
+    for k in range(1, n + 1):
+        best = _closest_feasible_on_flats(A, b, x0, k, feas_tol)
+        if best is not None:
+            return best - x0, "optimal"
+    raise SolverError("paper method found no feasible projection on any face")  # unreachable
+
+
+def _closest_feasible_on_flats(
+    A: NDArray, b: NDArray, x0: NDArray, k: int, feas_tol: float, chunk: int = 20000
+) -> NDArray | None:
+    """Project x0 onto every intersection of k hyperplanes; return the closest feasible one."""
+    m = A.shape[0]
+    best, best_d = None, np.inf
+    subsets_iter = combinations(range(m), k)
+    while True:
+        block = np.array([s for _, s in zip(range(chunk), subsets_iter, strict=False)], dtype=np.int64)
+        if block.size == 0:
+            return best
+        As = A[block]  # (N, k, n)
+        viol = np.einsum("skn,n->sk", As, x0) - b[block]  # (N, k)
+        gram = np.einsum("skn,sjn->skj", As, As)
+        det = np.linalg.det(gram)
+        ok = np.abs(det) > 1e-12
+        if np.any(ok):
+            y = np.linalg.solve(gram[ok], viol[ok][..., None])[..., 0]
+            pts = x0 - np.einsum("skn,sk->sn", As[ok], y)
+            feasible = np.all(pts @ A.T - b <= feas_tol, axis=1)
+            if np.any(feasible):
+                cand = pts[feasible]
+                d = np.linalg.norm(cand - x0, axis=1)
+                i = int(np.argmin(d))
+                if d[i] < best_d:
+                    best, best_d = cand[i], d[i]
+        if block.shape[0] < chunk:
+            return best
+
+
+# ------------------------------------------------------------------------------ vertices
+def _solve_vertices(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
+    from .vertices import enumerate_vertices, project_vform
+
+    enum = enumerate_vertices(p.polytope)
+    point, _ = project_vform(enum, p.radii, p.sigmas)
+    return (point - p.radii) / p.sigmas, "optimal"
+
+
+_BACKENDS: dict[str, Callable[[_Problem, str | None, Tolerances], tuple[NDArray, str]]] = {
+    "active_set": _solve_active_set,
+    "cvxpy": _solve_cvxpy,
+    "vertices": _solve_vertices,
+    "paper": _solve_paper,
+}
+
+METHODS = tuple(_BACKENDS)
+
+
+def project_radii(
+    spheres: Sequence[GaussianSphere],
+    method: str = "active_set",
+    solver: str | None = None,
+    check: bool = False,
+    tol: Tolerances = TOLERANCES,
+) -> RadialSolution:
+    """Project measured radii onto the restriction polytope in normalised radial space.
+
+    Parameters
+    ----------
+    spheres : sequence of GaussianSphere, length n >= 2
+        Centres (model landmarks), measured radii and their standard deviations.
+    method : {"active_set", "cvxpy", "vertices", "paper"}
+        Backend, see the module docstring.
+    solver : str, optional
+        cvxpy solver name for ``method="cvxpy"`` (default ``"CLARABEL"``).
+    check : bool
+        Verify the answer against explicit vertex enumeration; raise
+        :class:`~radialopt.errors.VerificationError` on disagreement.
+    tol : Tolerances
+        Numerical tolerances.
+
+    Returns
+    -------
+    RadialSolution
+
+    Raises
+    ------
+    RadialError
+        Bad input (see :mod:`radialopt.errors`), unknown method or solver.
+    SolverError
+        The backend failed and no answer can be trusted.
+    """
+    if method not in _BACKENDS:
+        raise UnknownMethodError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if solver is not None and method != "cvxpy":
+        raise UnknownMethodError(f"solver={solver!r} only applies to method='cvxpy', not {method!r}")
+    problem = _Problem.build(spheres, tol)
+    t0 = time.perf_counter()
+    z, status = _BACKENDS[method](problem, solver, tol)
+    if status == "infeasible" or not np.all(np.isfinite(z)):
+        raise SolverError(f"method {method!r} found no feasible radii (status {status!r})")
+    solver_name = (solver or "CLARABEL").upper() if method == "cvxpy" else None
+    sol = problem.solution(z, status, method, solver_name, t0)
+    if check:
+        verify_solution(spheres, sol, tol)
+    return sol
+
+
+def verify_solution(
+    spheres: Sequence[GaussianSphere], sol: RadialSolution, tol: Tolerances = TOLERANCES
+) -> None:
+    """Check a solution against explicit vertex enumeration; raise VerificationError if wrong.
+
+    Two independent checks: the V-form optimality certificate of the returned radii (they lie
+    in the polytope and no vertex or ray improves on them), and agreement with the V-form
+    optimum.  The paper's method is only checked for feasibility and for not beating the
+    optimum, since it is not optimal by design.
+    """
+    from .vertices import certify_projection, enumerate_vertices, project_vform
+
+    problem = _Problem.build(spheres, tol)
+    enum = enumerate_vertices(problem.polytope)
+    ref, _ = project_vform(enum, problem.radii, problem.sigmas)
+    ref_cost = float(np.sum(((ref - problem.radii) / problem.sigmas) ** 2))
+    cost = float(np.sum(((sol.radii - problem.radii) / problem.sigmas) ** 2))
+    atol = tol.agreement * problem.scale
+    if not problem.polytope.contains(sol.radii, atol):
+        rows = problem.polytope.violated_rows(sol.radii, atol)
+        raise VerificationError(f"{sol.method}: radii {sol.radii.tolist()} violate {rows}")
+    if cost < ref_cost - tol.agreement * max(ref_cost, 1.0):
+        raise VerificationError(
+            f"{sol.method}: cost {cost:.12g} below the vertex-enumeration optimum {ref_cost:.12g}"
+        )
+    if sol.method == "paper":
+        return
+    ok, residual, message = certify_projection(
+        enum, problem.polytope, problem.radii, problem.sigmas, sol.radii, atol
+    )
+    gap = float(np.max(np.abs(sol.radii - ref)))
+    if not ok or gap > atol:
+        raise VerificationError(
+            f"{sol.method}: radii {sol.radii.tolist()} differ from the vertex-enumeration "
+            f"optimum {ref.tolist()} by {gap:.3g} m (tolerance {atol:.3g}); certificate: {message}"
+        )

@@ -1,0 +1,256 @@
+"""Gaussian spheres (paper section 4.1) and the validation shared by all of radialopt.
+
+A Gaussian sphere has a centre ``X`` (a model landmark), a radius ``r`` (the measured range
+``|percept|``) and a standard deviation ``sigma`` of that range.  Its density at a point x is
+``exp(-(|x - X| - r)^2 / (2 sigma^2))`` (eq. 11-12); the total density of several spheres
+is the product (eq. 14), which in radial form is eq. 20.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import (
+    CoincidentCentersError,
+    NegativeRadiusError,
+    NonFiniteError,
+    NonPositiveSigmaError,
+    ShapeError,
+    TooFewSpheresError,
+)
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Numerical tolerances of radialopt, in one place (metres unless said otherwise).
+
+    Attributes
+    ----------
+    coincident : float
+        Two centres closer than this are the same point.
+    feasibility : float
+        Slack allowed in ``A r <= b`` when testing membership.
+    agreement : float
+        Largest difference between an answer and the vertex-enumeration reference that
+        ``check=True`` accepts.
+    """
+
+    coincident: float = 1e-9
+    feasibility: float = 1e-9
+    agreement: float = 1e-6
+
+
+TOLERANCES = Tolerances()
+
+
+@dataclass(frozen=True)
+class GaussianSphere:
+    """A sphere with a radially Gaussian density (paper eq. 12).
+
+    Parameters
+    ----------
+    center : (3,) float
+        Centre X, metres (a model landmark in the world frame).
+    radius : float
+        Radius r >= 0, metres (the measured range of the percept).
+    sigma : float
+        Standard deviation of the radius, > 0, metres (eq. 6).
+    """
+
+    center: NDArray[np.float64]
+    radius: float
+    sigma: float
+
+    def __post_init__(self) -> None:
+        center = np.array(self.center, dtype=np.float64)
+        if center.shape != (3,):
+            raise ShapeError(f"center must have shape (3,), got shape {center.shape}: {center!r}")
+        if not np.all(np.isfinite(center)):
+            raise NonFiniteError(f"center must be finite, got {center.tolist()}")
+        radius = _finite_scalar("radius", self.radius)
+        sigma = _finite_scalar("sigma", self.sigma)
+        if radius < 0:
+            raise NegativeRadiusError(f"radius must be >= 0, got {radius!r}")
+        if sigma <= 0:
+            raise NonPositiveSigmaError(f"sigma must be > 0, got {sigma!r}")
+        center.setflags(write=False)
+        object.__setattr__(self, "center", center)
+        object.__setattr__(self, "radius", radius)
+        object.__setattr__(self, "sigma", sigma)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, GaussianSphere):
+            return NotImplemented
+        return (
+            bool(np.array_equal(self.center, other.center))
+            and self.radius == other.radius
+            and self.sigma == other.sigma
+        )
+
+    def __hash__(self) -> int:
+        return hash((tuple(self.center.tolist()), self.radius, self.sigma))
+
+    def with_radius(self, radius: float) -> GaussianSphere:
+        """The same sphere with another radius (an adjusted configuration)."""
+        return GaussianSphere(self.center, radius, self.sigma)
+
+    def density(self, x: ArrayLike) -> NDArray[np.float64] | float:
+        """Eq. 12 at points ``x`` of shape (3,) or (k, 3)."""
+        return density(self, x)
+
+    def conformal(self) -> NDArray[np.float64]:
+        """The conformal 5-vector of this sphere, see :func:`conformal_sphere`."""
+        return conformal_sphere(self.center, self.radius)
+
+
+def _finite_scalar(name: str, value: object) -> float:
+    try:
+        out = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be a real scalar, got {value!r}") from exc
+    if not np.isfinite(out):
+        raise NonFiniteError(f"{name} must be finite, got {out!r}")
+    return out
+
+
+def as_points(x: ArrayLike, name: str = "x") -> tuple[NDArray[np.float64], bool]:
+    """Validate points of shape (3,) or (k, 3); return them as (k, 3) and a 'was single' flag."""
+    arr = np.asarray(x, dtype=np.float64)
+    single = arr.ndim == 1
+    pts = arr.reshape(1, -1) if single else arr
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise ShapeError(f"{name} must have shape (3,) or (k, 3), got shape {arr.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
+    return pts, single
+
+
+def sphere_arrays(
+    spheres: Sequence[GaussianSphere],
+    min_count: int = 2,
+    tol: Tolerances = TOLERANCES,
+    check_centers: bool = True,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Stack spheres into ``centers (n, 3)``, ``radii (n,)``, ``sigmas (n,)``.
+
+    Raises
+    ------
+    TooFewSpheresError
+        Fewer than ``min_count`` spheres.
+    CoincidentCentersError
+        Two centres closer than ``tol.coincident`` (when ``check_centers``; callers that
+        compute the pair distances anyway check them there).
+    """
+    spheres = list(spheres)
+    for i, s in enumerate(spheres):
+        if not isinstance(s, GaussianSphere):
+            raise ShapeError(f"spheres[{i}] must be a GaussianSphere, got {type(s).__name__}")
+    if len(spheres) < min_count:
+        raise TooFewSpheresError(f"need at least {min_count} spheres, got {len(spheres)}")
+    centers = np.array([s.center for s in spheres], dtype=np.float64).reshape(-1, 3)
+    radii = np.array([s.radius for s in spheres], dtype=np.float64)
+    sigmas = np.array([s.sigma for s in spheres], dtype=np.float64)
+    if check_centers:
+        check_distinct_centers(centers, tol)
+    return centers, radii, sigmas
+
+
+def check_distinct_centers(centers: NDArray[np.float64], tol: Tolerances = TOLERANCES) -> None:
+    """Raise :class:`CoincidentCentersError` naming the first pair of coincident centres."""
+    n = len(centers)
+    if n < 2:
+        return
+    d = np.linalg.norm(centers[:, None, :] - centers[None, :, :], axis=-1)
+    iu, ju = np.triu_indices(n, k=1)
+    bad = np.flatnonzero(d[iu, ju] <= tol.coincident)
+    if bad.size:
+        i, j = int(iu[bad[0]]), int(ju[bad[0]])
+        raise CoincidentCentersError(
+            f"centres {i} and {j} coincide ({centers[i].tolist()}, distance "
+            f"{d[i, j]:.3g} <= {tol.coincident:g})"
+        )
+
+
+def make_spheres(
+    centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike
+) -> list[GaussianSphere]:
+    """Build spheres from ``centers (n, 3)``, ``radii (n,)``, ``sigmas (n,)`` (a scalar broadcasts)."""
+    c = np.asarray(centers, dtype=np.float64)
+    if c.ndim != 2 or c.shape[1] != 3:
+        raise ShapeError(f"centers must have shape (n, 3), got shape {c.shape}")
+    r = np.asarray(radii, dtype=np.float64)
+    if r.shape != (len(c),):
+        raise ShapeError(f"radii must have shape ({len(c)},), got shape {r.shape}")
+    s = np.broadcast_to(np.asarray(sigmas, dtype=np.float64), r.shape) if np.ndim(sigmas) == 0 \
+        else np.asarray(sigmas, dtype=np.float64)
+    if s.shape != r.shape:
+        raise ShapeError(f"sigmas must have shape ({len(c)},), got shape {s.shape}")
+    return [GaussianSphere(ci, float(ri), float(si)) for ci, ri, si in zip(c, r, s, strict=True)]
+
+
+def density(sphere: GaussianSphere, x: ArrayLike) -> NDArray[np.float64] | float:
+    """Density of one Gaussian sphere at ``x`` (eq. 11-12), in (0, 1].
+
+    ``x`` is a point (3,) -> float, or points (k, 3) -> (k,).
+    """
+    pts, single = as_points(x)
+    dev = np.linalg.norm(pts - sphere.center, axis=1) - sphere.radius
+    out = np.exp(-0.5 * (dev / sphere.sigma) ** 2)
+    return float(out[0]) if single else out
+
+
+def total_density(spheres: Sequence[GaussianSphere], x: ArrayLike) -> NDArray[np.float64] | float:
+    """Product density of several Gaussian spheres at ``x`` (eq. 14, radial form eq. 20)."""
+    centers, radii, sigmas = sphere_arrays(spheres, min_count=1, check_centers=False)
+    pts, single = as_points(x)
+    rx = np.linalg.norm(pts[:, None, :] - centers[None, :, :], axis=-1)
+    out = np.exp(-0.5 * np.sum(((rx - radii) / sigmas) ** 2, axis=1))
+    return float(out[0]) if single else out
+
+
+def radial_density(radii: ArrayLike, measured: ArrayLike, sigmas: ArrayLike) -> float:
+    """Eq. 18/20 in radial space: ``exp(-1/2 |H (radii - measured)|^2)``, H = diag(1/sigma)."""
+    z = (np.asarray(radii, float) - np.asarray(measured, float)) / np.asarray(sigmas, float)
+    return float(np.exp(-0.5 * float(z @ z)))
+
+
+# --- conformal model (DESIGN.md item 1) ---------------------------------------------------
+# A conformal vector is stored as the 5 coefficients (e1, e2, e3, e0, e_inf) with the metric
+# e_i . e_i = 1, e0 . e0 = e_inf . e_inf = 0, e0 . e_inf = -1.
+CONFORMAL_METRIC = np.array(
+    [
+        [1.0, 0, 0, 0, 0],
+        [0, 1.0, 0, 0, 0],
+        [0, 0, 1.0, 0, 0],
+        [0, 0, 0, 0, -1.0],
+        [0, 0, 0, -1.0, 0],
+    ]
+)
+
+
+def conformal_sphere(center: ArrayLike, radius: float) -> NDArray[np.float64]:
+    """Conformal 5-vector ``S = X + 1/2 (|X|^2 - r^2) e_inf + e0`` (eq. 4 with its squares).
+
+    The paper's typesetting drops the squares; with them ``S1 . S2 = -1/2 (d^2 - r1^2 - r2^2)``
+    where d is the distance between the centres.  ``radius**2`` may be negative for an
+    imaginary sphere; pass ``radius = 1j * rho`` semantics through :func:`conformal_sphere_sq`.
+    """
+    x = np.asarray(center, dtype=np.float64)
+    return conformal_sphere_sq(x, float(radius) ** 2)
+
+
+def conformal_sphere_sq(center: ArrayLike, radius_sq: float) -> NDArray[np.float64]:
+    """Conformal sphere from its squared radius (negative for an imaginary sphere)."""
+    x = np.asarray(center, dtype=np.float64)
+    return np.array([x[0], x[1], x[2], 1.0, 0.5 * (x @ x - radius_sq)])
+
+
+def conformal_inner(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64] | float:
+    """Inner product of conformal vectors (last axis of length 5)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    return np.einsum("...i,ij,...j->...", a, CONFORMAL_METRIC, b)

@@ -1,0 +1,68 @@
+"""Shared test problems: seeded generators and hypothesis strategies for radial projection.
+
+Each generator builds valid inputs directly (no filtering): landmarks in a room, a robot
+position, measured ranges with sigma = rho^2 / depth_factor noise (eq. 6).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import strategies as st
+
+import radialopt as ro
+
+
+def scene(
+    rng: np.random.Generator,
+    n: int,
+    depth_factor: float = 300.0,
+    room: float = 5.0,
+    noise_scale: float = 1.0,
+    min_separation: float = 0.05,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Random landmarks ``(n, 3)``, robot position ``(3,)``, noisy ranges ``(n,)`` and sigmas."""
+    while True:
+        centers = rng.uniform(-room, room, size=(n, 3))
+        d = np.linalg.norm(centers[:, None] - centers[None], axis=-1)
+        if np.all(d[np.triu_indices(n, 1)] > min_separation):
+            break
+    robot = rng.uniform(-room, room, size=3)
+    rho = np.linalg.norm(centers - robot, axis=1)
+    sigmas = np.maximum(rho**2 / depth_factor, 1e-4)
+    radii = np.abs(rho + noise_scale * sigmas * rng.standard_normal(n))
+    return centers, robot, radii, sigmas
+
+
+def infeasible_spheres(rng: np.random.Generator, n: int) -> list[ro.GaussianSphere]:
+    """Spheres whose measured radii violate at least one pairwise restriction."""
+    while True:
+        centers, _, radii, sigmas = scene(rng, n, depth_factor=20.0, room=2.0, noise_scale=3.0)
+        P = ro.RestrictionPolytope.from_centers(centers)
+        if not P.contains(radii):
+            return ro.make_spheres(centers, radii, sigmas)
+
+
+@st.composite
+def sphere_sets(draw, min_n: int = 2, max_n: int = 6, scale: float = 5.0):
+    """Hypothesis strategy: n spheres with distinct centres, radii >= 0 and sigmas > 0."""
+    n = draw(st.integers(min_n, max_n))
+    coord = st.floats(-scale, scale, allow_nan=False, allow_infinity=False)
+    centers = []
+    while len(centers) < n:
+        c = np.array([draw(coord) for _ in range(3)])
+        if all(np.linalg.norm(c - o) > 1e-2 for o in centers):
+            centers.append(c)
+        else:  # move a coincident draw deterministically instead of rejecting it
+            centers.append(c + 0.1 * (len(centers) + 1) * np.array([1.0, 0.5, 0.25]))
+    radii = [draw(st.floats(0.0, 3 * scale)) for _ in range(n)]
+    sigmas = [draw(st.floats(1e-3, 2.0)) for _ in range(n)]
+    return ro.make_spheres(np.array(centers), np.array(radii), np.array(sigmas))
+
+
+def random_rotation(rng: np.random.Generator) -> np.ndarray:
+    """A uniformly random rotation matrix (QR of a Gaussian matrix, sign-fixed)."""
+    q, r = np.linalg.qr(rng.standard_normal((3, 3)))
+    q = q * np.sign(np.diag(r))
+    if np.linalg.det(q) < 0:
+        q[:, 0] = -q[:, 0]
+    return q

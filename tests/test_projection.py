@@ -1,0 +1,221 @@
+"""project_radii: every method against the others and against the optimality conditions."""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.optimize import nnls
+
+import radialopt as ro
+from radialopt.projection import least_distance
+from tests.problems import infeasible_spheres, random_rotation, scene, sphere_sets
+
+EXACT = ("active_set", "vertices")
+
+
+def cost(spheres, radii):
+    r = np.array([s.radius for s in spheres])
+    sig = np.array([s.sigma for s in spheres])
+    return float(np.sum(((radii - r) / sig) ** 2))
+
+
+def polytope_of(spheres):
+    return ro.RestrictionPolytope.from_spheres(spheres)
+
+
+@given(sphere_sets(min_n=2, max_n=5))
+def test_output_in_polytope_and_projection_is_idempotent(spheres):
+    sol = ro.project_radii(spheres)
+    P = polytope_of(spheres)
+    assert P.contains(sol.radii, tol=1e-9 * max(1.0, np.abs(P.b).max()))
+    again = ro.project_radii([s.with_radius(r) for s, r in zip(spheres, sol.radii, strict=True)])
+    np.testing.assert_allclose(again.radii, sol.radii, atol=1e-9)
+    assert 0.0 <= sol.density <= 1.0
+    assert sol.normalized_displacement**2 == pytest.approx(cost(spheres, sol.radii), rel=1e-9)
+    assert sol.density == pytest.approx(np.exp(-0.5 * cost(spheres, sol.radii)), rel=1e-9)
+
+
+@given(sphere_sets(min_n=2, max_n=5))
+def test_feasible_input_is_returned_unchanged_with_density_one(spheres):
+    P = polytope_of(spheres)
+    r = np.array([s.radius for s in spheres])
+    if not P.contains(r, tol=0):
+        # move to a feasible configuration by hand: the true ranges of a real point
+        x = np.mean([s.center for s in spheres], axis=0) + 0.37
+        r = np.linalg.norm(np.array([s.center for s in spheres]) - x, axis=1)
+        spheres = [s.with_radius(ri) for s, ri in zip(spheres, r, strict=True)]
+    for method in ("active_set", "cvxpy", "paper"):
+        sol = ro.project_radii(spheres, method=method)
+        np.testing.assert_allclose(sol.radii, r, atol=1e-8 if method == "cvxpy" else 0)
+        assert sol.density == pytest.approx(1.0, abs=1e-12)
+
+
+@given(sphere_sets(min_n=2, max_n=5))
+def test_exact_methods_agree_and_cvxpy_agrees(spheres):
+    ref = ro.project_radii(spheres, method="active_set")
+    for method in EXACT[1:]:
+        other = ro.project_radii(spheres, method=method)
+        np.testing.assert_allclose(other.radii, ref.radii, atol=1e-9)
+    cv = ro.project_radii(spheres, method="cvxpy", solver="CLARABEL")
+    np.testing.assert_allclose(cv.radii, ref.radii, atol=1e-7)
+    assert cv.status in ("optimal", "optimal_inaccurate")
+
+
+@pytest.mark.parametrize("n", range(3, 9))
+def test_methods_agree_on_infeasible_scenes(n):
+    rng = np.random.default_rng(100 + n)
+    for _ in range(4 if n <= 6 else 1):
+        spheres = infeasible_spheres(rng, n)
+        ref = ro.project_radii(spheres, method="active_set", check=n <= 6)
+        assert ref.density < 1.0
+        cv = ro.project_radii(spheres, method="cvxpy")
+        np.testing.assert_allclose(cv.radii, ref.radii, atol=1e-7)
+        paper = ro.project_radii(spheres, method="paper")
+        assert cost(spheres, paper.radii) >= cost(spheres, ref.radii) * (1 - 1e-9) - 1e-12
+        if n <= 6:
+            vert = ro.project_radii(spheres, method="vertices")
+            np.testing.assert_allclose(vert.radii, ref.radii, atol=1e-9)
+
+
+@given(sphere_sets(min_n=2, max_n=6))
+def test_kkt_conditions_hold(spheres):
+    sol = ro.project_radii(spheres)
+    P = polytope_of(spheres)
+    r = np.array([s.radius for s in spheres])
+    sig = np.array([s.sigma for s in spheres])
+    # stationarity: H^2 (r' - r) = -A_act^T lambda with lambda >= 0 on the active rows
+    grad = (sol.radii - r) / sig**2
+    scale = max(1.0, np.abs(P.b).max())
+    active = np.flatnonzero(np.abs(P.b - P.A @ sol.radii) <= 1e-7 * scale)
+    if active.size == 0:
+        np.testing.assert_allclose(grad, 0, atol=1e-9)
+        return
+    lam, resid = nnls(-P.A[active].T, grad)
+    assert resid <= 1e-6 * max(1.0, np.linalg.norm(grad))
+
+
+@given(sphere_sets(min_n=2, max_n=6), st.randoms(use_true_random=False))
+def test_permutation_invariance(spheres, random):
+    perm = list(range(len(spheres)))
+    random.shuffle(perm)
+    a = ro.project_radii(spheres)
+    b = ro.project_radii([spheres[i] for i in perm])
+    np.testing.assert_allclose(b.radii, a.radii[perm], atol=1e-9)
+
+
+@given(sphere_sets(min_n=2, max_n=6), st.integers(0, 2**32 - 1))
+def test_rigid_motion_invariance(spheres, seed):
+    rng = np.random.default_rng(seed)
+    R, t = random_rotation(rng), rng.uniform(-100, 100, 3)
+    moved = [ro.GaussianSphere(R @ s.center + t, s.radius, s.sigma) for s in spheres]
+    np.testing.assert_allclose(ro.project_radii(moved).radii, ro.project_radii(spheres).radii,
+                               atol=1e-8)
+
+
+@given(sphere_sets(min_n=2, max_n=5), st.data())
+def test_larger_sigma_moves_its_radius_at_least_as_far(spheres, data):
+    k = data.draw(st.integers(0, len(spheres) - 1))
+    factor = data.draw(st.floats(1.1, 20))
+    a = ro.project_radii(spheres)
+    wider = list(spheres)
+    wider[k] = ro.GaussianSphere(spheres[k].center, spheres[k].radius, spheres[k].sigma * factor)
+    b = ro.project_radii(wider)
+    assert abs(b.displacement[k]) >= abs(a.displacement[k]) - 1e-9
+
+
+@given(sphere_sets(min_n=2, max_n=5))
+def test_paper_is_never_better_than_exact(spheres):
+    exact = ro.project_radii(spheres, method="active_set")
+    paper = ro.project_radii(spheres, method="paper")
+    P = polytope_of(spheres)
+    assert P.contains(paper.radii, tol=1e-8 * max(1.0, np.abs(P.b).max()))
+    c_exact = cost(spheres, exact.radii)
+    assert cost(spheres, paper.radii) >= c_exact - 1e-9 * max(1.0, c_exact)
+    assert paper.density <= exact.density * (1 + 1e-9) + 1e-12
+
+
+def test_paper_is_not_optimal_on_a_ridge():
+    """Eq. 17 keeps the closest feasible single-hyperplane projection; on a ridge it loses."""
+    rng = np.random.default_rng(5)
+    worse = 0
+    for _ in range(200):
+        spheres = infeasible_spheres(rng, 3)
+        exact = ro.project_radii(spheres)
+        paper = ro.project_radii(spheres, method="paper")
+        worse += cost(spheres, paper.radii) > cost(spheres, exact.radii) + 1e-6
+    assert worse > 0
+
+
+def test_two_spheres_apart_meet_halfway_in_sigma_units():
+    # d = 10, r = (4, 4), equal sigma: each grows by 1 to touch
+    spheres = ro.make_spheres([[0, 0, 0], [10, 0, 0]], [4.0, 4.0], [0.5, 0.5])
+    sol = ro.project_radii(spheres)
+    np.testing.assert_allclose(sol.radii, [5.0, 5.0], atol=1e-12)
+    # unequal sigma: the displacement splits in proportion to sigma^2
+    sol = ro.project_radii(ro.make_spheres([[0, 0, 0], [10, 0, 0]], [4.0, 4.0], [1.0, 2.0]))
+    np.testing.assert_allclose(sol.displacement, [2 * 1 / 5, 2 * 4 / 5], atol=1e-12)
+
+
+def test_least_distance_reports_infeasible_constraints():
+    G = np.array([[1.0], [-1.0]])
+    h = np.array([-1.0, -1.0])  # z <= -1 and z >= 1
+    z, status = least_distance(G, h)
+    assert status == "infeasible"
+
+
+def test_check_true_accepts_every_exact_method():
+    rng = np.random.default_rng(9)
+    spheres = infeasible_spheres(rng, 4)
+    for method in ("active_set", "cvxpy", "vertices", "paper"):
+        assert ro.project_radii(spheres, method=method, check=True).status == "optimal"
+
+
+def test_verification_rejects_a_wrong_answer():
+    from radialopt.projection import verify_solution
+
+    rng = np.random.default_rng(11)
+    spheres = infeasible_spheres(rng, 4)
+    sol = ro.project_radii(spheres)
+    bad = ro.RadialSolution(sol.radii + 0.01, sol.displacement + 0.01, sol.density, "optimal",
+                            "active_set", None, 0.0)
+    with pytest.raises(ro.VerificationError, match="differ|violate"):
+        verify_solution(spheres, bad)
+
+
+def test_unknown_method_and_solver_errors_list_the_choices():
+    spheres = ro.make_spheres([[0, 0, 0], [1, 0, 0]], [0.2, 0.2], 0.1)
+    with pytest.raises(ro.UnknownMethodError, match="active_set"):
+        ro.project_radii(spheres, method="simplex")
+    with pytest.raises(ro.UnknownMethodError, match="CLARABEL"):
+        ro.project_radii(spheres, method="cvxpy", solver="NO_SUCH_SOLVER")
+    with pytest.raises(ro.UnknownMethodError, match="only applies"):
+        ro.project_radii(spheres, method="active_set", solver="CLARABEL")
+
+
+@pytest.mark.parametrize(
+    ("spheres", "error"),
+    [
+        ([ro.GaussianSphere((0, 0, 0), 1, 1)], ro.TooFewSpheresError),
+        ([ro.GaussianSphere((0, 0, 0), 1, 1), ro.GaussianSphere((0, 0, 0), 2, 1)],
+         ro.CoincidentCentersError),
+        ([ro.GaussianSphere((0, 0, 0), 1, 1), (1.0, 2.0, 3.0)], ro.ShapeError),
+    ],
+)
+def test_bad_input_raises_specific_errors(spheres, error):
+    with pytest.raises(error):
+        ro.project_radii(spheres)
+
+
+def test_make_spheres_validates_shapes():
+    with pytest.raises(ro.ShapeError, match=r"\(3,\)"):
+        ro.make_spheres(np.zeros((3, 3)), [1, 2], 0.1)
+    with pytest.raises(ro.NonPositiveSigmaError):
+        ro.make_spheres(np.eye(3), [1, 2, 3], [0.1, -0.1, 0.1])
+
+
+def test_solution_status_and_timing_fields():
+    rng = np.random.default_rng(2)
+    centers, _, radii, sig = scene(rng, 5)
+    sol = ro.project_radii(ro.make_spheres(centers, radii, sig), method="cvxpy")
+    assert sol.solver == "CLARABEL" and sol.method == "cvxpy"
+    assert sol.status in ro.STATUSES and sol.solve_time > 0

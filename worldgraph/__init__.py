@@ -1,0 +1,1 @@
+"""worldgraph: world model graph, association and pose."""
