@@ -1,0 +1,125 @@
+"""Time the radial projection methods for n = 3..8 spheres, measured in one run.
+
+    python benchmarks/radial_projection.py [--instances 30] [--repeat 5]
+
+Prints a Markdown table: the median wall time per solve of every method, of a freshly built
+cvxpy problem (compiled on each call, the naive use of cvxpy), of the bare least-distance
+core of the active set, and of vertex enumeration alone; ratios against the fresh cvxpy
+problem from the same run; then the batch throughput of the active-set path.
+Instances are infeasible (the projection does work), seeded, shared by every method.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import radialopt as ro  # noqa: E402
+from radialopt.projection import (  # noqa: E402
+    _Problem,
+    fresh_cvxpy_problem,
+    least_distance,
+    solver_options,
+)
+from radialopt.vertices import enumerate_vertices  # noqa: E402
+
+
+def instances(rng: np.random.Generator, n: int, count: int) -> list[list[ro.GaussianSphere]]:
+    out = []
+    while len(out) < count:
+        centers = rng.uniform(-2, 2, size=(n, 3))
+        robot = rng.uniform(-2, 2, size=3)
+        rho = np.linalg.norm(centers - robot, axis=1)
+        sig = np.maximum(rho**2 / 20.0, 1e-3)
+        radii = np.abs(rho + 3 * sig * rng.standard_normal(n))
+        if not ro.RestrictionPolytope.from_centers(centers).contains(radii):
+            out.append(ro.make_spheres(centers, radii, sig))
+    return out
+
+
+def median_time(fn, items, repeat: int) -> float:
+    """Median over items of the best-of-``repeat`` time of ``fn(item)`` (seconds)."""
+    times = []
+    for item in items:
+        best = np.inf
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            fn(item)
+            best = min(best, time.perf_counter() - t0)
+        times.append(best)
+    return statistics.median(times)
+
+
+def fresh_cvxpy(spheres):
+    p = _Problem.build(spheres, ro.TOLERANCES)
+    prob, z = fresh_cvxpy_problem(p.G, p.h)
+    prob.solve(solver="CLARABEL", **solver_options("CLARABEL"))
+    return z.value
+
+
+def fmt(seconds: float) -> str:
+    if seconds < 1e-3:
+        return f"{seconds * 1e6:.0f} µs"
+    if seconds < 1:
+        return f"{seconds * 1e3:.2f} ms"
+    return f"{seconds:.2f} s"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--instances", type=int, default=30)
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--max-n", type=int, default=8)
+    ap.add_argument("--max-vertices-n", type=int, default=7,
+                    help="largest n for the vertex-enumeration columns")
+    args = ap.parse_args()
+    rng = np.random.default_rng(2026)
+
+    print("| n | rows | active_set | LDP core | cvxpy (cached) | cvxpy (fresh) | vertex enum | "
+          "vertices (V-form) | paper | fresh/active | fresh/cached |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for n in range(3, args.max_n + 1):
+        items = instances(rng, n, args.instances)
+        probs = [_Problem.build(s, ro.TOLERANCES) for s in items]
+        ro.project_radii(items[0], method="cvxpy")  # compile once per n (the cached path)
+        rep = args.repeat
+        t_act = median_time(lambda s: ro.project_radii(s), items, rep)
+        t_core = median_time(lambda p: least_distance(p.G, p.h), probs, rep)
+        t_cvx = median_time(lambda s: ro.project_radii(s, method="cvxpy"), items, rep)
+        t_fresh = median_time(fresh_cvxpy, items[: max(5, args.instances // 3)], 1)
+        t_paper = median_time(lambda s: ro.project_radii(s, method="paper"), items, 1)
+        if n <= args.max_vertices_n:
+            few = items[: max(3, args.instances // (1 if n <= 5 else 6))]
+            t_enum = median_time(
+                lambda s: enumerate_vertices(ro.RestrictionPolytope.from_spheres(s)), few, 1)
+            t_vert = median_time(lambda s: ro.project_radii(s, method="vertices"), few, 1)
+            enum_s, vert_s = fmt(t_enum), fmt(t_vert)
+        else:
+            enum_s = vert_s = "-"
+        print(f"| {n} | {3 * n * (n - 1) // 2} | {fmt(t_act)} | {fmt(t_core)} | {fmt(t_cvx)} | "
+              f"{fmt(t_fresh)} | {enum_s} | {vert_s} | {fmt(t_paper)} | "
+              f"{t_fresh / t_act:.0f}x | {t_fresh / t_cvx:.1f}x |")
+
+    print()
+    print("Batch throughput of the active-set path (one process):")
+    print("| n | instances | total | per instance | solves/s |")
+    print("|---|---|---|---|---|")
+    for n in (4, 6, 8):
+        items = instances(rng, n, 1000)
+        t0 = time.perf_counter()
+        for s in items:
+            ro.project_radii(s)
+        total = time.perf_counter() - t0
+        print(f"| {n} | {len(items)} | {fmt(total)} | {fmt(total / len(items))} | "
+              f"{len(items) / total:,.0f} |")
+
+
+if __name__ == "__main__":
+    main()
