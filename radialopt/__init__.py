@@ -13,7 +13,15 @@ from .errors import (
     VerificationError,
 )
 from .polytope import RestrictionPolytope, common_point_exists
-from .projection import METHODS, STATUSES, RadialSolution, installed_cvxpy_solvers, project_radii
+from .projection import (
+    METHODS,
+    STATUSES,
+    BatchSolution,
+    RadialSolution,
+    installed_cvxpy_solvers,
+    project_radii,
+    project_radii_batch,
+)
 from .spheres import (
     TOLERANCES,
     GaussianSphere,
@@ -30,11 +38,13 @@ __all__ = [
     "METHODS",
     "STATUSES",
     "TOLERANCES",
+    "BatchSolution",
     "RadialSolution",
     "RestrictionPolytope",
     "common_point_exists",
     "installed_cvxpy_solvers",
     "project_radii",
+    "project_radii_batch",
     "CoincidentCentersError",
     "GaussianSphere",
     "NegativeRadiusError",

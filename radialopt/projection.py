@@ -42,10 +42,18 @@ from functools import cached_property, lru_cache
 from itertools import combinations
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import nnls
 
-from .errors import SolverError, UnknownMethodError, VerificationError
+from .errors import (
+    NegativeRadiusError,
+    NonFiniteError,
+    NonPositiveSigmaError,
+    ShapeError,
+    SolverError,
+    UnknownMethodError,
+    VerificationError,
+)
 from .polytope import RestrictionPolytope, pair_pattern
 from .spheres import (
     TOLERANCES,
@@ -116,6 +124,7 @@ class _Problem:
     G: NDArray[np.float64]
     h: NDArray[np.float64]
     b: NDArray[np.float64]
+    scale: float
 
     @classmethod
     def build(cls, spheres: Sequence[GaussianSphere], tol: Tolerances) -> _Problem:
@@ -125,16 +134,12 @@ class _Problem:
         if np.any(d <= tol.coincident):
             check_distinct_centers(centers, tol)  # raises, naming the pair
         b = b_sign * np.repeat(d, 3)
-        return cls(centers, radii, sigmas, A * sigmas, b - A @ radii, b)
+        scale = max(float(d.max()), float(radii.max()), 1.0)  # typical length, for tolerances
+        return cls(centers, radii, sigmas, A * sigmas, b - A @ radii, b, scale)
 
     @cached_property
     def polytope(self) -> RestrictionPolytope:
         return RestrictionPolytope.from_centers(self.centers, self.sigmas)
-
-    @property
-    def scale(self) -> float:
-        """Typical length of the instance, for relative tolerances."""
-        return max(float(np.max(np.abs(self.b))), float(np.max(self.radii)), 1.0)
 
     def solution(
         self, z: NDArray[np.float64], status: str, method: str, solver: str | None, t0: float
@@ -165,7 +170,9 @@ def least_distance(G: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[NDAr
     if h.min() >= 0:
         return np.zeros(n), "optimal"
     # LDP in Lawson-Hanson form: min |z| s.t. E z >= f with E = -G, f = -h.
-    M = np.vstack([-G.T, -h[None, :]])
+    M = np.empty((n + 1, G.shape[0]))
+    np.negative(G.T, out=M[:n])
+    np.negative(h, out=M[n])
     e = np.zeros(n + 1)
     e[n] = 1.0
     u, _ = nnls(M, e, maxiter=50 * M.shape[1])
@@ -182,28 +189,24 @@ def _polish(
     """Finish exactly: an active-set loop on ``min |z|^2 s.t. G_S z = h_S`` seeded by NNLS.
 
     On a working set S the answer is ``z = -G_S^T y`` with ``(G_S G_S^T) y = -h_S`` and KKT
-    multipliers ``y >= 0``.  Rows with a
-    negative multiplier leave S, the most violated row joins it; at most a few steps are
-    needed from the NNLS support.  Falls back to the NNLS answer if the loop does not settle.
+    multipliers ``y >= 0``.  Rows with a negative multiplier leave S, the most violated row
+    joins it; at most a few steps are needed from the NNLS support.  Falls back to the NNLS
+    answer if the loop does not settle.
     """
     tol = 1e-12 * max(float(np.abs(h).max()), 1.0)
-    work = list(np.flatnonzero(support))
+    work = np.flatnonzero(support).tolist()
     if not work:
         return z
     for _ in range(2 * G.shape[0]):
         GS = G[work]
-        gram = GS @ GS.T
-        try:
-            y = np.linalg.solve(gram, -h[work])
-        except np.linalg.LinAlgError:  # dependent rows at a degenerate vertex
-            y = np.linalg.lstsq(gram, -h[work], rcond=None)[0]
+        y = _solve_small(GS @ GS.T, -h[work])
         k = int(np.argmin(y))
         if y[k] < -tol:
             del work[k]
             if not work:
                 return z
             continue
-        z2 = -GS.T @ y
+        z2 = -(y @ GS)
         viol = G @ z2 - h
         j = int(np.argmax(viol))
         if viol[j] > tol:
@@ -213,6 +216,23 @@ def _polish(
             continue
         return z2
     return z
+
+
+def _solve_small(M: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Solve a small symmetric system; closed form for 1x1 and 2x2 (numpy's per-call overhead
+    dominates there), least squares when the active rows are dependent (degenerate vertex)."""
+    k = len(rhs)
+    if k == 1 and M[0, 0] > 0:
+        return rhs / M[0, 0]
+    if k == 2:
+        det = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
+        if abs(det) > 1e-12 * (M[0, 0] * M[1, 1]):
+            return np.array([M[1, 1] * rhs[0] - M[0, 1] * rhs[1],
+                             M[0, 0] * rhs[1] - M[1, 0] * rhs[0]]) / det
+    try:
+        return np.linalg.solve(M, rhs)
+    except np.linalg.LinAlgError:
+        return np.linalg.lstsq(M, rhs, rcond=None)[0]
 
 
 def _solve_active_set(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
@@ -412,6 +432,67 @@ def project_radii(
     if check:
         verify_solution(spheres, sol, tol)
     return sol
+
+
+@dataclass(frozen=True)
+class BatchSolution:
+    """Result of :func:`project_radii_batch`: arrays over B instances."""
+
+    radii: NDArray[np.float64]
+    density: NDArray[np.float64]
+    normalized_displacement: NDArray[np.float64]
+    solve_time: float
+
+
+def project_radii_batch(
+    centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike, tol: Tolerances = TOLERANCES
+) -> BatchSolution:
+    """Exact projection of B instances at once (the active-set path, vectorised set-up).
+
+    Parameters
+    ----------
+    centers : (B, n, 3) float
+    radii, sigmas : (B, n) float
+
+    Returns
+    -------
+    BatchSolution with ``radii (B, n)``, ``density (B,)``, ``normalized_displacement (B,)``.
+    """
+    c = np.asarray(centers, dtype=np.float64)
+    r = np.asarray(radii, dtype=np.float64)
+    sg = np.asarray(sigmas, dtype=np.float64)
+    if c.ndim != 3 or c.shape[2] != 3 or c.shape[1] < 2:
+        raise ShapeError(f"centers must have shape (B, n, 3) with n >= 2, got shape {c.shape}")
+    if r.shape != c.shape[:2] or sg.shape != c.shape[:2]:
+        raise ShapeError(f"radii and sigmas must have shape {c.shape[:2]}, got {r.shape} and "
+                         f"{sg.shape}")
+    for name, arr in (("centers", c), ("radii", r), ("sigmas", sg)):
+        if not np.all(np.isfinite(arr)):
+            raise NonFiniteError(f"{name} must be finite; first bad index "
+                                 f"{np.argwhere(~np.isfinite(arr))[0].tolist()}")
+    if np.any(sg <= 0):
+        raise NonPositiveSigmaError(f"sigmas must be > 0; got {sg[sg <= 0][0]!r} at "
+                                    f"{np.argwhere(sg <= 0)[0].tolist()}")
+    if np.any(r < 0):
+        raise NegativeRadiusError(f"radii must be >= 0; got {r[r < 0][0]!r} at "
+                                  f"{np.argwhere(r < 0)[0].tolist()}")
+    t0 = time.perf_counter()
+    iu, ju, A, b_sign = pair_pattern(c.shape[1])
+    d = np.linalg.norm(c[:, iu] - c[:, ju], axis=2)  # (B, p)
+    if np.any(d <= tol.coincident):
+        k = int(np.argwhere(d <= tol.coincident)[0, 0])
+        check_distinct_centers(c[k], tol)
+    b = b_sign * np.repeat(d, 3, axis=1)  # (B, m)
+    h = b - r @ A.T
+    G = A[None, :, :] * sg[:, None, :]
+    z = np.zeros_like(r)
+    for k in np.flatnonzero(h.min(axis=1) < 0):
+        zk, status = least_distance(G[k], h[k])
+        if status != "optimal":
+            raise SolverError(f"instance {k}: no feasible radii (status {status!r})")
+        z[k] = zk
+    zz = np.sum(z * z, axis=1)
+    return BatchSolution(r + sg * z, np.exp(-0.5 * zz), np.sqrt(zz), time.perf_counter() - t0)
 
 
 def verify_solution(

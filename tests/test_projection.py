@@ -219,3 +219,26 @@ def test_solution_status_and_timing_fields():
     sol = ro.project_radii(ro.make_spheres(centers, radii, sig), method="cvxpy")
     assert sol.solver == "CLARABEL" and sol.method == "cvxpy"
     assert sol.status in ro.STATUSES and sol.solve_time > 0
+
+
+def test_batch_matches_single_calls():
+    rng = np.random.default_rng(21)
+    batch = [infeasible_spheres(rng, 5) for _ in range(6)]
+    centers, robot, _, sig = scene(rng, 5)  # one feasible instance: the true ranges
+    batch.append(ro.make_spheres(centers, np.linalg.norm(centers - robot, axis=1), sig))
+    C = np.array([[s.center for s in b] for b in batch])
+    R = np.array([[s.radius for s in b] for b in batch])
+    S = np.array([[s.sigma for s in b] for b in batch])
+    out = ro.project_radii_batch(C, R, S)
+    for k, b in enumerate(batch):
+        single = ro.project_radii(b)
+        np.testing.assert_allclose(out.radii[k], single.radii, atol=1e-12)
+        assert out.density[k] == pytest.approx(single.density, rel=1e-12, abs=1e-300)
+    with pytest.raises(ro.NonPositiveSigmaError, match="at"):
+        ro.project_radii_batch(C, R, -S)
+    with pytest.raises(ro.ShapeError, match="shape"):
+        ro.project_radii_batch(C[:, :, :2], R, S)
+    R2 = R.copy()
+    R2[1, 2] = np.nan
+    with pytest.raises(ro.NonFiniteError, match=r"\[1, 2\]"):
+        ro.project_radii_batch(C, R2, S)
