@@ -21,8 +21,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from radialopt.vertices import enumerate_vertices  # noqa: E402
-
 import radialopt as ro  # noqa: E402
 from radialopt.projection import (  # noqa: E402
     _Problem,
@@ -30,6 +28,7 @@ from radialopt.projection import (  # noqa: E402
     least_distance,
     solver_options,
 )
+from radialopt.vertices import enumerate_vertices  # noqa: E402
 
 
 def instances(rng: np.random.Generator, n: int, count: int) -> list[list[ro.GaussianSphere]]:

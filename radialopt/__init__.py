@@ -64,3 +64,70 @@ __all__ = [
     "radial_density",
     "total_density",
 ]
+
+# --- geometry and position estimation (conformal meet, hypotheses, estimators) ---
+from .conformal import (
+    MEET_TOLERANCES,
+    Circle,
+    MeetStatus,
+    MeetTolerances,
+    Point,
+    PointPair,
+    meet,
+    meet2_batch,
+    meet3_batch,
+    meet4_batch,
+)
+from .errors import (
+    InvalidRegionError,
+    NotASphereError,
+    SingularFisherError,
+    TooManySpheresError,
+)
+from .hypotheses import Hypothesis, LevelSets, Region, generate_hypotheses
+from .position import (
+    ESTIMATOR_OPTIONS,
+    POSITION_METHODS,
+    POSITION_STATUSES,
+    EstimatorOptions,
+    PositionEstimate,
+    crlb,
+    estimate_position,
+    fisher_information,
+    srls,
+)
+
+__all__ += [
+    "MEET_TOLERANCES",
+    "Circle",
+    "MeetStatus",
+    "MeetTolerances",
+    "Point",
+    "PointPair",
+    "meet",
+    "meet2_batch",
+    "meet3_batch",
+    "meet4_batch",
+    "InvalidRegionError",
+    "NotASphereError",
+    "SingularFisherError",
+    "TooManySpheresError",
+    "Hypothesis",
+    "LevelSets",
+    "Region",
+    "generate_hypotheses",
+    "ESTIMATOR_OPTIONS",
+    "POSITION_METHODS",
+    "POSITION_STATUSES",
+    "EstimatorOptions",
+    "PositionEstimate",
+    "crlb",
+    "estimate_position",
+    "fisher_information",
+    "srls",
+]
+
+# --- vertex enumeration (the independent check of the projection) ---
+from .vertices import VertexEnumeration, certify_projection, enumerate_vertices, project_vform  # noqa: E402
+
+__all__ += ["VertexEnumeration", "certify_projection", "enumerate_vertices", "project_vform"]

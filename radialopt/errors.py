@@ -45,3 +45,19 @@ class SolverError(RadialError, RuntimeError):
 
 class VerificationError(SolverError):
     """``check=True`` found a disagreement with the vertex-enumeration reference."""
+
+
+class NotASphereError(RadialError):
+    """A conformal 5-vector that is not a (possibly imaginary) sphere, e.g. a plane."""
+
+
+class TooManySpheresError(RadialError):
+    """More spheres than the operation accepts (the meet takes at most four)."""
+
+
+class InvalidRegionError(RadialError):
+    """A region whose lower corner is not below its upper corner."""
+
+
+class SingularFisherError(RadialError):
+    """The Fisher information is singular: some direction of the position is unobservable."""

@@ -1,0 +1,705 @@
+"""Position estimation from Gaussian spheres (paper sections 2.3, 4.1-4.5; DESIGN.md 7-8).
+
+Maximising the total density eq. 20 over the position x is sigma-weighted range least
+squares: minimise ``sum_i ((|x - X_i| - r_i) / sigma_i)^2``.  Four estimators share one entry
+point, :func:`estimate_position`:
+
+``"ml"`` (default)
+    The maximum of eq. 20: weighted SR-LS (global, below) as a seed, Levenberg-Marquardt on
+    the sigma-weighted residuals from that seed, from its mirror images across the planes of
+    landmark triples and the best-fit plane of the landmarks, from the points of every
+    sphere triple (the paper's ``Phi_2``) and from the paper's estimate; the best is kept.
+    Its density is never below the paper's (the paper's estimate is one of the candidates).
+``"srls"``
+    Weighted squared-range least squares alone (Beck, Stoica, Li 2008): minimise
+    ``sum_i w_i (|x - X_i|^2 - r_i^2)^2`` with ``w_i = 1 / (4 sigma_i^2 (r_i^2 + sigma_i^2))``
+    (the first-order variance of ``r_i^2``), solved globally as a generalized trust-region
+    subproblem by a 1-D root search on its multiplier.
+``"paper"``
+    The paper's pipeline: normalised radial projection (adjusted radii, eq. 16-19), then the
+    meet of the adjusted spheres (radical centre of four, point pair of three), the
+    hypothesis level sets for more spheres, the candidate of highest total density.
+``"gradient"``
+    Eq. 15: multi-seed fixed-step gradient ascent on the (log) product density, the iterative
+    baseline the paper argues against.  Step ``1 / sum_i sigma_i^-2`` (the inverse of an
+    upper bound of the curvature near the spheres' surfaces), each step capped at a tenth of
+    the landmark spread, at most ``EstimatorOptions.gradient_max_iter`` iterations.
+
+The covariance of every estimate is the Cramer-Rao bound ``J^-1``, ``J = sum_i u_i u_i^T /
+sigma_i^2`` with ``u_i`` the unit vector from centre i to the position (:func:`crlb`).
+
+Degenerate input never raises from inside numpy: fewer than three spheres, collinear centres
+and a position on the plane of coplanar centres give a status and a message.  With coplanar
+centres the mirror image of every candidate across that plane has the same density: both are
+returned and the status is ``"ambiguous"`` unless the region keeps only one.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from itertools import combinations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import eigh
+from scipy.optimize import brentq
+
+from .conformal import MeetStatus, meet3_batch
+from .errors import (
+    NonFiniteError,
+    NonPositiveSigmaError,
+    ShapeError,
+    SingularFisherError,
+    SolverError,
+    UnknownMethodError,
+)
+from .hypotheses import Region, generate_hypotheses
+from .spheres import GaussianSphere, sphere_arrays
+
+__all__ = [
+    "ESTIMATOR_OPTIONS",
+    "POSITION_METHODS",
+    "POSITION_STATUSES",
+    "EstimatorOptions",
+    "PositionEstimate",
+    "crlb",
+    "estimate_position",
+    "fisher_information",
+    "srls",
+]
+
+#: Statuses of :class:`PositionEstimate`.
+POSITION_STATUSES = (
+    "ok",                    # a unique estimate
+    "ambiguous",             # another candidate is about as likely (mirror image, ...)
+    "outside_region",        # no candidate inside the region; the best one is returned
+    "degenerate_coplanar",   # coplanar centres and the estimate on their plane: J singular
+    "degenerate_collinear",  # collinear centres: the position is only known up to a circle
+    "too_few_spheres",       # fewer than three spheres
+)
+
+
+@dataclass(frozen=True)
+class EstimatorOptions:
+    """Tuning of the estimators, in one frozen place.
+
+    Attributes
+    ----------
+    rank_tol : float
+        Centres are collinear (coplanar) when the second (third) singular value of the
+        centred centres is below ``rank_tol`` times the largest.
+    fisher_rcond : float
+        The Fisher information is singular when the smallest eigenvalue of
+        ``sum_i u_i u_i^T / n`` (geometry only, independent of sigma) is below this.
+    lm_max_iter : int
+        Iteration cap of Levenberg-Marquardt.
+    lm_step_tol : float
+        LM stops when a step is shorter than this times the landmark spread.
+    gradient_max_iter : int
+        Iteration cap of the gradient-ascent baseline.
+    gradient_step_tol : float
+        Gradient ascent stops when every step is shorter than this times the spread.
+    distinct_tol : float
+        Candidates closer than this times the spread are the same candidate.
+    ambiguity_ratio : float
+        A distinct candidate whose density is at least this fraction of the best one's, and
+        which lies more than ``ambiguity_sigmas`` standard deviations (of the CRLB, trace)
+        away, makes the estimate ambiguous.
+    ambiguity_sigmas : float
+    random_seeds : int
+        Extra uniformly drawn seeds for "ml" and "gradient" when an ``rng`` is passed.
+    region_tol : float
+        Slack (metres) of the region test.
+    """
+
+    rank_tol: float = 1e-9
+    fisher_rcond: float = 1e-12
+    lm_max_iter: int = 100
+    lm_step_tol: float = 1e-13
+    gradient_max_iter: int = 5000
+    gradient_step_tol: float = 1e-13
+    distinct_tol: float = 1e-6
+    ambiguity_ratio: float = 0.5
+    ambiguity_sigmas: float = 3.0
+    random_seeds: int = 32
+    region_tol: float = 1e-9
+
+
+ESTIMATOR_OPTIONS = EstimatorOptions()
+
+
+@dataclass(frozen=True)
+class PositionEstimate:
+    """Result of :func:`estimate_position`.
+
+    Attributes
+    ----------
+    position : (3,) float
+        The estimate (NaN when the status is ``"too_few_spheres"`` or
+        ``"degenerate_collinear"``).
+    covariance : (3, 3) float
+        Cramer-Rao bound at the estimate (``inf`` everywhere when J is singular).
+    candidates : (k, 3) float
+        Distinct candidates, the chosen one first, then inside-region before outside, by
+        decreasing density.
+    density : float
+        Total density eq. 20 at ``position``.
+    method : str
+    status : str
+        One of :data:`POSITION_STATUSES`.
+    message : str
+        Explanation of a status other than ``"ok"``.
+    candidate_density : (k,) float
+        Density of each candidate.
+    solve_time : float
+        Seconds.
+    """
+
+    position: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    candidates: NDArray[np.float64]
+    density: float
+    method: str
+    status: str
+    message: str = ""
+    candidate_density: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    solve_time: float = 0.0
+
+
+# --- Fisher information ------------------------------------------------------------------
+
+def _check_crlb_input(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike
+                      ) -> tuple[NDArray, NDArray, NDArray]:
+    c = np.asarray(centers, dtype=np.float64)
+    s = np.asarray(sigmas, dtype=np.float64)
+    x = np.asarray(position, dtype=np.float64)
+    if c.ndim != 2 or c.shape[1] != 3:
+        raise ShapeError(f"centers must have shape (n, 3), got shape {c.shape}")
+    if s.shape != (len(c),):
+        raise ShapeError(f"sigmas must have shape ({len(c)},), got shape {s.shape}")
+    if x.shape != (3,):
+        raise ShapeError(f"position must have shape (3,), got shape {x.shape}")
+    for name, arr in (("centers", c), ("sigmas", s), ("position", x)):
+        if not np.all(np.isfinite(arr)):
+            raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
+    if np.any(s <= 0):
+        raise NonPositiveSigmaError(f"sigmas must be > 0, got {s.tolist()}")
+    return c, s, x
+
+
+def fisher_information(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike
+                       ) -> NDArray[np.float64]:
+    """Fisher information of the position from ranges, ``J = sum_i u_i u_i^T / sigma_i^2``.
+
+    Parameters
+    ----------
+    centers : (n, 3) float
+    sigmas : (n,) float
+    position : (3,) float
+
+    Returns
+    -------
+    (3, 3) float
+
+    Raises
+    ------
+    SingularFisherError
+        The position coincides with a centre (the range is not differentiable there).
+    """
+    c, s, x = _check_crlb_input(centers, sigmas, position)
+    diff = x - c
+    d = np.linalg.norm(diff, axis=1)
+    scale = max(float(np.max(np.abs(c - c.mean(axis=0)), initial=0.0)), 1.0)
+    if np.any(d <= 1e-12 * scale):
+        i = int(np.argmin(d))
+        raise SingularFisherError(f"position {x.tolist()} coincides with centre {i} "
+                                  f"({c[i].tolist()}): the range is not differentiable there")
+    u = diff / d[:, None]
+    return np.einsum("ni,nj->ij", u / s[:, None] ** 2, u)
+
+
+def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
+         rcond: float = ESTIMATOR_OPTIONS.fisher_rcond) -> NDArray[np.float64]:
+    """Cramer-Rao bound ``J^-1`` of the position (covariance of an efficient estimator).
+
+    Parameters
+    ----------
+    centers : (n, 3) float
+        Landmark positions.
+    sigmas : (n,) float
+        Standard deviations of the ranges.
+    position : (3,) float
+        Where to evaluate the bound (the truth, or an estimate).
+    rcond : float
+        Singularity threshold on the smallest eigenvalue of ``sum_i u_i u_i^T / n``
+        (geometry only: it does not depend on the sigmas).
+
+    Returns
+    -------
+    (3, 3) float
+
+    Raises
+    ------
+    SingularFisherError
+        Some direction is unobservable: fewer than three directions, all directions
+        ``u_i`` in a plane (the position on the plane of coplanar centres) or on a line.
+    """
+    c, s, x = _check_crlb_input(centers, sigmas, position)
+    J = fisher_information(c, s, x)
+    diff = x - c
+    u = diff / np.linalg.norm(diff, axis=1)[:, None]
+    geometric = np.linalg.eigvalsh(u.T @ u / len(u))
+    if geometric[0] <= rcond:
+        raise SingularFisherError(
+            f"Fisher information at {x.tolist()} is singular: the directions to the {len(c)} "
+            f"centres span too few dimensions (smallest eigenvalue {geometric[0]:.3g} <= {rcond:g})")
+    w, V = np.linalg.eigh(J)
+    return (V / w) @ V.T
+
+
+# --- residuals, Levenberg-Marquardt, gradient ascent (all batched over seeds) --------------
+
+def _residuals(x: NDArray, c: NDArray, r: NDArray, s: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """Normalised residuals ``(m, n)``, their Jacobian ``(m, n, 3)`` and costs ``(m,)``."""
+    diff = x[:, None, :] - c[None]
+    d = np.linalg.norm(diff, axis=2)
+    res = (d - r) / s
+    jac = diff / (np.maximum(d, np.finfo(float).tiny) * s)[..., None]
+    return res, jac, np.einsum("mn,mn->m", res, res)
+
+
+def _costs(x: NDArray, c: NDArray, r: NDArray, s: NDArray) -> NDArray:
+    d = np.linalg.norm(x[:, None, :] - c[None], axis=2)
+    z = (d - r) / s
+    return np.einsum("mn,mn->m", z, z)
+
+
+def _levenberg_marquardt(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, spread: float,
+                         opts: EstimatorOptions) -> tuple[NDArray, NDArray]:
+    """Minimise the sigma-weighted range cost from every seed at once.
+
+    Returns the final points ``(m, 3)`` and costs ``(m,)``.  Each step solves
+    ``(J^T J + mu tr(J^T J)/3 I) dx = -J^T res``; accepted steps shrink mu, rejected ones
+    grow it, so the cost never increases.
+    """
+    x = x0.copy()
+    res, jac, cost = _residuals(x, c, r, s)
+    mu = np.full(len(x), 1e-6)
+    active = np.ones(len(x), dtype=bool)
+    eye = np.eye(3)
+    for _ in range(opts.lm_max_iter):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        J, e = jac[idx], res[idx]
+        A = np.einsum("mni,mnj->mij", J, J)
+        g = np.einsum("mni,mn->mi", J, e)
+        damp = mu[idx] * np.maximum(np.trace(A, axis1=1, axis2=2) / 3.0, np.finfo(float).tiny)
+        step = -np.linalg.solve(A + damp[:, None, None] * eye, g[..., None])[..., 0]
+        xn = x[idx] + step
+        rn, jn, cn = _residuals(xn, c, r, s)
+        better = cn <= cost[idx]
+        acc = idx[better]
+        x[acc], res[acc], jac[acc], cost[acc] = xn[better], rn[better], jn[better], cn[better]
+        mu[acc] = np.maximum(mu[acc] * 0.1, 1e-12)
+        rej = idx[~better]
+        mu[rej] *= 10.0
+        # a step below the tolerance ends the run whether or not rounding let it lower the cost
+        small = np.linalg.norm(step, axis=1) <= opts.lm_step_tol * spread
+        done = small | (mu[idx] > 1e12) | (better & (cn == 0.0))
+        active[idx[done]] = False
+    return x, cost
+
+
+def _gradient_ascent(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, spread: float,
+                     opts: EstimatorOptions) -> NDArray:
+    """Eq. 15 by fixed-step ascent on the log of eq. 14 (same maximiser, usable gradient)."""
+    x = x0.copy()
+    step_size = 1.0 / np.sum(1.0 / s**2)
+    max_len = 0.1 * spread
+    for _ in range(opts.gradient_max_iter):
+        res, jac, _ = _residuals(x, c, r, s)
+        # d/dx log f = -sum_i (d_i - r_i) / sigma_i^2 u_i  (jac = u / sigma, res = (d - r) / sigma)
+        grad_log = -np.einsum("mni,mn->mi", jac, res)
+        step = step_size * grad_log
+        length = np.linalg.norm(step, axis=1)
+        step *= np.minimum(1.0, max_len / np.maximum(length, np.finfo(float).tiny))[:, None]
+        x += step
+        if np.all(length <= opts.gradient_step_tol * spread):
+            break
+    return x
+
+
+# --- weighted SR-LS (Beck, Stoica, Li 2008) ------------------------------------------------
+
+def _gtrs(a: NDArray, b: NDArray, w: NDArray) -> NDArray | None:
+    """Global minimiser of ``sum w (|x - a_i|^2 - b_i)^2`` over x in R^d (d = 2 or 3).
+
+    Written as ``min |W^1/2 (A y - beta)|^2`` s.t. ``y^T D y + 2 f^T y = 0`` with
+    ``y = (x, |x|^2)``, a generalized trust-region subproblem; its solution is ``y(lam)`` at
+    the root of the decreasing function ``phi(lam) = y^T D y + 2 f^T y`` on
+    ``lam > -1 / mu_max`` (Beck, Stoica, Li 2008, Theorem 3.2).  Returns None when
+    ``A^T W A`` is singular (centres not spanning R^d).
+    """
+    n, dim = a.shape
+    A = np.hstack([-2.0 * a, np.ones((n, 1))])
+    beta = b - np.einsum("ni,ni->n", a, a)
+    M = A.T @ (w[:, None] * A)
+    g = A.T @ (w * beta)
+    D = np.diag(np.r_[np.ones(dim), 0.0])
+    f = np.r_[np.zeros(dim), -0.5]
+    try:
+        ev = np.linalg.eigvalsh(M)
+        if ev[0] <= 1e-12 * ev[-1]:
+            return None
+        mu, V = eigh(D, M)  # D V = M V diag(mu), V^T M V = I
+    except np.linalg.LinAlgError:
+        return None
+    Vg, Vf = V.T @ g, V.T @ f
+
+    def y_of(lam: float) -> NDArray:
+        return V @ ((Vg - lam * Vf) / (1.0 + lam * mu))
+
+    def phi(lam: float) -> float:
+        y = y_of(lam)
+        return float(y[:dim] @ y[:dim] - y[dim])
+
+    mu_max = float(mu.max())
+    lo = -1.0 / mu_max
+    width = 1.0 / mu_max
+    lo_in = lo + 1e-12 * width
+    if phi(lo_in) <= 0.0:  # hard case (or root next to the pole): take the boundary
+        return y_of(lo_in)[:dim]
+    hi = max(width, 1.0)
+    for _ in range(200):
+        if phi(hi) < 0.0:
+            break
+        hi *= 2.0
+    else:
+        return y_of(hi)[:dim]
+    lam = brentq(phi, lo_in, hi, xtol=1e-15 * max(1.0, abs(hi)), rtol=4 * np.finfo(float).eps,
+                 maxiter=500)
+    return y_of(lam)[:dim]
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """Centred, scaled frame of the landmarks and their principal axes."""
+
+    origin: NDArray[np.float64]
+    spread: float
+    axes: NDArray[np.float64]       # (3, 3) rows: principal directions, last = normal
+    singular: NDArray[np.float64]   # (3,)
+
+    @classmethod
+    def of(cls, centers: NDArray) -> _Frame:
+        origin = centers.mean(axis=0)
+        cc = centers - origin
+        _, sv, vt = np.linalg.svd(cc, full_matrices=True)
+        sv = np.r_[sv, np.zeros(3 - len(sv))]
+        spread = float(max(np.linalg.norm(cc, axis=1).max(), np.finfo(float).tiny))
+        return cls(origin, spread, vt, sv)
+
+    def rank(self, tol: float) -> int:
+        return int(np.sum(self.singular > tol * max(self.singular[0], np.finfo(float).tiny)))
+
+    def mirror(self, x: NDArray) -> NDArray:
+        """Reflect points ``(m, 3)`` across the best-fit plane of the centres."""
+        n = self.axes[2]
+        return x - 2.0 * ((x - self.origin) @ n)[:, None] * n
+
+
+def srls(centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike,
+         rank_tol: float = ESTIMATOR_OPTIONS.rank_tol) -> NDArray[np.float64]:
+    """Weighted squared-range least squares, solved globally.
+
+    Parameters
+    ----------
+    centers : (n, 3) float
+    radii, sigmas : (n,) float
+    rank_tol : float
+        Relative singular-value threshold for coplanar / collinear centres.
+
+    Returns
+    -------
+    (k, 3) float
+        One point when the centres span 3-D; with coplanar centres the two mirror images
+        across their plane (one point when the solution lies on the plane); an empty
+        ``(0, 3)`` array when the centres are collinear or fewer than three.
+    """
+    c = np.asarray(centers, dtype=np.float64)
+    r = np.asarray(radii, dtype=np.float64)
+    s = np.asarray(sigmas, dtype=np.float64)
+    if len(c) < 3:
+        return np.zeros((0, 3))
+    frame = _Frame.of(c)
+    rank = frame.rank(rank_tol)
+    L = frame.spread
+    local = (c - frame.origin) @ frame.axes.T / L  # principal coordinates, scaled
+    rl, sl = r / L, s / L
+    w = 1.0 / (4.0 * sl**2 * (rl**2 + sl**2))
+    w = w / w.max()
+    if rank == 3:
+        x = _gtrs(local, rl**2, w)
+        if x is None:
+            return np.zeros((0, 3))
+        return ((x @ frame.axes) * L + frame.origin)[None]
+    if rank < 2:
+        return np.zeros((0, 3))
+    # coplanar: |x - c_i|^2 = |u - u_i|^2 + h^2 with u in the plane, h the height; the
+    # relaxed problem is linear in (u, t = |u|^2 + h^2) and is exact when t >= |u|^2
+    u_i = local[:, :2]
+    A = np.hstack([-2.0 * u_i, np.ones((len(u_i), 1))])
+    beta = rl**2 - np.einsum("ni,ni->n", u_i, u_i)
+    sw = np.sqrt(w)
+    sol, *_ = np.linalg.lstsq(A * sw[:, None], beta * sw, rcond=None)
+    u, t = sol[:2], sol[2]
+    h_sq = t - u @ u
+    if h_sq <= 0.0:
+        u2 = _gtrs(u_i, rl**2, w)
+        if u2 is None:
+            return np.zeros((0, 3))
+        pts = np.array([[u2[0], u2[1], 0.0]])
+    else:
+        h = np.sqrt(h_sq)
+        pts = np.array([[u[0], u[1], -h], [u[0], u[1], h]])
+    return (pts @ frame.axes) * L + frame.origin
+
+
+# --- the estimators ----------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class _Data:
+    centers: NDArray[np.float64]
+    radii: NDArray[np.float64]
+    sigmas: NDArray[np.float64]
+    frame: _Frame
+    rank: int
+
+
+def _triple_points(d: _Data, spheres: Sequence[GaussianSphere] | None = None) -> NDArray:
+    """Points of every sphere triple (the paper's Phi_2, imaginary pairs by their foot)."""
+    n = len(d.centers)
+    triples = np.array(list(combinations(range(n), 3)))
+    pb = meet3_batch(d.centers[triples], d.radii[triples] ** 2)
+    ok = pb.status <= MeetStatus.IMAGINARY
+    return pb.points[ok].reshape(-1, 3)
+
+
+def _triple_mirrors(d: _Data, x: NDArray) -> NDArray:
+    """Reflections of points ``(m, 3)`` across the plane of every landmark triple and the
+    best-fit plane of the landmarks."""
+    n = len(d.centers)
+    triples = np.array(list(combinations(range(n), 3)))
+    p0 = d.centers[triples[:, 0]]
+    nrm = np.cross(d.centers[triples[:, 1]] - p0, d.centers[triples[:, 2]] - p0)
+    length = np.linalg.norm(nrm, axis=1)
+    keep = length > 1e-9 * d.frame.spread**2
+    p0, nrm = p0[keep], nrm[keep] / length[keep, None]
+    h = np.einsum("mtk,tk->mt", x[:, None, :] - p0[None], nrm)  # (m, t)
+    out = x[:, None, :] - 2.0 * h[..., None] * nrm[None]
+    return np.vstack([out.reshape(-1, 3), d.frame.mirror(x)])
+
+
+def _random_seeds(d: _Data, rng: np.random.Generator | None, region: Region | None,
+                  count: int) -> NDArray:
+    if rng is None or count <= 0:
+        return np.zeros((0, 3))
+    if region is not None:
+        lo, hi = region.lower, region.upper
+    else:
+        lo = d.centers.min(axis=0) - 0.5 * d.frame.spread
+        hi = d.centers.max(axis=0) + 0.5 * d.frame.spread
+    return rng.uniform(lo, hi, size=(count, 3))
+
+
+def _paper_candidates(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None
+                      ) -> NDArray:
+    from .projection import project_radii  # the lead's module; imported where it is used
+
+    sol = project_radii(spheres, method="active_set")
+    adjusted = [s.with_radius(max(float(r), 0.0)) for s, r in zip(spheres, sol.radii, strict=True)]
+    return generate_hypotheses(adjusted, region=region, keep_imaginary=True).positions
+
+
+def _method_paper(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None,
+                  rng: np.random.Generator | None, opts: EstimatorOptions) -> NDArray:
+    return _paper_candidates(spheres, d, region)
+
+
+def _method_srls(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None,
+                 rng: np.random.Generator | None, opts: EstimatorOptions) -> NDArray:
+    return srls(d.centers, d.radii, d.sigmas, opts.rank_tol)
+
+
+def _method_ml(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None,
+               rng: np.random.Generator | None, opts: EstimatorOptions) -> NDArray:
+    seed = srls(d.centers, d.radii, d.sigmas, opts.rank_tol)
+    try:
+        paper = _paper_candidates(spheres, d, region)
+    except SolverError:
+        paper = np.zeros((0, 3))
+    # the paper's candidates (unrefined) stay in the pool, so ML never ends below them
+    seeds = np.vstack([seed, _triple_mirrors(d, seed) if len(seed) else np.zeros((0, 3)),
+                       _triple_points(d), paper,
+                       _random_seeds(d, rng, region, opts.random_seeds)])
+    seeds = seeds[np.all(np.isfinite(seeds), axis=1)]
+    x, _ = _levenberg_marquardt(seeds, d.centers, d.radii, d.sigmas, d.frame.spread, opts)
+    return np.vstack([x, paper])
+
+
+def _method_gradient(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None,
+                     rng: np.random.Generator | None, opts: EstimatorOptions) -> NDArray:
+    # seeds "strategically located based on the spheres centres and intersection zones"
+    seeds = np.vstack([d.frame.origin[None], _triple_points(d),
+                       _random_seeds(d, rng, region, opts.random_seeds)])
+    seeds = seeds[np.all(np.isfinite(seeds), axis=1)]
+    return _gradient_ascent(seeds, d.centers, d.radii, d.sigmas, d.frame.spread, opts)
+
+
+_Method = Callable[[Sequence[GaussianSphere], _Data, "Region | None", "np.random.Generator | None",
+                    EstimatorOptions], NDArray]
+
+_METHODS: dict[str, _Method] = {
+    "ml": _method_ml,
+    "paper": _method_paper,
+    "srls": _method_srls,
+    "gradient": _method_gradient,
+}
+
+#: Names accepted by :func:`estimate_position`.
+POSITION_METHODS = tuple(_METHODS)
+
+
+def _nan_estimate(method: str, status: str, message: str, t0: float) -> PositionEstimate:
+    return PositionEstimate(np.full(3, np.nan), np.full((3, 3), np.inf), np.zeros((0, 3)), 0.0,
+                            method, status, message, np.zeros(0), time.perf_counter() - t0)
+
+
+def _distinct(points: NDArray, costs: NDArray, tol: float) -> tuple[NDArray, NDArray]:
+    """Greedy de-duplication, lowest cost first (ties broken by coordinates)."""
+    order = np.lexsort((points[:, 2], points[:, 1], points[:, 0], costs))
+    pts = points[order]
+    close = np.linalg.norm(pts[:, None, :] - pts[None], axis=2) <= tol
+    suppressed = np.zeros(len(pts), dtype=bool)
+    kept: list[int] = []
+    for i in range(len(pts)):
+        if not suppressed[i]:
+            kept.append(i)
+            suppressed |= close[i]
+    return pts[kept], costs[order][kept]
+
+
+def estimate_position(
+    spheres: Sequence[GaussianSphere],
+    method: str = "ml",
+    region: Region | None = None,
+    rng: np.random.Generator | None = None,
+    options: EstimatorOptions = ESTIMATOR_OPTIONS,
+) -> PositionEstimate:
+    """Estimate the robot position from Gaussian spheres.
+
+    Parameters
+    ----------
+    spheres : sequence of GaussianSphere
+        Centres (model landmarks), measured ranges and their standard deviations.
+    method : {"ml", "paper", "srls", "gradient"}
+        See the module docstring.
+    region : Region, optional
+        Valid positions (above the floor, inside the model).  Candidates inside it are
+        preferred; it resolves the mirror ambiguity of coplanar landmarks.
+    rng : numpy.random.Generator, optional
+        Adds ``options.random_seeds`` uniformly drawn seeds ("ml", "gradient").  Without it
+        the estimate is deterministic and uses only geometric seeds.
+    options : EstimatorOptions
+
+    Returns
+    -------
+    PositionEstimate
+
+    Raises
+    ------
+    UnknownMethodError
+        ``method`` is not one of :data:`POSITION_METHODS`.
+    RadialError
+        Invalid spheres (e.g. :class:`~radialopt.errors.CoincidentCentersError`).
+    """
+    t0 = time.perf_counter()
+    if method not in _METHODS:
+        raise UnknownMethodError(f"unknown position method {method!r}; choose one of "
+                                 f"{', '.join(POSITION_METHODS)}")
+    if region is not None and not isinstance(region, Region):
+        raise ShapeError(f"region must be a radialopt Region or None, got {type(region).__name__}")
+    spheres = list(spheres)
+    centers, radii, sigmas = sphere_arrays(spheres, min_count=0)
+    n = len(centers)
+    if n < 3:
+        return _nan_estimate(method, "too_few_spheres",
+                             f"a position needs at least 3 spheres, got {n}", t0)
+    frame = _Frame.of(centers)
+    rank = frame.rank(options.rank_tol)
+    if rank < 2:
+        return _nan_estimate(method, "degenerate_collinear",
+                             f"the {n} sphere centres are collinear: the position is only known "
+                             "up to a rotation about their line", t0)
+    data = _Data(centers, radii, sigmas, frame, rank)
+    raw = _METHODS[method](spheres, data, region, rng, options)
+    raw = raw[np.all(np.isfinite(raw), axis=1)]
+    if len(raw) == 0:
+        return _nan_estimate(method, "degenerate_collinear",
+                             "no finite candidate: the sphere centres are (nearly) degenerate", t0)
+    coplanar = rank == 2
+    if coplanar:  # the mirror image of every candidate is equally likely
+        raw = np.vstack([raw, frame.mirror(raw)])
+    costs = _costs(raw, centers, radii, sigmas)
+    cand, cost = _distinct(raw, costs, options.distinct_tol * frame.spread)
+    inside = (np.ones(len(cand), dtype=bool) if region is None
+              else region.contains(cand, tol=options.region_tol))
+    order = np.lexsort((cost, ~inside))
+    cand, cost, inside = cand[order], cost[order], inside[order]
+    best = cand[0]
+    density = np.exp(-0.5 * cost)
+    status, message = "ok", ""
+    try:
+        cov = crlb(centers, sigmas, best, rcond=options.fisher_rcond)
+    except SingularFisherError as exc:
+        cov = np.full((3, 3), np.inf)
+        status = "degenerate_coplanar" if coplanar else "degenerate"
+        message = (f"{exc}; with coplanar centres and the position on their plane the height "
+                   "above the plane is unobservable" if coplanar else str(exc))
+    if status == "ok":
+        status, message = _ambiguity(cand, cost, inside, region, coplanar, cov, frame, options)
+    return PositionEstimate(best, cov, cand, float(density[0]), method, status, message, density,
+                            time.perf_counter() - t0)
+
+
+def _ambiguity(cand: NDArray, cost: NDArray, inside: NDArray, region: Region | None,
+               coplanar: bool, cov: NDArray, frame: _Frame, opts: EstimatorOptions
+               ) -> tuple[str, str]:
+    if not inside[0]:
+        return "outside_region", ("no candidate lies inside the region; the best one outside it "
+                                  "is returned")
+    if coplanar:
+        mirror = frame.mirror(cand[:1])[0]
+        sep = np.linalg.norm(cand - mirror, axis=1)
+        twin = np.flatnonzero((sep <= opts.distinct_tol * frame.spread * 10) & inside)
+        if twin.size and twin[0] != 0:
+            return "ambiguous", ("the sphere centres are coplanar: the mirror image "
+                                 f"{mirror.tolist()} across their plane is equally likely"
+                                 + ("; the region does not resolve it" if region is not None else
+                                    "; pass a region to resolve it"))
+    std = float(np.sqrt(np.trace(cov)))
+    dist = np.linalg.norm(cand - cand[0], axis=1)
+    # density ratio exp(-(cost_k - cost_0) / 2), compared in log space (densities underflow)
+    log_ratio = -0.5 * (cost - cost[0])
+    rivals = np.flatnonzero((log_ratio >= np.log(opts.ambiguity_ratio)) & inside
+                            & (dist > opts.ambiguity_sigmas * std))
+    rivals = rivals[rivals != 0]
+    if rivals.size:
+        k = int(rivals[0])
+        return "ambiguous", (f"candidate {cand[k].tolist()} has {np.exp(log_ratio[k]):.2f} of "
+                             f"the best density and lies {dist[k]:.3g} m away "
+                             f"({dist[k] / std:.1f} standard deviations)")
+    return "ok", ""

@@ -1,0 +1,751 @@
+"""Vertex enumeration of the restriction polyhedron and projection in V-form (DESIGN.md item 6).
+
+A pointed polyhedron ``P = {x : A x <= b}`` is ``conv(V) + cone(R)`` (Minkowski-Weyl): ``V``
+its vertices, ``R`` its extreme rays.  The restriction polyhedron of the paper (eq. 16,
+section 4.4) is always pointed and has the single ray ``(1, ..., 1) / sqrt(n)``.
+
+Two enumerators, tested against each other and against pycddlib:
+
+* ``"bruteforce"``: every n-subset of rows, batched linear solves, keep feasible points;
+  rays from the (n-1)-subsets of the homogeneous system ``A d <= 0``.  Cost ``C(m, n)``.
+* ``"double_description"``: the double-description method (Motzkin et al. 1953; Fukuda and
+  Prodon 1996) on the homogenised cone ``{(t, x) : t >= 0, t b - A x >= 0}`` with the
+  combinatorial adjacency test on zero sets.
+
+:func:`project_vform` solves the sigma-weighted projection over ``conv(V) + cone(R)`` with
+Wolfe's minimum-norm-point algorithm (1976), and :func:`certify_projection` checks a candidate
+projection by the variational inequality over the generators, which is necessary and
+sufficient for optimality.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from .errors import NonFiniteError, RadialError, ShapeError, SolverError, UnknownMethodError
+
+__all__ = [
+    "ENUMERATION_METHODS",
+    "VERTEX_TOLERANCES",
+    "EmptyPolyhedronError",
+    "NotPointedError",
+    "TooLargeError",
+    "VertexEnumeration",
+    "VertexTolerances",
+    "certify_projection",
+    "enumerate_vertices",
+    "project_vform",
+]
+
+#: Names accepted by ``enumerate_vertices(method=...)``.
+ENUMERATION_METHODS = ("auto", "bruteforce", "double_description")
+
+#: ``method="auto"`` uses brute force while ``C(m, n)`` is at most this (measured crossover:
+#: brute force wins for the n = 3, 4 restriction polytopes, double description from n = 5 on).
+AUTO_BRUTEFORCE_MAX_SUBSETS = 4000
+
+#: ``method="bruteforce"`` refuses more subsets than this (memory and time).
+BRUTEFORCE_MAX_SUBSETS = 1_000_000
+
+#: Brute force caches its A-only work (subset inverses, rays) for at most this many subsets.
+_CACHE_MAX_SUBSETS = 200_000
+
+
+class NotPointedError(RadialError):
+    """The polyhedron contains a line (``rank(A) < n``), so it has no vertices."""
+
+
+class TooLargeError(RadialError):
+    """The requested method would need too many subsets; use ``"double_description"``."""
+
+
+class EmptyPolyhedronError(RadialError):
+    """An operation needs at least one vertex, but the polyhedron is empty."""
+
+
+@dataclass(frozen=True)
+class VertexTolerances:
+    """Tolerances of vertex enumeration, relative to the scale ``max(1, max |b_i| / |A_i|)``.
+
+    Attributes
+    ----------
+    feasibility : float
+        A point with ``A_i x <= b_i + feasibility * scale`` (unit rows) is feasible.
+    active : float
+        Row i is tight at x when ``|b_i - A_i x| <= active * scale`` (unit rows).
+    zero : float
+        Double description: ``|h . r| <= zero`` (unit h, unit r) counts as zero.
+    singular : float
+        Brute force: an n-subset of unit rows with ``|det| <= singular`` is singular.
+    merge : float
+        Vertices closer than ``merge * scale`` are one vertex.
+    """
+
+    feasibility: float = 1e-9
+    active: float = 1e-9
+    zero: float = 1e-10
+    singular: float = 1e-10
+    merge: float = 1e-8
+
+
+VERTEX_TOLERANCES = VertexTolerances()
+
+
+@dataclass(frozen=True)
+class VertexEnumeration:
+    """Generators of a pointed polyhedron ``{x : A x <= b} = conv(vertices) + cone(rays)``.
+
+    Attributes
+    ----------
+    vertices : (k, n) float
+        The vertices, sorted lexicographically.
+    rays : (l, n) float
+        The extreme rays, unit norm, sorted lexicographically.
+    vertex_active : (k, m) bool
+        ``vertex_active[i, j]``: row j of A is tight at vertex i.
+    method : str
+        ``"bruteforce"`` or ``"double_description"`` (the one that ran).
+    """
+
+    vertices: NDArray[np.float64]
+    rays: NDArray[np.float64]
+    vertex_active: NDArray[np.bool_]
+    method: str
+
+    def __post_init__(self) -> None:
+        for name, dtype in (("vertices", np.float64), ("rays", np.float64), ("vertex_active", np.bool_)):
+            arr = np.array(getattr(self, name), dtype=dtype)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        if self.vertices.ndim != 2 or self.rays.ndim != 2 or self.vertices.shape[1] != self.rays.shape[1]:
+            raise ShapeError(
+                f"vertices (k, n) and rays (l, n) must agree in n, got {self.vertices.shape} "
+                f"and {self.rays.shape}"
+            )
+        if self.vertex_active.ndim != 2 or self.vertex_active.shape[0] != self.vertices.shape[0]:
+            raise ShapeError(
+                f"vertex_active must have shape ({self.vertices.shape[0]}, m), got "
+                f"{self.vertex_active.shape}"
+            )
+
+    @property
+    def dim(self) -> int:
+        """Dimension n of the space."""
+        return int(self.vertices.shape[1])
+
+
+# ---------------------------------------------------------------------------------------------
+# input handling
+
+
+def _read_inequalities(polytope: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(A, b)`` from a RestrictionPolytope-like object (``.A``, ``.b``) or a pair ``(A, b)``."""
+    if hasattr(polytope, "A") and hasattr(polytope, "b"):
+        A_in, b_in = polytope.A, polytope.b
+    elif isinstance(polytope, tuple) and len(polytope) == 2:
+        A_in, b_in = polytope
+    else:
+        raise ShapeError(
+            f"expected a RestrictionPolytope or a pair (A (m, n), b (m,)), got {type(polytope).__name__}"
+        )
+    try:
+        A = np.array(A_in, dtype=np.float64)
+        b = np.array(b_in, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"A and b must be numeric arrays: {exc}") from exc
+    if A.ndim != 2 or A.shape[0] < 1 or A.shape[1] < 1:
+        raise ShapeError(f"A must have shape (m, n) with m, n >= 1, got shape {A.shape}")
+    if b.shape != (A.shape[0],):
+        raise ShapeError(f"b must have shape ({A.shape[0]},) to match A {A.shape}, got shape {b.shape}")
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+        raise NonFiniteError("A and b must be finite, got NaN or infinity")
+    return A, b
+
+
+@dataclass(frozen=True)
+class _Normalized:
+    """Unit-row inequalities ``A x <= b`` scaled by ``scale`` (``x = scale * x_unit``)."""
+
+    A: NDArray[np.float64]  # (m', n) unit rows of the original problem
+    b: NDArray[np.float64]  # (m',) matching right-hand sides, original units
+    rows: NDArray[np.int64]  # (m',) indices of these rows in the original A
+    scale: float
+    empty: bool
+
+
+def _normalize(A: NDArray[np.float64], b: NDArray[np.float64], tol: VertexTolerances) -> _Normalized:
+    m, n = A.shape
+    norms = np.linalg.norm(A, axis=1)
+    keep = norms > 0.0
+    # rows 0 . x <= b_i: trivially true (b_i >= 0) or infeasible
+    empty = bool(np.any(b[~keep] < 0.0))
+    An = A[keep] / norms[keep, None]
+    bn = b[keep] / norms[keep]
+    if An.shape[0] == 0 or np.linalg.matrix_rank(An) < n:
+        raise NotPointedError(
+            f"the polyhedron {{x : A x <= b}} with A of shape {A.shape} and rank "
+            f"{np.linalg.matrix_rank(A) if m else 0} < n = {n} contains a line, so it has no vertices"
+        )
+    scale = max(1.0, float(np.max(np.abs(bn))))
+    return _Normalized(An, bn, np.flatnonzero(keep), scale, empty)
+
+
+# ---------------------------------------------------------------------------------------------
+# public entry point
+
+
+def enumerate_vertices(
+    polytope: Any, method: str = "auto", tol: VertexTolerances = VERTEX_TOLERANCES
+) -> VertexEnumeration:
+    """Vertices and extreme rays of the pointed polyhedron ``{x : A x <= b}``.
+
+    Parameters
+    ----------
+    polytope : RestrictionPolytope or tuple (A (m, n), b (m,))
+        The inequalities; any object with attributes ``A`` and ``b`` works.
+    method : {"auto", "bruteforce", "double_description"}
+        ``"auto"`` runs brute force while ``C(m, n) <= AUTO_BRUTEFORCE_MAX_SUBSETS`` (faster
+        there by measurement) and double description otherwise.
+    tol : VertexTolerances
+        Numerical tolerances.
+
+    Returns
+    -------
+    VertexEnumeration
+        ``vertices (k, n)`` sorted lexicographically, unit ``rays (l, n)``,
+        ``vertex_active (k, m)``.  An empty polyhedron gives ``k = l = 0``.
+
+    Raises
+    ------
+    ShapeError, NonFiniteError
+        Bad ``A`` or ``b``.
+    NotPointedError
+        ``rank(A) < n``: the polyhedron contains a line.
+    TooLargeError
+        ``method="bruteforce"`` with more than ``BRUTEFORCE_MAX_SUBSETS`` subsets.
+    UnknownMethodError
+        ``method`` is not one of ``ENUMERATION_METHODS``.
+    """
+    if method not in ENUMERATION_METHODS:
+        raise UnknownMethodError(f"unknown method {method!r}; choose one of {ENUMERATION_METHODS}")
+    A, b = _read_inequalities(polytope)
+    m, n = A.shape
+    norm = _normalize(A, b, tol)
+    if method == "auto":
+        method = "bruteforce" if math.comb(norm.A.shape[0], n) <= AUTO_BRUTEFORCE_MAX_SUBSETS else (
+            "double_description"
+        )
+    if norm.empty:
+        return VertexEnumeration(np.zeros((0, n)), np.zeros((0, n)), np.zeros((0, m), bool), method)
+    if method == "bruteforce":
+        points, rays = _bruteforce(norm, tol)
+    else:
+        points, rays = _double_description(norm, tol)
+    return _finalize(A, b, norm, points, rays, method, tol)
+
+
+# ---------------------------------------------------------------------------------------------
+# brute force
+
+
+@lru_cache(maxsize=64)
+def _subsets(m: int, k: int) -> NDArray[np.intp]:
+    """All k-subsets of range(m), shape (C(m, k), k), lexicographic.  Read-only, cached."""
+    if k == 0:
+        out = np.zeros((1, 0), dtype=np.intp)
+    else:
+        count = math.comb(m, k)
+        out = np.fromiter(itertools.chain.from_iterable(itertools.combinations(range(m), k)),
+                          dtype=np.intp, count=count * k).reshape(count, k)
+    out.setflags(write=False)
+    return out
+
+
+def _bruteforce(norm: _Normalized, tol: VertexTolerances) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Candidate vertices (feasible solutions of nonsingular n-subsets) and candidate rays."""
+    A, b = norm.A, norm.b / norm.scale  # unit rows, |b| <= 1
+    m, n = A.shape
+    count = math.comb(m, n)
+    if count > BRUTEFORCE_MAX_SUBSETS:
+        raise TooLargeError(
+            f"brute force needs C({m}, {n}) = {count} subsets (> {BRUTEFORCE_MAX_SUBSETS}); "
+            "use method='double_description'"
+        )
+    structure = _bruteforce_structure if count <= _CACHE_MAX_SUBSETS else _bruteforce_structure.__wrapped__
+    idx, inverses, rays = structure(A.tobytes(), m, n, tol)
+    pts = np.einsum("cij,cj->ci", inverses, b[idx])
+    feasible = np.all(pts @ A.T <= b + tol.feasibility, axis=1)
+    pts = pts[feasible]
+    if pts.shape[0]:
+        pts = pts[_unique_tight_sets(np.abs(b - pts @ A.T) <= tol.active)]
+    return pts * norm.scale, rays
+
+
+def _unique_tight_sets(tight: NDArray[np.bool_]) -> NDArray[np.intp]:
+    """Indices of the first row of every distinct boolean row pattern, in order."""
+    packed = np.packbits(tight, axis=1)
+    pad = (-packed.shape[1]) % 8
+    keys = np.ascontiguousarray(np.pad(packed, ((0, 0), (0, pad)))).view(np.uint64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return np.sort(first)
+
+
+@lru_cache(maxsize=4)
+def _bruteforce_structure(
+    A_bytes: bytes, m: int, n: int, tol: VertexTolerances
+) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+    """The part of brute force that depends on A only (cached: the restriction polytope's A
+    depends only on n): nonsingular n-subsets ``(c, n)``, their inverses ``(c, n, n)`` and the
+    extreme rays ``(l, n)`` of ``{d : A d <= 0}``."""
+    A = np.frombuffer(A_bytes, dtype=np.float64).reshape(m, n)
+    idx = _subsets(m, n)
+    M = A[idx]  # (C, n, n)
+    ok = np.abs(np.linalg.det(M)) > tol.singular
+    idx = idx[ok]
+    inverses = np.linalg.inv(M[ok])
+    rays = _bruteforce_rays(A, tol)
+    for arr in (idx, inverses, rays):
+        arr.setflags(write=False)
+    return idx, inverses, rays
+
+
+def _bruteforce_rays(A: NDArray[np.float64], tol: VertexTolerances) -> NDArray[np.float64]:
+    """Extreme rays of ``{d : A d <= 0}`` from the null vectors of rank-(n-1) row subsets."""
+    m, n = A.shape
+    if n == 1:
+        cand = np.array([[1.0], [-1.0]])
+    else:
+        idx = _subsets(m, n - 1)
+        M = A[idx]  # (C, n-1, n)
+        # generalised cross product: d_j = (-1)^j det(M without column j)
+        cols = np.arange(n)
+        d = np.stack([(-1.0) ** j * np.linalg.det(M[:, :, cols != j]) for j in range(n)], axis=1)
+        lengths = np.linalg.norm(d, axis=1)
+        d = d[lengths > tol.singular] / lengths[lengths > tol.singular, None]
+        cand = np.concatenate([d, -d])
+    cand = cand[np.all(cand @ A.T <= tol.feasibility, axis=1)]
+    if cand.shape[0]:
+        cand = cand[_unique_tight_sets(np.abs(cand @ A.T) <= tol.active)]
+    return cand
+
+
+# ---------------------------------------------------------------------------------------------
+# double description
+
+
+def _initial_basis(H: NDArray[np.float64], tol: float) -> list[int]:
+    """Greedy: the first rows of H (in order) that are linearly independent, d of them."""
+    d = H.shape[1]
+    basis: list[int] = []
+    Q = np.zeros((0, d))
+    for i, h in enumerate(H):
+        r = h - Q.T @ (Q @ h)
+        r = r - Q.T @ (Q @ r)  # re-orthogonalise
+        nr = np.linalg.norm(r)
+        if nr > 1e-8:
+            basis.append(i)
+            Q = np.vstack([Q, r / nr])
+            if len(basis) == d:
+                break
+    return basis
+
+
+def _double_description(
+    norm: _Normalized, tol: VertexTolerances
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Candidate vertices and rays from the DD method on ``{y = (t, x) : H y >= 0}``."""
+    A, b = norm.A, norm.b / norm.scale
+    m, n = A.shape
+    d = n + 1
+    H = np.zeros((m + 1, d))
+    H[0, 0] = 1.0  # t >= 0
+    H[1:, 0] = b
+    H[1:, 1:] = -A
+    H /= np.linalg.norm(H, axis=1)[:, None]
+    eps = tol.zero
+    basis = _initial_basis(H, eps)
+    if len(basis) < d:  # cannot happen after the rank check; keep the error explicit
+        raise NotPointedError(f"homogenised system has rank {len(basis)} < {d}")
+    R = np.linalg.inv(H[basis]).T  # rows: extreme rays of the simplicial cone H[basis] y >= 0
+    R /= np.linalg.norm(R, axis=1)[:, None]
+    Z = np.zeros((d, m + 1), dtype=np.float32)  # zero sets over processed rows (0/1)
+    Z[:, basis] = 1.0 - np.eye(d, dtype=np.float32)
+    in_basis = np.zeros(m + 1, dtype=bool)
+    in_basis[basis] = True
+    for j in np.flatnonzero(~in_basis):
+        s = R @ H[j]
+        pos = s > eps
+        neg = s < -eps
+        zer = ~(pos | neg)
+        if not neg.any():
+            Z[zer, j] = 1.0
+            continue
+        new_R, new_Z = _adjacent_combinations(R, Z, s, np.flatnonzero(pos), np.flatnonzero(neg), d)
+        keep = ~neg
+        Z[zer, j] = 1.0
+        new_Z[:, j] = 1.0
+        R = np.concatenate([R[keep], new_R])
+        Z = np.concatenate([Z[keep], new_Z])
+    t = R[:, 0]
+    is_vertex = t > eps
+    vertices = R[is_vertex, 1:] / t[is_vertex, None] * norm.scale
+    rays = R[~is_vertex, 1:]
+    lengths = np.linalg.norm(rays, axis=1)
+    rays = rays[lengths > eps] / lengths[lengths > eps, None]
+    return vertices, rays
+
+
+def _adjacent_combinations(
+    R: NDArray[np.float64],
+    Z: NDArray[np.float32],
+    s: NDArray[np.float64],
+    P: NDArray[np.intp],
+    Q: NDArray[np.intp],
+    d: int,
+    block: int = 2_000_000,
+) -> tuple[NDArray[np.float64], NDArray[np.float32]]:
+    """New rays ``s_p r_q - s_q r_p`` for adjacent pairs (p in P: s > 0, q in Q: s < 0).
+
+    Combinatorial adjacency test (Fukuda and Prodon 1996, Prop. 7): with ``I = Z_p & Z_q``,
+    the rays are adjacent iff ``|I| >= d - 2`` and no other ray's zero set contains ``I``.
+    Set sizes and containments are counted with float32 matrix products of 0/1 matrices
+    (exact for counts below 2**24).
+    """
+    out_R: list[NDArray[np.float64]] = []
+    out_Z: list[NDArray[np.float32]] = []
+    ZT = Z.T.copy()
+    rows_per_block = max(1, block // max(1, Q.size))
+    for start in range(0, P.size, rows_per_block):
+        Pb = P[start : start + rows_per_block]
+        common = Z[Pb] @ ZT[:, Q]  # (|Pb|, |Q|) sizes of Z_p & Z_q
+        pi, qi = np.nonzero(common >= d - 2 - 0.5)
+        if pi.size == 0:
+            continue
+        p, q = Pb[pi], Q[qi]
+        sizes = common[pi, qi]
+        cb = max(1, block // max(1, Z.shape[0]))
+        adjacent = np.empty(pi.size, dtype=bool)
+        for c0 in range(0, pi.size, cb):
+            sl = slice(c0, c0 + cb)
+            inter = Z[p[sl]] * Z[q[sl]]  # (c, m+1)
+            contains = (inter @ ZT) >= sizes[sl, None] - 0.5  # (c, N)
+            adjacent[sl] = np.count_nonzero(contains, axis=1) == 2
+        p, q = p[adjacent], q[adjacent]
+        if p.size == 0:
+            continue
+        new = s[p, None] * R[q] - s[q, None] * R[p]
+        new /= np.linalg.norm(new, axis=1)[:, None]
+        out_R.append(new)
+        out_Z.append(Z[p] * Z[q])
+    if not out_R:
+        return np.zeros((0, R.shape[1])), np.zeros((0, Z.shape[1]), dtype=np.float32)
+    return np.concatenate(out_R), np.concatenate(out_Z)
+
+
+# ---------------------------------------------------------------------------------------------
+# shared post-processing
+
+
+def _finalize(
+    A: NDArray[np.float64],
+    b: NDArray[np.float64],
+    norm: _Normalized,
+    points: NDArray[np.float64],
+    rays: NDArray[np.float64],
+    method: str,
+    tol: VertexTolerances,
+) -> VertexEnumeration:
+    """Polish, merge, sort; compute the tight rows of every vertex in the original ``A``."""
+    m, n = A.shape
+    An, bn, scale = norm.A, norm.b, norm.scale
+    if points.shape[0] == 0:  # a pointed nonempty polyhedron has a vertex: this one is empty
+        return VertexEnumeration(np.zeros((0, n)), np.zeros((0, n)), np.zeros((0, m), bool), method)
+    points = _polish_vertices(An, bn, points, tol.active * scale)
+    points = points[_merge_representatives(points, tol.merge * scale)]
+    points = points[np.lexsort(points.T[::-1])]
+    if rays.shape[0]:
+        rays = _polish_rays(An, rays, tol.active)
+        rays = rays[_merge_representatives(rays, tol.merge)]
+        rays = rays[np.lexsort(rays.T[::-1])]
+    norms = np.linalg.norm(A, axis=1)
+    slack = (b[None, :] - points @ A.T) / np.where(norms > 0, norms, 1.0)
+    active = (np.abs(slack) <= tol.active * scale) & (norms > 0)
+    return VertexEnumeration(points, rays, active, method)
+
+
+def _polish_vertices(
+    A: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64], atol: float
+) -> NDArray[np.float64]:
+    """One least-squares solve per vertex on its tight rows (batched normal equations)."""
+    tight = (np.abs(b - points @ A.T) <= atol).astype(np.float64)  # (k, m)
+    G = np.einsum("km,mi,mj->kij", tight, A, A)
+    rhs = (tight * b) @ A
+    # only vertices whose tight rows have full rank are polished (unit rows: det(G) <= |T|^n)
+    good = np.abs(np.linalg.det(G)) > 1e-12
+    out = points.copy()
+    if np.any(good):
+        out[good] = np.linalg.solve(G[good], rhs[good][..., None])[..., 0]
+    return out
+
+
+def _polish_rays(A: NDArray[np.float64], rays: NDArray[np.float64], atol: float) -> NDArray[np.float64]:
+    """Replace each ray by the null vector of its tight rows (sign kept), unit length."""
+    out = rays.copy()
+    for i, r in enumerate(rays):
+        tight = np.abs(A @ r) <= atol
+        if np.count_nonzero(tight) >= A.shape[1] - 1:
+            _, sv, vt = np.linalg.svd(A[tight])
+            if sv.size >= A.shape[1] - 1 and (A.shape[1] == 1 or sv[A.shape[1] - 2] > 1e-8):
+                v = vt[-1]
+                out[i] = v if v @ r > 0 else -v
+    return out / np.linalg.norm(out, axis=1)[:, None]
+
+
+def _merge_representatives(points: NDArray[np.float64], radius: float) -> NDArray[np.intp]:
+    """Indices of one point per cluster of points closer than ``radius`` (chained)."""
+    k = points.shape[0]
+    if k < 2:
+        return np.arange(k)
+    pairs = cKDTree(points).query_pairs(radius, output_type="ndarray")
+    if pairs.shape[0] == 0:
+        return np.arange(k)
+    graph = coo_matrix((np.ones(pairs.shape[0]), (pairs[:, 0], pairs[:, 1])), shape=(k, k))
+    _, labels = connected_components(graph, directed=False)
+    _, first = np.unique(labels, return_index=True)
+    return np.sort(first)
+
+
+# ---------------------------------------------------------------------------------------------
+# projection in V-form
+
+
+def _check_target(enumeration: VertexEnumeration, target: ArrayLike, sigmas: ArrayLike
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    if not isinstance(enumeration, VertexEnumeration):
+        raise ShapeError(f"expected a VertexEnumeration, got {type(enumeration).__name__}")
+    n = enumeration.dim
+    t = np.asarray(target, dtype=np.float64)
+    s = np.asarray(sigmas, dtype=np.float64)
+    if t.shape != (n,):
+        raise ShapeError(f"target must have shape ({n},), got shape {t.shape}")
+    if s.shape != (n,):
+        raise ShapeError(f"sigmas must have shape ({n},), got shape {s.shape}")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
+        raise NonFiniteError(f"target and sigmas must be finite, got {t.tolist()} and {s.tolist()}")
+    if np.any(s <= 0):
+        from .errors import NonPositiveSigmaError
+
+        raise NonPositiveSigmaError(f"sigmas must be > 0, got {s.tolist()}")
+    if enumeration.vertices.shape[0] == 0:
+        raise EmptyPolyhedronError("the polyhedron is empty: there is nothing to project onto")
+    return t, s
+
+
+def project_vform(
+    enumeration: VertexEnumeration,
+    target: ArrayLike,
+    sigmas: ArrayLike,
+    tol: float = 1e-12,
+    max_iter: int = 1000,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Sigma-weighted projection of ``target`` onto ``conv(vertices) + cone(rays)``.
+
+    Minimises ``sum(((x - target) / sigmas)**2)`` over ``x = V^T lam + R^T mu``, ``lam >= 0``,
+    ``sum(lam) = 1``, ``mu >= 0`` (DESIGN.md item 6) with Wolfe's minimum-norm-point algorithm
+    (1976) in whitened coordinates: points ``w_k = (v_k - target) / sigmas``, directions
+    ``d_l / sigmas`` whose weights are ``>= 0`` and outside the simplex sum.  Each minor cycle
+    solves the affine minimisation on the current support exactly (a small KKT system).
+
+    Parameters
+    ----------
+    enumeration : VertexEnumeration
+        Generators ``vertices (k, n)`` and ``rays (l, n)``.
+    target : (n,) float
+        The point to project (e.g. measured radii).
+    sigmas : (n,) float
+        Positive weights (standard deviations), same space as ``target``.
+    tol : float
+        Relative optimality tolerance of the major cycle.
+    max_iter : int
+        Limit on major plus minor cycles.
+
+    Returns
+    -------
+    point : (n,) float
+        The projection.
+    weights : (k + l,) float
+        ``lam`` for the k vertices followed by ``mu`` for the l rays:
+        ``point = vertices.T @ lam + rays.T @ mu``.
+
+    Raises
+    ------
+    SolverError
+        No convergence within ``max_iter`` cycles.
+    """
+    t, s = _check_target(enumeration, target, sigmas)
+    V, R = enumeration.vertices, enumeration.rays
+    k, n = V.shape
+    W = (V - t) / s
+    D = R / s
+    dlen = np.linalg.norm(D, axis=1)
+    D = D / dlen[:, None] if D.shape[0] else D
+    gens = np.concatenate([W, D])  # (k + l, n)
+    is_point = np.arange(gens.shape[0]) < k
+    scale2 = max(1.0, float(np.max(np.sum(W * W, axis=1))))
+    support = [int(np.argmin(np.sum(W * W, axis=1)))]
+    weights = np.array([1.0])
+    x = gens[support[0]].copy()
+    iters = 0
+    while True:
+        iters += 1
+        if iters > max_iter:
+            raise SolverError(f"project_vform: no convergence in {max_iter} cycles (n = {n}, k = {k})")
+        gx = gens @ x
+        xx = float(x @ x)
+        gap = np.where(is_point, gx - xx, gx)  # >= 0 at the optimum
+        j = int(np.argmin(gap))
+        if gap[j] >= -tol * scale2 or j in support:
+            break
+        support.append(j)
+        weights = np.append(weights, 0.0)
+        while True:  # minor cycle
+            iters += 1
+            if iters > max_iter:
+                raise SolverError(f"project_vform: no convergence in {max_iter} cycles (n = {n}, k = {k})")
+            new = _affine_minimizer(gens[support], is_point[support])
+            if np.all(new > tol):
+                weights = new
+                break
+            down = new <= tol
+            theta = float(np.min(weights[down] / (weights[down] - new[down])))
+            theta = min(max(theta, 0.0), 1.0)
+            weights = (1.0 - theta) * weights + theta * new
+            keep = weights > tol
+            # always drop at least one element (the one that reached zero first)
+            if np.all(keep):
+                keep[int(np.argmin(np.where(down, weights, np.inf)))] = False
+            support = [i for i, kp in zip(support, keep, strict=True) if kp]
+            weights = weights[keep]
+            pts = is_point[support]
+            weights[pts] /= weights[pts].sum()
+        x = weights @ gens[support]
+    # final exact solve on the support
+    final = _affine_minimizer(gens[support], is_point[support])
+    if np.all(final >= 0.0):
+        weights = final
+    full = np.zeros(gens.shape[0])
+    full[support] = weights
+    full[k:] /= dlen  # back to the rays of the enumeration
+    lam, mu = full[:k], full[k:]
+    point = V.T @ lam + R.T @ mu
+    return point, full
+
+
+def _affine_minimizer(G: NDArray[np.float64], is_point: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Weights w minimising ``|G^T w|`` subject to ``sum(w[is_point]) = 1`` (w free).
+
+    KKT system ``[[G G^T, e], [e^T, 0]] [w; nu] = [0; 1]``, with ``e`` the point indicator.
+    """
+    s = G.shape[0]
+    K = np.zeros((s + 1, s + 1))
+    K[:s, :s] = G @ G.T
+    K[:s, s] = K[s, :s] = is_point
+    rhs = np.zeros(s + 1)
+    rhs[s] = 1.0
+    try:
+        sol = np.linalg.solve(K, rhs)
+    except np.linalg.LinAlgError:
+        sol = np.linalg.lstsq(K, rhs, rcond=None)[0]
+    return sol[:s]
+
+
+def certify_projection(
+    enumeration: VertexEnumeration,
+    polytope: Any,
+    target: ArrayLike,
+    sigmas: ArrayLike,
+    point: ArrayLike,
+    tol: float = 1e-6,
+) -> tuple[bool, float, str]:
+    """Exact optimality certificate of a projection, checked on the generators.
+
+    ``x*`` is the sigma-weighted projection of ``target`` onto ``P = conv(V) + cone(R)`` iff
+    ``x*`` is in P and, with ``g = (x* - target) / sigmas**2``, ``g . (v - x*) >= 0`` for every
+    vertex v and ``g . d >= 0`` for every ray d (the variational inequality of the convex
+    objective, which suffices because every point of P is a combination of generators).
+
+    Parameters
+    ----------
+    enumeration : VertexEnumeration
+        Generators of the polyhedron of ``polytope``.
+    polytope : RestrictionPolytope or tuple (A (m, n), b (m,))
+        The H-form of the same polyhedron (same space as ``target`` and ``point``).
+    target, sigmas, point : (n,) float
+        The projected point, its weights, and the candidate answer.
+    tol : float
+        Accepted violation: ``A x* <= b + tol`` (units of b) and, in whitened units,
+        ``z . (w - z) >= -tol * max(1, |z|) * max(1, |w - z|)`` for ``z = (x* - target) / sigmas``
+        and every whitened generator w (rays: ``z . d >= -tol * max(1, |z|)``).
+
+    Returns
+    -------
+    ok : bool
+        Whether both conditions hold within ``tol``.
+    residual : float
+        The larger of the worst feasibility violation and the worst relative
+        variational-inequality violation (0 when exact).
+    message : str
+        ``"ok"`` or which condition failed, naming the row or generator.
+    """
+    t, s = _check_target(enumeration, target, sigmas)
+    A, b = _read_inequalities(polytope)
+    n = enumeration.dim
+    if A.shape[1] != n:
+        raise ShapeError(f"polytope has dimension {A.shape[1]}, enumeration has {n}")
+    x = np.asarray(point, dtype=np.float64)
+    if x.shape != (n,):
+        raise ShapeError(f"point must have shape ({n},), got shape {x.shape}")
+    if not np.all(np.isfinite(x)):
+        raise NonFiniteError(f"point must be finite, got {x.tolist()}")
+    row_norm = np.linalg.norm(A, axis=1)
+    viol = (A @ x - b) / np.where(row_norm > 0, row_norm, 1.0)
+    feas = float(max(0.0, viol.max()))
+    z = (x - t) / s
+    zn = max(1.0, float(np.linalg.norm(z)))
+    W = (enumeration.vertices - t) / s
+    diff = W - z
+    vi = -(diff @ z) / (zn * np.maximum(1.0, np.linalg.norm(diff, axis=1)))
+    worst_v = int(np.argmax(vi))
+    opt_v = float(max(0.0, vi[worst_v]))
+    opt_r, worst_r = 0.0, -1
+    if enumeration.rays.shape[0]:
+        D = enumeration.rays / s
+        D = D / np.linalg.norm(D, axis=1)[:, None]
+        vr = -(D @ z) / zn
+        worst_r = int(np.argmax(vr))
+        opt_r = float(max(0.0, vr[worst_r]))
+    residual = max(feas, opt_v, opt_r)
+    if feas > tol:
+        k = int(np.argmax(viol))
+        return False, residual, f"infeasible: row {k} violated by {feas:.3g} (> tol {tol:g})"
+    if opt_v > tol:
+        return False, residual, (
+            f"not optimal: moving towards vertex {worst_v} {enumeration.vertices[worst_v].tolist()} "
+            f"decreases the objective (relative violation {opt_v:.3g} > tol {tol:g})"
+        )
+    if opt_r > tol:
+        return False, residual, (
+            f"not optimal: moving along ray {worst_r} decreases the objective "
+            f"(relative violation {opt_r:.3g} > tol {tol:g})"
+        )
+    return True, residual, "ok"
