@@ -21,7 +21,6 @@ configuration).  Degenerate centre configurations return a status (``"coincident
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -510,10 +509,3 @@ def meet(*spheres: GaussianSphere | ArrayLike,
     return Point(qb.position[0], residual, MeetStatus(code).label,
                  _message(code, residual=residual, what="a point"))
 
-
-def spheres_to_arrays(spheres: Sequence[GaussianSphere | ArrayLike]) -> tuple[NDArray, NDArray]:
-    """Centres ``(n, 3)`` and squared radii ``(n,)`` of mixed sphere inputs."""
-    parts = [as_conformal(s) for s in spheres]
-    if not parts:
-        return np.zeros((0, 3)), np.zeros(0)
-    return np.stack([p[0] for p in parts]), np.array([p[1] for p in parts])

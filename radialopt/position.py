@@ -281,14 +281,18 @@ def _levenberg_marquardt(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, spread
     """Minimise the sigma-weighted range cost from every seed at once.
 
     Returns the final points ``(m, 3)`` and costs ``(m,)``.  Each step solves
-    ``(J^T J + mu tr(J^T J)/3 I) dx = -J^T res``; accepted steps shrink mu, rejected ones
-    grow it, so the cost never increases.
+    ``(H + mu tr(J^T J)/3 I) dx = -J^T res`` where H is the exact Hessian of the half cost,
+    ``J^T J + sum_i res_i / (sigma_i d_i) (I - u_i u_i^T)``, when it is positive definite
+    (always near a minimum: quadratic convergence even with large residuals, where plain
+    Gauss-Newton crawls) and the Gauss-Newton matrix ``J^T J`` otherwise.  Accepted steps
+    shrink mu, rejected ones grow it, so the cost never increases.
     """
     x = x0.copy()
     res, jac, cost = _residuals(x, c, r, s)
     mu = np.full(len(x), 1e-6)
     active = np.ones(len(x), dtype=bool)
     eye = np.eye(3)
+    tiny = np.finfo(float).tiny
     for _ in range(opts.lm_max_iter):
         idx = np.flatnonzero(active)
         if idx.size == 0:
@@ -296,8 +300,13 @@ def _levenberg_marquardt(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, spread
         J, e = jac[idx], res[idx]
         A = np.einsum("mni,mnj->mij", J, J)
         g = np.einsum("mni,mn->mi", J, e)
-        damp = mu[idx] * np.maximum(np.trace(A, axis1=1, axis2=2) / 3.0, np.finfo(float).tiny)
-        step = -np.linalg.solve(A + damp[:, None, None] * eye, g[..., None])[..., 0]
+        u = J * s[:, None]
+        w = e / (s * np.maximum(e * s + r, tiny))  # res_i / (sigma_i d_i)
+        H = A + w.sum(axis=1)[:, None, None] * eye - np.einsum("mn,mni,mnj->mij", w, u, u)
+        scale = np.maximum(np.trace(A, axis1=1, axis2=2) / 3.0, tiny)
+        convex = np.linalg.eigvalsh(H)[:, 0] > 1e-9 * scale
+        M = np.where(convex[:, None, None], H, A)
+        step = -np.linalg.solve(M + (mu[idx] * scale)[:, None, None] * eye, g[..., None])[..., 0]
         xn = x[idx] + step
         rn, jn, cn = _residuals(xn, c, r, s)
         better = cn <= cost[idx]
@@ -306,9 +315,10 @@ def _levenberg_marquardt(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, spread
         mu[acc] = np.maximum(mu[acc] * 0.1, 1e-12)
         rej = idx[~better]
         mu[rej] *= 10.0
-        # a step below the tolerance ends the run whether or not rounding let it lower the cost
+        # converged: a step below the tolerance that did not raise the cost beyond rounding
         small = np.linalg.norm(step, axis=1) <= opts.lm_step_tol * spread
-        done = small | (mu[idx] > 1e12) | (better & (cn == 0.0))
+        flat = cn <= cost[idx] * (1.0 + 1e-12) + 1e-300
+        done = (small & flat) | (mu[idx] > 1e12) | (better & (cn == 0.0))
         active[idx[done]] = False
     return x, cost
 
@@ -479,7 +489,7 @@ class _Data:
     rank: int
 
 
-def _triple_points(d: _Data, spheres: Sequence[GaussianSphere] | None = None) -> NDArray:
+def _triple_points(d: _Data) -> NDArray:
     """Points of every sphere triple (the paper's Phi_2, imaginary pairs by their foot)."""
     n = len(d.centers)
     triples = np.array(list(combinations(range(n), 3)))
@@ -517,7 +527,7 @@ def _random_seeds(d: _Data, rng: np.random.Generator | None, region: Region | No
 
 def _paper_candidates(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None
                       ) -> NDArray:
-    from .projection import project_radii  # the lead's module; imported where it is used
+    from .projection import project_radii  # imported where used: only "paper" and "ml" need it
 
     sol = project_radii(spheres, method="active_set")
     adjusted = [s.with_radius(max(float(r), 0.0)) for s, r in zip(spheres, sol.radii, strict=True)]

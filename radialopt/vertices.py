@@ -57,6 +57,10 @@ AUTO_BRUTEFORCE_MAX_SUBSETS = 4000
 #: ``method="bruteforce"`` refuses more subsets than this (memory and time).
 BRUTEFORCE_MAX_SUBSETS = 1_000_000
 
+#: Double description counts common zero sets with a float32 matrix product (BLAS) once
+#: more than this many ray pairs are compared in one step, bitwise below.
+_PRODUCT_MIN_PAIRS = 50_000
+
 #: Brute force caches its A-only work (subset inverses, rays) for at most this many subsets.
 _CACHE_MAX_SUBSETS = 200_000
 
@@ -363,7 +367,12 @@ def _initial_basis(H: NDArray[np.float64], tol: float) -> list[int]:
 def _double_description(
     norm: _Normalized, tol: VertexTolerances
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Candidate vertices and rays from the DD method on ``{y = (t, x) : H y >= 0}``."""
+    """Candidate vertices and rays from the DD method on ``{y = (t, x) : H y >= 0}``.
+
+    Rows are added in their given order after an initial basis (the first linearly independent
+    rows, starting with ``t >= 0``), so the result is deterministic.  Rays are kept unit-norm;
+    zero sets are bitsets over the processed rows (packed in uint64 words).
+    """
     A, b = norm.A, norm.b / norm.scale
     m, n = A.shape
     d = n + 1
@@ -378,8 +387,12 @@ def _double_description(
         raise NotPointedError(f"homogenised system has rank {len(basis)} < {d}")
     R = np.linalg.inv(H[basis]).T  # rows: extreme rays of the simplicial cone H[basis] y >= 0
     R /= np.linalg.norm(R, axis=1)[:, None]
-    Z = np.zeros((d, m + 1), dtype=np.float32)  # zero sets over processed rows (0/1)
-    Z[:, basis] = 1.0 - np.eye(d, dtype=np.float32)
+    words = (m + 1 + 63) // 64
+    Z = np.zeros((d, words), dtype=np.uint64)  # zero sets over processed rows
+    for i in range(d):
+        for j in basis:
+            if j != basis[i]:
+                Z[i, j // 64] |= np.uint64(1) << np.uint64(j % 64)
     in_basis = np.zeros(m + 1, dtype=bool)
     in_basis[basis] = True
     for j in np.flatnonzero(~in_basis):
@@ -387,15 +400,16 @@ def _double_description(
         pos = s > eps
         neg = s < -eps
         zer = ~(pos | neg)
-        if not neg.any():
-            Z[zer, j] = 1.0
-            continue
-        new_R, new_Z = _adjacent_combinations(R, Z, s, np.flatnonzero(pos), np.flatnonzero(neg), d)
-        keep = ~neg
-        Z[zer, j] = 1.0
-        new_Z[:, j] = 1.0
-        R = np.concatenate([R[keep], new_R])
-        Z = np.concatenate([Z[keep], new_Z])
+        bit = np.uint64(1) << np.uint64(j % 64)
+        if neg.any():
+            new_R, new_Z = _adjacent_combinations(R, Z, s, np.flatnonzero(pos), np.flatnonzero(neg), d)
+            new_Z[:, j // 64] |= bit
+            keep = ~neg
+            Z[zer, j // 64] |= bit
+            R = np.concatenate([R[keep], new_R])
+            Z = np.concatenate([Z[keep], new_Z])
+        else:
+            Z[zer, j // 64] |= bit
     t = R[:, 0]
     is_vertex = t > eps
     vertices = R[is_vertex, 1:] / t[is_vertex, None] * norm.scale
@@ -405,51 +419,108 @@ def _double_description(
     return vertices, rays
 
 
+if hasattr(np, "bitwise_count"):  # numpy >= 2
+
+    def _popcount(x: NDArray[np.uint64]) -> NDArray[np.intp]:
+        """Number of set bits over the last axis of a uint64 array."""
+        return np.bitwise_count(x).sum(axis=-1, dtype=np.intp)
+
+else:  # pragma: no cover - numpy 1.x
+    _POP8 = np.array([bin(i).count("1") for i in range(256)], dtype=np.intp)
+
+    def _popcount(x: NDArray[np.uint64]) -> NDArray[np.intp]:
+        """Number of set bits over the last axis of a uint64 array."""
+        as_bytes = np.ascontiguousarray(x).view(np.uint8)
+        return _POP8[as_bytes].sum(axis=-1)
+
+
 def _adjacent_combinations(
     R: NDArray[np.float64],
-    Z: NDArray[np.float32],
+    Z: NDArray[np.uint64],
     s: NDArray[np.float64],
     P: NDArray[np.intp],
     Q: NDArray[np.intp],
     d: int,
-    block: int = 2_000_000,
-) -> tuple[NDArray[np.float64], NDArray[np.float32]]:
+    block: int = 1_000_000,
+) -> tuple[NDArray[np.float64], NDArray[np.uint64]]:
     """New rays ``s_p r_q - s_q r_p`` for adjacent pairs (p in P: s > 0, q in Q: s < 0).
 
     Combinatorial adjacency test (Fukuda and Prodon 1996, Prop. 7): with ``I = Z_p & Z_q``,
-    the rays are adjacent iff ``|I| >= d - 2`` and no other ray's zero set contains ``I``.
-    Set sizes and containments are counted with float32 matrix products of 0/1 matrices
-    (exact for counts below 2**24).
+    the rays are adjacent iff ``|I| >= d - 2`` and no ray other than p and q has a zero set
+    containing ``I``.  Zero sets are uint64 bitsets; the work is done in blocks of about
+    ``block`` word operations.
     """
     out_R: list[NDArray[np.float64]] = []
-    out_Z: list[NDArray[np.float32]] = []
-    ZT = Z.T.copy()
-    rows_per_block = max(1, block // max(1, Q.size))
+    out_Z: list[NDArray[np.uint64]] = []
+    if P.size == 0:
+        return np.zeros((0, R.shape[1])), np.zeros((0, Z.shape[1]), dtype=np.uint64)
+    ZQ = Z[Q]
+    # |Z_p & Z_q| for all pairs: bitwise for small P x Q, a float32 product of the 0/1
+    # matrices (exact below 2**24) for large ones, where it is much faster
+    use_product = P.size * Q.size > _PRODUCT_MIN_PAIRS
+    if use_product:
+        bits = _unpack_bits(Z).astype(np.float32)
+        bits_QT = bits[Q].T.copy()
+    rows_per_block = max(1, block // max(1, Q.size * Z.shape[1]))
     for start in range(0, P.size, rows_per_block):
         Pb = P[start : start + rows_per_block]
-        common = Z[Pb] @ ZT[:, Q]  # (|Pb|, |Q|) sizes of Z_p & Z_q
-        pi, qi = np.nonzero(common >= d - 2 - 0.5)
+        if use_product:
+            common = bits[Pb] @ bits_QT  # (|Pb|, |Q|)
+        else:
+            common = _popcount(Z[Pb][:, None, :] & ZQ[None, :, :])  # (|Pb|, |Q|)
+        pi, qi = np.nonzero(common >= d - 2.5)
         if pi.size == 0:
             continue
         p, q = Pb[pi], Q[qi]
-        sizes = common[pi, qi]
-        cb = max(1, block // max(1, Z.shape[0]))
-        adjacent = np.empty(pi.size, dtype=bool)
-        for c0 in range(0, pi.size, cb):
-            sl = slice(c0, c0 + cb)
-            inter = Z[p[sl]] * Z[q[sl]]  # (c, m+1)
-            contains = (inter @ ZT) >= sizes[sl, None] - 0.5  # (c, N)
-            adjacent[sl] = np.count_nonzero(contains, axis=1) == 2
+        inter = Z[p] & Z[q]  # (c, words)
+        adjacent = _only_two_contain(Z, inter, block)
         p, q = p[adjacent], q[adjacent]
         if p.size == 0:
             continue
         new = s[p, None] * R[q] - s[q, None] * R[p]
         new /= np.linalg.norm(new, axis=1)[:, None]
         out_R.append(new)
-        out_Z.append(Z[p] * Z[q])
+        out_Z.append(inter[adjacent])
     if not out_R:
-        return np.zeros((0, R.shape[1])), np.zeros((0, Z.shape[1]), dtype=np.float32)
+        return np.zeros((0, R.shape[1])), np.zeros((0, Z.shape[1]), dtype=np.uint64)
     return np.concatenate(out_R), np.concatenate(out_Z)
+
+
+def _unpack_bits(Z: NDArray[np.uint64]) -> NDArray[np.bool_]:
+    """Bitsets ``(N, words)`` -> booleans ``(N, 64 * words)`` (bit j of word w is column 64 w + j)."""
+    as_bytes = np.ascontiguousarray(Z.astype("<u8")).view(np.uint8)
+    return np.unpackbits(as_bytes, axis=1, bitorder="little").astype(bool)
+
+
+def _only_two_contain(Z: NDArray[np.uint64], inter: NDArray[np.uint64], block: int) -> NDArray[np.bool_]:
+    """For each bitset ``inter[c]`` (the common zero set of a candidate pair), whether exactly
+    two rows of ``Z`` (the pair itself) contain it.
+
+    Only rays that are zero on the rarest row of ``inter[c]`` can contain it, so candidates are
+    grouped by that row and compared with those rays only.
+    """
+    bits = _unpack_bits(Z)  # (N, 64 w)
+    zeros_per_row = bits.sum(axis=0)
+    inter_bits = _unpack_bits(inter)  # (c, 64 w)
+    rarest = np.argmin(np.where(inter_bits, zeros_per_row[None, :], np.iinfo(np.intp).max), axis=1)
+    adjacent = np.empty(inter.shape[0], dtype=bool)
+    empty = ~inter_bits.any(axis=1)  # every ray contains the empty set
+    adjacent[empty] = Z.shape[0] == 2
+    rarest[empty] = -1
+    order = np.argsort(rarest, kind="stable")
+    order = order[rarest[order] >= 0]
+    rows, starts = np.unique(rarest[order], return_index=True)
+    ends = np.append(starts[1:], order.size)[: starts.size]
+    for row, a, e in zip(rows, starts, ends, strict=True):
+        cand = order[a:e]
+        Zr = Z[bits[:, row]]  # rays zero on this row
+        cb = max(1, block // max(1, Zr.shape[0] * Z.shape[1]))
+        for c0 in range(0, cand.size, cb):
+            idx = cand[c0 : c0 + cb]
+            blk = inter[idx][:, None, :]
+            contains = np.all((Zr[None, :, :] & blk) == blk, axis=2)  # (c, N_row)
+            adjacent[idx] = np.count_nonzero(contains, axis=1) == 2
+    return adjacent
 
 
 # ---------------------------------------------------------------------------------------------
