@@ -32,7 +32,14 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .errors import NonFiniteError, RadialError, ShapeError, SolverError, UnknownMethodError
+from .errors import (
+    NonFiniteError,
+    NonPositiveSigmaError,
+    RadialError,
+    ShapeError,
+    SolverError,
+    UnknownMethodError,
+)
 
 __all__ = [
     "ENUMERATION_METHODS",
@@ -99,7 +106,7 @@ class VertexTolerances:
     active: float = 1e-9
     zero: float = 1e-10
     singular: float = 1e-10
-    merge: float = 1e-8
+    merge: float = 1e-10
 
 
 VERTEX_TOLERANCES = VertexTolerances()
@@ -252,10 +259,10 @@ def enumerate_vertices(
     if norm.empty:
         return VertexEnumeration(np.zeros((0, n)), np.zeros((0, n)), np.zeros((0, m), bool), method)
     if method == "bruteforce":
-        points, rays = _bruteforce(norm, tol)
+        points, rays, zero_sets = _bruteforce(norm, tol)
     else:
-        points, rays = _double_description(norm, tol)
-    return _finalize(A, b, norm, points, rays, method, tol)
+        points, rays, zero_sets = _double_description(norm, tol)
+    return _finalize(A, b, norm, points, rays, method, tol, zero_sets)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -275,8 +282,11 @@ def _subsets(m: int, k: int) -> NDArray[np.intp]:
     return out
 
 
-def _bruteforce(norm: _Normalized, tol: VertexTolerances) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Candidate vertices (feasible solutions of nonsingular n-subsets) and candidate rays."""
+def _bruteforce(
+    norm: _Normalized, tol: VertexTolerances
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Vertices (feasible solutions of nonsingular n-subsets), rays, and each vertex's rows
+    that hold with equality ``(k, m')``."""
     A, b = norm.A, norm.b / norm.scale  # unit rows, |b| <= 1
     m, n = A.shape
     count = math.comb(m, n)
@@ -291,8 +301,13 @@ def _bruteforce(norm: _Normalized, tol: VertexTolerances) -> tuple[NDArray[np.fl
     feasible = np.all(pts @ A.T <= b + tol.feasibility, axis=1)
     pts = pts[feasible]
     if pts.shape[0]:
-        pts = pts[_unique_tight_sets(np.abs(b - pts @ A.T) <= tol.active)]
-    return pts * norm.scale, rays
+        # one point per set of tight rows: a degenerate vertex comes from many subsets
+        tight = np.abs(b - pts @ A.T) <= tol.active
+        first = _unique_tight_sets(tight)
+        pts, tight = pts[first], tight[first]
+    else:
+        tight = np.zeros((0, m), dtype=bool)
+    return pts * norm.scale, rays, tight
 
 
 def _unique_tight_sets(tight: NDArray[np.bool_]) -> NDArray[np.intp]:
@@ -366,8 +381,9 @@ def _initial_basis(H: NDArray[np.float64], tol: float) -> list[int]:
 
 def _double_description(
     norm: _Normalized, tol: VertexTolerances
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Candidate vertices and rays from the DD method on ``{y = (t, x) : H y >= 0}``.
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Vertices ``(k, n)``, rays ``(l, n)`` and the vertices' zero sets ``(k, m')`` (rows of
+    ``norm.A``) from the DD method on ``{y = (t, x) : H y >= 0}``.
 
     Rows are added in their given order after an initial basis (the first linearly independent
     rows, starting with ``t >= 0``), so the result is deterministic.  Rays are kept unit-norm;
@@ -413,10 +429,11 @@ def _double_description(
     t = R[:, 0]
     is_vertex = t > eps
     vertices = R[is_vertex, 1:] / t[is_vertex, None] * norm.scale
+    zero_sets = _unpack_bits(Z[is_vertex])[:, 1 : m + 1]  # drop the t >= 0 row
     rays = R[~is_vertex, 1:]
     lengths = np.linalg.norm(rays, axis=1)
     rays = rays[lengths > eps] / lengths[lengths > eps, None]
-    return vertices, rays
+    return vertices, rays, zero_sets
 
 
 if hasattr(np, "bitwise_count"):  # numpy >= 2
@@ -535,13 +552,20 @@ def _finalize(
     rays: NDArray[np.float64],
     method: str,
     tol: VertexTolerances,
+    zero_sets: NDArray[np.bool_] | None = None,
 ) -> VertexEnumeration:
-    """Polish, merge, sort; compute the tight rows of every vertex in the original ``A``."""
+    """Polish, merge, sort; compute the tight rows of every vertex in the original ``A``.
+
+    ``zero_sets (k, m')``: the rows of ``norm.A`` that define each vertex combinatorially
+    (double description); without them the rows tight within ``tol.active`` are used.
+    """
     m, n = A.shape
     An, bn, scale = norm.A, norm.b, norm.scale
     if points.shape[0] == 0:  # a pointed nonempty polyhedron has a vertex: this one is empty
         return VertexEnumeration(np.zeros((0, n)), np.zeros((0, n)), np.zeros((0, m), bool), method)
-    points = _polish_vertices(An, bn, points, tol.active * scale)
+    if zero_sets is None:
+        zero_sets = np.abs(bn - points @ An.T) <= tol.active * scale
+    points = _polish_vertices(An, bn, points, zero_sets)
     points = points[_merge_representatives(points, tol.merge * scale)]
     points = points[np.lexsort(points.T[::-1])]
     if rays.shape[0]:
@@ -555,13 +579,14 @@ def _finalize(
 
 
 def _polish_vertices(
-    A: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64], atol: float
+    A: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64], rows: NDArray[np.bool_]
 ) -> NDArray[np.float64]:
-    """One least-squares solve per vertex on its tight rows (batched normal equations)."""
-    tight = (np.abs(b - points @ A.T) <= atol).astype(np.float64)  # (k, m)
+    """One least-squares solve per vertex on its defining rows ``rows (k, m)`` (batched normal
+    equations; vertices whose rows do not have full rank are left as they are)."""
+    tight = rows.astype(np.float64)  # (k, m)
     G = np.einsum("km,mi,mj->kij", tight, A, A)
     rhs = (tight * b) @ A
-    # only vertices whose tight rows have full rank are polished (unit rows: det(G) <= |T|^n)
+    # unit rows: det(G) <= |T|^n, and it is ~0 when the rows do not have rank n
     good = np.abs(np.linalg.det(G)) > 1e-12
     out = points.copy()
     if np.any(good):
@@ -614,8 +639,6 @@ def _check_target(enumeration: VertexEnumeration, target: ArrayLike, sigmas: Arr
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
         raise NonFiniteError(f"target and sigmas must be finite, got {t.tolist()} and {s.tolist()}")
     if np.any(s <= 0):
-        from .errors import NonPositiveSigmaError
-
         raise NonPositiveSigmaError(f"sigmas must be > 0, got {s.tolist()}")
     if enumeration.vertices.shape[0] == 0:
         raise EmptyPolyhedronError("the polyhedron is empty: there is nothing to project onto")
@@ -626,7 +649,7 @@ def project_vform(
     enumeration: VertexEnumeration,
     target: ArrayLike,
     sigmas: ArrayLike,
-    tol: float = 1e-12,
+    tol: float = 1e-14,
     max_iter: int = 1000,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Sigma-weighted projection of ``target`` onto ``conv(vertices) + cone(rays)``.
@@ -646,7 +669,9 @@ def project_vform(
     sigmas : (n,) float
         Positive weights (standard deviations), same space as ``target``.
     tol : float
-        Relative optimality tolerance of the major cycle.
+        Optimality tolerance of the major cycle, relative to ``|z| max|w|`` (the rounding
+        scale of the whitened inner products); also the weight below which a generator
+        leaves the support.
     max_iter : int
         Limit on major plus minor cycles.
 
@@ -672,7 +697,7 @@ def project_vform(
     D = D / dlen[:, None] if D.shape[0] else D
     gens = np.concatenate([W, D])  # (k + l, n)
     is_point = np.arange(gens.shape[0]) < k
-    scale2 = max(1.0, float(np.max(np.sum(W * W, axis=1))))
+    max_len = max(1.0, float(np.sqrt(np.max(np.sum(W * W, axis=1)))))
     support = [int(np.argmin(np.sum(W * W, axis=1)))]
     weights = np.array([1.0])
     x = gens[support[0]].copy()
@@ -685,8 +710,11 @@ def project_vform(
         xx = float(x @ x)
         gap = np.where(is_point, gx - xx, gx)  # >= 0 at the optimum
         j = int(np.argmin(gap))
-        if gap[j] >= -tol * scale2 or j in support:
+        # optimal when no generator lies below the supporting hyperplane of |z| at x; the
+        # threshold is relative to |x| max|w|, the rounding scale of x . w
+        if gap[j] >= -tol * max(1.0, np.sqrt(xx)) * max_len or j in support:
             break
+        old = (list(support), weights.copy(), x.copy())
         support.append(j)
         weights = np.append(weights, 0.0)
         while True:  # minor cycle
@@ -694,10 +722,10 @@ def project_vform(
             if iters > max_iter:
                 raise SolverError(f"project_vform: no convergence in {max_iter} cycles (n = {n}, k = {k})")
             new = _affine_minimizer(gens[support], is_point[support])
-            if np.all(new > tol):
+            if np.all(new > 0.0):
                 weights = new
                 break
-            down = new <= tol
+            down = new <= 0.0
             theta = float(np.min(weights[down] / (weights[down] - new[down])))
             theta = min(max(theta, 0.0), 1.0)
             weights = (1.0 - theta) * weights + theta * new
@@ -710,6 +738,11 @@ def project_vform(
             pts = is_point[support]
             weights[pts] /= weights[pts].sum()
         x = weights @ gens[support]
+        # Wolfe's iterates strictly decrease |x|; the decrease is quadratic in the step, so
+        # test it directly and stop when rounding makes it fail (keep the better iterate)
+        if float(x @ x) > xx or np.array_equal(x, old[2]):
+            support, weights, x = old
+            break
     # final exact solve on the support
     final = _affine_minimizer(gens[support], is_point[support])
     if np.all(final >= 0.0):
@@ -725,19 +758,21 @@ def project_vform(
 def _affine_minimizer(G: NDArray[np.float64], is_point: NDArray[np.bool_]) -> NDArray[np.float64]:
     """Weights w minimising ``|G^T w|`` subject to ``sum(w[is_point]) = 1`` (w free).
 
-    KKT system ``[[G G^T, e], [e^T, 0]] [w; nu] = [0; 1]``, with ``e`` the point indicator.
+    With ``g0`` the first point of the support, ``G^T w = g0 + M c`` where M holds the
+    differences ``g_i - g0`` (points) and the directions (rays); ``c`` comes from a least-squares
+    solve on M (no normal equations; rank-deficient supports get the minimum-norm ``c``).
     """
-    s = G.shape[0]
-    K = np.zeros((s + 1, s + 1))
-    K[:s, :s] = G @ G.T
-    K[:s, s] = K[s, :s] = is_point
-    rhs = np.zeros(s + 1)
-    rhs[s] = 1.0
-    try:
-        sol = np.linalg.solve(K, rhs)
-    except np.linalg.LinAlgError:
-        sol = np.linalg.lstsq(K, rhs, rcond=None)[0]
-    return sol[:s]
+    first = int(np.flatnonzero(is_point)[0])
+    g0 = G[first]
+    others = np.delete(np.arange(G.shape[0]), first)
+    if others.size == 0:
+        return np.ones(1)
+    M = (G[others] - np.where(is_point[others, None], g0, 0.0)).T  # (n, s - 1)
+    c = np.linalg.lstsq(M, -g0, rcond=None)[0]
+    w = np.empty(G.shape[0])
+    w[others] = c
+    w[first] = 1.0 - c[is_point[others]].sum()
+    return w
 
 
 def certify_projection(

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.optimize import linprog, nnls
+from scipy.optimize import linprog
 from scipy.spatial.distance import cdist
 
 from radialopt.errors import NonFiniteError, RadialError, ShapeError, UnknownMethodError
@@ -31,6 +31,7 @@ TOL = {
     "ray": 1e-9,  # between unit rays
     "projection": 1e-7,  # V-form projection vs an independent solver (metres)
     "certificate": 1e-7,  # certify_projection tolerance
+    "projection_near_degenerate": 1e-5,  # V-form of a nearly degenerate P (see the test)
     "clarabel": 1e-4,  # raw Clarabel, tight tolerances (DESIGN practical notes)
 }
 
@@ -137,7 +138,8 @@ def assert_valid_enumeration(P: RestrictionPolytope, E: VertexEnumeration) -> No
     for row in tight:
         assert np.linalg.matrix_rank(P.A[row]) == n
     # vertices are distinct and sorted lexicographically
-    assert np.all(cdist(E.vertices, E.vertices)[np.triu_indices(len(E.vertices), 1)] > 1e-8)
+    merge = VERTEX_TOLERANCES.merge * scale
+    assert np.all(cdist(E.vertices, E.vertices)[np.triu_indices(len(E.vertices), 1)] > merge)
     order = np.lexsort(E.vertices.T[::-1])
     np.testing.assert_array_equal(order, np.arange(len(E.vertices)))
     # the only ray of the restriction polyhedron
@@ -164,13 +166,34 @@ def assert_complete(P: RestrictionPolytope, E: VertexEnumeration, rng: np.random
 
 @pytest.mark.parametrize("n", [3, 4, 5])
 @given(data=st.data())
-@settings(max_examples=25)
+@settings(max_examples=15)
 def test_bruteforce_equals_double_description(n: int, data) -> None:
-    P = RestrictionPolytope.from_centers(data.draw(any_centers(n)))
+    """General position: the same vertex and ray sets, counts included."""
+    P = RestrictionPolytope.from_centers(data.draw(general_centers(n)))
     brute = enumerate_vertices(P, method="bruteforce")
     dd = enumerate_vertices(P, method="double_description")
     assert brute.method == "bruteforce" and dd.method == "double_description"
     assert_same_generators(brute, dd)
+    assert_valid_enumeration(P, brute)
+    assert_valid_enumeration(P, dd)
+
+
+@pytest.mark.parametrize("n", [3, 4, 5])
+@given(data=st.data())
+@settings(max_examples=25)
+def test_bruteforce_near_double_description_on_degenerate_inputs(n: int, data) -> None:
+    """Degenerate inputs: collinear centres, one height, integer ties, nearly collinear.
+
+    In floating point a degenerate vertex splits into a cluster of vertices (by ~1e-16 for
+    exactly degenerate centres, by ~eps^2 for centres eps off a line); where the split is
+    near the tolerances the two methods may resolve a cluster differently, never by more than
+    its size: the sets agree in Hausdorff distance, not necessarily in count."""
+    strategy = st.one_of(collinear_centers(n), one_height_centers(n), integer_centers(n),
+                         near_collinear_centers(n))
+    P = RestrictionPolytope.from_centers(data.draw(strategy))
+    brute = enumerate_vertices(P, method="bruteforce")
+    dd = enumerate_vertices(P, method="double_description")
+    assert_same_generators(brute, dd, counts=False)
     assert_valid_enumeration(P, brute)
     assert_valid_enumeration(P, dd)
 
@@ -318,11 +341,12 @@ def test_projection_input_errors() -> None:
 def projection_problems(draw, min_n: int = 3, max_n: int = 6):
     """Centres (general position or degenerate), a target of measured radii and sigmas.
 
-    Returns ``(polytope, target, sigmas)``.
+    Returns ``(polytope, target, sigmas)``.  Nearly collinear centres are left out: see
+    :func:`test_vform_projection_nearly_degenerate`.
     """
     n = draw(st.integers(min_n, max_n))
-    general = draw(st.booleans())
-    centers = draw(general_centers(n) if general else any_centers(n))
+    centers = draw(st.one_of(general_centers(n), collinear_centers(n), one_height_centers(n),
+                             integer_centers(n)))
     target = np.array([draw(st.floats(0.0, 10.0)) for _ in range(n)])
     sigmas = np.array([draw(st.floats(1e-3, 2.0)) for _ in range(n)])
     return RestrictionPolytope.from_centers(centers), target, sigmas
@@ -332,32 +356,40 @@ def hform_projection(P: RestrictionPolytope, target: np.ndarray, sigmas: np.ndar
     """Independent: Clarabel on the whitened H-form QP (DESIGN item 4), tight tolerances."""
     z = cp.Variable(P.dim)
     prob = cp.Problem(cp.Minimize(cp.sum_squares(z)), [(P.A * sigmas) @ z <= P.b - P.A @ target])
-    prob.solve(solver="CLARABEL", tol_gap_abs=1e-12, tol_gap_rel=1e-12, tol_feas=1e-12, tol_ktratio=1e-10)
-    assert prob.status in ("optimal", "optimal_inaccurate")  # 1e-12 is beyond reach on some
+    try:
+        prob.solve(solver="CLARABEL", tol_gap_abs=1e-12, tol_gap_rel=1e-12, tol_feas=1e-12, tol_ktratio=1e-10)
+    except cp.error.SolverError:  # 1e-12 is beyond reach on a few degenerate instances
+        prob.solve(solver="CLARABEL", tol_gap_abs=1e-9, tol_gap_rel=1e-9, tol_feas=1e-9)
+    assert prob.status in ("optimal", "optimal_inaccurate")
     return target + sigmas * z.value
 
 
-def kkt_projection(P: RestrictionPolytope, target: np.ndarray, sigmas: np.ndarray) -> np.ndarray:
-    """Independent and exact: Clarabel's active set, then the exact projection onto those
-    hyperplanes (rows it then violates join the set), verified by the KKT conditions
-    (feasible, multipliers >= 0 by NNLS)."""
-    x = hform_projection(P, target, sigmas)
+def faces_hform_projection(P: RestrictionPolytope, target: np.ndarray, sigmas: np.ndarray) -> np.ndarray:
+    """Independent and exact (slow, obvious): the projection is the minimum-norm point of the
+    affine hull of its active face, for some linearly independent set T of <= n active rows.
+    Clarabel's answer (within ~1e-6) narrows the rows to the near-active ones; every subset
+    T of those gives a candidate ``z = pinv(G_T) h_T``; the best feasible candidate is the
+    optimum (every feasible candidate is in P, and the optimum is among them)."""
+    x0 = hform_projection(P, target, sigmas)
     scale = max(1.0, float(np.abs(P.b).max()))
-    active = P.slack(x) <= 1e-6 * scale
-    for _ in range(P.A.shape[0]):
-        G = P.A[active] * sigmas  # whitened: G z <= h, z = (x - target) / sigmas
-        h = P.b[active] - P.A[active] @ target
-        z = np.linalg.lstsq(G, h, rcond=None)[0] if active.any() else np.zeros(P.dim)
-        x = target + sigmas * z
-        violated = P.slack(x) < -1e-12 * scale
-        if not violated.any():
-            break
-        active |= violated
-    assert np.all(P.slack(x) >= -1e-9 * scale), "polished point infeasible"
-    if active.any():  # stationarity z + G^T nu = 0 with nu >= 0
-        _, residual = nnls(G.T, -z)
-        assert residual <= 1e-9 * max(1.0, float(np.linalg.norm(z))), "KKT multipliers not >= 0"
-    return x
+    near = np.flatnonzero(P.slack(x0) <= 1e-4 * scale)
+    G = P.A * sigmas  # whitened: G z <= h, z = (x - target) / sigmas
+    h = P.b - P.A @ target
+    best, best_val = None, np.inf
+    for size in range(0, min(P.dim, near.size) + 1):
+        if size == 0:
+            z = np.zeros((1, P.dim))
+        else:
+            subsets = np.array(list(itertools.combinations(near, size)), dtype=int)
+            z = np.einsum("cij,cj->ci", np.linalg.pinv(G[subsets]), h[subsets])
+        feasible = np.all(z @ G.T <= h + 1e-9 * scale, axis=1)
+        if feasible.any():
+            values = np.sum(z[feasible] ** 2, axis=1)
+            i = int(np.argmin(values))
+            if values[i] < best_val:
+                best, best_val = z[feasible][i], float(values[i])
+    assert best is not None
+    return target + sigmas * best
 
 
 def vform_objective_cvxpy(E: VertexEnumeration, target: np.ndarray, sigmas: np.ndarray) -> float:
@@ -416,7 +448,7 @@ def test_vform_projection_matches_clarabel(problem) -> None:
     assert weights.shape == (k + E.rays.shape[0],)
     assert np.all(weights >= 0) and weights[:k].sum() == pytest.approx(1.0, abs=1e-12)
     np.testing.assert_allclose(E.vertices.T @ weights[:k] + E.rays.T @ weights[k:], point, atol=1e-9)
-    np.testing.assert_allclose(point, kkt_projection(P, target, sigmas), atol=TOL["projection"])
+    np.testing.assert_allclose(point, faces_hform_projection(P, target, sigmas), atol=TOL["projection"])
     # raw Clarabel drifts by up to ~1e-6 (degenerate active sets, sigma ratios of 1e3)
     np.testing.assert_allclose(point, hform_projection(P, target, sigmas), atol=TOL["clarabel"])
     objective = float(np.sum(((point - target) / sigmas) ** 2))
@@ -435,6 +467,26 @@ def test_vform_projection_matches_search_over_faces(problem) -> None:
     np.testing.assert_allclose(point, faces_projection(E, target, sigmas), atol=1e-8)
 
 
+@given(data=st.data())
+@settings(max_examples=20)
+def test_vform_projection_nearly_degenerate(data) -> None:
+    """Nearly collinear centres: vertex clusters of size ~eps^2 are resolved only up to the
+    enumeration tolerances (1e-9 relative), and the V-form set differs from P by that much;
+    the projection then agrees with the exact one to ~1e-6 (not 1e-7), and it passes the
+    certificate on its own generators."""
+    n = data.draw(st.integers(3, 5))
+    P = RestrictionPolytope.from_centers(data.draw(near_collinear_centers(n)))
+    target = np.array([data.draw(st.floats(0.0, 10.0)) for _ in range(n)])
+    sigmas = np.array([data.draw(st.floats(1e-2, 2.0)) for _ in range(n)])
+    for method in ("bruteforce", "double_description"):
+        E = enumerate_vertices(P, method=method)
+        point, _ = project_vform(E, target, sigmas)
+        ok, _, message = certify_projection(E, P, target, sigmas, point, tol=TOL["certificate"])
+        assert ok, message
+        np.testing.assert_allclose(point, faces_hform_projection(P, target, sigmas),
+                                   atol=TOL["projection_near_degenerate"])
+
+
 def test_target_inside_is_its_own_projection() -> None:
     centers = _seeded(3, 4)
     P = RestrictionPolytope.from_centers(centers)
@@ -449,7 +501,7 @@ def test_target_inside_is_its_own_projection() -> None:
 def test_certificate_rejects_wrong_points(problem, data) -> None:
     P, target, sigmas = problem
     E = enumerate_vertices(P)
-    point = kkt_projection(P, target, sigmas)
+    point = faces_hform_projection(P, target, sigmas)
     ok, _, message = certify_projection(E, P, target, sigmas, point, tol=1e-6)
     assert ok, message
     if not np.any(P.slack(target) < -1e-6):  # target inside: nothing else to reject
