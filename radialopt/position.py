@@ -209,6 +209,12 @@ def fisher_information(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLik
         The position coincides with a centre (the range is not differentiable there).
     """
     c, s, x = _check_crlb_input(centers, sigmas, position)
+    u = _unit_directions(c, x)
+    return np.einsum("ni,nj->ij", u / s[:, None] ** 2, u)
+
+
+def _unit_directions(c: NDArray, x: NDArray) -> NDArray:
+    """Unit vectors ``(n, 3)`` from the centres to ``x``; raises where ``x`` is on a centre."""
     diff = x - c
     d = np.linalg.norm(diff, axis=1)
     scale = max(float(np.max(np.abs(c - c.mean(axis=0)), initial=0.0)), 1.0)
@@ -216,8 +222,7 @@ def fisher_information(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLik
         i = int(np.argmin(d))
         raise SingularFisherError(f"position {x.tolist()} coincides with centre {i} "
                                   f"({c[i].tolist()}): the range is not differentiable there")
-    u = diff / d[:, None]
-    return np.einsum("ni,nj->ij", u / s[:, None] ** 2, u)
+    return diff / d[:, None]
 
 
 def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
@@ -247,9 +252,8 @@ def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
         ``u_i`` in a plane (the position on the plane of coplanar centres) or on a line.
     """
     c, s, x = _check_crlb_input(centers, sigmas, position)
-    J = fisher_information(c, s, x)
-    diff = x - c
-    u = diff / np.linalg.norm(diff, axis=1)[:, None]
+    u = _unit_directions(c, x)
+    J = np.einsum("ni,nj->ij", u / s[:, None] ** 2, u)
     geometric = np.linalg.eigvalsh(u.T @ u / len(u))
     if geometric[0] <= rcond:
         raise SingularFisherError(
