@@ -25,3 +25,15 @@ class UnknownClassError(PerceptionError):
 
 class BehindCameraError(PerceptionError):
     """A point lies behind the camera, or its depth is not positive."""
+
+
+class CalibrationError(PerceptionError):
+    """A camera calibration is invalid (e.g. R is not a rotation, a focal length is not positive)."""
+
+
+class CalibrationFileError(CalibrationError):
+    """A calibration file is missing, unreadable or lacks a required key."""
+
+
+class KinematicsError(PerceptionError):
+    """A kinematic chain or its joint angles are invalid (unknown joint, bad axis)."""

@@ -1,0 +1,336 @@
+"""The ego kinematic chain of an active head (paper section 3.2, eqs. 9-10, Fig. 10).
+
+``ego_from_camera(angles)`` maps left-camera coordinates into the ego frame (the head base,
+ROS REP 103), i.e. the inverse of the paper's ``M_ego^t = [T(t) N(t) H C_L]^-1``.
+Joint-encoder noise propagates to percept covariance through the chain's Jacobian
+(space-to-ego uncertainty).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import KinematicsError, NonFiniteError, NonPositiveSigmaError, ShapeError
+
+_AXES = {"x": 0, "y": 1, "z": 2}
+# tip (x forward, y left, z up) from OpenCV camera (x right, y down, z forward)
+TIP_FROM_OPENCV = np.array(
+    [[0.0, 0.0, 1.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+)
+
+
+def check_transform(name: str, value: ArrayLike, atol: float = 1e-6) -> NDArray[np.float64]:
+    """Validate a 4x4 rigid transform and return it as float64.
+
+    Raises
+    ------
+    ShapeError, NonFiniteError, KinematicsError
+        Wrong shape, non-finite entries, or not a rigid motion (rotation block, last row).
+    """
+    try:
+        M = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be a (4, 4) float array, got {value!r}") from exc
+    if M.shape != (4, 4):
+        raise ShapeError(f"{name} must have shape (4, 4), got shape {M.shape}")
+    if not np.all(np.isfinite(M)):
+        raise NonFiniteError(f"{name} must be finite, got {M.tolist()}")
+    R = M[:3, :3]
+    if (
+        not np.allclose(M[3], [0.0, 0.0, 0.0, 1.0], atol=atol)
+        or not np.allclose(R @ R.T, np.eye(3), atol=atol)
+        or np.linalg.det(R) <= 0
+    ):
+        raise KinematicsError(f"{name} must be a rigid transform, got {M.tolist()}")
+    return M
+
+
+def rotation(axis: str, angle: float) -> NDArray[np.float64]:
+    """4x4 rotation by ``angle`` (radians) about the ``axis`` ('x', 'y' or 'z') of the frame."""
+    c, s = np.cos(angle), np.sin(angle)
+    i = _AXES[axis]
+    j, k = (i + 1) % 3, (i + 2) % 3
+    M = np.eye(4)
+    M[j, j] = c
+    M[j, k] = -s
+    M[k, j] = s
+    M[k, k] = c
+    return M
+
+
+def translation(x: float, y: float, z: float) -> NDArray[np.float64]:
+    """4x4 translation by ``(x, y, z)``."""
+    M = np.eye(4)
+    M[:3, 3] = (x, y, z)
+    return M
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A revolute joint.
+
+    Parameters
+    ----------
+    name : str
+        Unique name, used as the key of angle dictionaries.
+    axis : {'x', 'y', 'z'}
+        Rotation axis in the joint frame.
+    origin : (4, 4) float
+        ``parent_from_joint`` at zero angle; the joint transform is ``origin @ Rot(axis, q)``.
+    """
+
+    name: str
+    axis: str
+    origin: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise KinematicsError(f"joint name must be a non-empty string, got {self.name!r}")
+        if self.axis not in _AXES:
+            raise KinematicsError(f"joint {self.name!r}: axis must be 'x', 'y' or 'z', got {self.axis!r}")
+        M = check_transform(f"origin of joint {self.name!r}", self.origin)
+        M.setflags(write=False)
+        object.__setattr__(self, "origin", M)
+
+    def transform(self, angle: float) -> NDArray[np.float64]:
+        """``parent_from_joint`` at ``angle`` (radians)."""
+        return self.origin @ rotation(self.axis, angle)
+
+
+@dataclass(frozen=True)
+class KinematicChain:
+    """A serial chain of revolute joints from the ego frame to the left camera.
+
+    Parameters
+    ----------
+    joints : sequence of Joint
+        Joints from the base to the tip (the left camera's last joint).
+    ego_from_base : (4, 4) float
+        Fixed pose of the first joint's parent frame in the ego frame.
+    tip_from_camera : (4, 4) float
+        Fixed pose of the (OpenCV) left camera in the last joint's frame.
+    right_eye : Joint, optional
+        A sibling of the last joint (same parent) carrying the right camera, whose pose
+        in its joint frame is also ``tip_from_camera``. Its angle defaults to the last
+        joint's angle (parallel eyes).
+    """
+
+    joints: tuple[Joint, ...]
+    ego_from_base: NDArray[np.float64]
+    tip_from_camera: NDArray[np.float64]
+    right_eye: Joint | None = None
+
+    def __post_init__(self) -> None:
+        joints = tuple(self.joints)
+        if not joints or not all(isinstance(j, Joint) for j in joints):
+            raise KinematicsError(f"joints must be a non-empty sequence of Joint, got {self.joints!r}")
+        names = [j.name for j in joints] + ([self.right_eye.name] if self.right_eye is not None else [])
+        if len(set(names)) != len(names):
+            raise KinematicsError(f"joint names must be unique, got {names}")
+        E = check_transform("ego_from_base", self.ego_from_base)
+        C = check_transform("tip_from_camera", self.tip_from_camera)
+        E.setflags(write=False)
+        C.setflags(write=False)
+        object.__setattr__(self, "joints", joints)
+        object.__setattr__(self, "ego_from_base", E)
+        object.__setattr__(self, "tip_from_camera", C)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Joint names: the serial joints, then the right eye (if any)."""
+        extra = (self.right_eye.name,) if self.right_eye is not None else ()
+        return tuple(j.name for j in self.joints) + extra
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints (including the right eye)."""
+        return len(self.names)
+
+    def angle_vector(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
+        """Angles as a vector in the order of :attr:`names` (the right eye defaults to the left).
+
+        ``angles`` is a dict ``name -> radians`` (every serial joint required) or an array of
+        length ``len(joints)`` or ``n_joints``.
+        """
+        n = len(self.joints)
+        if isinstance(angles, Mapping):
+            unknown = sorted(set(angles) - set(self.names))
+            if unknown:
+                raise KinematicsError(f"unknown joint names {unknown}; known: {list(self.names)}")
+            missing = [j.name for j in self.joints if j.name not in angles]
+            if missing:
+                raise KinematicsError(f"angles lack joints {missing}")
+            q = [float(angles[j.name]) for j in self.joints]
+            if self.right_eye is not None:
+                q.append(float(angles.get(self.right_eye.name, q[-1])))
+            vec = np.array(q)
+        else:
+            try:
+                vec = np.array(angles, dtype=np.float64)
+            except (TypeError, ValueError) as exc:
+                raise ShapeError(f"angles must be a dict or a float array, got {angles!r}") from exc
+            if vec.ndim != 1 or vec.size not in (n, self.n_joints):
+                raise ShapeError(
+                    f"angles must have shape ({n},) or ({self.n_joints},), got shape {vec.shape}"
+                )
+            if vec.size < self.n_joints:
+                vec = np.append(vec, vec[-1])
+        if not np.all(np.isfinite(vec)):
+            raise NonFiniteError(f"joint angles must be finite, got {vec.tolist()}")
+        return vec
+
+    def joint_frames(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
+        """``ego_from_joint_i`` (after the joint rotation) for every serial joint, shape (n, 4, 4)."""
+        q = self.angle_vector(angles)
+        out = np.empty((len(self.joints), 4, 4))
+        M = self.ego_from_base
+        for i, j in enumerate(self.joints):
+            M = M @ j.transform(q[i])
+            out[i] = M
+        return out
+
+    def ego_from_camera(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
+        """Pose of the left camera in the ego frame: ``ego_from_base @ prod(joint_i(q_i)) @ tip_from_camera``.
+
+        Returns
+        -------
+        (4, 4) float
+        """
+        return self.joint_frames(angles)[-1] @ self.tip_from_camera
+
+    def ego_from_right_camera(
+        self, angles: Mapping[str, float] | ArrayLike, baseline: float | None = None
+    ) -> NDArray[np.float64]:
+        """Pose of the right camera in the ego frame.
+
+        With a ``right_eye`` joint the right camera hangs off the last joint's parent; without
+        one (or when ``baseline`` is given) it is the left camera moved by ``baseline`` along
+        the left camera's x axis.
+        """
+        if self.right_eye is None or baseline is not None:
+            b = 0.093 if baseline is None else float(baseline)
+            return self.ego_from_camera(angles) @ translation(b, 0.0, 0.0)
+        q = self.angle_vector(angles)
+        frames = self.joint_frames(q)
+        parent = frames[-2] if len(self.joints) > 1 else self.ego_from_base
+        return parent @ self.right_eye.transform(q[-1]) @ self.tip_from_camera
+
+    def point_jacobian(
+        self, angles: Mapping[str, float] | ArrayLike, point_camera: ArrayLike
+    ) -> NDArray[np.float64]:
+        """Jacobian of the ego-frame position of a left-camera point w.r.t. the joint angles.
+
+        For a revolute joint with ego-frame axis ``a`` through ``p``: ``dX/dq = a x (X - p)``.
+        The right eye (if any) does not move the left camera: its column is zero.
+
+        Returns
+        -------
+        (3, n_joints) float
+        """
+        x = _vector3("point_camera", point_camera)
+        frames = self.joint_frames(angles)
+        X = (frames[-1] @ self.tip_from_camera @ np.append(x, 1.0))[:3]
+        J = np.zeros((3, self.n_joints))
+        for i, j in enumerate(self.joints):
+            axis = frames[i][:3, _AXES[j.axis]]
+            J[:, i] = np.cross(axis, X - frames[i][:3, 3])
+        return J
+
+
+def _vector3(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    try:
+        v = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be a (3,) float array, got {value!r}") from exc
+    if v.shape != (3,):
+        raise ShapeError(f"{name} must have shape (3,), got shape {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise NonFiniteError(f"{name} must be finite, got {v.tolist()}")
+    return v
+
+
+def default_head(baseline: float = 0.093) -> KinematicChain:
+    """A Karlsruhe-like 7-DoF humanoid head (ARMAR-III-like geometry, made-up offsets).
+
+    Joints (ego = head base, x forward, y left, z up): neck pitch (y), neck roll (x),
+    neck yaw (z), head tilt (y), common eye tilt (y), left eye pan (z); the right eye pan (z)
+    is a sibling of the left eye pan, ``baseline`` metres to the right. The left camera is the
+    chain tip; at zero angles both cameras look along ego +x and the right camera is
+    ``baseline`` along the left camera's x axis.
+    """
+    if not np.isfinite(baseline) or baseline <= 0:
+        raise KinematicsError(f"baseline must be finite and > 0, got {baseline!r}")
+    half = baseline / 2.0
+    joints = (
+        Joint("neck_pitch", "y", np.eye(4)),
+        Joint("neck_roll", "x", translation(0.0, 0.0, 0.02)),
+        Joint("neck_yaw", "z", translation(0.0, 0.0, 0.03)),
+        Joint("head_tilt", "y", translation(0.0, 0.0, 0.12)),
+        Joint("eye_tilt", "y", translation(0.06, 0.0, 0.08)),
+        Joint("left_eye_pan", "z", translation(0.02, half, 0.0)),
+    )
+    right = Joint("right_eye_pan", "z", translation(0.02, -half, 0.0))
+    return KinematicChain(joints, np.eye(4), TIP_FROM_OPENCV.copy(), right_eye=right)
+
+
+def percept_covariance(
+    chain: KinematicChain,
+    angles: Mapping[str, float] | ArrayLike,
+    point_camera: ArrayLike,
+    point_cov_camera: ArrayLike,
+    encoder_sigma: float | ArrayLike,
+) -> NDArray[np.float64]:
+    """Ego-frame covariance of a left-camera point (space-to-ego uncertainty, section 3.2).
+
+    ``R C R^T + J diag(encoder_sigma^2) J^T`` with ``R`` the rotation of ``ego_from_camera``
+    and ``J`` the :meth:`KinematicChain.point_jacobian`.
+
+    Parameters
+    ----------
+    chain : KinematicChain
+    angles : dict or (n,) float
+        Joint angles, radians.
+    point_camera : (3,) float
+        The point in the left camera frame.
+    point_cov_camera : (3, 3) float
+        Its covariance in the left camera frame (e.g. from triangulation).
+    encoder_sigma : float or (n_joints,) float
+        Standard deviation of each joint encoder, radians (>= 0).
+
+    Returns
+    -------
+    (3, 3) float
+    """
+    C = np.array(point_cov_camera, dtype=np.float64)
+    if C.shape != (3, 3):
+        raise ShapeError(f"point_cov_camera must have shape (3, 3), got shape {C.shape}")
+    if not np.all(np.isfinite(C)):
+        raise NonFiniteError(f"point_cov_camera must be finite, got {C.tolist()}")
+    s = np.array(encoder_sigma, dtype=np.float64)
+    if s.ndim == 0:
+        s = np.full(chain.n_joints, float(s))
+    if s.shape != (chain.n_joints,):
+        raise ShapeError(f"encoder_sigma must be a scalar or shape ({chain.n_joints},), got shape {s.shape}")
+    if not np.all(np.isfinite(s)):
+        raise NonFiniteError(f"encoder_sigma must be finite, got {s.tolist()}")
+    if np.any(s < 0):
+        raise NonPositiveSigmaError(f"encoder_sigma must be >= 0, got {s.tolist()}")
+    R = chain.ego_from_camera(angles)[:3, :3]
+    J = chain.point_jacobian(angles, point_camera)
+    return R @ C @ R.T + (J * s**2) @ J.T
+
+
+__all__: Sequence[str] = [
+    "Joint",
+    "KinematicChain",
+    "TIP_FROM_OPENCV",
+    "check_transform",
+    "default_head",
+    "percept_covariance",
+    "rotation",
+    "translation",
+]

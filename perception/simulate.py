@@ -1,0 +1,324 @@
+"""Simulated percepts: already-fused percepts of a scene, or a raw scanning sequence.
+
+Both functions take plain arrays (types and world positions) and a ``world_from_ego`` pose,
+so no world model is needed. Positions in the ego frame (ROS REP 103), metres.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .chain import KinematicChain, check_transform, default_head
+from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
+from .percept import Percept
+from .stereo import StereoRig
+
+
+def _types(types: Sequence[str], n: int) -> list[str]:
+    out = list(types)
+    if len(out) != n:
+        raise ShapeError(f"types must have one entry per world position ({n}), got {len(out)}")
+    for i, t in enumerate(out):
+        if not isinstance(t, str) or not t:
+            raise UnknownClassError(f"types[{i}] must be a non-empty string, got {t!r}")
+    return out
+
+
+def _positions(world_positions: ArrayLike) -> NDArray[np.float64]:
+    try:
+        X = np.array(world_positions, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(
+            f"world_positions must be a float array of shape (n, 3), got {world_positions!r}"
+        ) from exc
+    if X.ndim == 1 and X.size == 0:
+        X = X.reshape(0, 3)
+    if X.ndim != 2 or X.shape[1] != 3:
+        raise ShapeError(f"world_positions must have shape (n, 3), got shape {X.shape}")
+    if not np.all(np.isfinite(X)):
+        raise NonFiniteError(f"world_positions must be finite, got {X.tolist()}")
+    return X
+
+
+def _positive(name: str, value: float) -> float:
+    v = float(value)
+    if not np.isfinite(v):
+        raise NonFiniteError(f"{name} must be finite, got {value!r}")
+    if v <= 0:
+        raise NonPositiveSigmaError(f"{name} must be > 0, got {value!r}")
+    return v
+
+
+def _rate(name: str, value: float) -> float:
+    v = float(value)
+    if not np.isfinite(v) or not 0.0 <= v <= 1.0:
+        raise PerceptionError(f"{name} must lie in [0, 1], got {value!r}")
+    return v
+
+
+def _rng(rng: np.random.Generator) -> np.random.Generator:
+    if not isinstance(rng, np.random.Generator):
+        raise PerceptionError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    return rng
+
+
+def _false_type_pool(false_types: Sequence[str] | None, present: Sequence[str]) -> list[str]:
+    pool = sorted(set(present)) if false_types is None else list(false_types)
+    for i, t in enumerate(pool):
+        if not isinstance(t, str) or not t:
+            raise UnknownClassError(f"false_types[{i}] must be a non-empty string, got {t!r}")
+    return pool
+
+
+def simulate_percepts(
+    types: Sequence[str],
+    world_positions: ArrayLike,
+    world_from_ego: ArrayLike,
+    rng: np.random.Generator,
+    *,
+    depth_factor: float = 1000.0,
+    max_range: float = 8.0,
+    hfov_deg: float | None = None,
+    n_false: int = 0,
+    false_types: Sequence[str] | None = None,
+    miss_rate: float = 0.0,
+    min_sigma: float = 1e-4,
+) -> tuple[list[Percept], NDArray[np.int64]]:
+    """Already-fused percepts of the visible objects of a scene (one per object).
+
+    An object is visible when its distance ``rho`` from the ego origin is at most
+    ``max_range`` and, if ``hfov_deg`` is given, its azimuth about ego +x lies within
+    ``±hfov_deg / 2``. Each visible object that is not missed (probability ``miss_rate``)
+    gives a percept at ``ego_from_world @ X + N(0, sigma^2 I)`` with
+    ``sigma = max(min_sigma, rho^2 / depth_factor)`` (eq. 6). ``n_false`` false percepts of
+    types drawn from ``false_types`` (default: the types present) are placed uniformly in
+    the visible region. The order of the percepts is shuffled by ``rng``.
+
+    Parameters
+    ----------
+    types : (n,) sequence of str
+        Object class of each world position.
+    world_positions : (n, 3) float
+        Object positions in the world frame.
+    world_from_ego : (4, 4) float
+        Rigid pose of the ego frame in the world.
+    rng : numpy.random.Generator
+        Source of all randomness.
+    depth_factor, max_range, min_sigma : float
+        Noise model and visibility range, all > 0.
+    hfov_deg : float, optional
+        Horizontal field of view about ego +x, degrees, in (0, 360].
+    n_false : int
+        Number of false percepts (>= 0).
+    false_types : sequence of str, optional
+        Classes of the false percepts.
+    miss_rate : float
+        Probability that a visible object is not perceived, in [0, 1].
+
+    Returns
+    -------
+    percepts : list of Percept
+        Ego-frame percepts, ``views = 1``, ``covariance = sigma^2 I``.
+    truth : (k,) int
+        Index into ``world_positions`` of each percept, or -1 for a false percept.
+    """
+    X = _positions(world_positions)
+    tps = _types(types, X.shape[0])
+    M = check_transform("world_from_ego", world_from_ego)
+    rng = _rng(rng)
+    depth_factor = _positive("depth_factor", depth_factor)
+    max_range = _positive("max_range", max_range)
+    min_sigma = _positive("min_sigma", min_sigma)
+    miss_rate = _rate("miss_rate", miss_rate)
+    if int(n_false) != n_false or n_false < 0:
+        raise PerceptionError(f"n_false must be a non-negative integer, got {n_false!r}")
+    n_false = int(n_false)
+    half_fov = None
+    if hfov_deg is not None:
+        h = float(hfov_deg)
+        if not np.isfinite(h) or not 0 < h <= 360:
+            raise PerceptionError(f"hfov_deg must lie in (0, 360], got {hfov_deg!r}")
+        half_fov = np.radians(h) / 2.0
+
+    R, t = M[:3, :3], M[:3, 3]
+    P = (X - t) @ R  # ego_from_world applied to each row: R^T (X - t)
+    rho = np.linalg.norm(P, axis=1)
+    visible = rho <= max_range
+    if half_fov is not None:
+        visible &= np.abs(np.arctan2(P[:, 1], P[:, 0])) <= half_fov
+    kept = visible & (rng.random(X.shape[0]) >= miss_rate)
+    idx = np.flatnonzero(kept)
+    sig = np.maximum(min_sigma, rho[idx] ** 2 / depth_factor)
+    noisy = P[idx] + rng.standard_normal((idx.size, 3)) * sig[:, None]
+
+    pool = _false_type_pool(false_types, tps)
+    if n_false and not pool:
+        raise UnknownClassError("n_false > 0 needs false_types or at least one object type, got none")
+    fpos = _uniform_visible(rng, n_false, max_range, half_fov)
+    ftype = [pool[int(k)] for k in rng.integers(0, len(pool), n_false)] if n_false else []
+    fsig = np.maximum(min_sigma, np.linalg.norm(fpos, axis=1) ** 2 / depth_factor)
+
+    all_types = [tps[i] for i in idx] + ftype
+    all_pos = np.vstack([noisy, fpos])
+    all_sig = np.concatenate([sig, fsig])
+    all_truth = np.concatenate([idx, -np.ones(n_false, dtype=np.int64)]).astype(np.int64)
+    order = rng.permutation(all_truth.size)
+    percepts = [
+        Percept(all_types[k], all_pos[k], float(all_sig[k]), covariance=all_sig[k] ** 2 * np.eye(3))
+        for k in order
+    ]
+    return percepts, all_truth[order]
+
+
+def _uniform_visible(
+    rng: np.random.Generator, n: int, max_range: float, half_fov: float | None
+) -> NDArray[np.float64]:
+    """``n`` points uniform in the ball of radius ``max_range`` (azimuth limited by ``half_fov``)."""
+    if n == 0:
+        return np.zeros((0, 3))
+    d = rng.standard_normal((n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    r = max_range * rng.random(n) ** (1.0 / 3.0)
+    p = d * r[:, None]
+    if half_fov is not None:
+        # The ball is symmetric about z: redrawing the azimuth uniformly keeps the density uniform.
+        az = rng.uniform(-half_fov, half_fov, n)
+        horiz = np.hypot(p[:, 0], p[:, 1])
+        p[:, 0] = horiz * np.cos(az)
+        p[:, 1] = horiz * np.sin(az)
+    return p
+
+
+def scan_angles(
+    chain: KinematicChain,
+    n_views: int,
+    yaw_deg: tuple[float, float] = (-70.0, 70.0),
+    pitch_deg: tuple[float, float] = (-10.0, 10.0),
+) -> NDArray[np.float64]:
+    """Joint angles of a scanning trajectory: a neck-yaw sweep with a neck-pitch zigzag.
+
+    View ``k`` has neck yaw ``linspace(*yaw_deg, n_views)[k]`` and neck pitch alternating
+    between the two ``pitch_deg`` values; all other joints are zero. Needs joints named
+    ``neck_yaw`` and ``neck_pitch`` (as in :func:`default_head`).
+
+    Returns
+    -------
+    (n_views, chain.n_joints) float
+        Radians, in the order of ``chain.names``.
+    """
+    names = chain.names
+    for need in ("neck_yaw", "neck_pitch"):
+        if need not in names:
+            raise UnknownClassError(f"scan_angles needs a joint named {need!r}; the chain has {list(names)}")
+    if int(n_views) != n_views or n_views < 1:
+        raise PerceptionError(f"n_views must be a positive integer, got {n_views!r}")
+    n_views = int(n_views)
+    Q = np.zeros((n_views, chain.n_joints))
+    Q[:, names.index("neck_yaw")] = np.radians(np.linspace(yaw_deg[0], yaw_deg[1], n_views))
+    pitch = np.where(np.arange(n_views) % 2 == 0, pitch_deg[0], pitch_deg[1])
+    Q[:, names.index("neck_pitch")] = np.radians(pitch)
+    return Q
+
+
+def simulate_scan(
+    types: Sequence[str],
+    world_positions: ArrayLike,
+    world_from_ego: ArrayLike,
+    rng: np.random.Generator,
+    *,
+    chain: KinematicChain | None = None,
+    rig: StereoRig | None = None,
+    n_views: int = 20,
+    depth_factor: float = 1000.0,
+    miss_rate: float = 0.05,
+    false_rate: float = 0.02,
+    max_range: float = 8.0,
+    return_truth: bool = False,
+    min_sigma: float = 1e-4,
+    yaw_deg: tuple[float, float] = (-70.0, 70.0),
+    pitch_deg: tuple[float, float] = (-10.0, 10.0),
+) -> list[Percept] | tuple[list[Percept], NDArray[np.int64]]:
+    """Raw percepts of a scanning head (one :class:`Percept` per detection per view).
+
+    For each head pose of :func:`scan_angles` the objects in front of both cameras, inside the
+    left image and within ``max_range`` of the left camera are detected with probability
+    ``1 - miss_rate``; each detection is ``x_cam + N(0, sigma^2 I)`` in the left camera frame
+    with ``sigma = max(min_sigma, rho^2 / depth_factor)`` (eq. 6) and ``rho`` the depth along
+    the optical axis (eq. 7), mapped to the ego frame by ``chain.ego_from_camera``. Per view,
+    ``Binomial(n_visible, false_rate)`` false percepts of types present in the scene appear at
+    uniform pixels and depths in ``[0.5, max_range]``.
+
+    Parameters
+    ----------
+    types : (n,) sequence of str
+    world_positions : (n, 3) float
+    world_from_ego : (4, 4) float
+    rng : numpy.random.Generator
+    chain : KinematicChain, optional
+        Default :func:`default_head`.
+    rig : StereoRig, optional
+        Default :meth:`StereoRig.default` (its left camera defines the field of view).
+    n_views : int
+    depth_factor, max_range, min_sigma : float
+        > 0.
+    miss_rate, false_rate : float
+        In [0, 1].
+    return_truth : bool
+        Also return the index of the object behind each percept (-1: false percept).
+
+    Returns
+    -------
+    list of Percept, or (list of Percept, (k,) int)
+    """
+    X = _positions(world_positions)
+    tps = _types(types, X.shape[0])
+    M = check_transform("world_from_ego", world_from_ego)
+    rng = _rng(rng)
+    chain = default_head() if chain is None else chain
+    rig = StereoRig.default() if rig is None else rig
+    depth_factor = _positive("depth_factor", depth_factor)
+    max_range = _positive("max_range", max_range)
+    min_sigma = _positive("min_sigma", min_sigma)
+    miss_rate = _rate("miss_rate", miss_rate)
+    false_rate = _rate("false_rate", false_rate)
+    pool = sorted(set(tps))
+    Kinv = np.linalg.inv(rig.K1)
+    w, h = rig.image_size
+    Xh = np.hstack([X, np.ones((X.shape[0], 1))])
+
+    out_types: list[str] = []
+    out_pos: list[NDArray[np.float64]] = []
+    out_sig: list[NDArray[np.float64]] = []
+    out_truth: list[NDArray[np.int64]] = []
+    for q in scan_angles(chain, n_views, yaw_deg, pitch_deg):
+        ego_from_cam = chain.ego_from_camera(q)
+        cam_from_world = np.linalg.inv(M @ ego_from_cam)
+        P = (Xh @ cam_from_world.T)[:, :3]
+        vis = (np.linalg.norm(P, axis=1) <= max_range) & rig.in_view(P)
+        n_vis = int(vis.sum())
+        detected = np.flatnonzero(vis & (rng.random(X.shape[0]) >= miss_rate))
+        n_false = int(rng.binomial(n_vis, false_rate)) if pool else 0
+        uv = np.column_stack([rng.uniform(0, w, n_false), rng.uniform(0, h, n_false), np.ones(n_false)])
+        depth = rng.uniform(min(0.5, max_range), max_range, n_false)
+        F = (uv @ Kinv.T) * depth[:, None]
+        cam = np.vstack([P[detected], F])
+        sig = np.maximum(min_sigma, cam[:, 2] ** 2 / depth_factor)
+        noisy = cam + rng.standard_normal(cam.shape) * sig[:, None]
+        ego = noisy @ ego_from_cam[:3, :3].T + ego_from_cam[:3, 3]
+        out_types += [tps[i] for i in detected] + [pool[int(k)] for k in rng.integers(0, len(pool), n_false)]
+        out_pos.append(ego)
+        out_sig.append(sig)
+        out_truth.append(np.concatenate([detected, -np.ones(n_false, dtype=np.int64)]).astype(np.int64))
+    pos = np.vstack(out_pos) if out_pos else np.zeros((0, 3))
+    sigs = np.concatenate(out_sig) if out_sig else np.zeros(0)
+    truth = np.concatenate(out_truth) if out_truth else np.zeros(0, dtype=np.int64)
+    percepts = [
+        Percept(t, p, float(s), covariance=s**2 * np.eye(3))
+        for t, p, s in zip(out_types, pos, sigs, strict=True)
+    ]
+    if return_truth:
+        return percepts, truth
+    return percepts

@@ -1,0 +1,472 @@
+"""A calibrated stereo rig: projection, triangulation and rectification through OpenCV.
+
+Conventions follow OpenCV's ``stereoCalibrate``: a point ``X1`` in the left camera frame is
+``X2 = R X1 + T`` in the right camera frame. Camera frames are OpenCV frames (x right, y down,
+z forward); pixels are ``(u, v)`` rows of an ``(N, 2)`` array.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple
+
+import cv2
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import (
+    BehindCameraError,
+    CalibrationError,
+    CalibrationFileError,
+    NonFiniteError,
+    ShapeError,
+)
+
+_DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
+_FILE_KEYS = ("K1", "D1", "K2", "D2", "R", "T", "image_size")
+# Iterative undistortion: OpenCV's default (5 iterations) is not enough for strong distortion.
+_UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-15)
+
+
+class Rectification(NamedTuple):
+    """Output of :meth:`StereoRig.rectify` (``cv2.stereoRectify``).
+
+    Attributes
+    ----------
+    R1, R2 : (3, 3) float
+        Rectifying rotations of the left and right camera.
+    P1, P2 : (3, 4) float
+        Projection matrices in the rectified frames.
+    Q : (4, 4) float
+        Disparity-to-depth mapping.
+    """
+
+    R1: NDArray[np.float64]
+    R2: NDArray[np.float64]
+    P1: NDArray[np.float64]
+    P2: NDArray[np.float64]
+    Q: NDArray[np.float64]
+
+
+def _matrix(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be a float array of shape {shape}, got {value!r}") from exc
+    if arr.shape != shape:
+        raise ShapeError(f"{name} must have shape {shape}, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def _distortion(name: str, value: ArrayLike | None) -> NDArray[np.float64]:
+    if value is None:
+        return np.zeros(0)
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be a float array, got {value!r}") from exc
+    if arr.ndim == 2 and 1 in arr.shape:
+        arr = arr.ravel()
+    if arr.ndim != 1 or arr.size not in _DISTORTION_LENGTHS:
+        raise ShapeError(
+            f"{name} must hold {_DISTORTION_LENGTHS} coefficients (OpenCV), got shape {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def _camera_matrix(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    K = _matrix(name, value, (3, 3))
+    if K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise CalibrationError(f"{name} focal lengths must be > 0, got fx={K[0, 0]!r}, fy={K[1, 1]!r}")
+    if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
+        raise CalibrationError(f"{name} must be upper triangular with K[2, 2] = 1, got {K.tolist()}")
+    return K
+
+
+def _points(name: str, value: ArrayLike, width: int) -> NDArray[np.float64]:
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be a float array of shape (N, {width}), got {value!r}") from exc
+    if arr.ndim != 2 or arr.shape[1] != width:
+        raise ShapeError(f"{name} must have shape (N, {width}), got shape {arr.shape}")
+    bad = ~np.all(np.isfinite(arr), axis=1)
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        raise NonFiniteError(f"{name} must be finite; row {i} of shape {arr.shape} is {arr[i].tolist()}")
+    return arr
+
+
+@dataclass(frozen=True)
+class StereoRig:
+    """A calibrated stereo pair in the OpenCV convention ``X_right = R X_left + T``.
+
+    Parameters
+    ----------
+    K1, K2 : (3, 3) float
+        Camera matrices of the left and right camera (pixels).
+    D1, D2 : (k,) float
+        OpenCV distortion coefficients, k in {0, 4, 5, 8, 12, 14}; ``None`` means none.
+    R : (3, 3) float
+        Rotation from the left to the right camera frame.
+    T : (3,) float
+        Translation from the left to the right camera frame, metres.
+    image_size : (int, int)
+        ``(width, height)`` in pixels.
+    """
+
+    K1: NDArray[np.float64]
+    D1: NDArray[np.float64]
+    K2: NDArray[np.float64]
+    D2: NDArray[np.float64]
+    R: NDArray[np.float64]
+    T: NDArray[np.float64]
+    image_size: tuple[int, int]
+
+    def __post_init__(self) -> None:
+        K1 = _camera_matrix("K1", self.K1)
+        K2 = _camera_matrix("K2", self.K2)
+        D1 = _distortion("D1", self.D1)
+        D2 = _distortion("D2", self.D2)
+        R = _matrix("R", self.R, (3, 3))
+        T = _matrix("T", self.T, (3,))
+        if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
+            raise CalibrationError(f"R must be a rotation matrix, got {R.tolist()}")
+        if np.linalg.norm(T) <= 0:
+            raise CalibrationError(f"T must be a non-zero baseline, got {T.tolist()}")
+        try:
+            size = tuple(int(s) for s in self.image_size)
+        except (TypeError, ValueError) as exc:
+            raise ShapeError(f"image_size must be (width, height), got {self.image_size!r}") from exc
+        if len(size) != 2 or min(size) <= 0 or not np.allclose(size, np.ravel(self.image_size)):
+            raise ShapeError(
+                f"image_size must be two positive integers (width, height), got {self.image_size!r}"
+            )
+        for name, arr in (("K1", K1), ("K2", K2), ("D1", D1), ("D2", D2), ("R", R), ("T", T)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        object.__setattr__(self, "image_size", (size[0], size[1]))
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_opencv(
+        cls,
+        K1: ArrayLike,
+        D1: ArrayLike | None,
+        K2: ArrayLike,
+        D2: ArrayLike | None,
+        R: ArrayLike,
+        T: ArrayLike,
+        image_size: tuple[int, int],
+    ) -> StereoRig:
+        """Build a rig from the outputs of ``cv2.stereoCalibrate`` (any array layout)."""
+        T_arr = np.asarray(T, dtype=np.float64)
+        if T_arr.shape in ((3, 1), (1, 3)):
+            T_arr = T_arr.ravel()
+        return cls(K1=K1, D1=D1, K2=K2, D2=D2, R=R, T=T_arr, image_size=image_size)  # type: ignore[arg-type]
+
+    @classmethod
+    def default(
+        cls, image_size: tuple[int, int] = (640, 480), baseline: float = 0.093, hfov_deg: float = 60.0
+    ) -> StereoRig:
+        """An ARMAR-like parallel rig without distortion.
+
+        Parameters
+        ----------
+        image_size : (int, int)
+            ``(width, height)`` in pixels.
+        baseline : float
+            Distance between the optical centres, metres (> 0).
+        hfov_deg : float
+            Horizontal field of view in degrees, in (0, 180).
+        """
+        if not np.isfinite(baseline) or baseline <= 0:
+            raise CalibrationError(f"baseline must be finite and > 0, got {baseline!r}")
+        if not np.isfinite(hfov_deg) or not 0 < hfov_deg < 180:
+            raise CalibrationError(f"hfov_deg must lie in (0, 180), got {hfov_deg!r}")
+        w, h = (int(s) for s in image_size)
+        f = (w / 2.0) / np.tan(np.radians(hfov_deg) / 2.0)
+        K = np.array([[f, 0.0, w / 2.0], [0.0, f, h / 2.0], [0.0, 0.0, 1.0]])
+        return cls(
+            K1=K,
+            D1=np.zeros(5),
+            K2=K.copy(),
+            D2=np.zeros(5),
+            R=np.eye(3),
+            T=np.array([-float(baseline), 0.0, 0.0]),
+            image_size=(w, h),
+        )
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> StereoRig:
+        """Read a rig from an OpenCV FileStorage file (YAML/XML/JSON) with keys
+        ``K1, D1, K2, D2, R, T, image_size``.
+
+        Raises
+        ------
+        CalibrationFileError
+            The file is missing, unreadable, or lacks a key or holds a non-matrix under it.
+        """
+        path = Path(path)
+        if not path.is_file():
+            raise CalibrationFileError(f"calibration file {str(path)!r} does not exist")
+        try:
+            fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+        except (cv2.error, SystemError) as exc:  # the binding raises SystemError on parse errors
+            raise CalibrationFileError(f"calibration file {str(path)!r} is malformed: {exc}") from exc
+        if not fs.isOpened():
+            raise CalibrationFileError(f"calibration file {str(path)!r} cannot be opened")
+        values: dict[str, NDArray[np.float64]] = {}
+        try:
+            for key in _FILE_KEYS:
+                node = fs.getNode(key)
+                if node.empty() or node.isNone():
+                    raise CalibrationFileError(f"calibration file {str(path)!r} lacks key {key!r}")
+                try:
+                    mat = node.mat()
+                except (cv2.error, SystemError) as exc:
+                    raise CalibrationFileError(
+                        f"calibration file {str(path)!r}: key {key!r} is not an OpenCV matrix"
+                    ) from exc
+                if mat is None:
+                    raise CalibrationFileError(
+                        f"calibration file {str(path)!r}: key {key!r} is not an OpenCV matrix"
+                    )
+                values[key] = np.asarray(mat, dtype=np.float64)
+        finally:
+            fs.release()
+        size = values.pop("image_size").ravel()
+        if size.size != 2:
+            raise CalibrationFileError(
+                f"calibration file {str(path)!r}: image_size must hold 2 values, got {size.tolist()}"
+            )
+        try:
+            return cls.from_opencv(
+                values["K1"],
+                values["D1"],
+                values["K2"],
+                values["D2"],
+                values["R"],
+                values["T"],
+                (int(size[0]), int(size[1])),
+            )
+        except CalibrationError:
+            raise
+        except ValueError as exc:
+            raise CalibrationFileError(f"calibration file {str(path)!r} is invalid: {exc}") from exc
+
+    def to_file(self, path: str | Path) -> None:
+        """Write the rig to an OpenCV FileStorage file (format from the suffix, e.g. ``.yaml``).
+
+        No distortion (an empty ``D``) is written as five zeros, which OpenCV treats alike.
+        """
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+        if not fs.isOpened():
+            raise CalibrationFileError(f"cannot write calibration file {str(path)!r}")
+        try:
+            fs.write("K1", self.K1)
+            fs.write("D1", self.D1.reshape(1, -1) if self.D1.size else np.zeros((1, 5)))
+            fs.write("K2", self.K2)
+            fs.write("D2", self.D2.reshape(1, -1) if self.D2.size else np.zeros((1, 5)))
+            fs.write("R", self.R)
+            fs.write("T", self.T.reshape(3, 1))
+            fs.write("image_size", np.array([self.image_size], dtype=np.int32))
+        finally:
+            fs.release()
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def baseline(self) -> float:
+        """Distance between the optical centres ``|C_L - C_R| = |T|``, metres."""
+        return float(np.linalg.norm(self.T))
+
+    @property
+    def focal_px(self) -> float:
+        """Horizontal focal length of the left camera ``K1[0, 0]``, pixels."""
+        return float(self.K1[0, 0])
+
+    @property
+    def left_center(self) -> NDArray[np.float64]:
+        """Optical centre of the left camera in the left camera frame (the origin)."""
+        return np.zeros(3)
+
+    @property
+    def right_center(self) -> NDArray[np.float64]:
+        """Optical centre of the right camera in the left camera frame, ``-R^T T``."""
+        return -self.R.T @ self.T
+
+    @property
+    def viewing_direction(self) -> NDArray[np.float64]:
+        """The left optical axis ``e_d`` in the left camera frame, ``(0, 0, 1)`` (eq. 7)."""
+        return np.array([0.0, 0.0, 1.0])
+
+    @property
+    def hfov(self) -> float:
+        """Horizontal field of view of the left pinhole camera, radians."""
+        w = self.image_size[0]
+        cx, fx = self.K1[0, 2], self.K1[0, 0]
+        return float(np.arctan(cx / fx) + np.arctan((w - cx) / fx))
+
+    @property
+    def vfov(self) -> float:
+        """Vertical field of view of the left pinhole camera, radians."""
+        h = self.image_size[1]
+        cy, fy = self.K1[1, 2], self.K1[1, 1]
+        return float(np.arctan(cy / fy) + np.arctan((h - cy) / fy))
+
+    @property
+    def right_from_left(self) -> NDArray[np.float64]:
+        """4x4 transform from the left to the right camera frame."""
+        M = np.eye(4)
+        M[:3, :3] = self.R
+        M[:3, 3] = self.T
+        return M
+
+    # ------------------------------------------------------------------ geometry
+    def project(self, points_left: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Project points given in the left camera frame into both images (``cv2.projectPoints``).
+
+        Parameters
+        ----------
+        points_left : (N, 3) float
+            Points in the left camera frame, metres.
+
+        Returns
+        -------
+        uv_left, uv_right : (N, 2) float
+            Distorted pixel coordinates.
+
+        Raises
+        ------
+        BehindCameraError
+            A point has depth <= 0 in the left or the right camera.
+        """
+        X = _points("points_left", points_left, 3)
+        X2 = X @ self.R.T + self.T
+        for name, Z in (("left", X[:, 2]), ("right", X2[:, 2])):
+            bad = Z <= 0
+            if np.any(bad):
+                i = int(np.flatnonzero(bad)[0])
+                raise BehindCameraError(
+                    f"point {i} {X[i].tolist()} of points_left (shape {X.shape}) has depth {Z[i]!r} <= 0 "
+                    f"in the {name} camera"
+                )
+        if X.shape[0] == 0:
+            return np.zeros((0, 2)), np.zeros((0, 2))
+        obj = X.reshape(-1, 1, 3)
+        uv1, _ = cv2.projectPoints(obj, np.zeros(3), np.zeros(3), self.K1, self.D1)
+        rvec, _ = cv2.Rodrigues(self.R)
+        uv2, _ = cv2.projectPoints(obj, rvec, self.T, self.K2, self.D2)
+        return uv1.reshape(-1, 2).astype(np.float64), uv2.reshape(-1, 2).astype(np.float64)
+
+    def in_view(self, points_left: ArrayLike) -> NDArray[np.bool_]:
+        """Which points lie in front of both cameras and project inside the left image.
+
+        Parameters
+        ----------
+        points_left : (N, 3) float
+
+        Returns
+        -------
+        (N,) bool
+        """
+        X = _points("points_left", points_left, 3)
+        X2 = X @ self.R.T + self.T
+        front = (X[:, 2] > 0) & (X2[:, 2] > 0)
+        mask = np.zeros(X.shape[0], dtype=bool)
+        if np.any(front):
+            uv, _ = self.project(X[front])
+            w, h = self.image_size
+            mask[front] = (uv[:, 0] >= 0) & (uv[:, 0] <= w) & (uv[:, 1] >= 0) & (uv[:, 1] <= h)
+        return mask
+
+    def normalized(
+        self, uv_left: ArrayLike, uv_right: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Undistorted normalised image coordinates of both pixel sets (``cv2.undistortPoints``).
+
+        Returns
+        -------
+        xy_left, xy_right : (N, 2) float
+        """
+        u1 = _points("uv_left", uv_left, 2)
+        u2 = _points("uv_right", uv_right, 2)
+        if u1.shape != u2.shape:
+            raise ShapeError(f"uv_left and uv_right must have the same shape, got {u1.shape} and {u2.shape}")
+        if u1.shape[0] == 0:
+            return np.zeros((0, 2)), np.zeros((0, 2))
+        return self._undistort(u1, self.K1, self.D1), self._undistort(u2, self.K2, self.D2)
+
+    @staticmethod
+    def _undistort(
+        uv: NDArray[np.float64], K: NDArray[np.float64], D: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        src = uv.reshape(-1, 1, 2)
+        if D.size == 0 or not np.any(D):
+            out = cv2.undistortPoints(src, K, D)
+        else:
+            out = cv2.undistortPoints(src, K, D, criteria=_UNDISTORT_CRITERIA)
+        return out.reshape(-1, 2).astype(np.float64)
+
+    def triangulate(self, uv_left: ArrayLike, uv_right: ArrayLike) -> NDArray[np.float64]:
+        """Triangulate matched pixels into the left camera frame.
+
+        Undistorts with ``cv2.undistortPoints`` (iterative variant) and triangulates the
+        normalised coordinates with ``cv2.triangulatePoints`` using ``P1 = [I | 0]``,
+        ``P2 = [R | T]``.
+
+        Parameters
+        ----------
+        uv_left, uv_right : (N, 2) float
+            Matched distorted pixel coordinates.
+
+        Returns
+        -------
+        (N, 3) float
+            Points in the left camera frame, metres.
+
+        Raises
+        ------
+        NonFiniteError
+            A pixel coordinate is NaN or infinite.
+        BehindCameraError
+            A triangulated point is at infinity or behind the left camera.
+        """
+        xy1, xy2 = self.normalized(uv_left, uv_right)
+        if xy1.shape[0] == 0:
+            return np.zeros((0, 3))
+        P1 = np.hstack([np.eye(3), np.zeros((3, 1))])
+        P2 = np.hstack([self.R, self.T.reshape(3, 1)])
+        Xh = cv2.triangulatePoints(P1, P2, xy1.T.copy(), xy2.T.copy()).astype(np.float64)
+        w = Xh[3]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            X = (Xh[:3] / w).T
+        bad = ~np.all(np.isfinite(X), axis=1) | (X[:, 2] <= 0)
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise BehindCameraError(
+                f"pixel pair {i} (uv_left {np.asarray(uv_left, dtype=float)[i].tolist()}, uv_right "
+                f"{np.asarray(uv_right, dtype=float)[i].tolist()}) triangulates to {X[i].tolist()}, "
+                "at infinity or behind the camera"
+            )
+        return X
+
+    def rectify(self, alpha: float = -1.0) -> Rectification:
+        """Rectifying transforms from ``cv2.stereoRectify`` (``CALIB_ZERO_DISPARITY``)."""
+        R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(
+            self.K1,
+            self.D1,
+            self.K2,
+            self.D2,
+            self.image_size,
+            self.R,
+            self.T.reshape(3, 1),
+            flags=cv2.CALIB_ZERO_DISPARITY,
+            alpha=alpha,
+        )
+        return Rectification(*(np.asarray(m, dtype=np.float64) for m in (R1, R2, P1, P2, Q)))
