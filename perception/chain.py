@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import KinematicsError, NonFiniteError, NonPositiveSigmaError, ShapeError
+from .errors import InvalidPoseError, KinematicsError, NonFiniteError, NonPositiveSigmaError, ShapeError
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 # tip (x forward, y left, z up) from OpenCV camera (x right, y down, z forward)
@@ -28,7 +28,7 @@ def check_transform(name: str, value: ArrayLike, atol: float = 1e-6) -> NDArray[
 
     Raises
     ------
-    ShapeError, NonFiniteError, KinematicsError
+    ShapeError, NonFiniteError, InvalidPoseError
         Wrong shape, non-finite entries, or not a rigid motion (rotation block, last row).
     """
     try:
@@ -39,13 +39,13 @@ def check_transform(name: str, value: ArrayLike, atol: float = 1e-6) -> NDArray[
         raise ShapeError(f"{name} must have shape (4, 4), got shape {M.shape}")
     if not np.all(np.isfinite(M)):
         raise NonFiniteError(f"{name} must be finite, got {M.tolist()}")
+    if not np.allclose(M[3], [0.0, 0.0, 0.0, 1.0], atol=atol):
+        raise InvalidPoseError(f"{name} must be a rigid transform with last row (0, 0, 0, 1), "
+                               f"got {M[3].tolist()}")
     R = M[:3, :3]
-    if (
-        not np.allclose(M[3], [0.0, 0.0, 0.0, 1.0], atol=atol)
-        or not np.allclose(R @ R.T, np.eye(3), atol=atol)
-        or np.linalg.det(R) <= 0
-    ):
-        raise KinematicsError(f"{name} must be a rigid transform, got {M.tolist()}")
+    if not np.allclose(R @ R.T, np.eye(3), atol=atol) or np.linalg.det(R) <= 0:
+        raise InvalidPoseError(f"{name} must be a rigid transform: its rotation block must be a proper "
+                               f"rotation (R R^T = I, det R = +1), got {R.tolist()}")
     return M
 
 

@@ -37,3 +37,15 @@ class CalibrationFileError(CalibrationError):
 
 class KinematicsError(PerceptionError):
     """A kinematic chain or its joint angles are invalid (unknown joint, bad axis)."""
+
+
+class InvalidPoseError(KinematicsError):
+    """A 4x4 transform that is not a rigid motion (bad rotation block or last row)."""
+
+
+class ImageFormatError(ShapeError):
+    """An image has the wrong shape, number of channels or dtype."""
+
+
+class NotFittedError(PerceptionError):
+    """A classifier cannot be fitted (too few samples of a class) or was given bad labels."""

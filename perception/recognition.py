@@ -1,0 +1,1230 @@
+"""Recognition from images: rendered box scenes, colour segmentation, Gaussian classification.
+
+The path from pixels to percepts that the paper's recognition components take (section 2,
+"Gaussian classification over characteristic feature spaces extracted from ... the
+eigenvectors from color-segmented regions in stereo images"):
+
+1. :func:`render_stereo` draws a scene of coloured boxes (doors, handles, clutter) into a
+   stereo pair with OpenCV: corners projected by ``cv2.projectPoints``, back faces culled,
+   faces filled by ``cv2.fillConvexPoly`` far to near (painter's algorithm with a plane-side
+   ordering test), Lambertian shading and seeded lighting noise.
+2. :func:`detect` segments each image by colour (``cv2.inRange`` in HSV), splits the masks
+   into connected regions (``cv2.connectedComponentsWithStats``), describes every region by
+   the eigen-decomposition of its pixel covariance (elongation, orientation), its area, fill
+   ratio and mean colour, and classifies it with a :class:`GaussianClassifier` that rejects
+   regions whose log-likelihood is below a per-class threshold (clutter).
+3. :func:`match_stereo` pairs left and right detections of the same type under the epipolar
+   constraint (fundamental matrix from the rig) with positive depth in both cameras.
+4. :func:`recognize` triangulates the pairs with ``rig.triangulate`` and attaches the eq. 6
+   deviation ``sigma = rho**2 / depth_factor`` (rho = depth along the left optical axis,
+   eq. 7), returning :class:`~perception.percept.Percept` objects.
+
+Frames follow ``docs/conventions.md``: the scene (world) frame has z up; cameras are OpenCV
+(x right, y down, z forward); the stereo rig maps ``X_right = R X_left + T``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linear_sum_assignment
+
+from .chain import check_transform
+from .errors import (
+    ImageFormatError,
+    InvalidPoseError,
+    NonFiniteError,
+    NonPositiveSigmaError,
+    NotFittedError,
+    ShapeError,
+    UnknownClassError,
+)
+from .percept import Percept
+from .uncertainty import triangulation_covariance
+
+__all__ = [
+    "BOX_DEFAULTS",
+    "COLOR_RANGES",
+    "DEFAULT_BACKGROUND",
+    "FEATURE_NAMES",
+    "Box",
+    "ColorRange",
+    "Detection",
+    "GaussianClassifier",
+    "StereoMatch",
+    "detect",
+    "match_stereo",
+    "random_scene",
+    "recognize",
+    "region_features",
+    "render_labels",
+    "render_stereo",
+    "scene_boxes",
+    "train_classifier",
+    "visible_mask",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# Scene geometry
+# --------------------------------------------------------------------------------------------
+
+#: Default (size (3,) metres, colour BGR) per box type. Box axes: x width, y depth, z height.
+BOX_DEFAULTS: Mapping[str, tuple[tuple[float, float, float], tuple[int, int, int]]] = {
+    "door": ((0.9, 0.04, 2.0), (40, 85, 150)),  # brown wood
+    "handle": ((0.15, 0.03, 0.03), (210, 210, 215)),  # bright metal
+    "drawer": ((0.6, 0.02, 0.25), (40, 85, 150)),  # same wood as the doors
+    "knob": ((0.04, 0.04, 0.04), (210, 210, 215)),  # same metal as the handles
+    "clutter": ((0.2, 0.2, 0.2), (60, 160, 60)),  # green
+}
+
+#: Default scene background (BGR): a bluish grey wall, outside every colour range below.
+DEFAULT_BACKGROUND: tuple[int, int, int] = (150, 120, 95)
+
+# Unit cube corners (signs) and the six faces as corner indices ordered counter-clockwise when
+# seen from outside (so the right-hand normal points outwards).
+_SIGNS = np.array(
+    [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]],
+    dtype=np.float64,
+)
+_FACES = np.array(
+    [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [2, 3, 7, 6], [1, 2, 6, 5], [0, 4, 7, 3]], dtype=np.intp
+)
+_FACE_NORMALS = np.array(
+    [[0, 0, -1], [0, 0, 1], [0, -1, 0], [0, 1, 0], [1, 0, 0], [-1, 0, 0]], dtype=np.float64
+)
+
+
+def _as_float_array(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be a real array of shape {shape}, got {value!r}") from exc
+    if arr.shape != shape:
+        raise ShapeError(f"{name} must have shape {shape}, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def _check_rotation(name: str, rot: NDArray[np.float64], atol: float = 1e-6) -> None:
+    if not np.allclose(rot @ rot.T, np.eye(3), atol=atol) or np.linalg.det(rot) <= 0:
+        raise InvalidPoseError(
+            f"{name} must be a proper rotation (R R^T = I, det R = +1), got {rot.tolist()}"
+        )
+
+
+@dataclass(frozen=True)
+class Box:
+    """A coloured box in the scene (world) frame.
+
+    Parameters
+    ----------
+    center : (3,) float
+        Box centre, metres.
+    size : (3,) float
+        Edge lengths along the box's own x (width), y (depth) and z (height) axes, > 0.
+    rotation : (3, 3) float
+        ``world_from_box`` rotation; its columns are the box axes in the world frame.
+    color : (3,) int
+        BGR colour in [0, 255] before shading.
+    type : str
+        Object class, e.g. ``"door"``, ``"handle"``, ``"clutter"``.
+    """
+
+    center: NDArray[np.float64]
+    size: NDArray[np.float64]
+    rotation: NDArray[np.float64]
+    color: NDArray[np.float64]
+    type: str
+
+    def __post_init__(self) -> None:
+        center = _as_float_array("center", self.center, (3,))
+        size = _as_float_array("size", self.size, (3,))
+        if np.any(size <= 0):
+            raise NonPositiveSigmaError(f"size must be > 0 along every axis, got {size.tolist()}")
+        rot = _as_float_array("rotation", self.rotation, (3, 3))
+        _check_rotation("rotation", rot)
+        color = _as_float_array("color", self.color, (3,))
+        if np.any(color < 0) or np.any(color > 255):
+            raise ShapeError(f"color must be BGR values in [0, 255], got {color.tolist()}")
+        if not isinstance(self.type, str) or not self.type:
+            raise UnknownClassError(f"type must be a non-empty string, got {self.type!r}")
+        for name, arr in (("center", center), ("size", size), ("rotation", rot), ("color", color)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    def corners(self) -> NDArray[np.float64]:
+        """The 8 corners in the world frame, shape (8, 3)."""
+        return self.center + (_SIGNS * (0.5 * self.size)) @ self.rotation.T
+
+
+def scene_boxes(
+    types: Sequence[str],
+    positions: ArrayLike,
+    rotations: ArrayLike | None = None,
+    sizes: ArrayLike | None = None,
+    colors: ArrayLike | None = None,
+) -> list[Box]:
+    """Boxes from plain arrays, with per-type default sizes and colours (:data:`BOX_DEFAULTS`).
+
+    Parameters
+    ----------
+    types : (n,) str
+        Box types; without ``sizes``/``colors`` each must be a key of :data:`BOX_DEFAULTS`.
+    positions : (n, 3) float
+        Box centres in the world frame.
+    rotations : (n, 3, 3) float, optional
+        ``world_from_box`` rotations; identity when omitted.
+    sizes, colors : (n, 3), optional
+        Overrides of the defaults.
+
+    Returns
+    -------
+    list of Box
+    """
+    types = list(types)
+    n = len(types)
+    pos = _as_float_array("positions", positions, (n, 3))
+    rots = np.broadcast_to(np.eye(3), (n, 3, 3)) if rotations is None else rotations
+    rots = _as_float_array("rotations", rots, (n, 3, 3))
+    if sizes is not None:
+        sizes = _as_float_array("sizes", sizes, (n, 3))
+    if colors is not None:
+        colors = _as_float_array("colors", colors, (n, 3))
+    boxes = []
+    for i, kind in enumerate(types):
+        if (sizes is None or colors is None) and kind not in BOX_DEFAULTS:
+            raise UnknownClassError(
+                f"no default size/colour for box type {kind!r}; known: {sorted(BOX_DEFAULTS)}"
+            )
+        size = sizes[i] if sizes is not None else BOX_DEFAULTS[kind][0]
+        color = colors[i] if colors is not None else BOX_DEFAULTS[kind][1]
+        boxes.append(Box(center=pos[i], size=size, rotation=rots[i], color=color, type=kind))
+    return boxes
+
+
+def _rot_z(angle: float) -> NDArray[np.float64]:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _camera_from_world_look(position: NDArray[np.float64], yaw: float, pitch: float) -> NDArray[np.float64]:
+    """OpenCV camera at ``position`` looking along world yaw/pitch (world z up)."""
+    forward = np.array([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch), -np.sin(pitch)])
+    right = np.cross(forward, (0.0, 0.0, 1.0))
+    right /= np.linalg.norm(right)
+    down = np.cross(forward, right)
+    world_from_camera = np.eye(4)
+    world_from_camera[:3, :3] = np.column_stack([right, down, forward])
+    world_from_camera[:3, 3] = position
+    camera_from_world = np.eye(4)
+    camera_from_world[:3, :3] = world_from_camera[:3, :3].T
+    camera_from_world[:3, 3] = -world_from_camera[:3, :3].T @ position
+    return camera_from_world
+
+
+_CLUTTER_PALETTE = np.array(
+    [[60, 160, 60], [170, 60, 40], [40, 40, 190], [40, 200, 220], [40, 85, 150], [210, 210, 215]],
+    dtype=np.float64,
+)
+
+
+def random_scene(
+    rng: np.random.Generator,
+    *,
+    n_doors: tuple[int, int] = (1, 3),
+    n_clutter: tuple[int, int] = (0, 2),
+    distance: tuple[float, float] = (2.5, 5.0),
+    max_door_yaw_deg: float = 35.0,
+) -> tuple[list[Box], NDArray[np.float64]]:
+    """A seeded scene of doors with handles (and clutter) in front of a camera.
+
+    The camera stands near the world origin at eye height, looking roughly along world +x;
+    doors stand on the floor (z = 0) at ``distance`` metres, each turned by a random yaw, with
+    a handle on the side facing the camera. Clutter boxes take colours from a palette that
+    includes the door and handle colours, so some clutter survives the colour segmentation and
+    must be rejected by the classifier.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+    n_doors, n_clutter : (int, int)
+        Inclusive ranges of the number of doors and clutter boxes.
+    distance : (float, float)
+        Range of door distances along world x, metres.
+    max_door_yaw_deg : float
+        Largest door yaw away from facing the camera, degrees.
+
+    Returns
+    -------
+    boxes : list of Box
+    camera_from_world : (4, 4) float
+        Pose of the left camera.
+    """
+    cam_pos = np.array([0.0, rng.uniform(-0.2, 0.2), rng.uniform(1.2, 1.6)])
+    camera_from_world = _camera_from_world_look(
+        cam_pos, np.deg2rad(rng.uniform(-8.0, 8.0)), np.deg2rad(rng.uniform(-4.0, 8.0))
+    )
+    k = int(rng.integers(n_doors[0], n_doors[1] + 1))
+    lateral: list[float] = []
+    for _ in range(50 * max(k, 1)):
+        if len(lateral) == k:
+            break
+        y = rng.uniform(-1.8, 1.8)
+        if all(abs(y - other) > 1.15 for other in lateral):
+            lateral.append(y)
+    types: list[str] = []
+    positions: list[NDArray[np.float64]] = []
+    rotations: list[NDArray[np.float64]] = []
+    door_w, door_d, _ = BOX_DEFAULTS["door"][0]
+    handle_d = BOX_DEFAULTS["handle"][0][1]
+    for y in lateral:
+        x = rng.uniform(*distance)
+        # door axes: x (width) along world y, y (thickness) towards the camera (world -x), z up
+        rot = _rot_z(np.pi / 2 + np.deg2rad(rng.uniform(-max_door_yaw_deg, max_door_yaw_deg)))
+        center = np.array([x, y, 1.0])
+        side = rng.choice((-1.0, 1.0))
+        local = np.array(
+            [side * rng.uniform(0.28, 0.36), door_d / 2 + 0.04 + handle_d / 2, rng.uniform(-0.1, 0.1)]
+        )
+        types += ["door", "handle"]
+        positions += [center, center + rot @ local]
+        rotations += [rot, rot]
+    sizes = [np.array(BOX_DEFAULTS[t][0]) for t in types]
+    colors = [np.array(BOX_DEFAULTS[t][1], dtype=np.float64) for t in types]
+    for _ in range(int(rng.integers(n_clutter[0], n_clutter[1] + 1))):
+        types.append("clutter")
+        positions.append(np.array([rng.uniform(1.5, 5.0), rng.uniform(-2.0, 2.0), rng.uniform(0.1, 2.0)]))
+        rotations.append(_rot_z(rng.uniform(0, np.pi)))
+        sizes.append(rng.uniform(0.12, 0.4) * rng.uniform(0.8, 1.25, size=3))
+        colors.append(_CLUTTER_PALETTE[rng.integers(len(_CLUTTER_PALETTE))])
+    if not types:
+        return [], camera_from_world
+    boxes = scene_boxes(types, np.array(positions), np.array(rotations), np.array(sizes), np.array(colors))
+    return boxes, camera_from_world
+
+
+# --------------------------------------------------------------------------------------------
+# Rendering
+# --------------------------------------------------------------------------------------------
+
+_SHIFT = 4  # fixed-point bits for cv2.fillConvexPoly (sub-pixel vertices)
+_NEAR = 0.05  # near plane, metres
+
+
+def _rig_views(rig: Any, camera_from_world: NDArray[np.float64]) -> list[tuple[Any, ...]]:
+    """(camera_from_world, K, D) of the left and the right camera."""
+    right_from_left = np.eye(4)
+    right_from_left[:3, :3] = np.asarray(rig.R, dtype=np.float64)
+    right_from_left[:3, 3] = np.asarray(rig.T, dtype=np.float64).reshape(3)
+    return [
+        (camera_from_world, np.asarray(rig.K1, dtype=np.float64), np.asarray(rig.D1, dtype=np.float64)),
+        (
+            right_from_left @ camera_from_world,
+            np.asarray(rig.K2, dtype=np.float64),
+            np.asarray(rig.D2, dtype=np.float64),
+        ),
+    ]
+
+
+def _image_size(rig: Any) -> tuple[int, int]:
+    width, height = (int(v) for v in rig.image_size)
+    return width, height
+
+
+def _face_order(
+    verts: NDArray[np.float64], normals: NDArray[np.float64], bbox: NDArray[np.float64]
+) -> list[int]:
+    """Painter's order (far to near) of camera-facing convex faces.
+
+    A face j lying wholly behind the plane of face i (on the side away from the camera) is
+    drawn before i; a face wholly on the camera side of i's plane is drawn after i. Those
+    constraints form a graph that is sorted topologically, taking the farthest free face
+    first; pairs the plane tests cannot decide (and cycles) fall back to depth order.
+    """
+    n = len(verts)
+    if n == 0:
+        return []
+    offsets = np.einsum("ij,ij->i", normals, verts[:, 0])
+    # dist[i, j, k]: signed distance of vertex k of face j to the plane of face i (camera side > 0)
+    # (the camera at the origin has n.0 - offset = -offset > 0 because visible faces have n.c < 0)
+    dist = np.einsum("id,jkd->ijk", normals, verts) - offsets[:, None, None]
+    eps = 1e-9
+    behind = np.all(dist <= eps, axis=2)
+    front = np.all(dist >= -eps, axis=2)
+    coplanar = behind & front
+    before = np.zeros((n, n), dtype=bool)  # before[a, b]: a must be drawn before b
+    before |= (behind & ~coplanar).T  # j behind plane i -> j before i
+    before |= front & ~coplanar  # j in front of plane i -> i before j
+    overlap = (
+        (bbox[:, None, 0] <= bbox[None, :, 2])
+        & (bbox[None, :, 0] <= bbox[:, None, 2])
+        & (bbox[:, None, 1] <= bbox[None, :, 3])
+        & (bbox[None, :, 1] <= bbox[:, None, 3])
+    )
+    before &= overlap
+    conflict = before & before.T
+    before &= ~conflict
+    np.fill_diagonal(before, False)
+    depth = -np.linalg.norm(verts.mean(axis=1), axis=1)  # sort key: farthest first
+    indegree = before.sum(axis=0)
+    done = np.zeros(n, dtype=bool)
+    order: list[int] = []
+    for _ in range(n):
+        free = np.flatnonzero(~done & (indegree == 0))
+        if free.size == 0:  # cycle: take the farthest remaining face with the fewest blockers
+            rest = np.flatnonzero(~done)
+            free = rest[indegree[rest] == indegree[rest].min()]
+        pick = int(free[np.argmin(depth[free])])
+        order.append(pick)
+        done[pick] = True
+        indegree = indegree - before[pick]
+    return order
+
+
+def _visible_faces(
+    boxes: Sequence[Box], camera_from_world: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
+    """Camera-facing faces in front of the near plane.
+
+    Returns face vertices (f, 4, 3) and normals (f, 3) in the camera frame, the box index
+    (f,) and the face index 0..5 (f,) of each face.
+    """
+    if not boxes:
+        return np.zeros((0, 4, 3)), np.zeros((0, 3)), np.zeros(0, np.intp), np.zeros(0, np.intp)
+    rot_c, t_c = camera_from_world[:3, :3], camera_from_world[:3, 3]
+    corners = np.stack([b.corners() for b in boxes]) @ rot_c.T + t_c  # (m, 8, 3)
+    normals = np.einsum("cd,mde,fe->mfc", rot_c, np.stack([b.rotation for b in boxes]), _FACE_NORMALS)
+    verts = corners[:, _FACES]  # (m, 6, 4, 3)
+    centers = verts.mean(axis=2)
+    facing = np.einsum("mfc,mfc->mf", normals, centers) < 0
+    in_front = np.all(verts[..., 2] > _NEAR, axis=2)
+    keep = facing & in_front
+    box_idx, face_idx = np.nonzero(keep)
+    return verts[keep], normals[keep], box_idx, face_idx
+
+
+def _draw_view(
+    boxes: Sequence[Box],
+    camera_from_world: NDArray[np.float64],
+    K: NDArray[np.float64],
+    D: NDArray[np.float64],
+    size: tuple[int, int],
+    face_colors: NDArray[np.float64] | None,
+    canvas: NDArray[Any],
+) -> NDArray[Any]:
+    """Fill the visible faces into ``canvas`` (colours per (box, face), or box index labels)."""
+    verts, normals, box_idx, face_idx = _visible_faces(boxes, camera_from_world)
+    if len(verts) == 0:
+        return canvas
+    uv, _ = cv2.projectPoints(verts.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)
+    uv = uv.reshape(-1, 4, 2)
+    ok = np.all(np.isfinite(uv), axis=(1, 2)) & np.all(np.abs(uv) < 1e6, axis=(1, 2))
+    verts, normals, box_idx, face_idx, uv = verts[ok], normals[ok], box_idx[ok], face_idx[ok], uv[ok]
+    bbox = np.concatenate([uv.min(axis=1), uv.max(axis=1)], axis=1)
+    width, height = size
+    on_screen = (bbox[:, 2] >= -1) & (bbox[:, 0] <= width) & (bbox[:, 3] >= -1) & (bbox[:, 1] <= height)
+    verts, normals, box_idx, face_idx, uv, bbox = (
+        a[on_screen] for a in (verts, normals, box_idx, face_idx, uv, bbox)
+    )
+    fixed = np.round(uv * (1 << _SHIFT)).astype(np.int32)
+    for f in _face_order(verts, normals, bbox):
+        if face_colors is None:
+            value: Any = int(box_idx[f])
+        else:
+            value = face_colors[box_idx[f], face_idx[f]].tolist()
+        cv2.fillConvexPoly(canvas, fixed[f], value, lineType=cv2.LINE_8, shift=_SHIFT)
+    return canvas
+
+
+def _check_boxes(boxes: Sequence[Box]) -> list[Box]:
+    boxes = list(boxes)
+    for i, b in enumerate(boxes):
+        if not isinstance(b, Box):
+            raise ShapeError(f"boxes[{i}] must be a Box, got {type(b).__name__}: {b!r}")
+    return boxes
+
+
+def render_stereo(
+    rig: Any,
+    camera_from_world: ArrayLike,
+    boxes: Sequence[Box],
+    rng: np.random.Generator,
+    *,
+    background: ArrayLike = DEFAULT_BACKGROUND,
+    light_noise: float = 0.05,
+    pixel_noise: float = 2.0,
+    ambient: float = 0.45,
+    light_direction: ArrayLike = (-0.8, -0.25, 0.55),
+) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
+    """Render a box scene into a stereo pair.
+
+    Every box face that faces the camera and lies wholly in front of the near plane (5 cm) is
+    projected with ``cv2.projectPoints`` (left camera pose ``camera_from_world``; the right
+    camera is ``R, T`` further) and filled with ``cv2.fillConvexPoly`` far to near. A face's
+    colour is ``color * (ambient + (1 - ambient) max(0, n . l)) * gain``: Lambertian shading
+    for a distant light, times a per-face gain ``1 + light_noise N(0, 1)`` (the same in both
+    views); each image then gets independent pixel noise ``pixel_noise N(0, 1)``.
+
+    Parameters
+    ----------
+    rig : StereoRig
+        Provides ``K1, D1, K2, D2, R, T, image_size`` (width, height).
+    camera_from_world : (4, 4) float
+        Rigid pose of the left camera.
+    boxes : sequence of Box
+    rng : numpy.random.Generator
+        Source of the lighting and pixel noise.
+    background : (3,) BGR or (height, width, 3) uint8
+        Background colour or image.
+    light_noise : float
+        Standard deviation of the per-face gain, >= 0.
+    pixel_noise : float
+        Standard deviation of the per-pixel noise, grey levels, >= 0.
+    ambient : float
+        Ambient share of the shading, in [0, 1].
+    light_direction : (3,) float
+        Direction towards the light in the world frame (z up).
+
+    Returns
+    -------
+    left, right : (height, width, 3) uint8
+        BGR images.
+    """
+    pose = check_transform("camera_from_world", camera_from_world)
+    boxes = _check_boxes(boxes)
+    width, height = _image_size(rig)
+    for name, value in (("light_noise", light_noise), ("pixel_noise", pixel_noise)):
+        if not np.isfinite(value) or value < 0:
+            raise NonPositiveSigmaError(f"{name} must be finite and >= 0, got {value!r}")
+    if not 0.0 <= ambient <= 1.0:
+        raise ShapeError(f"ambient must lie in [0, 1], got {ambient!r}")
+    light = _as_float_array("light_direction", light_direction, (3,))
+    norm = np.linalg.norm(light)
+    if norm == 0:
+        raise ShapeError(f"light_direction must be non-zero, got {light.tolist()}")
+    light = light / norm
+    bg = np.asarray(background)
+    if bg.shape == (3,):
+        canvas0 = np.empty((height, width, 3), dtype=np.float32)
+        canvas0[:] = _as_float_array("background", bg, (3,))
+    elif bg.shape == (height, width, 3) and bg.dtype == np.uint8:
+        canvas0 = bg.astype(np.float32)
+    else:
+        raise ImageFormatError(
+            f"background must be a BGR triple or a ({height}, {width}, 3) uint8 image, "
+            f"got shape {bg.shape} dtype {bg.dtype}"
+        )
+    if boxes:
+        world_normals = np.einsum("mde,fe->mfd", np.stack([b.rotation for b in boxes]), _FACE_NORMALS)
+        shade = ambient + (1.0 - ambient) * np.clip(world_normals @ light, 0.0, None)  # (m, 6)
+        gain = 1.0 + light_noise * rng.standard_normal(shade.shape)
+        colors = np.stack([b.color for b in boxes])[:, None, :] * (shade * gain)[:, :, None]
+        colors = np.clip(colors, 0.0, 255.0)
+    else:
+        colors = np.zeros((0, 6, 3))
+    images = []
+    for view_pose, K, D in _rig_views(rig, pose):
+        canvas = _draw_view(boxes, view_pose, K, D, (width, height), colors, canvas0.copy())
+        if pixel_noise > 0:
+            canvas += np.float32(pixel_noise) * rng.standard_normal(canvas.shape, dtype=np.float32)
+        images.append(np.clip(np.rint(canvas), 0, 255).astype(np.uint8))
+    return images[0], images[1]
+
+
+def render_labels(
+    rig: Any, camera_from_world: ArrayLike, boxes: Sequence[Box]
+) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
+    """Index of the box seen at each pixel (-1 for background), left and right.
+
+    The same geometry and face order as :func:`render_stereo`, without shading or noise: the
+    ground truth for visibility and occlusion.
+
+    Returns
+    -------
+    left, right : (height, width) int32
+    """
+    pose = check_transform("camera_from_world", camera_from_world)
+    boxes = _check_boxes(boxes)
+    width, height = _image_size(rig)
+    out = []
+    for view_pose, K, D in _rig_views(rig, pose):
+        canvas = np.full((height, width), -1, dtype=np.int32)
+        out.append(_draw_view(boxes, view_pose, K, D, (width, height), None, canvas))
+    return out[0], out[1]
+
+
+def visible_mask(
+    rig: Any,
+    camera_from_world: ArrayLike,
+    boxes: Sequence[Box],
+    *,
+    min_area: float = 20.0,
+    labels: tuple[NDArray[np.int32], NDArray[np.int32]] | None = None,
+) -> NDArray[np.bool_]:
+    """Which boxes are visible in both images.
+
+    Visible means: the box centre projects inside both images onto a pixel showing that box
+    (not occluded) and the box covers at least ``min_area`` pixels in each image.
+
+    Returns
+    -------
+    (m,) bool
+    """
+    pose = check_transform("camera_from_world", camera_from_world)
+    boxes = _check_boxes(boxes)
+    if not boxes:
+        return np.zeros(0, dtype=bool)
+    width, height = _image_size(rig)
+    if labels is None:
+        labels = render_labels(rig, pose, boxes)
+    centers = np.stack([b.center for b in boxes])
+    visible = np.ones(len(boxes), dtype=bool)
+    for (view_pose, K, D), lab in zip(_rig_views(rig, pose), labels, strict=True):
+        cam = centers @ view_pose[:3, :3].T + view_pose[:3, 3]
+        front = cam[:, 2] > _NEAR
+        uv, _ = cv2.projectPoints(cam.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)
+        px = np.rint(uv.reshape(-1, 2)).astype(np.int64)
+        inside = front & (px[:, 0] >= 0) & (px[:, 0] < width) & (px[:, 1] >= 0) & (px[:, 1] < height)
+        seen = np.zeros(len(boxes), dtype=bool)
+        idx = np.flatnonzero(inside)
+        seen[idx] = lab[px[idx, 1], px[idx, 0]] == idx
+        area = np.bincount(lab[lab >= 0].ravel(), minlength=len(boxes))
+        visible &= seen & (area >= min_area)
+    return visible
+
+
+# --------------------------------------------------------------------------------------------
+# Segmentation and features
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ColorRange:
+    """An HSV box for ``cv2.inRange`` (OpenCV HSV: H in [0, 180), S and V in [0, 255])."""
+
+    lower: tuple[int, int, int]
+    upper: tuple[int, int, int]
+
+    def __post_init__(self) -> None:
+        lo = np.asarray(self.lower)
+        hi = np.asarray(self.upper)
+        if lo.shape != (3,) or hi.shape != (3,):
+            raise ShapeError(f"lower and upper must have shape (3,), got {lo.shape} and {hi.shape}")
+        if np.any(lo > hi):
+            raise ShapeError(f"lower {lo.tolist()} must not exceed upper {hi.tolist()}")
+
+
+#: Segmentation colours: brown wood (doors, drawers) and bright low-saturation metal (handles).
+COLOR_RANGES: Mapping[str, ColorRange] = {
+    "wood": ColorRange((3, 110, 40), (25, 255, 255)),
+    "metal": ColorRange((0, 0, 110), (180, 50, 255)),
+}
+
+_CLOSE_KERNEL = np.ones((3, 3), dtype=np.uint8)
+_COS_HUE = np.cos(np.arange(256) * (np.pi / 90.0)).astype(np.float32).reshape(1, 256)
+_SIN_HUE = np.sin(np.arange(256) * (np.pi / 90.0)).astype(np.float32).reshape(1, 256)
+
+#: Names of the region features, in order.
+FEATURE_NAMES: tuple[str, ...] = (
+    "log_area",
+    "log_elongation",
+    "horizontalness",
+    "fill_ratio",
+    "chroma_a",
+    "chroma_b",
+    "value",
+)
+
+
+@dataclass(frozen=True)
+class Detection:
+    """A classified image region.
+
+    Parameters
+    ----------
+    type : str
+        Class assigned by the classifier.
+    centroid_uv : (2,) float
+        Region centroid, pixels (OpenCV: pixel centres at integer coordinates).
+    area : float
+        Region area, pixels.
+    features : (d,) float
+        The region's feature vector (:data:`FEATURE_NAMES`).
+    log_likelihood : float
+        Class-conditional log-likelihood of the features under the assigned class.
+    """
+
+    type: str
+    centroid_uv: NDArray[np.float64]
+    area: float
+    features: NDArray[np.float64]
+    log_likelihood: float = float("nan")
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.type, str) or not self.type:
+            raise UnknownClassError(f"type must be a non-empty string, got {self.type!r}")
+        uv = _as_float_array("centroid_uv", self.centroid_uv, (2,))
+        feats = np.array(self.features, dtype=np.float64)
+        if feats.ndim != 1:
+            raise ShapeError(f"features must have shape (d,), got shape {feats.shape}")
+        if not np.all(np.isfinite(feats)):
+            raise NonFiniteError(f"features must be finite, got {feats.tolist()}")
+        area = float(self.area)
+        if not np.isfinite(area) or area <= 0:
+            raise NonPositiveSigmaError(f"area must be finite and > 0, got {self.area!r}")
+        for name, arr in (("centroid_uv", uv), ("features", feats)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        object.__setattr__(self, "area", area)
+
+
+def _check_image(name: str, image: Any) -> NDArray[np.uint8]:
+    if not isinstance(image, np.ndarray):
+        raise ImageFormatError(f"{name} must be a numpy array, got {type(image).__name__}")
+    if image.ndim != 3 or image.shape[2] != 3:
+        raise ImageFormatError(f"{name} must have shape (height, width, 3) (BGR), got shape {image.shape}")
+    if image.dtype != np.uint8:
+        raise ImageFormatError(f"{name} must have dtype uint8, got {image.dtype} (shape {image.shape})")
+    return image
+
+
+def region_features(
+    image: NDArray[np.uint8], *, color_ranges: Mapping[str, ColorRange] = COLOR_RANGES, min_area: int = 12
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Segment by colour and describe every connected region.
+
+    Features (:data:`FEATURE_NAMES`), from the region's pixel covariance with eigenvalues
+    ``l1 >= l2`` and major axis angle ``theta``: ``log(area)``, ``0.5 log(l1 / l2)`` (log
+    elongation), ``|cos theta|`` (1 for a horizontal major axis), the fill ratio
+    ``area / (12 sqrt(l1 l2))`` (1 for a solid rectangle), the mean chroma
+    ``S cos(H), S sin(H)`` (S in [0, 1], H as an angle) and the mean value V in [0, 1].
+
+    Returns
+    -------
+    features : (r, 7) float
+    centroids : (r, 2) float
+        Pixel centroids (u, v).
+    areas : (r,) float
+    touches_border : (r,) bool
+        The region's bounding box touches the image border (it may be cut off).
+    """
+    image = _check_image("image", image)
+    hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
+    # per-pixel chroma (S cos H, S sin H) and value, in [0, 1], through hue look-up tables
+    sat = hsv[:, :, 1].astype(np.float32) * np.float32(1.0 / 255.0)
+    color = cv2.merge(
+        [
+            cv2.LUT(hsv[:, :, 0], _COS_HUE) * sat,
+            cv2.LUT(hsv[:, :, 0], _SIN_HUE) * sat,
+            hsv[:, :, 2].astype(np.float32) * np.float32(1.0 / 255.0),
+        ]
+    )
+    feats, cents, areas, border = [], [], [], []
+    for rng_ in color_ranges.values():
+        mask = cv2.inRange(hsv, np.array(rng_.lower, np.uint8), np.array(rng_.upper, np.uint8))
+        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _CLOSE_KERNEL)
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        big = np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] >= min_area) + 1
+        if big.size == 0:
+            continue
+        # per region (on its bounding-box ROI): area, centroid, central second moments, mean
+        # chroma and value
+        stat = np.empty((9, big.size))
+        for j, k in enumerate(big):
+            x0, y0, w, h = (int(v) for v in stats[k, :4])
+            roi = (labels[y0 : y0 + h, x0 : x0 + w] == k).astype(np.uint8)
+            m = cv2.moments(roi, binaryImage=True)
+            mean_color = cv2.mean(color[y0 : y0 + h, x0 : x0 + w], mask=roi)
+            area = m["m00"]
+            stat[:, j] = (
+                area,
+                x0 + m["m10"] / area,
+                y0 + m["m01"] / area,
+                m["mu20"] / area,
+                m["mu02"] / area,
+                m["mu11"] / area,
+                *mean_color[:3],
+            )
+        count, mx, my = stat[0], stat[1], stat[2]
+        # pixel covariance; + 1/12 for the extent of a unit pixel
+        cxx = stat[3] + 1.0 / 12.0
+        cyy = stat[4] + 1.0 / 12.0
+        cxy = stat[5]
+        half_tr = 0.5 * (cxx + cyy)
+        root = np.sqrt(np.maximum((0.5 * (cxx - cyy)) ** 2 + cxy**2, 0.0))
+        l1, l2 = half_tr + root, np.maximum(half_tr - root, 1e-12)
+        theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)
+        feats.append(
+            np.column_stack(
+                [
+                    np.log(count),
+                    0.5 * np.log(l1 / l2),
+                    np.abs(np.cos(theta)),
+                    count / (12.0 * np.sqrt(l1 * l2)),
+                    stat[6],
+                    stat[7],
+                    stat[8],
+                ]
+            )
+        )
+        cents.append(np.column_stack([mx, my]))
+        areas.append(count)
+        st = stats[big]
+        height, width = mask.shape
+        border.append(
+            (st[:, cv2.CC_STAT_LEFT] == 0)
+            | (st[:, cv2.CC_STAT_TOP] == 0)
+            | (st[:, cv2.CC_STAT_LEFT] + st[:, cv2.CC_STAT_WIDTH] >= width)
+            | (st[:, cv2.CC_STAT_TOP] + st[:, cv2.CC_STAT_HEIGHT] >= height)
+        )
+    if not feats:
+        return np.zeros((0, len(FEATURE_NAMES))), np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=bool)
+    return np.concatenate(feats), np.concatenate(cents), np.concatenate(areas), np.concatenate(border)
+
+
+# --------------------------------------------------------------------------------------------
+# Gaussian classifier
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class GaussianClassifier:
+    """One multivariate Gaussian per class, with a log-likelihood rejection threshold.
+
+    Parameters
+    ----------
+    classes : tuple of str
+        Class names, in the order of the other arrays.
+    means : (k, d) float
+    covariances : (k, d, d) float
+        Symmetric positive definite.
+    log_priors : (k,) float
+        Log class priors.
+    thresholds : (k,) float
+        A sample assigned to class c is rejected when its log-likelihood under c is below
+        ``thresholds[c]``.
+    """
+
+    classes: tuple[str, ...]
+    means: NDArray[np.float64]
+    covariances: NDArray[np.float64]
+    log_priors: NDArray[np.float64]
+    thresholds: NDArray[np.float64]
+    _chol: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _log_norm: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        classes = tuple(self.classes)
+        k = len(classes)
+        if k == 0 or any(not isinstance(c, str) or not c for c in classes):
+            raise UnknownClassError(f"classes must be non-empty strings, got {classes!r}")
+        means = np.array(self.means, dtype=np.float64)
+        if means.ndim != 2 or means.shape[0] != k:
+            raise ShapeError(f"means must have shape ({k}, d), got shape {means.shape}")
+        d = means.shape[1]
+        covs = _as_float_array("covariances", self.covariances, (k, d, d))
+        means = _as_float_array("means", means, (k, d))
+        log_priors = _as_float_array("log_priors", self.log_priors, (k,))
+        thresholds = np.array(self.thresholds, dtype=np.float64)
+        if thresholds.shape != (k,) or np.any(np.isnan(thresholds)):
+            raise ShapeError(f"thresholds must have shape ({k},) without NaN, got {thresholds!r}")
+        if not np.allclose(covs, np.swapaxes(covs, 1, 2), rtol=1e-9, atol=1e-12):
+            raise ShapeError("covariances must be symmetric")
+        try:
+            chol = np.linalg.cholesky(covs)
+        except np.linalg.LinAlgError as exc:
+            raise NonPositiveSigmaError("covariances must be positive definite") from exc
+        log_norm = -0.5 * d * np.log(2 * np.pi) - np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1)
+        for name, arr in (
+            ("means", means), ("covariances", covs), ("log_priors", log_priors), ("thresholds", thresholds),
+            ("_chol", chol), ("_log_norm", log_norm),
+        ):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        object.__setattr__(self, "classes", classes)
+
+    @property
+    def n_features(self) -> int:
+        """Feature dimension d."""
+        return int(self.means.shape[1])
+
+    @classmethod
+    def fit(
+        cls,
+        features: ArrayLike,
+        labels: Sequence[str],
+        *,
+        regularization: float = 1e-4,
+        reject_quantile: float = 0.002,
+        threshold_margin: float = 3.0,
+    ) -> GaussianClassifier:
+        """Maximum-likelihood Gaussians per class.
+
+        Parameters
+        ----------
+        features : (n, d) float
+        labels : (n,) str
+        regularization : float
+            Added to the covariance diagonal (features are O(1)), >= 0.
+        reject_quantile : float
+            Per class, the threshold is the ``reject_quantile`` quantile of the training
+            log-likelihoods of that class's own samples ...
+        threshold_margin : float
+            ... minus this margin (nats).
+
+        Returns
+        -------
+        GaussianClassifier
+            Priors are the class frequencies.
+        """
+        x = np.array(features, dtype=np.float64)
+        if x.ndim != 2:
+            raise ShapeError(f"features must have shape (n, d), got shape {x.shape}")
+        if not np.all(np.isfinite(x)):
+            raise NonFiniteError("features must be finite")
+        y = np.asarray(list(labels), dtype=object)
+        if y.shape != (x.shape[0],):
+            raise ShapeError(f"labels must have shape ({x.shape[0]},), got shape {y.shape}")
+        if not np.isfinite(regularization) or regularization < 0:
+            raise NonPositiveSigmaError(f"regularization must be finite and >= 0, got {regularization!r}")
+        classes = tuple(sorted({str(v) for v in y}))
+        d = x.shape[1]
+        means, covs, counts = [], [], []
+        for c in classes:
+            xc = x[y == c]
+            if len(xc) < 2:
+                raise NotFittedError(f"class {c!r} needs at least 2 samples, got {len(xc)}")
+            mu = xc.mean(axis=0)
+            diff = xc - mu
+            means.append(mu)
+            covs.append(diff.T @ diff / len(xc) + regularization * np.eye(d))
+            counts.append(len(xc))
+        k = len(classes)
+        prov = cls(
+            classes=classes,
+            means=np.array(means),
+            covariances=np.array(covs),
+            log_priors=np.log(np.array(counts) / x.shape[0]),
+            thresholds=np.full(k, -np.inf),
+        )
+        ll = prov.log_likelihood(x)
+        thresholds = np.empty(k)
+        for i, c in enumerate(classes):
+            own = ll[y == c, i]
+            thresholds[i] = np.quantile(own, reject_quantile) - threshold_margin
+        return cls(classes, prov.means, prov.covariances, prov.log_priors, thresholds)
+
+    def log_likelihood(self, features: ArrayLike) -> NDArray[np.float64]:
+        """Class-conditional log densities ``log N(x; mu_c, Sigma_c)``, shape (n, k)."""
+        x = np.array(features, dtype=np.float64)
+        if x.ndim == 1:
+            x = x[None, :]
+        if x.ndim != 2 or x.shape[1] != self.n_features:
+            raise ShapeError(f"features must have shape (n, {self.n_features}), got shape {x.shape}")
+        if not np.all(np.isfinite(x)):
+            raise NonFiniteError("features must be finite")
+        diff = x[None, :, :] - self.means[:, None, :]  # (k, n, d)
+        z = np.linalg.solve(self._chol, np.swapaxes(diff, 1, 2))  # (k, d, n)
+        maha = np.einsum("kdn,kdn->kn", z, z)
+        return (self._log_norm[:, None] - 0.5 * maha).T
+
+    def predict(self, features: ArrayLike) -> tuple[list[str | None], NDArray[np.float64]]:
+        """Maximum a-posteriori class of each sample, ``None`` where rejected.
+
+        Returns
+        -------
+        labels : list of (str or None), length n
+            The class maximising ``log N(x; c) + log prior(c)``, or ``None`` when the
+            log-likelihood under that class is below its threshold.
+        log_likelihood : (n,) float
+            Log-likelihood under the chosen class.
+        """
+        ll = self.log_likelihood(features)
+        best = np.argmax(ll + self.log_priors, axis=1)
+        score = ll[np.arange(len(best)), best]
+        accepted = score >= self.thresholds[best]
+        labels = [self.classes[b] if ok else None for b, ok in zip(best, accepted, strict=True)]
+        return labels, score
+
+
+def detect(
+    image: NDArray[np.uint8],
+    classifier: GaussianClassifier,
+    *,
+    color_ranges: Mapping[str, ColorRange] = COLOR_RANGES,
+    min_area: int = 12,
+    exclude_border: bool = True,
+) -> list[Detection]:
+    """Colour-segment, describe and classify the regions of one BGR image.
+
+    Parameters
+    ----------
+    image : (height, width, 3) uint8
+        BGR image.
+    classifier : GaussianClassifier
+    color_ranges : mapping of str to ColorRange
+        HSV ranges segmented separately.
+    min_area : int
+        Smallest region kept, pixels.
+    exclude_border : bool
+        Drop regions touching the image border: their centroid is biased (cut off), which
+        would corrupt the disparity.
+
+    Returns
+    -------
+    list of Detection
+        Accepted regions, in segmentation order.
+    """
+    if not isinstance(classifier, GaussianClassifier):
+        raise ShapeError(f"classifier must be a GaussianClassifier, got {type(classifier).__name__}")
+    feats, cents, areas, border = region_features(image, color_ranges=color_ranges, min_area=min_area)
+    if exclude_border:
+        feats, cents, areas = feats[~border], cents[~border], areas[~border]
+    if len(feats) == 0:
+        return []
+    labels, score = classifier.predict(feats)
+    return [
+        Detection(type=lab, centroid_uv=cents[i], area=float(areas[i]), features=feats[i],
+                  log_likelihood=float(score[i]))
+        for i, lab in enumerate(labels)
+        if lab is not None
+    ]
+
+
+def _training_samples(
+    rig: Any, rng: np.random.Generator, n_scenes: int, min_area: int
+) -> tuple[NDArray[np.float64], list[str]]:
+    feats_all, labels_all = [], []
+    for _ in range(n_scenes):
+        boxes, pose = random_scene(rng)
+        images = render_stereo(rig, pose, boxes, rng)
+        label_maps = render_labels(rig, pose, boxes)
+        for image, lab_map in zip(images, label_maps, strict=True):
+            feats, cents, _, border = region_features(image, min_area=min_area)
+            for f, (u, v) in zip(feats[~border], cents[~border], strict=True):
+                i = lab_map[int(round(v)), int(round(u))]
+                if i >= 0 and boxes[i].type != "clutter":
+                    feats_all.append(f)
+                    labels_all.append(boxes[i].type)
+    return np.array(feats_all).reshape(-1, len(FEATURE_NAMES)), labels_all
+
+
+def train_classifier(
+    rig: Any, rng: np.random.Generator, n_scenes: int = 30, *, min_area: int = 12, **fit_kwargs: Any
+) -> GaussianClassifier:
+    """Fit a :class:`GaussianClassifier` on rendered scenes with known labels.
+
+    Renders ``n_scenes`` :func:`random_scene` stereo pairs, segments both images, labels each
+    region by the box seen at its centroid in :func:`render_labels` (regions of clutter boxes
+    or background are left out, so the threshold has to reject them; so are regions touching
+    the image border, which :func:`detect` drops) and fits.
+
+    Parameters
+    ----------
+    rig : StereoRig
+    rng : numpy.random.Generator
+    n_scenes : int
+        Number of rendered scenes, >= 1.
+    min_area : int
+        Smallest region, pixels.
+    **fit_kwargs
+        Passed to :meth:`GaussianClassifier.fit`.
+    """
+    if int(n_scenes) < 1:
+        raise ShapeError(f"n_scenes must be >= 1, got {n_scenes!r}")
+    feats, labels = _training_samples(rig, rng, int(n_scenes), min_area)
+    return GaussianClassifier.fit(feats, labels, **fit_kwargs)
+
+
+# --------------------------------------------------------------------------------------------
+# Stereo matching and percepts
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class StereoMatch:
+    """A left/right detection pair: indices into the two lists and the epipolar distance (px)."""
+
+    left: int
+    right: int
+    epipolar_px: float
+
+
+def _skew(t: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.array([[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]])
+
+
+def _undistort(
+    uv: NDArray[np.float64], K: NDArray[np.float64], D: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    if len(uv) == 0 or not np.any(D):
+        return uv
+    return cv2.undistortPoints(uv.reshape(-1, 1, 2), K, D, P=K).reshape(-1, 2)
+
+
+def match_stereo(
+    rig: Any,
+    left_dets: Sequence[Detection],
+    right_dets: Sequence[Detection],
+    max_epipolar_px: float = 2.0,
+    *,
+    max_log_area_ratio: float = 1.0,
+) -> list[StereoMatch]:
+    """Pair left and right detections of the same type.
+
+    A pair is admissible when both have the same type, the right centroid lies within
+    ``max_epipolar_px`` of the epipolar line ``F x_left`` (fundamental matrix
+    ``F = K2^-T [T]x R K1^-1``, on undistorted pixels), the triangulated point lies in front
+    of both cameras (for a rectified rig: positive disparity) and the areas differ by at most
+    ``exp(max_log_area_ratio)``. Among admissible pairs a one-to-one assignment minimising
+    ``epipolar / max_epipolar_px + |log area ratio|`` is taken per type.
+
+    Returns
+    -------
+    list of StereoMatch
+    """
+    if not np.isfinite(max_epipolar_px) or max_epipolar_px <= 0:
+        raise NonPositiveSigmaError(f"max_epipolar_px must be finite and > 0, got {max_epipolar_px!r}")
+    if not left_dets or not right_dets:
+        return []
+    K1, D1 = np.asarray(rig.K1, np.float64), np.asarray(rig.D1, np.float64)
+    K2, D2 = np.asarray(rig.K2, np.float64), np.asarray(rig.D2, np.float64)
+    R, T = np.asarray(rig.R, np.float64), np.asarray(rig.T, np.float64).reshape(3)
+    F = np.linalg.inv(K2).T @ _skew(T) @ R @ np.linalg.inv(K1)
+    uv_l = _undistort(np.array([d.centroid_uv for d in left_dets], dtype=np.float64), K1, D1)
+    uv_r = _undistort(np.array([d.centroid_uv for d in right_dets], dtype=np.float64), K2, D2)
+    hl = np.column_stack([uv_l, np.ones(len(uv_l))])
+    hr = np.column_stack([uv_r, np.ones(len(uv_r))])
+    lines = hl @ F.T  # (nl, 3): epipolar lines in the right image
+    epi = np.abs(hr @ lines.T).T / np.hypot(lines[:, 0], lines[:, 1])[:, None]  # (nl, nr)
+    area_l = np.array([d.area for d in left_dets])
+    area_r = np.array([d.area for d in right_dets])
+    log_ratio = np.abs(np.log(area_l[:, None] / area_r[None, :]))
+    same = np.array([[a.type == b.type for b in right_dets] for a in left_dets])
+    ok = same & (epi <= max_epipolar_px) & (log_ratio <= max_log_area_ratio)
+    il, ir = np.nonzero(ok)
+    if il.size:
+        # depth in both cameras by linear triangulation on normalised rays (cheirality)
+        xl = np.linalg.solve(K1, hl[il].T).T
+        xr = np.linalg.solve(K2, hr[ir].T).T
+        # X = a xl; R X + T = b xr -> a R xl - b xr = -T (least squares per pair)
+        A = np.stack([(R @ xl.T).T, -xr], axis=2)  # (p, 3, 2)
+        ata = np.einsum("pki,pkj->pij", A, A)
+        atb = np.einsum("pki,k->pi", A, -T)
+        det = ata[:, 0, 0] * ata[:, 1, 1] - ata[:, 0, 1] ** 2
+        good = det > 1e-15
+        a = np.where(good, (ata[:, 1, 1] * atb[:, 0] - ata[:, 0, 1] * atb[:, 1]) / np.where(good, det, 1), -1)
+        b = np.where(good, (ata[:, 0, 0] * atb[:, 1] - ata[:, 0, 1] * atb[:, 0]) / np.where(good, det, 1), -1)
+        front = (a > _NEAR) & (b > _NEAR)
+        ok[il[~front], ir[~front]] = False
+    cost = np.where(ok, epi / max_epipolar_px + log_ratio, np.inf)
+    matches: list[StereoMatch] = []
+    rows_all = np.flatnonzero(ok.any(axis=1))
+    if rows_all.size == 0:
+        return []
+    big = 1e6
+    finite = np.where(ok, cost, big)
+    rows, cols = linear_sum_assignment(finite[rows_all])
+    for r, c in zip(rows_all[rows], cols, strict=True):
+        if ok[r, c]:
+            matches.append(StereoMatch(left=int(r), right=int(c), epipolar_px=float(epi[r, c])))
+    matches.sort(key=lambda m: m.left)
+    return matches
+
+
+def _default_depth_factor(rig: Any, disparity_std_px: float) -> float:
+    focal = float(np.asarray(rig.K1, np.float64)[0, 0])
+    baseline = float(np.linalg.norm(np.asarray(rig.T, np.float64)))
+    return focal * baseline / disparity_std_px
+
+
+def recognize(
+    rig: Any,
+    left: NDArray[np.uint8],
+    right: NDArray[np.uint8],
+    classifier: GaussianClassifier,
+    *,
+    depth_factor: float | None = None,
+    disparity_std_px: float = 0.5,
+    pixel_sigma: float | None = None,
+    ego_from_camera: ArrayLike | None = None,
+    max_epipolar_px: float = 2.0,
+    min_area: int = 12,
+) -> list[Percept]:
+    """Percepts from a stereo pair: detect, match, triangulate, attach the eq. 6 sigma.
+
+    Parameters
+    ----------
+    rig : StereoRig
+    left, right : (height, width, 3) uint8
+        BGR images of ``rig.image_size``.
+    classifier : GaussianClassifier
+    depth_factor : float, optional
+        Eq. 6 factor, ``sigma = rho**2 / depth_factor`` with rho the depth along the left
+        optical axis (eq. 7). Default: ``f b / disparity_std_px`` (the first-order depth
+        error of a disparity error ``disparity_std_px``, eq. 8).
+    disparity_std_px : float
+        Disparity error assumed by the default depth factor, pixels.
+    pixel_sigma : float, optional
+        Centroid error per image coordinate, pixels, for the full covariance
+        (``triangulation_covariance``, rotated into the output frame). Default
+        ``disparity_std_px / sqrt(2)``, so the disparity error is ``disparity_std_px``.
+    ego_from_camera : (4, 4) float, optional
+        Maps the left camera frame to the output frame; identity (left camera frame) if None.
+    max_epipolar_px : float
+        Passed to :func:`match_stereo`.
+    min_area : int
+        Smallest region, pixels.
+
+    Returns
+    -------
+    list of Percept
+        In the frame of ``ego_from_camera``, one per matched pair.
+    """
+    width, height = _image_size(rig)
+    for name, img in (("left", left), ("right", right)):
+        _check_image(name, img)
+        if img.shape[:2] != (height, width):
+            raise ImageFormatError(
+                f"{name} must have shape ({height}, {width}, 3) to match rig.image_size, "
+                f"got shape {img.shape}"
+            )
+    if depth_factor is None:
+        if not np.isfinite(disparity_std_px) or disparity_std_px <= 0:
+            raise NonPositiveSigmaError(f"disparity_std_px must be finite and > 0, got {disparity_std_px!r}")
+        depth_factor = _default_depth_factor(rig, disparity_std_px)
+    if not np.isfinite(depth_factor) or depth_factor <= 0:
+        raise NonPositiveSigmaError(f"depth_factor must be finite and > 0, got {depth_factor!r}")
+    if pixel_sigma is None:
+        pixel_sigma = disparity_std_px / np.sqrt(2.0)
+    if not np.isfinite(pixel_sigma) or pixel_sigma <= 0:
+        raise NonPositiveSigmaError(f"pixel_sigma must be finite and > 0, got {pixel_sigma!r}")
+    transform = np.eye(4) if ego_from_camera is None else check_transform("ego_from_camera", ego_from_camera)
+    dets_l = detect(left, classifier, min_area=min_area)
+    dets_r = detect(right, classifier, min_area=min_area)
+    matches = match_stereo(rig, dets_l, dets_r, max_epipolar_px)
+    if not matches:
+        return []
+    uv_l = np.array([dets_l[m.left].centroid_uv for m in matches])
+    uv_r = np.array([dets_r[m.right].centroid_uv for m in matches])
+    points = np.asarray(rig.triangulate(uv_l, uv_r), dtype=np.float64).reshape(-1, 3)
+    covs = triangulation_covariance(rig, uv_l, uv_r, pixel_sigma)
+    rot = transform[:3, :3]
+    covs = rot @ covs @ rot.T
+    rho = points[:, 2]
+    out_pts = points @ rot.T + transform[:3, 3]
+    percepts = []
+    for m, p, r, c in zip(matches, out_pts, rho, covs, strict=True):
+        if not np.all(np.isfinite(p)) or r <= 0:
+            continue
+        percepts.append(
+            Percept(type=dets_l[m.left].type, position=p, sigma=float(r**2 / depth_factor), covariance=c)
+        )
+    return percepts
