@@ -1,0 +1,393 @@
+"""Tests of worldgraph.model: link index against brute force, graph, files, trimesh import, errors."""
+
+from __future__ import annotations
+
+import json
+import math
+from itertools import combinations
+
+import networkx as nx
+import numpy as np
+import pytest
+import trimesh
+from hypothesis import given
+from hypothesis import strategies as st
+
+import worldgraph as wg
+from worldgraph.model import LinkTable, ObjectModel, WorldModel
+
+TYPES = ("door", "handle", "knob", "switch")
+SPACING = 0.37  # grid spacing of the random worlds (m)
+
+
+@st.composite
+def worlds(draw):
+    """Random typed worlds on a jittered grid: distinct positions, several types."""
+    n = draw(st.integers(1, 40))
+    cells = draw(st.lists(st.tuples(st.integers(-8, 8), st.integers(-8, 8), st.integers(0, 6)),
+                          min_size=n, max_size=n, unique=True))
+    jitter = draw(st.lists(st.floats(-0.1, 0.1), min_size=3 * n, max_size=3 * n))
+    pos = np.array(cells, dtype=float) * SPACING + np.array(jitter).reshape(n, 3)
+    types = draw(st.lists(st.sampled_from(TYPES), min_size=n, max_size=n))
+    mll = draw(st.floats(0.2, 4.0))
+    margin = draw(st.sampled_from([0.0, 0.0, 0.15]))
+    return types, pos, mll, margin
+
+
+def brute_links(types, pos, radius):
+    """All pairs closer than radius, oriented by the LinkTable rule, computed pair by pair."""
+    out: dict[tuple[str, str], dict[tuple[int, int], float]] = {}
+    ambiguous = set()
+    for a, b in combinations(range(len(types)), 2):
+        d = math.dist(pos[a], pos[b])
+        if abs(d - radius) < 1e-9:
+            ambiguous.add((min(a, b), max(a, b)))
+            continue
+        if d >= radius:
+            continue
+        ta, tb = types[a], types[b]
+        i, j = (a, b) if (ta, a) <= (tb, b) else (b, a)
+        if ta == tb:
+            i, j = min(a, b), max(a, b)
+        key = (min(ta, tb), max(ta, tb))
+        out.setdefault(key, {})[(i, j)] = d
+    return out, ambiguous
+
+
+def table_pairs(table: LinkTable, ambiguous):
+    return {(int(i), int(j)): float(x) for i, j, x in zip(table.i, table.j, table.length, strict=True)
+            if (min(i, j), max(i, j)) not in ambiguous}
+
+
+@given(worlds())
+def test_links_equal_brute_force(world):
+    types, pos, mll, margin = world
+    w = WorldModel.from_arrays(types, pos, max_link_length=mll, link_margin=margin)
+    expected, ambiguous = brute_links(types, pos, mll + margin)
+    present = sorted(set(types))
+    assert set(w.links) == {(a, b) for a in present for b in present if a <= b}
+    for key, table in w.links.items():
+        got = table_pairs(table, ambiguous)
+        want = expected.get(key, {})
+        assert got.keys() == want.keys(), key
+        for pair, d in want.items():
+            assert got[pair] == pytest.approx(d, abs=1e-12)
+        assert np.all(np.diff(table.length) >= 0)
+        a, b = key
+        assert all(types[i] == a and types[j] == b for i, j in zip(table.i, table.j, strict=True))
+        if a == b:
+            assert np.all(table.i < table.j)
+
+
+@given(worlds(), st.floats(0.0, 4.0), st.floats(0.0, 4.0))
+def test_in_range_and_link_lengths_equal_filter(world, lo, width):
+    types, pos, mll, margin = world
+    w = WorldModel.from_arrays(types, pos, max_link_length=mll, link_margin=margin)
+    hi = lo + width
+    for (a, b), table in w.links.items():
+        i, j, length = table.in_range(lo, hi)
+        rows = zip(table.i, table.j, table.length, strict=True)
+        keep = [(int(p), int(q)) for p, q, x in rows if lo < x < hi]
+        assert list(zip(i.tolist(), j.tolist(), strict=True)) == keep
+        # link_lengths orients rows by its arguments, whatever the lexicographic order
+        i2, j2, len2 = w.link_lengths(b, a, lo, hi)
+        if a == b:  # one type: each pair once, i < j, in either argument order
+            assert np.array_equal(i2, i) and np.array_equal(j2, j)
+        else:
+            assert np.array_equal(i2, j) and np.array_equal(j2, i)
+        assert np.array_equal(len2, length)
+        assert all(types[k] == b for k in i2) and all(types[k] == a for k in j2)
+        np.testing.assert_allclose(len2, np.linalg.norm(pos[i2] - pos[j2], axis=1), atol=1e-12)
+
+
+@given(worlds())
+def test_graph_edges_are_pairs_closer_than_max_link_length(world):
+    types, pos, mll, margin = world
+    w = WorldModel.from_arrays(types, pos, max_link_length=mll, link_margin=margin)
+    g = w.graph
+    assert isinstance(g, nx.Graph) and g.number_of_nodes() == len(types)
+    dist = {(a, b): math.dist(pos[a], pos[b]) for a, b in combinations(range(len(types)), 2)}
+    want = {pair for pair, d in dist.items() if d < mll - 1e-9}
+    maybe = {pair for pair, d in dist.items() if abs(d - mll) <= 1e-9}
+    got = {(min(a, b), max(a, b)) for a, b in g.edges}
+    assert want <= got <= want | maybe
+    for a, b, data in g.edges(data=True):
+        assert data["length"] == pytest.approx(math.dist(pos[a], pos[b]), abs=1e-12)
+    for k in range(len(types)):
+        assert g.nodes[k]["type"] == types[k]
+        np.testing.assert_array_equal(g.nodes[k]["position"], pos[k])
+
+
+@given(worlds())
+def test_type_index_and_arrays(world):
+    types, pos, mll, margin = world
+    w = WorldModel.from_arrays(types, pos, max_link_length=mll)
+    assert len(w) == len(types)
+    np.testing.assert_array_equal(w.positions, pos)
+    assert list(w.types) == list(types)
+    for t in set(types):
+        assert w.type_index[t].tolist() == [k for k, x in enumerate(types) if x == t]
+    with pytest.raises(ValueError):
+        w.positions[0, 0] = 1.0  # read-only
+
+
+def test_link_margin_keeps_pairs_just_above_max_link_length():
+    pos = np.array([[0.0, 0, 0], [1.02, 0, 0]])
+    tight = WorldModel.from_arrays(["door", "handle"], pos, max_link_length=1.0)
+    loose = WorldModel.from_arrays(["door", "handle"], pos, max_link_length=1.0, link_margin=0.05)
+    assert len(tight.links[("door", "handle")]) == 0
+    assert loose.links[("door", "handle")].length.tolist() == pytest.approx([1.02])
+    assert loose.graph.number_of_edges() == 0  # the graph keeps max_link_length itself
+
+
+def test_link_lengths_unknown_type():
+    w = WorldModel.from_arrays(["door", "handle"], [[0, 0, 0], [1, 0, 0]])
+    with pytest.raises(wg.UnknownTypeError, match="'lamp'"):
+        w.link_lengths("door", "lamp")
+    with pytest.raises(wg.UnknownTypeError, match="'lamp'"):
+        w.subset(["lamp"])
+
+
+def test_subset_bounds_region():
+    pos = np.array([[0.0, 0, 0.5], [2, 1, 1], [4, 3, 2.5]])
+    w = WorldModel.from_arrays(["door", "handle", "knob"], pos, sizes=[[0.2, 0.2, 0.2]] * 3)
+    sub = w.subset(["door", "knob"])
+    assert len(sub) == 2 and set(sub.types) == {"door", "knob"}
+    np.testing.assert_allclose(sub.positions, pos[[0, 2]])
+    lo, hi = w.bounds
+    np.testing.assert_allclose(lo, [-0.1, -0.1, 0.4])
+    np.testing.assert_allclose(hi, [4.1, 3.1, 2.6])
+    region = w.region(margin=0.5)
+    np.testing.assert_allclose(region.lower, [-0.6, -0.6, 0.4])
+    np.testing.assert_allclose(region.upper, [4.6, 3.6, 3.1])
+    assert region.contains(pos).all()
+
+
+def test_bounds_use_rotated_boxes():
+    rot = trimesh.transformations.rotation_matrix(math.pi / 2, [0, 0, 1])
+    rot[:3, 3] = (1.0, 2.0, 3.0)
+    obj = ObjectModel("door_0", "door", rot, (2.0, 0.2, 1.0), "box")
+    w = WorldModel((obj,), class_vertices={"box": wg.box_vertices((2.0, 0.2, 1.0))})
+    lo, hi = w.bounds
+    np.testing.assert_allclose(lo, [0.9, 1.0, 2.5], atol=1e-12)
+    np.testing.assert_allclose(hi, [1.1, 3.0, 3.5], atol=1e-12)
+
+
+# ----------------------------------------------------------------------------------------------
+# bad input
+# ----------------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("types", "positions", "kwargs", "error", "match"),
+    [
+        (["door"], [[0.0, np.nan, 0.0]], {}, wg.NonFiniteError, "nan"),
+        (["door"], [[0.0, np.inf, 0.0]], {}, wg.NonFiniteError, "inf"),
+        (["door", "door"], [[0.0, 0.0]] * 2, {}, wg.ShapeError, r"\(2, 2\)"),
+        (["door"], [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], {}, wg.ShapeError, "length 1"),
+        ([], np.zeros((0, 3)), {}, wg.EmptyWorldError, "0"),
+        (["door", "door"], [[1.0, 2.0, 3.0]] * 2, {}, wg.CoincidentObjectsError, "door_0"),
+        (["door", ""], [[0.0, 0, 0], [1.0, 0, 0]], {}, wg.UnknownTypeError, "types\\[1\\]"),
+        (["door", 3], [[0.0, 0, 0], [1.0, 0, 0]], {}, wg.UnknownTypeError, "3"),
+        (["door"], [[0.0, 0, 0]], {"max_link_length": 0.0}, wg.NonPositiveError, "0.0"),
+        (["door"], [[0.0, 0, 0]], {"max_link_length": np.nan}, wg.NonFiniteError, "nan"),
+        (["door"], [[0.0, 0, 0]], {"link_margin": -1.0}, wg.NonPositiveError, "-1.0"),
+        (["door"], [[0.0, 0, 0]], {"sizes": [[1.0, 1.0]]}, wg.ShapeError, r"\(1, 2\)"),
+        (["door"], [[0.0, 0, 0]], {"sizes": [[1.0, -1.0, 1.0]]}, wg.NonPositiveError, "-1.0"),
+        (["door"], [[0.0, 0, 0]], {"ids": ["a", "b"]}, wg.ShapeError, "2"),
+    ],
+)
+def test_from_arrays_bad_input(types, positions, kwargs, error, match):
+    with pytest.raises(error, match=match):
+        WorldModel.from_arrays(types, positions, **kwargs)
+
+
+def test_errors_are_value_errors():
+    assert issubclass(wg.WorldGraphError, ValueError)
+    for cls in (wg.ShapeError, wg.NonFiniteError, wg.EmptyWorldError, wg.UnknownTypeError,
+                wg.MalformedFileError, wg.CoincidentObjectsError, wg.TooFewPerceptsError, wg.ImporterError):
+        assert issubclass(cls, wg.WorldGraphError)
+
+
+def test_coincident_objects_of_different_types_are_fine():
+    w = WorldModel.from_arrays(["door", "handle"], [[1.0, 2.0, 3.0]] * 2)
+    assert w.links[("door", "handle")].length.tolist() == [0.0]
+    assert w.link_lengths("handle", "door")[0].tolist() == [1]
+
+
+def test_object_model_validation():
+    with pytest.raises(wg.ShapeError, match=r"\(3, 3\)"):
+        ObjectModel("a", "door", np.eye(3), (1, 1, 1))
+    with pytest.raises(wg.ShapeError, match="last row"):
+        ObjectModel("a", "door", np.ones((4, 4)), (1, 1, 1))
+    with pytest.raises(wg.NonFiniteError, match="nan"):
+        ObjectModel("a", "door", np.eye(4), (1, np.nan, 1))
+    with pytest.raises(wg.UnknownTypeError):
+        ObjectModel("a", "", np.eye(4), (1, 1, 1))
+    with pytest.raises(wg.UnknownGeometryError, match="'cone'"):
+        WorldModel((ObjectModel("a", "door", np.eye(4), (1, 1, 1), "cone"),), class_vertices={})
+    with pytest.raises(wg.EmptyWorldError):
+        WorldModel(())
+    dup = ObjectModel("a", "door", np.eye(4), (1, 1, 1))
+    with pytest.raises(wg.WorldGraphError, match="'a'"):
+        WorldModel((dup, dup), class_vertices={"box": wg.box_vertices((1, 1, 1))})
+    obj = ObjectModel("a", "door", np.eye(4), (1, 1, 1))
+    assert obj.position.tolist() == [0.0, 0.0, 0.0]
+    with pytest.raises(ValueError):
+        obj.pose[0, 0] = 2.0
+
+
+# ----------------------------------------------------------------------------------------------
+# files
+# ----------------------------------------------------------------------------------------------
+def _small_world() -> WorldModel:
+    rng = np.random.default_rng(3)
+    pos = rng.uniform(0, 5, (12, 3))
+    types = rng.choice(list(TYPES), 12)
+    sizes = rng.uniform(0.01, 0.5, (12, 3))
+    return WorldModel.from_arrays(types, pos, max_link_length=2.5, sizes=sizes, link_margin=0.1)
+
+
+def test_save_load_round_trip(tmp_path):
+    w = _small_world()
+    path = tmp_path / "world.json"
+    w.save(path)
+    back = WorldModel.load(path)
+    assert back == w
+    assert back is not w and back.scene is None
+    for key, table in w.links.items():
+        np.testing.assert_array_equal(back.links[key].i, table.i)
+        np.testing.assert_array_equal(back.links[key].length, table.length)
+    data = json.loads(path.read_text())
+    assert data["version"] == 1 and len(data["objects"]) == 12
+    assert set(data["objects"][0]) == {"id", "type", "pose", "size", "geometry"}
+
+
+def test_round_trip_of_a_rotated_trimesh_world(tmp_path):
+    w = WorldModel.from_trimesh(_hand_scene())
+    w.save(tmp_path / "w.json")
+    back = WorldModel.load(tmp_path / "w.json")
+    assert back == w
+    assert back != _small_world()
+
+
+def test_equality_sees_changes():
+    w = _small_world()
+    objs = list(w.objects)
+    pose = objs[0].pose.copy()
+    pose[0, 3] += 1e-6
+    objs[0] = ObjectModel(objs[0].id, objs[0].type, pose, objs[0].size, objs[0].geometry)
+    other = WorldModel(tuple(objs), w.max_link_length, w.class_vertices, link_margin=w.link_margin)
+    assert other != w
+
+
+def _write(tmp_path, data, raw: str | None = None):
+    path = tmp_path / "bad.json"
+    path.write_text(raw if raw is not None else json.dumps(data))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("mutate", "match"),
+    [
+        (lambda d: d.pop("version"), "missing key 'version'"),
+        (lambda d: d.pop("objects"), "missing key 'objects'"),
+        (lambda d: d.update(version=2), "version 2"),
+        (lambda d: d.update(format="mesh"), "format"),
+        (lambda d: d.update(max_link_length="far"), "max_link_length"),
+        (lambda d: d.update(objects={}), "objects must be a list"),
+        (lambda d: d["objects"][1].pop("pose"), r"objects\[1\] is missing key 'pose'"),
+        (lambda d: d["objects"][1].update(pose=[[1, 0, 0], [0, 1, 0], [0, 0, 1]]), r"shape \(4, 4\)"),
+        (lambda d: d["objects"][2].update(size=[1, 2]), r"size must have shape \(3,\)"),
+        (lambda d: d["objects"][2].update(type=""), "type must be a non-empty string"),
+        (lambda d: d["objects"][2].update(geometry="cone"), "'cone'"),
+        (lambda d: d["class_vertices"].update(door=[[1, 2]]), r"class_vertices\['door'\]"),
+        (lambda d: d["objects"].__setitem__(3, dict(d["objects"][0])), "more than once"),
+        (lambda d: d.update(objects=[]), "at least one object"),
+    ],
+)
+def test_malformed_files(tmp_path, mutate, match):
+    data = _small_world().to_dict()
+    mutate(data)
+    with pytest.raises(wg.MalformedFileError, match=match):
+        WorldModel.load(_write(tmp_path, data))
+
+
+def test_malformed_nan_and_bad_json(tmp_path):
+    text = json.dumps(_small_world().to_dict())
+    nan_text = text.replace('"size": [', '"size": [NaN, ', 1)
+    with pytest.raises(wg.MalformedFileError, match=r"objects\[0\].*size"):
+        WorldModel.load(_write(tmp_path, None, raw=nan_text))
+    nan_pose = json.loads(text)
+    nan_pose["objects"][0]["pose"][0][3] = float("nan")
+    with pytest.raises(wg.MalformedFileError, match="finite"):
+        WorldModel.load(_write(tmp_path, None, raw=json.dumps(nan_pose)))
+    with pytest.raises(wg.MalformedFileError, match="not valid JSON"):
+        WorldModel.load(_write(tmp_path, None, raw=text[:-10]))
+    with pytest.raises(wg.MalformedFileError, match="cannot read"):
+        WorldModel.load(tmp_path / "missing.json")
+    with pytest.raises(wg.MalformedFileError, match="top level"):
+        WorldModel.load(_write(tmp_path, [1, 2, 3]))
+
+
+# ----------------------------------------------------------------------------------------------
+# trimesh import
+# ----------------------------------------------------------------------------------------------
+def _hand_scene() -> trimesh.Scene:
+    """Meshes offset from their origin, rotated and scaled node transforms, all ways of typing."""
+    scene = trimesh.Scene()
+    box = trimesh.creation.box(extents=(0.4, 0.1, 0.2))
+    box.apply_translation((0.3, 0.0, 0.1))  # bounding-box centre away from the mesh origin
+    cyl = trimesh.creation.cylinder(radius=0.05, height=0.3, sections=12)
+    tagged = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    tagged.metadata["type"] = "switch"
+    scene.geometry.update({"box": box, "cyl": cyl, "tagged": tagged})
+    rot = trimesh.transformations.rotation_matrix(0.7, [0.3, 0.2, 0.9])
+    nodes = [
+        ("door_1", "box", trimesh.transformations.translation_matrix([1, 2, 0]) @ rot, None),
+        ("door_2", "box", trimesh.transformations.translation_matrix([3, 2, 0]), None),
+        ("handle:7", "cyl", trimesh.transformations.translation_matrix([1, 2.5, 1]) @ rot
+         @ np.diag([2.0, 2.0, 0.5, 1.0]), None),
+        ("thing", "cyl", trimesh.transformations.translation_matrix([0, 0, 2]), {"type": "knob"}),
+        ("wall_0", "box", np.eye(4), {"type": None}),
+        ("x_y", "tagged", trimesh.transformations.translation_matrix([5, 5, 1]), None),
+        ("knobbly", "tagged", trimesh.transformations.translation_matrix([2, 5, 1]), {"type": "knob"}),
+    ]
+    for name, geom, matrix, meta in nodes:
+        kwargs = {} if meta is None else {"metadata": meta}
+        scene.graph.update(frame_to=name, frame_from=scene.graph.base_frame, matrix=matrix, geometry=geom,
+                           **kwargs)
+    return scene
+
+
+def test_from_trimesh_types_positions_sizes():
+    scene = _hand_scene()
+    w = WorldModel.from_trimesh(scene, max_link_length=3.0)
+    by_id = {o.id: o for o in w.objects}
+    assert {k: o.type for k, o in by_id.items()} == {
+        "door_1": "door", "door_2": "door", "handle:7": "handle", "thing": "knob", "x_y": "switch",
+        "knobbly": "knob"}
+    assert w.scene is scene
+    for name, obj in by_id.items():
+        matrix, geom_name = scene.graph[name]
+        world_mesh = scene.geometry[geom_name].copy()
+        world_mesh.apply_transform(matrix)
+        # the object centre is the centre of the transformed mesh's own bounding box (a box and a
+        # cylinder are centrally symmetric, so this is the vertex mean of their extreme points)
+        centre = 0.5 * (world_mesh.vertices.max(axis=0) + world_mesh.vertices.min(axis=0))
+        np.testing.assert_allclose(obj.position, centre, atol=1e-9)
+        rot = obj.pose[:3, :3]
+        np.testing.assert_allclose(rot @ rot.T, np.eye(3), atol=1e-12)
+        # the world mesh fits the object's box exactly
+        local = (world_mesh.vertices - obj.position) @ rot
+        np.testing.assert_allclose(local.max(axis=0) - local.min(axis=0), obj.size, atol=1e-9)
+        np.testing.assert_allclose(w.class_vertices[obj.geometry].shape[1], 3)
+    np.testing.assert_allclose(by_id["handle:7"].size, [0.2, 0.2, 0.15], atol=1e-9)
+
+
+def test_from_trimesh_type_of_overrides_and_skips():
+    scene = _hand_scene()
+    w = WorldModel.from_trimesh(scene, type_of=lambda name, geom: "door" if name.startswith("door") else None)
+    assert sorted(o.id for o in w.objects) == ["door_1", "door_2"]
+    with pytest.raises(wg.EmptyWorldError):
+        WorldModel.from_trimesh(scene, type_of=lambda name, geom: None)
+    with pytest.raises(wg.UnknownTypeError, match="door_1"):
+        WorldModel.from_trimesh(scene, type_of=lambda name, geom: 5)

@@ -1,0 +1,65 @@
+"""Exceptions of :mod:`worldgraph`: one base, specific subclasses.
+
+Every bad-input error is a :class:`WorldGraphError`, which is a :class:`ValueError`, so callers
+can catch the whole family at once or a single case.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "CoincidentObjectsError",
+    "EmptyWorldError",
+    "ImporterError",
+    "MalformedFileError",
+    "NonFiniteError",
+    "NonPositiveError",
+    "ShapeError",
+    "TooFewPerceptsError",
+    "UnknownGeometryError",
+    "UnknownTypeError",
+    "WorldGraphError",
+]
+
+
+class WorldGraphError(ValueError):
+    """Base of every error raised by :mod:`worldgraph`."""
+
+
+class ShapeError(WorldGraphError):
+    """An array does not have the expected shape."""
+
+
+class NonFiniteError(WorldGraphError):
+    """A value is NaN or infinite."""
+
+
+class NonPositiveError(WorldGraphError):
+    """A length that must be positive (or non-negative) is not."""
+
+
+class EmptyWorldError(WorldGraphError):
+    """A world model without objects."""
+
+
+class UnknownTypeError(WorldGraphError):
+    """An object type that is not in the world model, or a type that is not a non-empty string."""
+
+
+class UnknownGeometryError(WorldGraphError):
+    """An object refers to a class geometry whose vertices the world model does not hold."""
+
+
+class MalformedFileError(WorldGraphError):
+    """A world-model file that cannot be read: bad JSON, wrong version, missing key, bad value."""
+
+
+class CoincidentObjectsError(WorldGraphError):
+    """Two objects of the same type at the same position: no percept can tell them apart."""
+
+
+class TooFewPerceptsError(WorldGraphError):
+    """Fewer percepts than association or localisation needs."""
+
+
+class ImporterError(WorldGraphError, ImportError):
+    """An optional importer (e.g. the Franka kitchen of gymnasium-robotics) is not available."""

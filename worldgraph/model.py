@@ -1,0 +1,735 @@
+"""The world model: typed objects, their proximity graph and the link look-up table.
+
+A :class:`WorldModel` holds the landmarks the robot can perceive (doors, handles, knobs, ...),
+each an :class:`ObjectModel` with a type, a pose ``world_from_object`` and the extents of its
+bounding box.  From the object positions it builds
+
+* ``links``: for every (sorted) pair of types a :class:`LinkTable` of the object pairs closer
+  than ``max_link_length + link_margin``, sorted by length -- the paper's distance look-up
+  table (section 2.2, "Fast performance was achieved by using a distance lookup table"),
+  queried with :meth:`LinkTable.in_range` by binary search;
+* ``graph``: a :mod:`networkx` graph, one node per object, one edge per pair closer than
+  ``max_link_length`` (built lazily on first access);
+* ``type_index``: the object indices of each type.
+
+Object frame: the origin is the centre of the object's bounding box, so
+``ObjectModel.position == pose[:3, 3]``; ``size`` is the box extents along the object axes.
+
+File format (:meth:`WorldModel.save` / :meth:`WorldModel.load`), JSON, meant to be edited::
+
+    {
+      "format": "worldgraph.WorldModel",
+      "version": 1,
+      "max_link_length": 5.0,          # metres, > 0
+      "link_margin": 0.0,              # metres, >= 0 (links are built up to the sum)
+      "class_vertices": {              # geometry key -> list of [x, y, z] in the object frame
+        "handle_bar": [[-0.06, -0.01, -0.01], ...]
+      },
+      "objects": [                     # one per landmark
+        {"id": "handle_000", "type": "handle",
+         "pose": [[1, 0, 0, 2.0], [0, 1, 0, 0.5], [0, 0, 1, 0.9], [0, 0, 0, 1]],
+         "size": [0.12, 0.02, 0.02], "geometry": "handle_bar"}
+      ]
+    }
+
+Every object's ``geometry`` must be a key of ``class_vertices``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
+
+import networkx as nx
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
+
+from .errors import (
+    CoincidentObjectsError,
+    EmptyWorldError,
+    MalformedFileError,
+    NonFiniteError,
+    NonPositiveError,
+    ShapeError,
+    UnknownGeometryError,
+    UnknownTypeError,
+    WorldGraphError,
+)
+
+if TYPE_CHECKING:  # pragma: no cover
+    import trimesh
+
+    import radialopt
+
+__all__ = [
+    "COINCIDENT_TOLERANCE",
+    "DEFAULT_SIZE",
+    "FILE_FORMAT",
+    "FILE_VERSION",
+    "LinkTable",
+    "ObjectModel",
+    "WorldModel",
+    "box_vertices",
+]
+
+FILE_FORMAT = "worldgraph.WorldModel"
+FILE_VERSION = 1
+#: Two objects of one type closer than this (metres) are coincident.
+COINCIDENT_TOLERANCE = 1e-9
+#: Bounding-box extents (metres) given to objects built from bare positions.
+DEFAULT_SIZE = 0.05
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+
+
+def box_vertices(size: ArrayLike) -> NDArray[np.float64]:
+    """The 8 corners ``(8, 3)`` of an axis-aligned box of extents ``size (3,)`` centred at 0."""
+    half = 0.5 * np.asarray(size, dtype=np.float64)
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64)
+    return signs * half
+
+
+def _check_type_name(value: Any, what: str) -> str:
+    if not isinstance(value, str) or not value:
+        raise UnknownTypeError(f"{what} must be a non-empty string, got {value!r}")
+    return value
+
+
+# ----------------------------------------------------------------------------------------------
+# objects
+# ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class ObjectModel:
+    """One landmark of the world model.
+
+    Parameters
+    ----------
+    id : str
+        Unique name (e.g. the scene-graph node name).
+    type : str
+        Landmark class (``"door"``, ``"handle"``, ``"knob"``, ...); associations match types.
+    pose : (4, 4) float
+        ``world_from_object``, rigid; its origin is the centre of the object's bounding box.
+    size : (3,) float
+        Extents (metres) of the bounding box along the object axes, ``>= 0``.
+    geometry : str
+        Key of the class geometry in :attr:`WorldModel.class_vertices` (e.g. ``"box"``).
+    """
+
+    id: str
+    type: str
+    pose: NDArray[np.float64]
+    size: NDArray[np.float64]
+    geometry: str = "box"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.id, str) or not self.id:
+            raise WorldGraphError(f"ObjectModel.id must be a non-empty string, got {self.id!r}")
+        _check_type_name(self.type, f"ObjectModel {self.id!r} type")
+        if not isinstance(self.geometry, str) or not self.geometry:
+            raise UnknownGeometryError(f"ObjectModel {self.id!r} geometry must be a non-empty string, "
+                                       f"got {self.geometry!r}")
+        pose = np.array(self.pose, dtype=np.float64)
+        size = np.array(self.size, dtype=np.float64)
+        if pose.shape != (4, 4):
+            raise ShapeError(f"ObjectModel {self.id!r} pose must have shape (4, 4), got shape {pose.shape}")
+        if size.shape != (3,):
+            raise ShapeError(f"ObjectModel {self.id!r} size must have shape (3,), got shape {size.shape}")
+        if not np.isfinite(pose).all():
+            raise NonFiniteError(f"ObjectModel {self.id!r} pose must be finite, got {pose.tolist()}")
+        if not np.isfinite(size).all():
+            raise NonFiniteError(f"ObjectModel {self.id!r} size must be finite, got {size.tolist()}")
+        if (size < 0).any():
+            raise NonPositiveError(f"ObjectModel {self.id!r} size must be >= 0, got {size.tolist()}")
+        if np.abs(pose[3] - _LAST_ROW).max() > 1e-9:
+            raise ShapeError(f"ObjectModel {self.id!r} pose last row must be [0, 0, 0, 1], "
+                             f"got {pose[3].tolist()}")
+        pose.setflags(write=False)
+        size.setflags(write=False)
+        object.__setattr__(self, "pose", pose)
+        object.__setattr__(self, "size", size)
+
+    @classmethod
+    def _trusted(cls, id: str, type: str, pose: NDArray[np.float64], size: NDArray[np.float64],
+                 geometry: str) -> ObjectModel:
+        """Build without validation from read-only float64 arrays the caller has checked."""
+        obj = object.__new__(cls)
+        fields = {"id": id, "type": type, "pose": pose, "size": size, "geometry": geometry}
+        for name, value in fields.items():
+            object.__setattr__(obj, name, value)
+        return obj
+
+    @property
+    def position(self) -> NDArray[np.float64]:
+        """Centre of the bounding box in the world frame, ``(3,)``."""
+        return self.pose[:3, 3]
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, ObjectModel):
+            return NotImplemented
+        return (self.id == other.id and self.type == other.type and self.geometry == other.geometry
+                and np.array_equal(self.pose, other.pose) and np.array_equal(self.size, other.size))
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary (the ``objects`` entries of the file format)."""
+        return {"id": self.id, "type": self.type, "pose": self.pose.tolist(), "size": self.size.tolist(),
+                "geometry": self.geometry}
+
+
+# ----------------------------------------------------------------------------------------------
+# link table
+# ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class LinkTable:
+    """Object pairs of one type pair, sorted by length: the paper's distance look-up table.
+
+    For a type pair ``(a, b)`` with ``a < b`` each row holds ``(object of type a, object of
+    type b)``; for ``(a, a)`` each unordered pair appears once with ``i < j``.  Indices are
+    indices into :attr:`WorldModel.objects` (global object indices).
+
+    Parameters
+    ----------
+    i, j : (k,) int
+    length : (k,) float
+        ``|positions[i] - positions[j]|``, non-decreasing.
+    """
+
+    i: NDArray[np.intp]
+    j: NDArray[np.intp]
+    length: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        i = np.array(self.i, dtype=np.intp).reshape(-1) if np.size(self.i) else np.zeros(0, np.intp)
+        j = np.array(self.j, dtype=np.intp).reshape(-1) if np.size(self.j) else np.zeros(0, np.intp)
+        length = np.array(self.length, dtype=np.float64).reshape(-1)
+        if not (i.shape == j.shape == length.shape):
+            raise ShapeError(f"LinkTable i, j, length must have one shape (k,), got {i.shape}, {j.shape}, "
+                             f"{length.shape}")
+        if length.size and (not np.all(np.isfinite(length)) or np.any(np.diff(length) < 0)):
+            raise WorldGraphError("LinkTable lengths must be finite and sorted ascending")
+        for a in (i, j, length):
+            a.setflags(write=False)
+        object.__setattr__(self, "i", i)
+        object.__setattr__(self, "j", j)
+        object.__setattr__(self, "length", length)
+
+    def __len__(self) -> int:
+        return int(self.length.size)
+
+    def in_range(self, lo: float, hi: float,
+                 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
+        """Links with ``lo < length < hi`` by binary search, as ``(i, j, length)`` views."""
+        start = int(np.searchsorted(self.length, lo, side="right"))
+        stop = int(np.searchsorted(self.length, hi, side="left"))
+        stop = max(stop, start)
+        return self.i[start:stop], self.j[start:stop], self.length[start:stop]
+
+
+def _empty_table() -> LinkTable:
+    return LinkTable(np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0))
+
+
+def _rotation_and_scale(matrix: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Split the linear part of a (4, 4) transform into a rotation and per-axis scales."""
+    lin = matrix[:3, :3]
+    scale = np.linalg.norm(lin, axis=0)
+    safe = np.where(scale > 0, scale, 1.0)
+    rot = lin / safe
+    # orthonormalise (removes shear and rounding); keep a proper rotation
+    u, _, vt = np.linalg.svd(rot)
+    rot = u @ vt
+    if np.linalg.det(rot) < 0:
+        u[:, -1] *= -1
+        rot = u @ vt
+    return rot, scale
+
+
+# ----------------------------------------------------------------------------------------------
+# world model
+# ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class WorldModel:
+    """Typed landmarks with their proximity graph and link look-up table.
+
+    Parameters
+    ----------
+    objects : sequence of ObjectModel
+        Non-empty; ids unique; no two objects of one type at the same position.
+    max_link_length : float
+        Pairs closer than this (metres) are graph edges (the paper's ζ for links), ``> 0``.
+    class_vertices : mapping str -> (k, 3) float
+        Vertices of each class geometry in the object frame; must hold every object's geometry.
+    scene : trimesh.Scene or None
+        The scene the model came from (not compared, not saved).
+    link_margin : float
+        The link tables hold pairs closer than ``max_link_length + link_margin`` (``>= 0``), so
+        pairs just above ``max_link_length`` survive percept noise.
+
+    Attributes
+    ----------
+    types : (n,) str ndarray
+    positions : (n, 3) float ndarray, read-only
+    links : dict (str, str) -> LinkTable, keyed by the sorted type pair (every pair of types
+        present has a table, possibly empty)
+    type_index : dict str -> (k,) int, object indices of each type, ascending
+    graph : networkx.Graph (lazy)
+    """
+
+    objects: tuple[ObjectModel, ...]
+    max_link_length: float = 5.0
+    class_vertices: Mapping[str, NDArray[np.float64]] = field(default_factory=dict)
+    scene: Any = None
+    link_margin: float = 0.0
+
+    def __post_init__(self) -> None:
+        objects = tuple(self.objects)
+        if not objects:
+            raise EmptyWorldError("a WorldModel needs at least one object, got 0")
+        for k, obj in enumerate(objects):
+            if not isinstance(obj, ObjectModel):
+                raise WorldGraphError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
+        ids = [o.id for o in objects]
+        if len(set(ids)) != len(ids):
+            seen: set[str] = set()
+            dup = next(x for x in ids if x in seen or seen.add(x))  # type: ignore[func-returns-value]
+            raise WorldGraphError(f"object ids must be unique, {dup!r} appears more than once")
+        mll = float(self.max_link_length)
+        margin = float(self.link_margin)
+        if not math.isfinite(mll) or not math.isfinite(margin):
+            raise NonFiniteError("max_link_length and link_margin must be finite, got "
+                                 f"{self.max_link_length!r} and {self.link_margin!r}")
+        if mll <= 0:
+            raise NonPositiveError(f"max_link_length must be > 0, got {self.max_link_length!r}")
+        if margin < 0:
+            raise NonPositiveError(f"link_margin must be >= 0, got {self.link_margin!r}")
+        cv: dict[str, NDArray[np.float64]] = {}
+        for key, verts in dict(self.class_vertices).items():
+            v = np.array(verts, dtype=np.float64)
+            if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] == 0:
+                raise ShapeError(f"class_vertices[{key!r}] must have shape (k, 3) with k >= 1, "
+                                 f"got shape {v.shape}")
+            if not np.all(np.isfinite(v)):
+                raise NonFiniteError(f"class_vertices[{key!r}] must be finite")
+            v.setflags(write=False)
+            cv[str(key)] = v
+        for obj in objects:
+            if obj.geometry not in cv:
+                raise UnknownGeometryError(f"object {obj.id!r} has geometry {obj.geometry!r}, which is not "
+                                           f"a key of class_vertices {sorted(cv)[:10]}")
+        object.__setattr__(self, "objects", objects)
+        object.__setattr__(self, "max_link_length", mll)
+        object.__setattr__(self, "link_margin", margin)
+        object.__setattr__(self, "class_vertices", cv)
+
+        types = np.array([o.type for o in objects], dtype=str)
+        positions = np.array([o.pose[:3, 3] for o in objects], dtype=np.float64).reshape(len(objects), 3)
+        types.setflags(write=False)
+        positions.setflags(write=False)
+        object.__setattr__(self, "_types", types)
+        object.__setattr__(self, "_positions", positions)
+        self._build_links()
+
+    # -- construction helpers ------------------------------------------------------------------
+    def _build_links(self) -> None:
+        types = self._types
+        positions = self._positions
+        names, codes = np.unique(types, return_inverse=True)
+        codes = codes.reshape(-1)
+        type_index = {str(t): np.flatnonzero(codes == c) for c, t in enumerate(names)}
+        for v in type_index.values():
+            v.setflags(write=False)
+
+        tree = cKDTree(positions)
+        # coincident objects of one type
+        close = tree.query_pairs(COINCIDENT_TOLERANCE, output_type="ndarray")
+        if close.size:
+            same = codes[close[:, 0]] == codes[close[:, 1]]
+            if np.any(same):
+                a, b = close[np.flatnonzero(same)[0]]
+                raise CoincidentObjectsError(
+                    f"objects {self.objects[a].id!r} and {self.objects[b].id!r} of type {types[a]!r} "
+                    f"coincide at {positions[a].tolist()}")
+
+        radius = self.max_link_length + self.link_margin
+        # query slightly wide, then filter with the exact strict test below
+        pairs = tree.query_pairs(radius * (1.0 + 1e-9), output_type="ndarray").astype(np.intp)
+        if pairs.size == 0:
+            pairs = np.zeros((0, 2), np.intp)
+        pi, pj = pairs[:, 0], pairs[:, 1]
+        length = np.sqrt(np.sum((positions[pi] - positions[pj]) ** 2, axis=1))
+        keep = length < radius
+        pi, pj, length = pi[keep], pj[keep], length[keep]
+        # orient rows: (type a, type b) with a < b, or i < j for one type
+        ci, cj = codes[pi], codes[pj]
+        swap = (ci > cj) | ((ci == cj) & (pi > pj))
+        pi, pj = np.where(swap, pj, pi), np.where(swap, pi, pj)
+        ci, cj = np.minimum(ci, cj), np.maximum(ci, cj)
+        nt = len(names)
+        key = ci.astype(np.int64) * nt + cj
+        order = np.lexsort((pj, pi, length, key))
+        pi, pj, length, key = pi[order], pj[order], length[order], key[order]
+        bounds = np.searchsorted(key, np.arange(nt * nt + 1))
+        links: dict[tuple[str, str], LinkTable] = {}
+        for a in range(nt):
+            for b in range(a, nt):
+                k = a * nt + b
+                s, e = bounds[k], bounds[k + 1]
+                links[(str(names[a]), str(names[b]))] = LinkTable(pi[s:e], pj[s:e], length[s:e])
+        object.__setattr__(self, "_type_index", type_index)
+        object.__setattr__(self, "_links", links)
+        object.__setattr__(self, "_tree", tree)
+
+    @classmethod
+    def from_arrays(cls, types: Sequence[str] | ArrayLike, positions: ArrayLike, max_link_length: float = 5.0,
+                    ids: Sequence[str] | None = None, sizes: ArrayLike | None = None,
+                    link_margin: float = 0.0) -> WorldModel:
+        """World model from bare typed positions.
+
+        Parameters
+        ----------
+        types : (n,) str
+            Non-empty strings.
+        positions : (n, 3) float
+            World positions (metres); poses get the identity rotation.
+        max_link_length, link_margin : float
+            See :class:`WorldModel`.
+        ids : (n,) str, optional
+            Default ``f"{type}_{k}"`` with ``k`` the object index.
+        sizes : (n, 3) or (3,) float, optional
+            Bounding-box extents; default :data:`DEFAULT_SIZE` in every axis.
+
+        Each type gets the class geometry of its own name: the corners of a box of the type's
+        median size.
+        """
+        pos = np.array(positions, dtype=np.float64)
+        type_list = [types] if isinstance(types, str) else list(np.asarray(types, dtype=object).reshape(-1))
+        if pos.ndim != 2 or pos.shape[1] != 3:
+            raise ShapeError(f"positions must have shape (n, 3), got shape {pos.shape}")
+        n = pos.shape[0]
+        if n == 0:
+            raise EmptyWorldError("a WorldModel needs at least one object, got positions of shape (0, 3)")
+        if len(type_list) != n:
+            raise ShapeError(f"types must have shape ({n},) to match positions {pos.shape}, "
+                             f"got length {len(type_list)}")
+        for k, t in enumerate(type_list):
+            _check_type_name(t, f"types[{k}]")
+        if not np.all(np.isfinite(pos)):
+            bad = np.argwhere(~np.isfinite(pos))[0]
+            raise NonFiniteError(f"positions must be finite, positions[{bad[0]}] = {pos[bad[0]].tolist()}")
+        if sizes is None:
+            sz = np.full((n, 3), DEFAULT_SIZE)
+        else:
+            sz = np.array(sizes, dtype=np.float64)
+            if sz.shape == (3,):
+                sz = np.broadcast_to(sz, (n, 3))
+            if sz.shape != (n, 3):
+                raise ShapeError(f"sizes must have shape ({n}, 3) or (3,), got shape {sz.shape}")
+            if not np.all(np.isfinite(sz)):
+                bad_rows = sz[~np.isfinite(sz).all(axis=1)][:3].tolist()
+                raise NonFiniteError(f"sizes must be finite, got rows {bad_rows}")
+            if np.any(sz < 0):
+                raise NonPositiveError(f"sizes must be >= 0, got {sz[(sz < 0).any(axis=1)][:3].tolist()}")
+        if ids is None:
+            id_list = [f"{t}_{k}" for k, t in enumerate(type_list)]
+        else:
+            id_list = [str(x) for x in ids]
+            if len(id_list) != n:
+                raise ShapeError(f"ids must have length {n}, got {len(id_list)}")
+        type_arr = np.array(type_list, dtype=str)
+        class_vertices = {}
+        for t in np.unique(type_arr):
+            class_vertices[str(t)] = box_vertices(np.median(sz[type_arr == t], axis=0))
+        poses = np.zeros((n, 4, 4))
+        poses[:, [0, 1, 2, 3], [0, 1, 2, 3]] = 1.0
+        poses[:, :3, 3] = pos
+        sz = np.array(sz, dtype=np.float64)
+        poses.setflags(write=False)
+        sz.setflags(write=False)
+        objs = [ObjectModel._trusted(id_list[k], str(type_list[k]), poses[k], sz[k], str(type_list[k]))
+                for k in range(n)]
+        return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices,
+                   link_margin=link_margin)
+
+    @classmethod
+    def from_trimesh(cls, scene: trimesh.Scene, type_of: Callable[[str, Any], str | None] | None = None,
+                     max_link_length: float = 5.0, link_margin: float = 0.0) -> WorldModel:
+        """World model from a :class:`trimesh.Scene`: one object per geometry node.
+
+        The type of a node is, in this order: ``type_of(node_name, geometry)`` when given (its
+        answer is final, ``None`` skips the node); else ``metadata["type"]`` of the node (set
+        with ``scene.graph.update(..., metadata={"type": ...})`` or ``add_geometry(metadata=)``)
+        or of the geometry; else the node-name prefix before the first ``"_"`` or ``":"`` (the
+        whole name if it has neither).  A metadata type of ``None`` skips the node.
+
+        The object frame is the node frame moved to the centre of the geometry's bounding box
+        (scaling removed), so the position is the world transform applied to that centre;
+        ``size`` is the geometry's extents in its own frame times the node's axis scales.  The
+        geometry key is the scene's geometry name; ``class_vertices`` holds its vertices about
+        the box centre (scaled by the first node that uses it).
+        """
+        try:
+            import trimesh as _trimesh  # noqa: F401
+        except ImportError as exc:  # pragma: no cover
+            from .errors import ImporterError
+            raise ImporterError("from_trimesh needs trimesh: pip install trimesh") from exc
+        graph = scene.graph
+        edge_data = graph.transforms.edge_data
+        parents = graph.transforms.parents
+        objs: list[ObjectModel] = []
+        class_vertices: dict[str, NDArray[np.float64]] = {}
+        for node in graph.nodes_geometry:
+            matrix, geom_name = graph[node]
+            geometry = scene.geometry[geom_name]
+            if type_of is not None:
+                typ = type_of(node, geometry)
+            else:
+                meta = None
+                parent = parents.get(node)
+                if parent is not None:
+                    meta = edge_data.get((parent, node), {}).get("metadata")
+                gmeta = getattr(geometry, "metadata", None) or {}
+                if isinstance(meta, dict) and "type" in meta:
+                    typ = meta["type"]
+                elif "type" in gmeta:
+                    typ = gmeta["type"]
+                else:
+                    typ = str(node).replace(":", "_").split("_", 1)[0]
+            if typ is None:
+                continue
+            _check_type_name(typ, f"type of node {node!r}")
+            matrix = np.asarray(matrix, dtype=np.float64)
+            lo, hi = np.asarray(geometry.bounds, dtype=np.float64)
+            centre = 0.5 * (lo + hi)
+            rot, scale = _rotation_and_scale(matrix)
+            pose = np.eye(4)
+            pose[:3, :3] = rot
+            pose[:3, 3] = matrix[:3, :3] @ centre + matrix[:3, 3]
+            size = (hi - lo) * scale
+            key = str(geom_name)
+            if key not in class_vertices:
+                class_vertices[key] = (np.asarray(geometry.vertices, dtype=np.float64) - centre) * scale
+            objs.append(ObjectModel(str(node), str(typ), pose, size, key))
+        if not objs:
+            raise EmptyWorldError("the scene has no typed geometry nodes")
+        return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
+                   link_margin=link_margin)
+
+    # -- derived data ----------------------------------------------------------------------------
+    @property
+    def types(self) -> NDArray[np.str_]:
+        """Object types ``(n,)``."""
+        return self._types  # type: ignore[attr-defined,no-any-return]
+
+    @property
+    def positions(self) -> NDArray[np.float64]:
+        """Object positions ``(n, 3)`` (read-only)."""
+        return self._positions  # type: ignore[attr-defined,no-any-return]
+
+    @property
+    def links(self) -> dict[tuple[str, str], LinkTable]:
+        """Link tables keyed by the sorted type pair."""
+        return self._links  # type: ignore[attr-defined,no-any-return]
+
+    @property
+    def type_index(self) -> dict[str, NDArray[np.intp]]:
+        """Object indices of each type, ascending."""
+        return self._type_index  # type: ignore[attr-defined,no-any-return]
+
+    @property
+    def tree(self) -> cKDTree:
+        """A :class:`scipy.spatial.cKDTree` over :attr:`positions`."""
+        return self._tree  # type: ignore[attr-defined,no-any-return]
+
+    @property
+    def type_names(self) -> tuple[str, ...]:
+        """Sorted distinct types."""
+        return tuple(self._type_index)  # type: ignore[attr-defined]
+
+    @cached_property
+    def graph(self) -> nx.Graph:
+        """Proximity graph: node = object index (attributes id, type, position, size), edge =
+        pair closer than ``max_link_length`` (attribute ``length``)."""
+        g = nx.Graph()
+        g.add_nodes_from((k, {"id": o.id, "type": o.type, "position": self._positions[k], "size": o.size})
+                         for k, o in enumerate(self.objects))
+        for table in self._links.values():
+            i, j, length = table.in_range(-1.0, self.max_link_length)
+            attrs = ({"length": x} for x in length.tolist())
+            g.add_edges_from(zip(i.tolist(), j.tolist(), attrs, strict=True))
+        return g
+
+    def __len__(self) -> int:
+        return len(self.objects)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, WorldModel):
+            return NotImplemented
+        if (self.max_link_length != other.max_link_length or self.link_margin != other.link_margin
+                or self.objects != other.objects):
+            return False
+        if self.class_vertices.keys() != other.class_vertices.keys():
+            return False
+        return all(np.array_equal(v, other.class_vertices[k]) for k, v in self.class_vertices.items())
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        counts = ", ".join(f"{t}={len(v)}" for t, v in self.type_index.items())
+        return f"WorldModel({len(self)} objects: {counts}; max_link_length={self.max_link_length})"
+
+    def _check_known_type(self, t: str) -> None:
+        if t not in self._type_index:  # type: ignore[attr-defined]
+            raise UnknownTypeError(f"type {t!r} is not in the world model; "
+                                   f"known types: {list(self.type_index)}")
+
+    def link_lengths(self, type_a: str, type_b: str, lo: float = -math.inf, hi: float = math.inf,
+                     ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
+        """Links between ``type_a`` and ``type_b`` objects with ``lo < length < hi``.
+
+        Returns ``(i, j, length)``, ``i`` global indices of ``type_a`` objects and ``j`` of
+        ``type_b`` objects, sorted by length.  Only links shorter than ``max_link_length +
+        link_margin`` exist.  For ``type_a == type_b`` each pair appears once (``i < j``).
+        The defaults return every link (including zero-length ones between coincident objects
+        of different types).
+        """
+        self._check_known_type(type_a)
+        self._check_known_type(type_b)
+        if type_a <= type_b:
+            return self._links[(type_a, type_b)].in_range(lo, hi)  # type: ignore[attr-defined,no-any-return]
+        i, j, length = self._links[(type_b, type_a)].in_range(lo, hi)  # type: ignore[attr-defined]
+        return j, i, length
+
+    def indices_of(self, type_name: str) -> NDArray[np.intp]:
+        """Object indices of one type (``UnknownTypeError`` if absent)."""
+        self._check_known_type(type_name)
+        return self._type_index[type_name]  # type: ignore[attr-defined,no-any-return]
+
+    @property
+    def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(lower (3,), upper (3,))`` of the union of the objects' oriented bounding boxes."""
+        rot = np.array([o.pose[:3, :3] for o in self.objects])
+        half = np.einsum("nij,nj->ni", np.abs(rot), np.array([o.size for o in self.objects]) * 0.5)
+        return (self.positions - half).min(axis=0), (self.positions + half).max(axis=0)
+
+    def region(self, margin: float = 0.0) -> radialopt.Region:
+        """Box of valid robot positions: above the floor (the lowest object point) and inside the model.
+
+        ``margin`` (metres) widens the box in x and y on both sides and raises its top; the
+        bottom stays at floor height.  A negative margin shrinks it.
+        """
+        from radialopt import Region
+
+        if not math.isfinite(margin):
+            raise NonFiniteError(f"margin must be finite, got {margin!r}")
+        lo, hi = self.bounds
+        lower = np.array([lo[0] - margin, lo[1] - margin, lo[2]])
+        upper = np.array([hi[0] + margin, hi[1] + margin, hi[2] + margin])
+        return Region(lower, upper)
+
+    def subset(self, types: Iterable[str]) -> WorldModel:
+        """A world model holding only the objects of the given types (same link settings)."""
+        keep = set(types)
+        for t in keep:
+            self._check_known_type(t)
+        objs = tuple(o for o in self.objects if o.type in keep)
+        cv = {o.geometry: self.class_vertices[o.geometry] for o in objs}
+        return WorldModel(objs, self.max_link_length, cv, scene=None, link_margin=self.link_margin)
+
+    # -- files -----------------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary in the documented file format."""
+        return {
+            "format": FILE_FORMAT,
+            "version": FILE_VERSION,
+            "max_link_length": self.max_link_length,
+            "link_margin": self.link_margin,
+            "class_vertices": {k: v.tolist() for k, v in self.class_vertices.items()},
+            "objects": [o.to_dict() for o in self.objects],
+        }
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the model as JSON (see the module docstring for the format)."""
+        with open(path, "w", encoding="utf-8") as fh:
+            json.dump(self.to_dict(), fh, indent=1, allow_nan=False)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> WorldModel:
+        """Read a model written by :meth:`save` (or by hand); ``MalformedFileError`` names the problem."""
+        try:
+            with open(path, encoding="utf-8") as fh:
+                data = json.load(fh)
+        except json.JSONDecodeError as exc:
+            raise MalformedFileError(f"{os.fspath(path)!s}: not valid JSON: {exc}") from exc
+        except OSError as exc:
+            raise MalformedFileError(f"{os.fspath(path)!s}: cannot read: {exc}") from exc
+        return cls.from_dict(data, source=os.fspath(path))
+
+    @classmethod
+    def from_dict(cls, data: Any, source: str = "<dict>") -> WorldModel:
+        """Build from the dictionary of the file format, validating every entry."""
+        def bad(msg: str) -> MalformedFileError:
+            return MalformedFileError(f"{source}: {msg}")
+
+        if not isinstance(data, dict):
+            raise bad(f"top level must be a JSON object, got {type(data).__name__}")
+        for key in ("version", "max_link_length", "objects", "class_vertices"):
+            if key not in data:
+                raise bad(f"missing key {key!r}")
+        if data.get("format", FILE_FORMAT) != FILE_FORMAT:
+            raise bad(f"format must be {FILE_FORMAT!r}, got {data['format']!r}")
+        if data["version"] != FILE_VERSION:
+            raise bad(f"unsupported version {data['version']!r}, this reader reads version {FILE_VERSION}")
+
+        def number(value: Any, what: str) -> float:
+            if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+                raise bad(f"{what} must be a finite number, got {value!r}")
+            return float(value)
+
+        def array(value: Any, shape: tuple[int | None, ...], what: str) -> NDArray[np.float64]:
+            try:
+                arr = np.array(value, dtype=np.float64)
+            except (TypeError, ValueError) as exc:
+                raise bad(f"{what} must be an array of numbers of shape {shape}, got {value!r}") from exc
+            if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape,
+                                                                                    strict=True)):
+                raise bad(f"{what} must have shape {shape}, got shape {arr.shape}")
+            if not np.all(np.isfinite(arr)):
+                raise bad(f"{what} must be finite (no NaN/inf), got {arr.tolist()}")
+            return arr
+
+        mll = number(data["max_link_length"], "max_link_length")
+        margin = number(data.get("link_margin", 0.0), "link_margin")
+        if not isinstance(data["class_vertices"], dict):
+            raise bad("class_vertices must be an object mapping geometry keys to vertex lists")
+        cv = {str(k): array(v, (None, 3), f"class_vertices[{k!r}]")
+              for k, v in data["class_vertices"].items()}
+        if not isinstance(data["objects"], list):
+            raise bad("objects must be a list")
+        objs = []
+        for k, entry in enumerate(data["objects"]):
+            if not isinstance(entry, dict):
+                raise bad(f"objects[{k}] must be an object, got {entry!r}")
+            for key in ("id", "type", "pose", "size", "geometry"):
+                if key not in entry:
+                    raise bad(f"objects[{k}] is missing key {key!r}")
+            name = f"objects[{k}] ({entry['id']!r})"
+            for key in ("id", "type", "geometry"):
+                if not isinstance(entry[key], str) or not entry[key]:
+                    raise bad(f"{name}.{key} must be a non-empty string, got {entry[key]!r}")
+            pose = array(entry["pose"], (4, 4), f"{name}.pose")
+            size = array(entry["size"], (3,), f"{name}.size")
+            try:
+                objs.append(ObjectModel(entry["id"], entry["type"], pose, size, entry["geometry"]))
+            except WorldGraphError as exc:
+                raise bad(str(exc)) from exc
+        try:
+            return cls(tuple(objs), max_link_length=mll, class_vertices=cv, link_margin=margin)
+        except WorldGraphError as exc:
+            raise bad(str(exc)) from exc

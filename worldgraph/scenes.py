@@ -1,0 +1,680 @@
+"""Procedural scenes: the embedded default data of the examples and benchmarks.
+
+* :func:`kitchen_scene` / :func:`kitchen`: a kitchen with the statistics of the paper's model
+  (section 4: 611 rectangular prisms, 124 cylinders, 18 general polyhedra, 13,853 vertices,
+  753 objects) in a 10 x 8 x 3 m room: runs of base and wall cabinets along two walls, each
+  with doors (one handle per door) or drawer stacks (a handle, or a knob, per drawer), tall
+  pantry units, an island, a stove with knobs, appliances, a table with chairs, a room door,
+  and clutter (boxes, jars, cups) on counters and shelves.  The layout (cabinet widths, door or
+  drawer fronts, shelves, clutter) is drawn from ``seed``; the primitive counts are the
+  paper's for every seed (clutter fills the difference).
+* :func:`corridor_scene` / :func:`corridor`: a building corridor with doors on both sides, a
+  handle on each door at one height (a coplanar landmark case), light switches and lamps.
+* :func:`floor`: a large floor of many corridors and rooms, built from arrays, for the
+  20,000-object association benchmark.
+
+Every object of a scene is a geometry node of a :class:`trimesh.Scene` named
+``f"{type}_{k:03d}"`` whose node metadata holds ``{"type": type}``; each mesh's metadata
+holds ``{"primitive": "box" | "cylinder" | "polyhedron"}``.  Meshes are shared by reference
+between nodes of one size class.  Walls, floor and ceiling are typed ``"wall"``, ``"floor"``
+and ``"ceiling"`` (they are objects of the model like in the paper's CAD scene graph; drop them
+with ``world.subset(...)`` if they are not wanted as landmarks, see :data:`STRUCTURAL_TYPES`).
+
+World frame: z up, the floor at z = 0, the room in ``[0, 10] x [0, 8] x [0, 3]`` metres.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import trimesh
+from numpy.typing import NDArray
+
+from .errors import WorldGraphError
+from .model import WorldModel
+
+__all__ = [
+    "KITCHEN_ROOM",
+    "KITCHEN_TARGETS",
+    "STRUCTURAL_TYPES",
+    "corridor",
+    "corridor_scene",
+    "floor",
+    "kitchen",
+    "kitchen_scene",
+    "scene_statistics",
+]
+
+#: Extents (x, y, z) of the kitchen room in metres.
+KITCHEN_ROOM = (10.0, 8.0, 3.0)
+#: The paper's kitchen model (section 4).
+KITCHEN_TARGETS = {"box": 611, "cylinder": 124, "polyhedron": 18, "vertices": 13853, "objects": 753}
+#: Types of the room structure (not landmarks a robot would pick).
+STRUCTURAL_TYPES = ("wall", "floor", "ceiling")
+
+_CYLINDER_SECTIONS = 32  # 2 * 32 + 2 = 66 vertices per cylinder
+_UP = np.array([0.0, 0.0, 1.0])
+
+
+# ----------------------------------------------------------------------------------------------
+# meshes
+# ----------------------------------------------------------------------------------------------
+def _prism(bottom: NDArray[np.float64], top: NDArray[np.float64], z0: float, z1: float) -> trimesh.Trimesh:
+    """Convex polyhedron between two convex polygons ``(k, 2)`` (counter-clockwise) at heights z0 < z1."""
+    k = bottom.shape[0]
+    verts = np.vstack([np.column_stack([bottom, np.full(k, z0)]), np.column_stack([top, np.full(k, z1)])])
+    idx = np.arange(k)
+    nxt = (idx + 1) % k
+    sides = np.vstack([np.column_stack([idx, nxt, nxt + k]), np.column_stack([idx, nxt + k, idx + k])])
+    fan = np.column_stack([np.zeros(k - 2, int), np.arange(2, k), np.arange(1, k - 1)])  # bottom, facing down
+    cap = np.column_stack([np.full(k - 2, k), k + np.arange(1, k - 1), k + np.arange(2, k)])
+    mesh = trimesh.Trimesh(verts, np.vstack([sides, fan, cap]), process=False)
+    return mesh
+
+
+def _rounded_rect(width: float, depth: float, radius: float, segments: int) -> NDArray[np.float64]:
+    """Counter-clockwise rounded rectangle ``(4 * (segments + 1), 2)`` centred at 0."""
+    pts = []
+    hx, hy = width / 2 - radius, depth / 2 - radius
+    corners = [(hx, hy, 0.0), (-hx, hy, 0.5), (-hx, -hy, 1.0), (hx, -hy, 1.5)]
+    for cx, cy, start in corners:
+        ang = math.pi * (start + 0.5 * np.linspace(0.0, 1.0, segments + 1))
+        pts.append(np.column_stack([cx + radius * np.cos(ang), cy + radius * np.sin(ang)]))
+    return np.vstack(pts)
+
+
+def _rounded_box(size: tuple[float, float, float], radius: float, segments: int = 4,
+                 taper: float = 1.0) -> trimesh.Trimesh:
+    """A rounded (and optionally tapered) box centred at 0: 8 * (segments + 1) vertices."""
+    w, d, h = size
+    base = _rounded_rect(w, d, radius, segments)
+    return _prism(base, base * taper, -h / 2, h / 2)
+
+
+def _frustum(radius: float, height: float, sides: int, taper: float) -> trimesh.Trimesh:
+    """A regular ``sides``-gon frustum (top radius ``taper * radius``): 2 * sides vertices."""
+    ang = np.linspace(0.0, 2 * math.pi, sides, endpoint=False)
+    ring = radius * np.column_stack([np.cos(ang), np.sin(ang)])
+    return _prism(ring, ring * taper, -height / 2, height / 2)
+
+
+# ----------------------------------------------------------------------------------------------
+# scene builder
+# ----------------------------------------------------------------------------------------------
+def _frame(origin: NDArray[np.float64], normal: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``world_from_run``: x along the run, y out of the wall (``normal``), z up."""
+    n = np.asarray(normal, dtype=np.float64)
+    u = np.cross(n, _UP)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = u, n, _UP, origin
+    return m
+
+
+def _translate(x: float, y: float, z: float) -> NDArray[np.float64]:
+    m = np.eye(4)
+    m[:3, 3] = (x, y, z)
+    return m
+
+
+_ROT_X90 = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])  # local z axis -> -y
+
+
+@dataclass
+class _Builder:
+    scene: trimesh.Scene = field(default_factory=trimesh.Scene)
+    counts: dict[str, int] = field(default_factory=dict)
+    primitives: dict[str, int] = field(default_factory=lambda: {"box": 0, "cylinder": 0, "polyhedron": 0})
+    #: surfaces clutter can stand on: (world_from_run, (x0, x1), (y0, y1), z)
+    surfaces: list[tuple[NDArray[np.float64], tuple[float, float], tuple[float, float], float]] = field(
+        default_factory=list)
+
+    def _geometry(self, key: str, make: object, primitive: str) -> str:
+        if key not in self.scene.geometry:
+            mesh = make() if callable(make) else make
+            mesh.metadata["primitive"] = primitive
+            self.scene.geometry.update({key: mesh})
+        return key
+
+    def _node(self, typ: str, key: str, matrix: NDArray[np.float64], primitive: str) -> str:
+        k = self.counts.get(typ, 0)
+        self.counts[typ] = k + 1
+        name = f"{typ}_{k:03d}"
+        self.scene.graph.update(frame_to=name, frame_from=self.scene.graph.base_frame, matrix=matrix,
+                                geometry=key, metadata={"type": typ})
+        self.primitives[primitive] += 1
+        return name
+
+    def box(self, typ: str, size: tuple[float, float, float], world_from_box: NDArray[np.float64],
+            key: str | None = None) -> str:
+        """Box of extents ``size`` whose centre frame is ``world_from_box``."""
+        size = tuple(round(float(s), 4) for s in size)  # type: ignore[assignment]
+        gkey = self._geometry(key or f"box_{size[0]:g}x{size[1]:g}x{size[2]:g}",
+                              lambda: trimesh.creation.box(extents=size), "box")
+        return self._node(typ, gkey, world_from_box, "box")
+
+    def cylinder(self, typ: str, radius: float, height: float, world_from_cyl: NDArray[np.float64]) -> str:
+        """Cylinder along its local z axis, centred at the frame origin."""
+        radius, height = round(float(radius), 4), round(float(height), 4)
+        gkey = self._geometry(f"cylinder_r{radius:g}_h{height:g}",
+                              lambda: trimesh.creation.cylinder(radius=radius, height=height,
+                                                                sections=_CYLINDER_SECTIONS), "cylinder")
+        return self._node(typ, gkey, world_from_cyl, "cylinder")
+
+    def polyhedron(self, typ: str, key: str, mesh: trimesh.Trimesh,
+                   world_from_mesh: NDArray[np.float64]) -> str:
+        gkey = self._geometry(key, mesh, "polyhedron")
+        return self._node(typ, gkey, world_from_mesh, "polyhedron")
+
+    def local_box(self, typ: str, run: NDArray[np.float64], lo: tuple[float, float, float],
+                  hi: tuple[float, float, float], key: str | None = None) -> str:
+        """Axis-aligned box between corners ``lo`` and ``hi`` of a run frame."""
+        lo_a, hi_a = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+        c = 0.5 * (lo_a + hi_a)
+        return self.box(typ, tuple(hi_a - lo_a), run @ _translate(*c), key)  # type: ignore[arg-type]
+
+
+# ----------------------------------------------------------------------------------------------
+# kitchen
+# ----------------------------------------------------------------------------------------------
+_BASE_WIDTHS = np.array([0.4, 0.45, 0.5, 0.6, 0.6, 0.8])
+_WALL_WIDTHS = np.array([0.4, 0.5, 0.6, 0.6, 0.8])
+_HANDLE = (0.16, 0.03, 0.012)  # bar handle: length, depth (out of the front), thickness
+_KNOB_R, _KNOB_H = 0.015, 0.025
+_CYLINDER_CLUTTER = ((0.04, 0.1, "cup"), (0.05, 0.14, "jar"), (0.035, 0.3, "bottle"))
+
+
+def _handle(b: _Builder, run: NDArray[np.float64], x: float, y_front: float, z: float,
+            vertical: bool) -> None:
+    length, depth, thick = _HANDLE
+    size = (thick, depth, length) if vertical else (length, depth, thick)
+    b.box("handle", size, run @ _translate(x, y_front + depth / 2, z), key="handle_bar_v" if vertical
+          else "handle_bar_h")
+
+
+def _knob(b: _Builder, run: NDArray[np.float64], x: float, y_front: float, z: float,
+          typ: str = "knob") -> None:
+    b.cylinder(typ, _KNOB_R, _KNOB_H, run @ _translate(x, y_front + _KNOB_H / 2, z) @ _ROT_X90)
+
+
+def _base_unit(b: _Builder, rng: np.random.Generator, run: NDArray[np.float64], x0: float, w: float,
+               depth: float, front: str, knobs: bool | None = None) -> None:
+    """Base cabinet: carcass, shelf, doors or a drawer stack, a handle (or knob) per front."""
+    z0, z1 = 0.1, 0.86
+    b.local_box("cabinet", run, (x0 + 0.002, 0.0, z0), (x0 + w - 0.002, depth - 0.02, z1))
+    b.local_box("plinth", run, (x0, depth - 0.08, 0.0), (x0 + w, depth - 0.06, z0))
+    yf = depth
+    if front == "drawers":
+        n = int(rng.integers(3, 5))
+        h = (z1 - z0) / n
+        with_knobs = bool(rng.random() < 0.3) if knobs is None else knobs
+        for k in range(n):
+            zb = z0 + k * h
+            b.local_box("drawer", run, (x0 + 0.003, yf - 0.02, zb + 0.003),
+                        (x0 + w - 0.003, yf, zb + h - 0.003))
+            if with_knobs:
+                _knob(b, run, x0 + w / 2, yf, zb + h - 0.06)
+            else:
+                _handle(b, run, x0 + w / 2, yf, zb + h - 0.06, vertical=False)
+    else:
+        b.local_box("shelf", run, (x0 + 0.02, 0.02, 0.47), (x0 + w - 0.02, depth - 0.04, 0.49))
+        b.surfaces.append((run, (x0 + 0.06, x0 + w - 0.06), (0.08, depth - 0.12), 0.49))
+        ndoor = 1 if w <= 0.6 else 2
+        dw = w / ndoor
+        for k in range(ndoor):
+            xa = x0 + k * dw
+            b.local_box("door", run, (xa + 0.003, yf - 0.02, z0 + 0.003), (xa + dw - 0.003, yf, z1 - 0.003))
+            hinge_left = (k == 1) if ndoor == 2 else bool(rng.random() < 0.5)
+            hx = xa + 0.05 if not hinge_left else xa + dw - 0.05
+            _handle(b, run, hx, yf, z1 - 0.12, vertical=True)
+
+
+def _wall_unit(b: _Builder, rng: np.random.Generator, run: NDArray[np.float64], x0: float, w: float,
+               z0: float = 1.45, z1: float = 2.2, depth: float = 0.35) -> None:
+    b.local_box("cabinet", run, (x0 + 0.002, 0.0, z0), (x0 + w - 0.002, depth - 0.02, z1))
+    zm = 0.5 * (z0 + z1)
+    b.local_box("shelf", run, (x0 + 0.02, 0.02, zm - 0.01), (x0 + w - 0.02, depth - 0.04, zm + 0.01))
+    b.surfaces.append((run, (x0 + 0.06, x0 + w - 0.06), (0.06, depth - 0.1), zm + 0.01))
+    b.surfaces.append((run, (x0 + 0.06, x0 + w - 0.06), (0.06, depth - 0.1), z0 + 0.02))
+    ndoor = 1 if w <= 0.6 else 2
+    dw = w / ndoor
+    for k in range(ndoor):
+        xa = x0 + k * dw
+        b.local_box("door", run, (xa + 0.003, depth - 0.02, z0 + 0.003), (xa + dw - 0.003, depth, z1 - 0.003))
+        hinge_left = (k == 1) if ndoor == 2 else bool(rng.random() < 0.5)
+        hx = xa + 0.05 if not hinge_left else xa + dw - 0.05
+        _handle(b, run, hx, depth, z0 + 0.12, vertical=True)
+
+
+def _fill_widths(rng: np.random.Generator, length: float, widths: NDArray[np.float64]) -> list[float]:
+    """Cabinet widths (from ``widths``) that fill ``length`` up to < 0.4 m."""
+    out: list[float] = []
+    left = length
+    while left >= widths.min() - 1e-9:
+        fit = widths[widths <= left + 1e-9]
+        w = float(rng.choice(fit))
+        out.append(w)
+        left -= w
+    return out
+
+
+def _appliance_meshes() -> dict[str, tuple[str, trimesh.Trimesh]]:
+    """The 18 general polyhedra: key -> (type, mesh centred at its bounding-box centre)."""
+    m: dict[str, tuple[str, trimesh.Trimesh]] = {}
+    m["fridge"] = ("appliance", _rounded_box((0.88, 0.66, 2.0), 0.04, 4))
+    m["oven"] = ("appliance", _rounded_box((0.58, 0.56, 0.58), 0.02, 4))
+    m["steam_oven"] = ("appliance", _rounded_box((0.58, 0.56, 0.45), 0.02, 4))
+    m["cooktop"] = ("appliance", _rounded_box((0.58, 0.5, 0.05), 0.03, 4))
+    m["hood"] = ("appliance", _rounded_box((0.9, 0.5, 0.4), 0.03, 4, taper=0.45))
+    m["dishwasher"] = ("appliance", _rounded_box((0.58, 0.56, 0.76), 0.01, 4))
+    m["microwave"] = ("appliance", _rounded_box((0.5, 0.38, 0.3), 0.03, 4))
+    m["wine_cooler"] = ("appliance", _rounded_box((0.58, 0.56, 0.76), 0.015, 4))
+    m["washer"] = ("appliance", _rounded_box((0.58, 0.56, 0.76), 0.05, 4))
+    m["coffee_machine"] = ("appliance", _rounded_box((0.25, 0.4, 0.38), 0.05, 4))
+    m["toaster"] = ("appliance", _rounded_box((0.3, 0.18, 0.2), 0.06, 4))
+    m["kettle"] = ("appliance", _frustum(0.1, 0.25, 20, 0.7))
+    m["blender"] = ("appliance", _rounded_box((0.16, 0.16, 0.4), 0.05, 4, taper=0.8))
+    m["mixer"] = ("appliance", _rounded_box((0.22, 0.36, 0.35), 0.08, 4))
+    m["trash_bin"] = ("appliance", _frustum(0.15, 0.6, 20, 1.15))
+    m["sink"] = ("sink", _rounded_box((0.5, 0.4, 0.2), 0.06, 4, taper=0.85))
+    m["sink_island"] = ("sink", _rounded_box((0.4, 0.4, 0.2), 0.08, 4, taper=0.85))
+    m["radio"] = ("appliance", _rounded_box((0.3, 0.12, 0.18), 0.04, 4))
+    return m
+
+
+def kitchen_scene(seed: int = 0) -> trimesh.Scene:
+    """A procedurally generated kitchen as a :class:`trimesh.Scene` (see the module docstring).
+
+    Parameters
+    ----------
+    seed : int
+        Draws the cabinet widths, fronts, handle sides, clutter; the same seed gives the same
+        scene, node names and transforms.
+
+    Returns
+    -------
+    trimesh.Scene
+        753 geometry nodes: 611 boxes, 124 cylinders, 18 general polyhedra; ``scene.metadata``
+        holds ``"primitive_counts"`` and ``"seed"``.
+    """
+    rng = np.random.default_rng(seed)
+    b = _Builder()
+    rx, ry, rz = KITCHEN_ROOM
+    # --- room structure: floor, ceiling, 4 walls (6 boxes)
+    b.box("floor", (rx, ry, 0.05), _translate(rx / 2, ry / 2, -0.025))
+    b.box("ceiling", (rx, ry, 0.05), _translate(rx / 2, ry / 2, rz + 0.025))
+    b.box("wall", (rx, 0.1, rz), _translate(rx / 2, -0.05, rz / 2))
+    b.box("wall", (rx, 0.1, rz), _translate(rx / 2, ry + 0.05, rz / 2))
+    b.box("wall", (0.1, ry, rz), _translate(-0.05, ry / 2, rz / 2))
+    b.box("wall", (0.1, ry, rz), _translate(rx + 0.05, ry / 2, rz / 2))
+    # room door in the right wall (x = rx), facing -x
+    door_run = _frame(np.array([rx, 1.0, 0.0]), np.array([-1.0, 0.0, 0.0]))
+    b.local_box("door", door_run, (0.0, 0.0, 0.0), (0.9, 0.04, 2.05))
+    b.local_box("frame", door_run, (-0.06, 0.0, 0.0), (0.0, 0.06, 2.1))
+    b.local_box("frame", door_run, (0.9, 0.0, 0.0), (0.96, 0.06, 2.1))
+    b.local_box("frame", door_run, (-0.06, 0.0, 2.05), (0.96, 0.06, 2.1))
+    _handle(b, door_run, 0.8, 0.04, 1.05, vertical=False)
+    b.local_box("switch", door_run, (1.05, 0.0, 1.02), (1.13, 0.012, 1.1))
+    # windows in the front wall (y = 0)
+    win_run = _frame(np.array([0.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
+    n_win = 2
+    for k in range(n_win):
+        xc = (k + 1) * rx / (n_win + 1) + rng.uniform(-0.3, 0.3)
+        b.local_box("window", win_run, (xc - 0.6, 0.0, 1.0), (xc + 0.6, 0.08, 2.2))
+        b.local_box("windowsill", win_run, (xc - 0.65, 0.0, 0.95), (xc + 0.65, 0.2, 1.0))
+        b.local_box("radiator", win_run, (xc - 0.5, 0.05, 0.2), (xc + 0.5, 0.15, 0.8))
+
+    apps = _appliance_meshes()
+
+    def appliance(name: str, run: NDArray[np.float64], centre: tuple[float, float, float]) -> None:
+        typ, mesh = apps[name]
+        b.polyhedron(typ, name, mesh, run @ _translate(*centre))
+
+    # --- run A along the back wall (y = ry), facing -y, from x = rx (right) to x = 0 (left)
+    run_a = _frame(np.array([rx, ry, 0.0]), np.array([0.0, -1.0, 0.0]))
+    x = 0.0
+    # tall units at the right end: fridge, oven tower (steam oven + oven + microwave), pantry
+    appliance("fridge", run_a, (x + 0.45, 0.34, 1.0))
+    x += 0.9
+    b.local_box("cabinet", run_a, (x, 0.0, 0.0), (x + 0.6, 0.58, 2.2))
+    appliance("steam_oven", run_a, (x + 0.3, 0.3, 1.55))
+    appliance("oven", run_a, (x + 0.3, 0.3, 0.95))
+    b.local_box("drawer", run_a, (x + 0.003, 0.56, 0.1), (x + 0.597, 0.58, 0.62))
+    _handle(b, run_a, x + 0.3, 0.58, 0.56, vertical=False)
+    b.local_box("door", run_a, (x + 0.003, 0.56, 1.8), (x + 0.597, 0.58, 2.2))
+    _handle(b, run_a, x + 0.3, 0.58, 1.85, vertical=False)
+    x += 0.6
+    n_pantry = 2
+    for _ in range(n_pantry):
+        b.local_box("cabinet", run_a, (x, 0.0, 0.0), (x + 0.6, 0.58, 2.2))
+        for zs in (0.5, 0.9, 1.3, 1.7):
+            b.local_box("shelf", run_a, (x + 0.02, 0.02, zs), (x + 0.58, 0.54, zs + 0.02))
+            b.surfaces.append((run_a, (x + 0.08, x + 0.52), (0.08, 0.45), zs + 0.02))
+        b.local_box("door", run_a, (x + 0.003, 0.56, 0.1), (x + 0.597, 0.58, 2.197))
+        _handle(b, run_a, x + 0.05, 0.58, 1.0, vertical=True)
+        x += 0.6
+    # base run with sink, dishwasher, cooktop over oven-free drawers
+    base_len_a = rx - x - 0.62  # leave the corner to run B
+    widths = _fill_widths(rng, base_len_a - 0.6 * 2, _BASE_WIDTHS)  # two 0.6 slots: dishwasher, sink
+    slots: list[tuple[str, float]] = [("base", w) for w in widths]
+    pos_dw = int(rng.integers(0, len(slots) + 1))
+    slots.insert(pos_dw, ("dishwasher", 0.6))
+    slots.insert(pos_dw + int(rng.integers(0, 2)), ("sink", 0.6))
+    cook_slot = next(k for k, (kind, w) in enumerate(slots) if kind == "base" and w >= 0.6)
+    slots[cook_slot] = ("cooktop", slots[cook_slot][1])
+    run_a_start = x
+    for kind, w in slots:
+        if kind == "dishwasher":
+            appliance("dishwasher", run_a, (x + 0.3, 0.3, 0.48))
+            _handle(b, run_a, x + 0.3, 0.58, 0.8, vertical=False)
+        elif kind == "sink":
+            _base_unit(b, rng, run_a, x, w, 0.58, "doors")
+            appliance("sink", run_a, (x + 0.3, 0.3, 0.8))
+            b.cylinder("faucet", 0.015, 0.3, run_a @ _translate(x + 0.3, 0.08, 1.05))
+        elif kind == "cooktop":
+            _base_unit(b, rng, run_a, x, w, 0.58, "drawers", knobs=False)
+            appliance("cooktop", run_a, (x + w / 2, 0.3, 0.925))
+            appliance("hood", run_a, (x + w / 2, 0.25, 1.9))
+            for k in range(5):
+                _knob(b, run_a, x + w / 2 - 0.2 + 0.1 * k, 0.58, 0.835)
+            for k in range(4):  # pots and pans on the burners
+                b.cylinder("pot", 0.09 + 0.02 * (k % 2), 0.12, run_a @ _translate(
+                    x + w / 2 + (-0.14 if k % 2 == 0 else 0.14), 0.18 + 0.24 * (k // 2), 1.01))
+        else:
+            _base_unit(b, rng, run_a, x, w, 0.58, "drawers" if rng.random() < 0.35 else "doors")
+        x += w
+    b.local_box("countertop", run_a, (run_a_start, 0.0, 0.86), (rx - 0.62, 0.62, 0.9))
+    b.local_box("backsplash", run_a, (run_a_start, 0.0, 0.9), (rx - 0.01, 0.01, 1.45))
+    # wall cabinets over run A (except over the hood)
+    cook_x = run_a_start + sum(w for _, w in slots[:cook_slot])
+    cook_w = slots[cook_slot][1]
+    for xa, xb in ((run_a_start, cook_x), (cook_x + cook_w, rx - 0.35)):
+        xw = xa
+        for w in _fill_widths(rng, xb - xa, _WALL_WIDTHS):
+            _wall_unit(b, rng, run_a, xw, w)
+            xw += w
+
+    # --- run B along the left wall (x = 0), facing +x, from y = ry - 0.62 down
+    run_b = _frame(np.array([0.0, ry - 0.62, 0.0]), np.array([1.0, 0.0, 0.0]))
+    # along run B, local x goes in direction n x up = (0, -1, 0): from the back wall towards y = 0
+    len_b = ry - 0.62 - 1.8
+    widths_b = _fill_widths(rng, len_b - 0.6, _BASE_WIDTHS)
+    pos_w = int(rng.integers(0, len(widths_b) + 1))
+    slots_b: list[tuple[str, float]] = [("base", w) for w in widths_b]
+    slots_b.insert(pos_w, ("washer", 0.6))
+    x = 0.0
+    for kind, w in slots_b:
+        if kind == "washer":
+            appliance("washer", run_b, (x + 0.3, 0.3, 0.48))
+        else:
+            _base_unit(b, rng, run_b, x, w, 0.58, "drawers" if rng.random() < 0.4 else "doors")
+        x += w
+    end_b = x
+    b.local_box("countertop", run_b, (-0.62, 0.0, 0.86), (end_b, 0.62, 0.9))
+    b.local_box("backsplash", run_b, (0.0, 0.0, 0.9), (end_b, 0.01, 1.45))
+    xw = 0.35
+    for w in _fill_widths(rng, end_b - 0.35, _WALL_WIDTHS):
+        _wall_unit(b, rng, run_b, xw, w)
+        xw += w
+    # open shelves over the rest of run B wall
+    for zs in (1.5, 1.9):
+        b.local_box("shelf", run_b, (end_b + 0.2, 0.0, zs), (end_b + 1.4, 0.3, zs + 0.03))
+
+    # --- island: two back-to-back runs of base units, centred in the room
+    isl_len = float(rng.choice([2.4, 2.6, 2.8]))
+    isl_c = np.array([rx / 2 + rng.uniform(-0.3, 0.3), ry / 2 + rng.uniform(-0.2, 0.2)])
+    for side in (-1.0, 1.0):
+        normal = np.array([0.0, side, 0.0])
+        origin_along = np.cross(normal, _UP)  # run direction
+        start = np.array([isl_c[0], isl_c[1], 0.0]) - origin_along * isl_len / 2
+        run_i = _frame(start, normal)  # the "wall" of each side is the island's mid plane
+        xi = 0.0
+        wi = _fill_widths(rng, isl_len, _BASE_WIDTHS)
+        for k, w in enumerate(wi):
+            if side > 0 and k == 0:
+                appliance("wine_cooler", run_i, (xi + w / 2, 0.28, 0.48))
+            elif side > 0 and k == len(wi) - 1:
+                _base_unit(b, rng, run_i, xi, w, 0.48, "doors")
+                appliance("sink_island", run_i, (xi + w / 2, 0.3, 0.8))
+                b.cylinder("faucet", 0.015, 0.3, run_i @ _translate(xi + w / 2, 0.05, 1.05))
+            else:
+                _base_unit(b, rng, run_i, xi, w, 0.48, "drawers" if rng.random() < 0.5 else "doors")
+            xi += w
+    b.box("countertop", (isl_len + 0.1, 1.1, 0.04), _translate(isl_c[0], isl_c[1], 0.88))
+    # pendant lamps over the island, ceiling lamps
+    for k in range(3):
+        b.cylinder("lamp", 0.12, 0.15, _translate(isl_c[0] + (k - 1) * 0.8, isl_c[1], 2.0))
+        b.cylinder("cable", 0.004, 0.92, _translate(isl_c[0] + (k - 1) * 0.8, isl_c[1], 2.54))
+    for lx, ly in ((2.5, 2.0), (7.5, 2.0), (2.5, 6.0), (7.5, 6.0)):
+        b.cylinder("lamp", 0.2, 0.06, _translate(lx, ly, rz - 0.03))
+
+    # --- table with chairs near the window wall
+    tc = np.array([7.2 + rng.uniform(-0.3, 0.3), 1.9 + rng.uniform(-0.2, 0.2)])
+    b.box("table", (1.6, 0.9, 0.04), _translate(tc[0], tc[1], 0.74))
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            b.cylinder("table_leg", 0.025, 0.72, _translate(tc[0] + sx * 0.72, tc[1] + sy * 0.38, 0.36))
+    for k in range(6):
+        sx = (k % 3 - 1) * 0.5
+        sy = -0.7 if k < 3 else 0.7
+        cx, cy = tc[0] + sx + rng.uniform(-0.05, 0.05), tc[1] + sy + rng.uniform(-0.05, 0.05)
+        b.box("chair", (0.42, 0.42, 0.04), _translate(cx, cy, 0.45), key="chair_seat")
+        by = cy + (0.2 if sy > 0 else -0.2)
+        b.box("chair_back", (0.42, 0.03, 0.45), _translate(cx, by, 0.7))
+        for lx in (-0.18, 0.18):
+            for ly in (-0.18, 0.18):
+                b.cylinder("chair_leg", 0.015, 0.43, _translate(cx + lx, cy + ly, 0.215))
+
+    # --- small appliances on the countertops
+    small = ["microwave", "coffee_machine", "toaster", "kettle", "blender", "mixer", "radio"]
+    ca_lo, ca_hi = run_a_start + 0.2, rx - 0.6
+    xs = ca_lo + (np.arange(len(small)) + 0.5) * (ca_hi - ca_lo) / len(small)
+    xs = xs + rng.uniform(-0.05, 0.05, len(small))
+    for name, xa in zip(small, xs, strict=True):
+        _, mesh = apps[name]
+        h = float(mesh.bounds[1, 2] - mesh.bounds[0, 2])
+        appliance(name, run_a, (float(xa), 0.25, 0.9 + h / 2))
+    appliance("trash_bin", run_b, (end_b + 0.3, 0.25, 0.3))
+
+    # --- clutter: fill the paper's primitive counts with boxes (packages, books) and cylinders
+    # (jars, cups, bottles) on the open shelves, the island and the counters
+    n_box = KITCHEN_TARGETS["box"] - b.primitives["box"]
+    n_cyl = KITCHEN_TARGETS["cylinder"] - b.primitives["cylinder"]
+    if n_box < 0 or n_cyl < 0 or b.primitives["polyhedron"] != KITCHEN_TARGETS["polyhedron"]:
+        raise WorldGraphError(f"kitchen layout for seed {seed} overshoots the paper's counts: {b.primitives}")
+    surfaces = list(b.surfaces) + [  # open shelves, the island, the counters
+        (run_b, (end_b + 0.25, end_b + 1.35), (0.05, 0.25), 1.53),
+        (run_b, (end_b + 0.25, end_b + 1.35), (0.05, 0.25), 1.93),
+        (_translate(isl_c[0] - isl_len / 2, isl_c[1] - 0.45, 0.0), (0.1, isl_len - 0.1), (0.1, 0.8), 0.9),
+        (run_b, (0.4, end_b - 0.2), (0.05, 0.45), 0.9),
+        (run_a, (run_a_start + 0.1, rx - 0.7), (0.45, 0.58), 0.9),
+    ]
+    weights = np.ones(len(surfaces))
+    weights[-5:] = 4.0
+    weights /= weights.sum()
+    for kind, n in (("box", n_box), ("cylinder", n_cyl)):
+        which = rng.choice(len(surfaces), size=n, p=weights)
+        for k in range(n):
+            frame, (xa, xb), (ya, yb), zs = surfaces[which[k]]
+            px, py = rng.uniform(xa, xb), rng.uniform(ya, yb)
+            if kind == "box":
+                sz = (0.06, 0.2, 0.28) if rng.random() < 0.5 else (0.16, 0.06, 0.24)
+                typ = "package" if sz[0] > 0.1 else "book"
+                b.box(typ, sz, frame @ _translate(px, py, zs + sz[2] / 2))
+            else:
+                r, h, typ = _CYLINDER_CLUTTER[int(rng.integers(len(_CYLINDER_CLUTTER)))]
+                b.cylinder(typ, r, h, frame @ _translate(px, py, zs + h / 2))
+    b.scene.metadata["primitive_counts"] = dict(b.primitives)
+    b.scene.metadata["seed"] = int(seed)
+    return b.scene
+
+
+def kitchen(seed: int = 0, max_link_length: float = 5.0, link_margin: float = 0.0) -> WorldModel:
+    """The kitchen of :func:`kitchen_scene` as a :class:`WorldModel` (753 objects)."""
+    return WorldModel.from_trimesh(kitchen_scene(seed), max_link_length=max_link_length,
+                                   link_margin=link_margin)
+
+
+def scene_statistics(scene: trimesh.Scene) -> dict[str, int]:
+    """Geometry nodes per primitive kind, objects, and vertices counted per instance."""
+    out = {"box": 0, "cylinder": 0, "polyhedron": 0, "other": 0, "vertices": 0, "objects": 0}
+    for node in scene.graph.nodes_geometry:
+        geom = scene.geometry[scene.graph[node][1]]
+        kind = geom.metadata.get("primitive", "other")
+        out[kind if kind in out else "other"] += 1
+        out["vertices"] += len(geom.vertices)
+        out["objects"] += 1
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# corridor
+# ----------------------------------------------------------------------------------------------
+def corridor_scene(n_doors: int = 40, length: float | None = None, seed: int = 0, width: float = 2.2,
+                   height: float = 2.8) -> trimesh.Scene:
+    """A building corridor along x with ``n_doors`` doors split over both walls.
+
+    Each door (type ``"door"``, 0.9 x 2.05 m) has a handle (``"handle"``) at 1.05 m, all at one
+    height: a coplanar landmark configuration.  Next to each door is a light switch
+    (``"switch"``); lamps (``"lamp"``, cylinders) hang along the centre line.  Door positions
+    are drawn from ``seed`` with at least 0.3 m between neighbouring doors on one wall.
+
+    Parameters
+    ----------
+    n_doors : int
+        ``>= 1``.
+    length : float, optional
+        Corridor length (m); default ``1.8 * n_doors / 2 + 2``.  Must leave 1.5 m per door.
+    """
+    if int(n_doors) < 1:
+        raise WorldGraphError(f"n_doors must be >= 1, got {n_doors!r}")
+    n_doors = int(n_doors)
+    per_side = [(n_doors + 1) // 2, n_doors // 2]
+    if length is None:
+        length = 1.8 * per_side[0] + 2.0
+    length = float(length)
+    if not math.isfinite(length) or length < 1.5 * per_side[0] + 0.5:
+        raise WorldGraphError(f"length {length!r} is too short for {per_side[0]} doors per side")
+    rng = np.random.default_rng(seed)
+    b = _Builder()
+    b.box("floor", (length, width, 0.05), _translate(length / 2, 0.0, -0.025))
+    b.box("ceiling", (length, width, 0.05), _translate(length / 2, 0.0, height + 0.025))
+    b.box("wall", (length, 0.1, height), _translate(length / 2, -width / 2 - 0.05, height / 2))
+    b.box("wall", (length, 0.1, height), _translate(length / 2, width / 2 + 0.05, height / 2))
+    for side, n in zip((-1.0, 1.0), per_side, strict=True):
+        if n == 0:
+            continue
+        # a wall run whose local y points into the corridor
+        normal = np.array([0.0, -side, 0.0])
+        along = np.cross(normal, _UP)
+        origin = np.array([0.0 if along[0] > 0 else length, side * width / 2, 0.0])
+        run = _frame(origin, normal)
+        slot = (length - 0.5) / n
+        gaps = rng.uniform(0.0, slot - 1.3, size=n)
+        for k in range(n):
+            x0 = 0.25 + k * slot + gaps[k]
+            b.local_box("door", run, (x0, 0.0, 0.0), (x0 + 0.9, 0.04, 2.05), key="corridor_door")
+            hinge_right = bool(rng.random() < 0.5)
+            hx = x0 + 0.8 if hinge_right else x0 + 0.1
+            _handle(b, run, hx, 0.04, 1.05, vertical=False)
+            sx = x0 + 1.05 if hinge_right else x0 - 0.15
+            b.local_box("switch", run, (sx - 0.04, 0.0, 1.06), (sx + 0.04, 0.012, 1.14))
+    n_lamps = max(1, int(length // 4))
+    for k in range(n_lamps):
+        b.cylinder("lamp", 0.15, 0.05, _translate((k + 0.5) * length / n_lamps, 0.0, height - 0.025))
+    b.scene.metadata["primitive_counts"] = dict(b.primitives)
+    b.scene.metadata["seed"] = int(seed)
+    return b.scene
+
+
+def corridor(n_doors: int = 40, length: float | None = None, seed: int = 0, max_link_length: float = 5.0,
+             link_margin: float = 0.0) -> WorldModel:
+    """The corridor of :func:`corridor_scene` as a :class:`WorldModel`."""
+    return WorldModel.from_trimesh(corridor_scene(n_doors, length, seed), max_link_length=max_link_length,
+                                   link_margin=link_margin)
+
+
+# ----------------------------------------------------------------------------------------------
+# large floor from arrays
+# ----------------------------------------------------------------------------------------------
+_FLOOR_SIZES = {
+    "door": (0.9, 0.04, 2.05), "handle": (0.16, 0.03, 0.012), "switch": (0.08, 0.012, 0.08),
+    "sign": (0.25, 0.01, 0.15), "lamp": (0.3, 0.3, 0.05), "window": (1.2, 0.08, 1.2),
+    "radiator": (1.0, 0.1, 0.6), "table": (1.4, 0.8, 0.04), "chair": (0.42, 0.42, 0.04),
+    "extinguisher": (0.15, 0.15, 0.5), "cabinet": (0.8, 0.4, 1.8),
+}
+
+
+def _columns(x: NDArray[np.float64], y: float | NDArray[np.float64], z: float | NDArray[np.float64],
+             ) -> NDArray[np.float64]:
+    """Stack coordinates into ``(k, 3)`` points, broadcasting scalars."""
+    x = np.asarray(x, dtype=np.float64)
+    return np.column_stack([x, np.broadcast_to(y, x.shape), np.broadcast_to(z, x.shape)])
+
+
+def floor(n_objects: int = 20000, seed: int = 0, max_link_length: float = 5.0,
+          link_margin: float = 0.0) -> WorldModel:
+    """A large building floor of many corridors and rooms, built with :meth:`WorldModel.from_arrays`.
+
+    Corridors run along x, 60 m long, 16 m apart in y, in a grid of blocks; along each wall of a
+    corridor a door every ~3 m (jittered), each with a handle at 1.05 m, a switch and a room
+    sign; behind each door a 6 m deep room with a window, a radiator, a ceiling lamp, a table,
+    two to four chairs and sometimes a cabinet; fire extinguishers along the corridors.  Objects
+    are generated corridor by corridor until ``n_objects`` are reached (the last corridor is cut).
+
+    Returns a :class:`WorldModel` with exactly ``n_objects`` objects (``>= 1``).
+    """
+    if int(n_objects) < 1:
+        raise WorldGraphError(f"n_objects must be >= 1, got {n_objects!r}")
+    n_objects = int(n_objects)
+    rng = np.random.default_rng(seed)
+    col = _columns
+    corridor_len, spacing, per_row = 60.0, 16.0, 5
+    types: list[NDArray[np.str_]] = []
+    points: list[NDArray[np.float64]] = []
+    total = 0
+    c = 0
+    while total < n_objects:
+        ox = (c % per_row) * (corridor_len + 8.0)
+        oy = (c // per_row) * spacing
+        c += 1
+        for side in (-1.0, 1.0):
+            n = int(corridor_len // 3.0)
+            x = ox + 0.5 + np.arange(n) * 3.0 + rng.uniform(0.0, 1.2, n)
+            wall_y = oy + side * 1.1
+            room_y = wall_y + side * 3.0
+            hinge = np.where(rng.random(n) < 0.5, 0.8, 0.1)
+            blocks = [
+                ("door", col(x + 0.45, wall_y, 1.025)),
+                ("handle", col(x + hinge, wall_y - side * 0.055, 1.05)),
+                ("switch", col(x + np.where(hinge > 0.5, 1.05, -0.15), wall_y - side * 0.006, 1.1)),
+                ("sign", col(x + 0.45, wall_y - side * 0.005, 2.3)),
+                ("window", col(x + 1.2, wall_y + side * 6.0, 1.6)),
+                ("radiator", col(x + 1.2, wall_y + side * 5.85, 0.5)),
+                ("lamp", col(x + 1.2, room_y, 2.75)),
+                ("table", col(x + 1.2 + rng.uniform(-0.3, 0.3, n), room_y + rng.uniform(-0.5, 0.5, n), 0.74)),
+            ]
+            n_chairs = rng.integers(2, 5, n)
+            table_xy = blocks[-1][1][:, :2]
+            owner = np.repeat(np.arange(n), n_chairs)
+            ang = rng.uniform(0, 2 * math.pi, owner.size)
+            chairs = col(table_xy[owner, 0] + 0.8 * np.cos(ang), table_xy[owner, 1] + 0.8 * np.sin(ang), 0.45)
+            blocks.append(("chair", chairs))
+            has_cab = rng.random(n) < 0.4
+            cab = col(x[has_cab] + 2.2, wall_y + side * 0.3, 0.9)
+            blocks.append(("cabinet", cab))
+            for typ, p in blocks:
+                types.append(np.full(len(p), typ))
+                points.append(p)
+                total += len(p)
+        n_ext = int(corridor_len // 15)
+        ext = col(ox + 7.5 + 15.0 * np.arange(n_ext), oy - 1.0, 0.6)
+        types.append(np.full(n_ext, "extinguisher"))
+        points.append(ext)
+        total += n_ext
+    all_types = np.concatenate(types)[:n_objects]
+    all_points = np.concatenate(points)[:n_objects]
+    sizes = np.array([_FLOOR_SIZES[t] for t in all_types])
+    return WorldModel.from_arrays(all_types, all_points, max_link_length=max_link_length, sizes=sizes,
+                                  link_margin=link_margin)
