@@ -247,3 +247,15 @@ def test_batch_matches_single_calls():
     R2[1, 2] = np.nan
     with pytest.raises(ro.NonFiniteError, match=r"\[1, 2\]"):
         ro.project_radii_batch(C, R2, S)
+
+
+def test_osqp_solve_writes_nothing_to_stdout(capfd):
+    """OSQP 1.x prints a line per solve from C when no constraint is active (osqp#785); a
+    projection must stay quiet and still return the target when it is already feasible."""
+    if "OSQP" not in ro.installed_cvxpy_solvers():
+        pytest.skip("OSQP is not installed")
+    centers = np.array([[0.0, 0, 0], [4, 0, 0], [0, 4, 0], [0, 0, 4]])
+    radii = np.linalg.norm(centers - np.array([1.0, 1.0, 1.0]), axis=1)
+    sol = ro.project_radii(ro.make_spheres(centers, radii, [0.1] * 4), method="cvxpy", solver="OSQP")
+    np.testing.assert_allclose(sol.radii, radii, atol=1e-9)
+    assert capfd.readouterr().out == ""
