@@ -36,10 +36,9 @@ on disagreement.
 from __future__ import annotations
 
 import contextlib
-import os
-import sys
+import io
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 from itertools import combinations
@@ -298,20 +297,6 @@ def solver_options(solver: str) -> dict:
     return dict(SOLVER_OPTIONS.get(solver.upper(), {}))
 
 
-@contextlib.contextmanager
-def _c_stdout_silenced() -> Iterator[None]:
-    """Send what compiled code writes to file descriptor 1 to the null device meanwhile."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 1)
-            yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-
-
 def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
     import cvxpy as cp
 
@@ -325,8 +310,8 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
     G.value = p.G
     h.value = p.h
     try:
-        if name == "OSQP":  # OSQP 1.x prints one line per solve even when not verbose (osqp#785)
-            with _c_stdout_silenced():
+        if name == "OSQP":  # OSQP 1.x prints a line per solve even when not verbose (osqp#785)
+            with contextlib.redirect_stdout(io.StringIO()):
                 prob.solve(solver=name, **solver_options(name))
         else:
             prob.solve(solver=name, **solver_options(name))
