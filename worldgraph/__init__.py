@@ -1,6 +1,15 @@
 """worldgraph: world model graph, association and pose."""
 
 from . import scenes
+from .association import (
+    ASSOCIATION_TOLERANCES,
+    AssociationHypothesis,
+    AssociationTolerances,
+    associate,
+    discriminator,
+    orientation_filter,
+    proximity_filter,
+)
 from .errors import (
     CoincidentObjectsError,
     EmptyWorldError,
@@ -8,6 +17,7 @@ from .errors import (
     MalformedFileError,
     NonFiniteError,
     NonPositiveError,
+    PoseError,
     ShapeError,
     TooFewPerceptsError,
     UnknownGeometryError,
@@ -15,7 +25,9 @@ from .errors import (
     WorldGraphError,
 )
 from .franka import franka_kitchen_path, load_franka_kitchen
+from .localize import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
 from .model import LinkTable, ObjectModel, WorldModel, box_vertices
+from .pose import percept_frame, pose_from_frames, weighted_kabsch
 
 __all__ = [
     "CoincidentObjectsError",
@@ -25,6 +37,7 @@ __all__ = [
     "MalformedFileError",
     "NonFiniteError",
     "NonPositiveError",
+    "PoseError",
     "ObjectModel",
     "ShapeError",
     "TooFewPerceptsError",
@@ -38,4 +51,19 @@ __all__ = [
     "scenes",
 ]
 
-# association, pose and localize: exported by the lead
+__all__ += [
+    "ASSOCIATION_TOLERANCES",
+    "AssociationHypothesis",
+    "AssociationTolerances",
+    "LOCALIZE_METHODS",
+    "LOCALIZE_STATUSES",
+    "LocalizationResult",
+    "associate",
+    "discriminator",
+    "localize",
+    "orientation_filter",
+    "percept_frame",
+    "pose_from_frames",
+    "proximity_filter",
+    "weighted_kabsch",
+]

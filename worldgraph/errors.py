@@ -63,3 +63,11 @@ class TooFewPerceptsError(WorldGraphError):
 
 class ImporterError(WorldGraphError, ImportError):
     """An optional importer (e.g. the Franka kitchen of gymnasium-robotics) is not available."""
+
+
+class PoseError(WorldGraphError):
+    """Degenerate input to a pose computation: collinear points, invalid weights.
+
+    Wrong shapes raise :class:`~worldgraph.errors.ShapeError`, NaN/inf
+    :class:`~worldgraph.errors.NonFiniteError`.
+    """

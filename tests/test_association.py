@@ -1,0 +1,346 @@
+"""Tests of worldgraph.association: exact cliques, filters, hypotheses, ranking, bad input."""
+
+from __future__ import annotations
+
+import itertools
+
+import networkx as nx
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from perception import Percept
+from perception.simulate import simulate_percepts
+from worldgraph.association import (
+    AssociationTolerances,
+    associate,
+    discriminator,
+    is_ambiguous,
+    maximum_cliques,
+    orientation_filter,
+    proximity_filter,
+)
+from worldgraph.errors import TooFewPerceptsError, UnknownTypeError, WorldGraphError
+from worldgraph.model import WorldModel
+
+TYPES = ("door", "handle", "knob", "drawer")
+seeds = st.integers(0, 2**32 - 1)
+
+
+# ----------------------------------------------------------------------------------------------
+# helpers (independent of the code under test)
+# ----------------------------------------------------------------------------------------------
+def random_world(rng: np.random.Generator, n: int = 120, room=(12.0, 10.0, 2.5)) -> WorldModel:
+    pos = rng.uniform([0, 0, 0], room, (n, 3))
+    types = rng.choice(TYPES, n)
+    return WorldModel.from_arrays(types, pos, max_link_length=5.0, link_margin=0.5)
+
+
+def random_pose(rng: np.random.Generator, world: WorldModel, yaw_only: bool = False) -> np.ndarray:
+    lo, hi = world.bounds
+    m = np.eye(4)
+    if yaw_only:
+        m[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
+    else:
+        m[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+    m[:3, 3] = rng.uniform(lo + 1.0, hi - 1.0) if np.all(hi - lo > 2.0) else 0.5 * (lo + hi)
+    return m
+
+
+def nearest_objects(world: WorldModel, world_from_ego: np.ndarray, k: int) -> np.ndarray:
+    d = np.linalg.norm(world.positions - world_from_ego[:3, 3], axis=1)
+    return np.argsort(d)[:k]
+
+
+def exact_percepts(world: WorldModel, world_from_ego: np.ndarray, idx, sigma: float = 0.01) -> list[Percept]:
+    inv_r = world_from_ego[:3, :3].T
+    ego = (world.positions[idx] - world_from_ego[:3, 3]) @ inv_r.T
+    return [Percept(str(world.types[o]), e, sigma) for o, e in zip(idx, ego, strict=True)]
+
+
+def assert_true_links_survive(result: dict, truth: np.ndarray) -> None:
+    for p, o in enumerate(truth):
+        assert o in result["candidates"][p]
+    for (p, q), links in result["links"].items():
+        assert np.any((links[:, 0] == truth[p]) & (links[:, 1] == truth[q])), (p, q)
+
+
+# ----------------------------------------------------------------------------------------------
+# exact maximum cliques vs networkx
+# ----------------------------------------------------------------------------------------------
+@st.composite
+def kpartite(draw):
+    k = draw(st.integers(2, 6))
+    sizes = [draw(st.integers(0, 4)) for _ in range(k)]
+    density = draw(st.floats(0.2, 0.95))
+    rng = np.random.default_rng(draw(seeds))
+    adjacency = {}
+    for p, q in itertools.combinations(range(k), 2):
+        kind = rng.uniform()
+        if kind < 0.1:
+            continue  # missing key: no edges
+        if kind < 0.2:
+            adjacency[(p, q)] = None  # all compatible
+        else:
+            adjacency[(p, q)] = rng.uniform(size=(sizes[p], sizes[q])) < density
+    return sizes, adjacency
+
+
+def to_networkx(sizes, adjacency) -> nx.Graph:
+    g = nx.Graph()
+    g.add_nodes_from((p, a) for p, s in enumerate(sizes) for a in range(s))
+    for (p, q), mat in adjacency.items():
+        for a in range(sizes[p]):
+            for b in range(sizes[q]):
+                if mat is None or mat[a, b]:
+                    g.add_edge((p, a), (q, b))
+    return g
+
+
+@given(kpartite(), st.integers(0, 2), st.integers(1, 3))
+def test_maximum_cliques_match_networkx(graph, near: int, min_size: int) -> None:
+    sizes, adjacency = graph
+    g = to_networkx(sizes, adjacency)
+    cliques = [tuple(sorted(c)) for c in nx.find_cliques(g)] if g.number_of_nodes() else []
+    best = max((len(c) for c in cliques), default=0)
+    res = maximum_cliques(sizes, adjacency, min_size=min_size, near_maximum=near)
+    assert res.complete
+    expected_max = best if best >= min_size else 0
+    assert res.maximum == expected_max
+    if g.number_of_nodes():
+        _, weight = nx.max_weight_clique(g, weight=None)
+        assert weight == best
+    thr = max(best - near, min_size)
+    expected = {c for c in cliques if len(c) >= thr} if best >= min_size else set()
+    assert set(res.cliques) == expected
+
+
+def test_maximum_cliques_by_hand() -> None:
+    # parts of one vertex each; edges 0-1, 1-2, 0-2 (triangle), 2-3
+    sizes = [1, 1, 1, 1]
+    t, f = np.ones((1, 1), bool), np.zeros((1, 1), bool)
+    adjacency = {(0, 1): t, (0, 2): t, (1, 2): t, (2, 3): t, (0, 3): f, (1, 3): f}
+    res = maximum_cliques(sizes, adjacency, near_maximum=1)
+    assert res.maximum == 3
+    assert set(res.cliques) == {((0, 0), (1, 0), (2, 0)), ((2, 0), (3, 0))}
+    with pytest.raises(WorldGraphError, match="shape"):
+        maximum_cliques([2, 2], {(0, 1): np.ones((3, 2), bool)})
+
+
+# ----------------------------------------------------------------------------------------------
+# soundness of the filters and the top hypothesis
+# ----------------------------------------------------------------------------------------------
+@settings(max_examples=15)
+@given(seeds, st.integers(4, 8))
+def test_true_association_survives_and_wins_noise_free(seed: int, k: int) -> None:
+    rng = np.random.default_rng(seed)
+    world = random_world(rng)
+    pose = random_pose(rng, world)
+    truth = nearest_objects(world, pose, k)
+    percepts = exact_percepts(world, pose, truth)
+    prox = proximity_filter(world, percepts)
+    assert_true_links_survive(prox, truth)
+    orient = orientation_filter(world, percepts, prox)
+    assert_true_links_survive(orient, truth)
+    for a, b in zip(orient["candidates"], prox["candidates"], strict=True):
+        assert set(a.tolist()) <= set(b.tolist())
+    for method in ("clique", "paper"):
+        hyps = associate(world, percepts, method=method)
+        assert hyps, method
+        assert hyps[0].pairs == tuple((p, int(o)) for p, o in enumerate(truth)), method
+        assert np.allclose(hyps[0].world_from_ego, pose, atol=1e-8)
+        assert hyps[0].cost < 1e-6
+
+
+@settings(max_examples=10)
+@given(seeds)
+def test_result_does_not_depend_on_percept_order(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    world = random_world(rng)
+    pose = random_pose(rng, world)
+    percepts, truth = simulate_percepts(list(world.types), world.positions, pose, rng, max_range=4.5,
+                                        depth_factor=1000.0, n_false=1)
+    percepts, truth = percepts[:8], truth[:8]
+    if len(percepts) < 4:
+        percepts = exact_percepts(world, pose, nearest_objects(world, pose, 6))
+    perm = rng.permutation(len(percepts))
+    a = associate(world, percepts)
+    b = associate(world, [percepts[i] for i in perm])
+    assert len(a) == len(b)
+    for ha, hb in zip(a, b, strict=True):
+        assert sorted(ha.pairs) == sorted((int(perm[p]), o) for p, o in hb.pairs)
+        assert np.isclose(ha.cost, hb.cost)
+        assert np.allclose(ha.world_from_ego, hb.world_from_ego, atol=1e-9)
+
+
+@settings(max_examples=10)
+@given(seeds)
+def test_rigid_motion_of_world_moves_pose(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    world = random_world(rng)
+    pose = random_pose(rng, world)
+    percepts = exact_percepts(world, pose, nearest_objects(world, pose, 6))
+    move = np.eye(4)
+    move[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+    move[:3, 3] = rng.uniform(-20, 20, 3)
+    moved = WorldModel.from_arrays(world.types, world.positions @ move[:3, :3].T + move[:3, 3],
+                                   max_link_length=5.0, link_margin=0.5)
+    a = associate(world, percepts)[0]
+    b = associate(moved, percepts)[0]
+    assert a.pairs == b.pairs
+    assert np.allclose(move @ a.world_from_ego, b.world_from_ego, atol=1e-8)
+
+
+@settings(max_examples=15)
+@given(seeds, st.integers(1, 2))
+def test_false_percepts_do_not_break_association(seed: int, n_false: int) -> None:
+    rng = np.random.default_rng(seed)
+    world = random_world(rng)
+    pose = random_pose(rng, world, yaw_only=True)
+    truth = nearest_objects(world, pose, 6)
+    percepts = exact_percepts(world, pose, truth, sigma=0.02)
+    noisy = [Percept(p.type, p.position + rng.normal(scale=0.02, size=3), 0.02) for p in percepts]
+    # false percepts of known types, placed among the true ones
+    ego = np.array([p.position for p in percepts])
+    for _ in range(n_false):
+        noisy.append(Percept(str(rng.choice(TYPES)), rng.uniform(ego.min(0) - 1, ego.max(0) + 1), 0.02))
+    hyps = associate(world, noisy)
+    assert hyps
+    # the robust cost, recomputed by brute force for every hypothesis
+    tol = AssociationTolerances()
+    for h in hyps:
+        expected = 0.0
+        for per in noisy:
+            pred = h.world_from_ego[:3, :3] @ per.position + h.world_from_ego[:3, 3]
+            same = world.positions[world.types == per.type]
+            d2 = np.min(np.sum((same - pred) ** 2, axis=1)) / (tol.residual_factor * per.sigma) ** 2
+            expected += min(d2, tol.cost_cap)
+        assert np.isclose(h.cost, expected, rtol=1e-9, atol=1e-9)
+    costs = [h.cost for h in hyps]
+    assert costs == sorted(costs)
+    truth_of = dict(enumerate(truth.tolist()))
+    top = hyps[0]
+    assert all(p in truth_of and truth_of[p] == o for p, o in top.all_pairs), (top.pairs, truth)
+    assert top.size >= 5
+    assert np.linalg.norm(top.world_from_ego[:3, 3] - pose[:3, 3]) < 0.2
+
+
+@settings(max_examples=10)
+@given(seeds)
+def test_gravity_aligned_invariant(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    world = random_world(rng)
+    pose = random_pose(rng, world, yaw_only=True)
+    truth = nearest_objects(world, pose, 6)
+    percepts = exact_percepts(world, pose, truth)
+    tol = AssociationTolerances(gravity_aligned=True)
+    hyps = associate(world, percepts, tol)
+    assert hyps[0].pairs == tuple((p, int(o)) for p, o in enumerate(truth))
+    # a pose tilted by 30 degrees breaks the gravity assumption: the true match is no clique
+    tilt = pose.copy()
+    tilt[:3, :3] = pose[:3, :3] @ Rotation.from_euler("x", 30, degrees=True).as_matrix()
+    tilted = exact_percepts(world, tilt, truth)
+    bad = associate(world, tilted, tol)
+    assert all(h.pairs != tuple((p, int(o)) for p, o in enumerate(truth)) for h in bad)
+
+
+# ----------------------------------------------------------------------------------------------
+# mirror matches, symmetric worlds, the discriminator
+# ----------------------------------------------------------------------------------------------
+def test_mirror_copy_is_rejected_by_chirality() -> None:
+    rng = np.random.default_rng(7)
+    base = rng.uniform([0, 0, 0], [4, 4, 2.5], (6, 3))
+    types = np.array(["door", "handle", "knob", "drawer", "handle", "knob"])
+    mirror = base * np.array([-1.0, 1.0, 1.0]) + np.array([40.0, 0.0, 0.0])
+    world = WorldModel.from_arrays(np.concatenate([types, types]), np.vstack([base, mirror]),
+                                   max_link_length=6.0)
+    pose = np.eye(4)
+    pose[:3, 3] = [2.0, 2.0, 1.2]
+    percepts = exact_percepts(world, pose, np.arange(6))
+    hyps = associate(world, percepts)
+    assert hyps[0].pairs == tuple((p, p) for p in range(6))
+    assert all(o < 6 for h in hyps for _, o in h.pairs)  # no hypothesis in the mirrored copy
+    assert not is_ambiguous(hyps)
+
+
+def test_symmetric_world_is_ambiguous_and_discriminator_tells_apart() -> None:
+    rng = np.random.default_rng(11)
+    base = rng.uniform([0, 0, 0], [4, 4, 2.5], (6, 3))
+    types = np.array(["door", "handle", "knob", "drawer", "handle", "knob"])
+    shift = np.array([30.0, 0.0, 0.0])
+    extra = np.array([[2.0, 8.0, 1.0]])  # breaks the symmetry away from the percepts
+    world = WorldModel.from_arrays(np.concatenate([types, types, ["door"]]),
+                                   np.vstack([base, base + shift, extra]), max_link_length=6.0)
+    pose = np.eye(4)
+    pose[:3, 3] = [2.0, 2.0, 1.2]
+    percepts = exact_percepts(world, pose, np.arange(6))
+    hyps = associate(world, percepts)
+    assert len(hyps) >= 2
+    assert is_ambiguous(hyps)
+    expected = {tuple((p, p) for p in range(6)), tuple((p, p + 6) for p in range(6))}
+    assert {h.pairs for h in hyps[:2]} == expected
+    obj = discriminator(world, hyps)
+    # brute force: predicted ego position of every object under both poses
+    diffs = []
+    for o in range(len(world)):
+        pe = [np.linalg.solve(h.world_from_ego, np.append(world.positions[o], 1.0))[:3] for h in hyps[:2]]
+        diffs.append(np.linalg.norm(pe[0] - pe[1]))
+    assert np.isclose(diffs[obj], max(diffs))
+    with pytest.raises(TooFewPerceptsError):
+        discriminator(world, hyps[:1])
+
+
+# ----------------------------------------------------------------------------------------------
+# the paper's method and bad input
+# ----------------------------------------------------------------------------------------------
+def test_paper_method_fails_with_a_false_percept_clique_does_not() -> None:
+    rng = np.random.default_rng(5)
+    world = random_world(rng)
+    pose = random_pose(rng, world, yaw_only=True)
+    truth = nearest_objects(world, pose, 6)
+    percepts = exact_percepts(world, pose, truth)
+    far = Percept("door", np.array([0.0, 0.0, 30.0]), 0.01)  # nothing in the model is that far above
+    assert associate(world, percepts + [far], method="paper") == []
+    hyps = associate(world, percepts + [far])
+    assert hyps[0].pairs == tuple((p, int(o)) for p, o in enumerate(truth))
+
+
+def test_bad_input() -> None:
+    rng = np.random.default_rng(0)
+    world = random_world(rng, n=30)
+    percepts = exact_percepts(world, np.eye(4), np.arange(4))
+    with pytest.raises(UnknownTypeError, match="'window'"):
+        associate(world, percepts + [Percept("window", [1.0, 0, 0], 0.01)])
+    with pytest.raises(TooFewPerceptsError, match="got 2"):
+        associate(world, percepts[:2])
+    with pytest.raises(WorldGraphError, match="Percept"):
+        associate(world, percepts[:3] + [np.zeros(3)])  # type: ignore[list-item]
+    with pytest.raises(WorldGraphError, match="method"):
+        associate(world, percepts, method="ransac")
+    with pytest.raises(WorldGraphError, match="WorldModel"):
+        associate(world.positions, percepts)  # type: ignore[arg-type]
+    with pytest.raises(WorldGraphError, match="n_sigma"):
+        AssociationTolerances(n_sigma=-1.0)
+    with pytest.raises(WorldGraphError, match="mu_max"):
+        AssociationTolerances(mu_max=float("nan"))
+    with pytest.raises(WorldGraphError, match="min_clique_size"):
+        AssociationTolerances(min_clique_size=1)
+
+
+@settings(max_examples=8)
+@given(seeds)
+def test_ball_query_path_equals_brute_force_path(seed: int) -> None:
+    """Percepts farther apart than the link table reaches: k-d tree annulus vs all pairs."""
+    rng = np.random.default_rng(seed)
+    world = WorldModel.from_arrays(rng.choice(TYPES, 150), rng.uniform([0, 0, 0], [14, 12, 2.5], (150, 3)),
+                                   max_link_length=2.0)
+    pose = random_pose(rng, world, yaw_only=True)
+    truth = nearest_objects(world, pose, 7)
+    percepts = exact_percepts(world, pose, truth, sigma=0.02)
+    brute = associate(world, percepts, AssociationTolerances(dense_pair_limit=10**9))
+    tree = associate(world, percepts, AssociationTolerances(dense_pair_limit=0))
+    assert [h.pairs for h in brute] == [h.pairs for h in tree]
+    assert [h.cost for h in brute] == pytest.approx([h.cost for h in tree])
+    assert tree[0].pairs == tuple((p, int(o)) for p, o in enumerate(truth))

@@ -1,0 +1,159 @@
+"""Tests of worldgraph.pose: eq.-5 frames and weighted Kabsch."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from worldgraph.errors import NonFiniteError, PoseError, ShapeError
+from worldgraph.pose import (
+    invert_transformation,
+    percept_frame,
+    pose_from_frames,
+    rotation_angle,
+    transformation,
+    weighted_kabsch,
+    weighted_kabsch_batch,
+    weighted_rotation,
+)
+
+seeds = st.integers(0, 2**32 - 1)
+
+
+def _random_rigid(rng: np.random.Generator) -> np.ndarray:
+    rot = Rotation.random(random_state=rng).as_matrix()
+    return transformation(rot, rng.uniform(-10, 10, 3))
+
+
+@given(seeds)
+def test_weighted_rotation_matches_scipy_align_vectors(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(3, 9))
+    x = rng.normal(size=(k, 3))
+    y = rng.normal(size=(k, 3))  # arbitrary, not a rigid image: a real least-squares problem
+    w = rng.uniform(0.1, 5.0, k)
+    rot = weighted_rotation(x, y, w)
+    ref, _ = Rotation.align_vectors(y, x, weights=w)  # scipy: a rotation mapping x onto y
+    assert np.allclose(rot, ref.as_matrix(), atol=1e-8)
+    assert np.isclose(np.linalg.det(rot), 1.0)
+
+
+@given(seeds)
+def test_weighted_kabsch_recovers_random_rigid_transform(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    world_from_ego = _random_rigid(rng)
+    k = int(rng.integers(3, 10))
+    ego = rng.uniform(-5, 5, (k, 3))
+    world = ego @ world_from_ego[:3, :3].T + world_from_ego[:3, 3]
+    rot, t = weighted_kabsch(ego, world, rng.uniform(0.1, 10, k))
+    assert np.allclose(rot, world_from_ego[:3, :3], atol=1e-9)
+    assert np.allclose(t, world_from_ego[:3, 3], atol=1e-8)
+
+
+@given(seeds)
+def test_weighted_kabsch_is_weighted_least_squares(seed: int) -> None:
+    """Against brute force: no random rigid motion beats the returned one on the weighted cost."""
+    rng = np.random.default_rng(seed)
+    k = 6
+    x = rng.normal(size=(k, 3))
+    y = x @ Rotation.random(random_state=rng).as_matrix().T + rng.normal(scale=0.3, size=(k, 3))
+    w = rng.uniform(0.1, 3.0, k)
+    rot, t = weighted_kabsch(x, y, w)
+
+    def cost(r: np.ndarray, tt: np.ndarray) -> float:
+        return float(np.sum(w * np.sum((x @ r.T + tt - y) ** 2, axis=1)))
+
+    best = cost(rot, t)
+    for _ in range(50):
+        dr = Rotation.from_rotvec(rng.normal(scale=0.05, size=3)).as_matrix()
+        assert cost(dr @ rot, t + rng.normal(scale=0.05, size=3)) >= best - 1e-12
+
+
+def test_kabsch_reflection_gives_proper_rotation() -> None:
+    """Mirror-image points: the unconstrained optimum is a reflection; we must return det +1."""
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(8, 3))
+    mirror = np.diag([1.0, 1.0, -1.0])
+    y = x @ mirror.T
+    rot, t = weighted_kabsch(x, y, np.ones(8))
+    assert np.isclose(np.linalg.det(rot), 1.0)
+    assert np.allclose(rot @ rot.T, np.eye(3), atol=1e-12)
+    ref, _ = Rotation.align_vectors(y - y.mean(0), x - x.mean(0))
+    assert np.allclose(rot, ref.as_matrix(), atol=1e-8)
+    # planar points in z = 0 mirrored: the proper rotation fits them exactly
+    xp = x.copy()
+    xp[:, 2] = 0.0
+    rot2, t2 = weighted_kabsch(xp, xp @ mirror.T, np.ones(8))
+    assert np.isclose(np.linalg.det(rot2), 1.0)
+    assert np.allclose(xp @ rot2.T + t2, xp @ mirror.T, atol=1e-9)
+
+
+@given(seeds)
+def test_eq5_recovers_pose_from_noise_free_triple(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    world_from_ego = _random_rigid(rng)
+    ego = rng.uniform(-5, 5, (3, 3))
+    world = ego @ world_from_ego[:3, :3].T + world_from_ego[:3, 3]
+    s_model = percept_frame(*world)
+    s_percept = percept_frame(*ego)
+    assert np.isclose(np.linalg.det(s_model[:3, :3]), 1.0)
+    assert np.allclose(s_model[:3, :3].T @ s_model[:3, :3], np.eye(3), atol=1e-12)
+    assert np.allclose(pose_from_frames(s_model, s_percept), world_from_ego, atol=1e-8)
+
+
+def test_percept_frame_axes_by_hand() -> None:
+    frame = percept_frame([1, 1, 1], [3, 1, 1], [1, 4, 1])
+    # d1 = +x, d2 = x cross y = +z, d3 = d1 x d2 = -y
+    expected = np.array([[1, 0, 0, 1], [0, 0, -1, 1], [0, 1, 0, 1], [0, 0, 0, 1]], dtype=float)
+    assert np.allclose(frame, expected)
+
+
+def test_invert_transformation() -> None:
+    m = _random_rigid(np.random.default_rng(1))
+    assert np.allclose(invert_transformation(m) @ m, np.eye(4), atol=1e-12)
+    assert np.isclose(rotation_angle(np.eye(3), Rotation.from_rotvec([0, 0, 0.3]).as_matrix()), 0.3)
+
+
+@pytest.mark.parametrize(
+    ("a", "b", "c"),
+    [([0, 0, 0], [1, 1, 1], [2, 2, 2]), ([0, 0, 0], [0, 0, 0], [1, 0, 0]), ([1, 2, 3], [1, 2, 3], [1, 2, 3])],
+)
+def test_percept_frame_rejects_collinear(a: list, b: list, c: list) -> None:
+    with pytest.raises(PoseError, match="collinear"):
+        percept_frame(a, b, c)
+
+
+def test_bad_input() -> None:
+    with pytest.raises(ShapeError, match=r"shape \(3,\)"):
+        percept_frame([0, 0], [1, 0, 0], [0, 1, 0])
+    with pytest.raises(NonFiniteError, match="finite"):
+        percept_frame([np.nan, 0, 0], [1, 0, 0], [0, 1, 0])
+    with pytest.raises(ShapeError, match=r"\(4, 3\)"):
+        weighted_kabsch(np.zeros((4, 3)), np.zeros((3, 3)), np.ones(4))
+    with pytest.raises(PoseError, match="weights"):
+        weighted_kabsch(np.eye(3), np.eye(3), [1.0, -1.0, 1.0])
+    with pytest.raises(ShapeError, match="weights"):
+        weighted_kabsch(np.eye(3), np.eye(3), [1.0, 1.0])
+    with pytest.raises(NonFiniteError, match="finite"):
+        weighted_rotation(np.eye(3), np.full((3, 3), np.inf), np.ones(3))
+
+
+@given(seeds)
+def test_batch_kabsch_matches_scipy(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    h, k = 5, int(rng.integers(3, 8))
+    x = rng.normal(size=(h, k, 3))
+    y = rng.normal(size=(h, k, 3))
+    w = rng.uniform(0.1, 5.0, (h, k))
+    rot, t = weighted_kabsch_batch(x, y, w)
+    for i in range(h):
+        wn = w[i] / w[i].sum()
+        cx, cy = wn @ x[i], wn @ y[i]
+        ref, _ = Rotation.align_vectors(y[i] - cy, x[i] - cx, weights=w[i])
+        assert np.allclose(rot[i], ref.as_matrix(), atol=1e-8)
+        assert np.allclose(t[i], cy - ref.as_matrix() @ cx, atol=1e-8)
+    with pytest.raises(ShapeError):
+        weighted_kabsch_batch(x, y[:, :2], w)

@@ -1,0 +1,955 @@
+"""Data association: percepts (ego frame) to world-model objects (paper section 2.2, DESIGN.md).
+
+Two methods share :func:`associate`:
+
+``"clique"`` (default, beyond the paper)
+    A typed consistency graph: a vertex is a pair (percept p, model object o) of one type; an
+    edge joins (p, o) and (q, u), p != q, o != u, when the percept distance and the model
+    distance agree, ``| |x_p - x_q| - |X_o - X_u| | < tau_pq`` (with ``gravity_aligned`` the
+    horizontal distance and the height difference are compared separately).  Candidate model
+    pairs come from the world's link look-up table (:meth:`WorldModel.link_lengths`), never
+    from all pairs.  The graph is k-partite by percept, so an exact branch and bound over the
+    percepts with Python-integer bitsets finds the maximum cliques and every maximal clique
+    one smaller (false percepts make a wrong clique one larger than the true one possible).
+    Cliques of four or more members whose percept and model tetrahedra have opposite signed
+    volumes (mirror matches) are rejected.  Every surviving clique becomes a hypothesis:
+    weighted Kabsch on its members, then a robust fit cost, the capped squared normalised
+    residual of *every* percept against its nearest same-type model object under that pose,
+    which also validates the hypothesis with the percepts not used to build it.
+``"paper"``
+    The paper's filters: proximity filtering (eq. 1, the intersection of the link sets of all
+    percept pairs) and orientation filtering (eqs. 2-3, signature vectors of percept triples
+    in the eq.-5 frame), then the complete assignments of the surviving links.  No percept
+    may be false: one false percept empties the intersection.
+
+Note on eqs. 2-3: the signature ``V = R^T (x_j - x_k)`` in the frame of the triple is a
+function of the triangle's side lengths only (the third point always has a negative third
+coordinate in that frame), so the orientation filter accepts nothing that the pairwise
+distances reject; it is kept as the paper states it.  The signed volume used by the clique
+method is what rejects mirror matches.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from perception import Percept
+
+from .errors import (
+    EmptyWorldError,
+    TooFewPerceptsError,
+    UnknownTypeError,
+    WorldGraphError,
+)
+from .model import WorldModel
+from .pose import invert_transformation, rotation_angle, weighted_kabsch_batch
+
+__all__ = [
+    "ASSOCIATION_METHODS",
+    "ASSOCIATION_TOLERANCES",
+    "AssociationHypothesis",
+    "AssociationTolerances",
+    "CliqueSearch",
+    "associate",
+    "discriminator",
+    "is_ambiguous",
+    "maximum_cliques",
+    "orientation_filter",
+    "proximity_filter",
+]
+
+ASSOCIATION_METHODS = ("clique", "paper")
+
+
+@dataclass(frozen=True)
+class AssociationTolerances:
+    """Tolerances of the association, in one frozen place.
+
+    Attributes
+    ----------
+    n_sigma : float
+        Gate width in standard deviations.
+    pair_factor : float
+        Extra factor on the pair gate, ``tau_pq = n_sigma * pair_factor * sqrt(s_p^2 + s_q^2)
+        + min_tolerance``; sqrt(2) keeps a true pair inside the gate with probability
+        ~1 - 2e-5 at 3 sigma, so that all ~45 pairs of ten percepts pass together.
+    min_tolerance : float
+        Floor (metres) added to every distance gate (model inaccuracy).
+    kappa_max : float
+        Orientation filter, eq. 3: maximal angle (rad) between signature vectors.
+    mu_max : float or None
+        Orientation filter, eq. 2: maximal length (m) of the signature difference; ``None``
+        derives it per triple like ``tau`` from the three sigmas.
+    gravity_aligned : bool
+        The ego z axis is the world z axis (REP 103 ego with a levelled base): compare the
+        horizontal distance and the height difference of pairs separately.
+    height_tolerance : float or None
+        Gate (m) of the height difference when ``gravity_aligned``; ``None`` uses ``tau``.
+    cost_cap : float
+        Cap of a percept's squared normalised residual in the robust fit cost.
+    residual_factor : float
+        The residual of a percept under a fitted pose is normalised by ``residual_factor *
+        sigma`` (the pose itself is uncertain).
+    min_clique_size : int
+        Smallest clique that makes a hypothesis (three points fix a pose).
+    near_maximum : int
+        Maximal cliques down to ``maximum size - near_maximum`` are kept.
+    ambiguity_margin : float
+        The best two (pose-distinct) hypotheses are ambiguous when their costs differ by less.
+    distinct_translation, distinct_angle : float
+        Two hypotheses with translations closer than this (m) and rotations closer than this
+        (rad) are the same pose: only the cheaper one is kept.
+    chirality_sigmas : float
+        A tetrahedron's signed volume decides chirality only when both volumes exceed this
+        many standard deviations of the percept volume.
+    max_nodes : int
+        Node budget of one branch-and-bound search (the result says when it ran out).
+    max_cliques : int
+        At most this many cliques (largest first) are fitted and ranked.
+    dense_pair_limit : int
+        Percept pairs farther apart than the link table covers are matched by brute force when
+        the two types have at most this many object pairs, otherwise by a k-d tree ball query.
+    max_hypotheses : int
+        Default number of hypotheses returned by :func:`associate`.
+    """
+
+    n_sigma: float = 3.0
+    pair_factor: float = math.sqrt(2.0)
+    min_tolerance: float = 0.01
+    kappa_max: float = math.radians(20.0)
+    mu_max: float | None = None
+    gravity_aligned: bool = False
+    height_tolerance: float | None = None
+    cost_cap: float = 9.0
+    residual_factor: float = math.sqrt(2.0)
+    min_clique_size: int = 3
+    near_maximum: int = 1
+    ambiguity_margin: float = 4.0
+    distinct_translation: float = 0.25
+    distinct_angle: float = math.radians(5.0)
+    chirality_sigmas: float = 3.0
+    max_nodes: int = 50_000
+    max_cliques: int = 2000
+    dense_pair_limit: int = 250_000
+    max_hypotheses: int = 16
+
+    def __post_init__(self) -> None:
+        for name in ("n_sigma", "pair_factor", "kappa_max", "cost_cap", "residual_factor",
+                     "distinct_translation", "distinct_angle"):
+            v = getattr(self, name)
+            if not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
+                raise WorldGraphError(f"AssociationTolerances.{name} must be finite and > 0, got {v!r}")
+        for name in ("min_tolerance", "ambiguity_margin", "chirality_sigmas"):
+            v = getattr(self, name)
+            if not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
+                raise WorldGraphError(f"AssociationTolerances.{name} must be finite and >= 0, got {v!r}")
+        for name in ("mu_max", "height_tolerance"):
+            v = getattr(self, name)
+            if v is not None and (not isinstance(v, int | float) or not math.isfinite(v) or v <= 0):
+                raise WorldGraphError(f"AssociationTolerances.{name} must be None or finite > 0, got {v!r}")
+        if int(self.min_clique_size) < 2:
+            raise WorldGraphError(f"min_clique_size must be >= 2, got {self.min_clique_size!r}")
+        for name in ("near_maximum", "max_nodes", "max_cliques", "dense_pair_limit", "max_hypotheses"):
+            if int(getattr(self, name)) < 0:
+                raise WorldGraphError(f"AssociationTolerances.{name} must be >= 0, "
+                                      f"got {getattr(self, name)!r}")
+
+    def pair_tolerance(self, sigma_p: float | NDArray, sigma_q: float | NDArray) -> float | NDArray:
+        """``tau_pq = n_sigma * pair_factor * sqrt(s_p^2 + s_q^2) + min_tolerance`` (metres)."""
+        return self.n_sigma * self.pair_factor * np.sqrt(np.square(sigma_p) + np.square(sigma_q)) \
+            + self.min_tolerance
+
+
+ASSOCIATION_TOLERANCES = AssociationTolerances()
+
+
+@dataclass(frozen=True)
+class AssociationHypothesis:
+    """One association of percepts to model objects, with the pose it implies.
+
+    Attributes
+    ----------
+    pairs : tuple of (percept_index, object_index)
+        The clique (or the paper's complete assignment), sorted by percept index.
+    cost : float
+        Robust fit cost: ``sum_p min(|R x_p + t - X_nearest(p)|^2 / (residual_factor
+        sigma_p)^2, cost_cap)`` over all percepts, nearest among the objects of p's type.
+    size : int
+        ``len(pairs)``.
+    world_from_ego : (4, 4) float
+        Weighted Kabsch pose of the pairs.
+    validated : tuple of (percept_index, object_index)
+        Percepts outside the clique whose nearest same-type object under the pose lies inside
+        the gate (hypothesis validation with percepts not used to build it).
+    inliers : int
+        Percepts (clique or validated) whose residual is inside the gate.
+    complete : bool
+        False when the clique search hit ``max_nodes`` or ``max_cliques``: other hypotheses
+        of the same size may exist (a highly repetitive world); treat as ambiguous.
+    """
+
+    pairs: tuple[tuple[int, int], ...]
+    cost: float
+    size: int
+    world_from_ego: NDArray[np.float64] = field(default_factory=lambda: np.eye(4))
+    validated: tuple[tuple[int, int], ...] = ()
+    inliers: int = 0
+    complete: bool = True
+
+    @property
+    def all_pairs(self) -> tuple[tuple[int, int], ...]:
+        """``pairs`` and ``validated`` merged, sorted by percept index."""
+        return tuple(sorted(self.pairs + self.validated))
+
+
+@dataclass(frozen=True)
+class CliqueSearch:
+    """Result of :func:`maximum_cliques`.
+
+    Attributes
+    ----------
+    cliques : list of tuple of (part, vertex)
+        Maximal cliques of size ``>= max(maximum - near_maximum, min_size)``, as (part index,
+        vertex index within the part) sorted by part; largest first.
+    maximum : int
+        Size of the maximum clique (0 when none reaches ``min_size``).
+    complete : bool
+        False when the node budget ran out (the answer may then miss cliques).
+    nodes : int
+        Branch-and-bound nodes visited.
+    """
+
+    cliques: list[tuple[tuple[int, int], ...]]
+    maximum: int
+    complete: bool
+    nodes: int
+
+
+# ----------------------------------------------------------------------------------------------
+# exact maximum cliques of a k-partite graph (bitsets)
+# ----------------------------------------------------------------------------------------------
+def _bits(indices: NDArray[np.intp] | Sequence[int]) -> int:
+    out = 0
+    for b in indices:
+        out |= 1 << int(b)
+    return out
+
+
+def maximum_cliques(
+    sizes: Sequence[int],
+    adjacency: dict[tuple[int, int], NDArray[np.bool_] | None],
+    min_size: int = 1,
+    near_maximum: int = 0,
+    max_nodes: int = 1_000_000,
+    allowed: Sequence[NDArray[np.bool_]] | None = None,
+    max_cliques: int | None = None,
+    stop_at: int | None = None,
+) -> CliqueSearch:
+    """Exact maximum (and near-maximum maximal) cliques of a k-partite graph.
+
+    Parts are the percepts; part p has ``sizes[p]`` vertices.  No edge joins two vertices of
+    one part, so a clique holds at most one vertex per part.  The branch and bound visits the
+    parts in order of increasing candidate count; at each part it tries every vertex
+    compatible with the chosen ones (an AND of Python-int bitsets), then skipping the part,
+    and prunes when the chosen count plus the number of later parts with a compatible vertex
+    cannot reach the threshold ``max(best - near_maximum, min_size)``.
+
+    Parameters
+    ----------
+    sizes : (k,) int
+    adjacency : dict (p, q) -> (sizes[p], sizes[q]) bool or None
+        For ``p < q``; ``None`` means every pair is compatible; a missing key means none is.
+    min_size : int
+    near_maximum : int
+        Also return maximal cliques down to ``maximum - near_maximum``.
+    max_nodes : int
+    allowed : sequence of (sizes[p],) bool, optional
+        Vertices that may be used (default all).
+    max_cliques : int, optional
+        Stop (``complete=False``) once this many cliques are recorded.
+    stop_at : int, optional
+        Stop (``complete=True``) at the first clique of at least this size, for a caller that
+        knows no larger clique exists.
+
+    Returns
+    -------
+    CliqueSearch
+    """
+    k = len(sizes)
+    full = [(1 << int(s)) - 1 for s in sizes]
+    start = list(full) if allowed is None else [_bits(np.flatnonzero(a)) & f for a, f in zip(allowed, full,
+                                                                                             strict=True)]
+    order = sorted(range(k), key=lambda p: (start[p].bit_count(), p))
+    order = [p for p in order if start[p]] + [p for p in order if not start[p]]
+    # packed[d][e]: rows of vertex a of part order[d] against part order[e], packed little-endian
+    # (or an int for "all" / "none"); turned into Python-int bitsets lazily, per visited vertex
+    packed: list[list[NDArray[np.uint8] | int]] = [[0] * k for _ in range(k)]
+    for d, p in enumerate(order):
+        for e, q in enumerate(order):
+            if p == q:
+                continue
+            key = (min(p, q), max(p, q))
+            if key not in adjacency:
+                packed[d][e] = 0
+                continue
+            mat = adjacency[key]
+            if mat is None:
+                packed[d][e] = full[q]
+                continue
+            mat = np.asarray(mat, dtype=bool)
+            if mat.shape != (sizes[key[0]], sizes[key[1]]):
+                raise WorldGraphError(f"adjacency[{key}] must have shape ({sizes[key[0]]}, {sizes[key[1]]}), "
+                                      f"got shape {mat.shape}")
+            mat = mat if p < q else mat.T
+            packed[d][e] = np.packbits(mat, axis=1, bitorder="little") if mat.shape[1] else 0
+    cache: dict[tuple[int, int], list[int]] = {}
+
+    def rows_of(d: int, a: int) -> list[int]:
+        got = cache.get((d, a))
+        if got is None:
+            got = []
+            for e in range(k):
+                pk = packed[d][e]
+                got.append(pk if isinstance(pk, int) else int.from_bytes(pk[a].tobytes(), "little"))
+            cache[(d, a)] = got
+        return got
+
+    best = [0]
+    found: list[tuple[int, tuple[tuple[int, int], ...]]] = []
+    nodes = [0]
+    complete = [True]
+    floor = max(int(min_size), 1)
+
+    def threshold() -> int:
+        return max(best[0] - near_maximum, floor)
+
+    done = [False]
+
+    def rec(depth: int, masks: list[int], chosen: list[tuple[int, int]], skipped: list[int]) -> None:
+        if done[0]:
+            return
+        if nodes[0] >= max_nodes:
+            complete[0] = False
+            done[0] = True
+            return
+        nodes[0] += 1
+        possible = sum(1 for e in range(depth, k) if masks[e])
+        if len(chosen) + possible < threshold():
+            return
+        if depth == k:
+            for s in skipped:
+                if masks[s]:
+                    return  # not maximal: a skipped part still has a compatible vertex
+            size = len(chosen)
+            if size > best[0]:
+                best[0] = size
+            found.append((size, tuple(sorted((order[d], a) for d, a in chosen))))
+            if stop_at is not None and size >= stop_at:
+                done[0] = True
+            elif max_cliques is not None and len(found) >= max_cliques:
+                done[0] = True
+                complete[0] = False
+            return
+        m = masks[depth]
+        while m:
+            low = m & -m
+            a = low.bit_length() - 1
+            m ^= low
+            rows = rows_of(depth, a)
+            new = [x & r for x, r in zip(masks, rows, strict=True)]
+            new[depth] = 0
+            chosen.append((depth, a))
+            rec(depth + 1, new, chosen, skipped)
+            chosen.pop()
+        if masks[depth]:
+            skipped.append(depth)
+            rec(depth + 1, masks, chosen, skipped)
+            skipped.pop()
+        else:
+            rec(depth + 1, masks, chosen, skipped)
+
+    rec(0, [start[p] for p in order], [], [])
+    thr = threshold()
+    cliques = sorted({c for s, c in found if s >= thr}, key=lambda c: (-len(c), c))
+    return CliqueSearch(cliques=cliques, maximum=best[0] if best[0] >= floor else 0,
+                        complete=complete[0], nodes=nodes[0])
+
+
+# ----------------------------------------------------------------------------------------------
+# input checks and the consistency graph
+# ----------------------------------------------------------------------------------------------
+def _check_inputs(world: WorldModel, percepts: Sequence[Percept]) -> list[Percept]:
+    if not isinstance(world, WorldModel):
+        raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
+    if len(world) == 0:
+        raise EmptyWorldError("the world model has no objects")
+    percepts = list(percepts)
+    for k, p in enumerate(percepts):
+        if not isinstance(p, Percept):
+            raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
+        if p.type not in world.type_index:
+            raise UnknownTypeError(f"percepts[{k}] has type {p.type!r}, which is not in the world model; "
+                                   f"known types: {list(world.type_index)}")
+    return percepts
+
+
+@dataclass(frozen=True)
+class _Graph:
+    """Consistency graph: part p = percept p, its vertices = objects of p's type.
+
+    ``edges[(p, q)]`` (p < q) holds local index arrays ``(a, b)``, or None when every pair is
+    compatible (the percepts are farther apart than the link table reaches).
+    """
+
+    objects: list[NDArray[np.intp]]          # per percept: global object indices (local -> global)
+    edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None]
+
+    def dense(self, alive: list[NDArray[np.bool_]]
+              ) -> tuple[list[NDArray[np.intp]], dict[tuple[int, int], NDArray[np.bool_] | None]]:
+        """The subgraph of the alive vertices: compacted objects and boolean adjacency matrices."""
+        new_index = []
+        for al in alive:
+            idx = np.full(len(al), -1, dtype=np.intp)
+            idx[al] = np.arange(int(al.sum()))
+            new_index.append(idx)
+        objects = [o[al] for o, al in zip(self.objects, alive, strict=True)]
+        adjacency: dict[tuple[int, int], NDArray[np.bool_] | None] = {}
+        for (p, q), e in self.edges.items():
+            if e is None:
+                adjacency[(p, q)] = None
+                continue
+            a, b = e
+            keep = alive[p][a] & alive[q][b]
+            mat = np.zeros((len(objects[p]), len(objects[q])), dtype=bool)
+            mat[new_index[p][a[keep]], new_index[q][b[keep]]] = True
+            adjacency[(p, q)] = mat
+        return objects, adjacency
+
+
+def _local(objects: NDArray[np.intp], glob: NDArray[np.intp]) -> NDArray[np.intp]:
+    return np.searchsorted(objects, glob)
+
+
+def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
+                     tol: AssociationTolerances, objects: list[NDArray[np.intp]],
+                     trees: dict[str, cKDTree] | None = None
+                     ) -> tuple[NDArray[np.intp], NDArray[np.intp]] | None:
+    """Model pairs consistent with the percept pair (p, q): local indices ``(a, b)`` into
+    ``objects[p]`` and ``objects[q]``; None when unconstrained (beyond the link table)."""
+    xp, xq = percepts[p].position, percepts[q].position
+    tp, tq = percepts[p].type, percepts[q].type
+    op, oq = objects[p], objects[q]
+    diff = xq - xp
+    d = float(np.linalg.norm(diff))
+    ztol = tau if tol.height_tolerance is None else float(tol.height_tolerance)
+    reach = tau + (ztol if tol.gravity_aligned else 0.0)
+    covered = d + reach < world.max_link_length + world.link_margin
+    if covered:
+        i, j, _ = world.link_lengths(tp, tq, d - reach, d + reach)
+        if tp == tq:
+            i, j = np.concatenate([i, j]), np.concatenate([j, i])
+    elif len(op) * len(oq) <= tol.dense_pair_limit:
+        ii, jj = np.meshgrid(op, oq, indexing="ij")
+        i, j = ii.ravel(), jj.ravel()
+        dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
+        keep = (np.abs(dm - d) < reach) & (i != j)
+        i, j = i[keep], j[keep]
+    else:
+        # beyond the link table: k-d tree ball query of the annulus d - reach < |X_o - X_u| < d + reach
+        small, big = (op, oq) if len(op) <= len(oq) else (oq, op)
+        if trees is None:
+            trees = {}
+        key = percepts[q].type if big is oq else percepts[p].type
+        if key not in trees:
+            trees[key] = cKDTree(world.positions[big])
+        hits = trees[key].query_ball_point(world.positions[small], d + reach)
+        counts = np.fromiter((len(h) for h in hits), dtype=np.intp, count=len(hits))
+        i = np.repeat(small, counts)
+        j = big[np.fromiter(itertools.chain.from_iterable(hits), dtype=np.intp, count=int(counts.sum()))]
+        if big is op:
+            i, j = j, i
+        dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
+        keep = (np.abs(dm - d) < reach) & (i != j)
+        i, j = i[keep], j[keep]
+    if tol.gravity_aligned and len(i):
+        dv = world.positions[j] - world.positions[i]
+        keep = (np.abs(dv[:, 2] - diff[2]) < ztol) & \
+            (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - math.hypot(diff[0], diff[1])) < tau)
+        i, j = i[keep], j[keep]
+    return _local(op, i), _local(oq, j)
+
+
+def _consistency_graph(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances) -> _Graph:
+    objects = [world.type_index[p.type] for p in percepts]
+    sig = np.array([p.sigma for p in percepts])
+    edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None] = {}
+    trees: dict[str, cKDTree] = {}
+    for p, q in itertools.combinations(range(len(percepts)), 2):
+        tau = float(tol.pair_tolerance(sig[p], sig[q]))
+        edges[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tol, objects, trees)
+    return _Graph(objects, edges)
+
+
+def _prune(graph: _Graph, need: int) -> list[NDArray[np.bool_]]:
+    """Vertices that have compatible vertices in at least ``need - 1`` other parts (iterated)."""
+    k = len(graph.objects)
+    alive = [np.ones(len(o), dtype=bool) for o in graph.objects]
+    changed = True
+    while changed:
+        changed = False
+        support = [np.zeros(len(o), dtype=np.int64) for o in graph.objects]
+        for (p, q), e in graph.edges.items():
+            if e is None:
+                support[p] += bool(alive[q].any())
+                support[q] += bool(alive[p].any())
+                continue
+            a, b = e
+            keep = alive[p][a] & alive[q][b]
+            hp = np.zeros(len(alive[p]), dtype=bool)
+            hq = np.zeros(len(alive[q]), dtype=bool)
+            hp[a[keep]] = True
+            hq[b[keep]] = True
+            support[p] += hp
+            support[q] += hq
+        for p in range(k):
+            keep = alive[p] & (support[p] >= need - 1)
+            if keep.sum() != alive[p].sum():
+                alive[p] = keep
+                changed = True
+    return alive
+
+
+# ----------------------------------------------------------------------------------------------
+# chirality, fit cost, hypotheses
+# ----------------------------------------------------------------------------------------------
+def _cross(a: NDArray, b: NDArray) -> NDArray:
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
+def _chirality_ok(ego: NDArray, world: NDArray, sigmas: NDArray, tol: AssociationTolerances
+                  ) -> NDArray[np.bool_]:
+    """Per point set: no tetrahedron of the members has a significant signed volume of opposite sign.
+
+    ``ego, world (h, m, 3)``, ``sigmas (h, m)``.  With ``gravity_aligned`` triangles are tested
+    too: the sign of the z component of their normal.
+    """
+    h, m, _ = ego.shape
+    ok = np.ones(h, dtype=bool)
+    if m >= 4:
+        quads = np.array(list(itertools.combinations(range(m), 4)))
+        e = ego[:, quads]      # (h, q, 4, 3)
+        w = world[:, quads]
+        de, dw = e[:, :, 1:] - e[:, :, :1], w[:, :, 1:] - w[:, :, :1]
+        ve = np.sum(de[:, :, 0] * _cross(de[:, :, 1], de[:, :, 2]), axis=-1)
+        vw = np.sum(dw[:, :, 0] * _cross(dw[:, :, 1], dw[:, :, 2]), axis=-1)
+        # std of 6V under isotropic point noise: |d(6V)/d point c| = twice the opposite face's area
+        s = sigmas[:, quads]
+        var = np.zeros(ve.shape)
+        for drop in range(4):
+            i0, i1, i2 = (c for c in range(4) if c != drop)
+            area2 = np.linalg.norm(_cross(w[:, :, i1] - w[:, :, i0], w[:, :, i2] - w[:, :, i0]), axis=-1)
+            var += area2**2 * s[:, :, drop] ** 2
+        gate = tol.chirality_sigmas * tol.pair_factor * np.sqrt(var)
+        bad = (np.abs(vw) > gate) & (np.abs(ve) > gate) & (np.sign(ve) != np.sign(vw))
+        ok &= ~bad.any(axis=1)
+    if tol.gravity_aligned and m >= 3:
+        tri = np.array(list(itertools.combinations(range(m), 3)))
+        e = ego[:, tri]
+        w = world[:, tri]
+        ne = _cross(e[:, :, 1] - e[:, :, 0], e[:, :, 2] - e[:, :, 0])[..., 2]
+        nw = _cross(w[:, :, 1] - w[:, :, 0], w[:, :, 2] - w[:, :, 0])[..., 2]
+        s = sigmas[:, tri].max(axis=2)
+        span = np.max(np.linalg.norm(w - w[:, :, :1], axis=-1), axis=-1)
+        gate = tol.chirality_sigmas * tol.pair_factor * 2.0 * s * span
+        bad = (np.abs(nw) > gate) & (np.abs(ne) > gate) & (np.sign(ne) != np.sign(nw))
+        ok &= ~bad.any(axis=1)
+    return ok
+
+
+class _Nearest:
+    """Nearest same-type model object of predicted percept positions (one k-d tree per type)."""
+
+    def __init__(self, world: WorldModel, percepts: list[Percept]) -> None:
+        self.world = world
+        self.types = sorted({p.type for p in percepts})
+        self.by_type = {t: np.array([i for i, p in enumerate(percepts) if p.type == t]) for t in self.types}
+        self.objects = {t: world.type_index[t] for t in self.types}
+        self.trees = {t: cKDTree(world.positions[self.objects[t]]) for t in self.types}
+
+    def query(self, pred: NDArray[np.float64], scale: NDArray[np.float64], cap: float
+              ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+        """Squared normalised distance (capped) and object index for ``pred (h, k, 3)``."""
+        h, k, _ = pred.shape
+        r2 = np.full((h, k), cap)
+        obj = np.full((h, k), -1, dtype=np.intp)
+        for t in self.types:
+            idx = self.by_type[t]
+            pts = pred[:, idx].reshape(-1, 3)
+            bound = float(math.sqrt(cap) * scale[idx].max())
+            dist, j = self.trees[t].query(pts, k=1, distance_upper_bound=bound)
+            dist = dist.reshape(h, len(idx))
+            j = j.reshape(h, len(idx))
+            found = np.isfinite(dist)
+            d2 = np.where(found, dist, 0.0) ** 2 / scale[idx] ** 2
+            inside = found & (d2 < cap)
+            r2[:, idx] = np.where(inside, d2, cap)
+            obj[:, idx] = np.where(inside, self.objects[t][np.where(found, j, 0)], -1)
+        return r2, obj
+
+
+def _fit_all(world: WorldModel, percepts: list[Percept], candidates: list[tuple[tuple[int, int], ...]],
+             tol: AssociationTolerances, chirality: bool = True) -> list[AssociationHypothesis]:
+    """Weighted Kabsch on each pair set, then the robust cost of all percepts.
+
+    Pair sets with fewer than 3 or collinear model points, and (``chirality``) mirror matches,
+    are dropped.  Sets of one size are processed together.
+    """
+    if not candidates:
+        return []
+    ego_all = np.array([p.position for p in percepts])
+    sig_all = np.array([p.sigma for p in percepts])
+    by_size: dict[int, list[tuple[tuple[int, int], ...]]] = {}
+    for pairs in candidates:
+        if len(pairs) >= 3:
+            by_size.setdefault(len(pairs), []).append(tuple(sorted(pairs)))
+    kept: list[tuple[tuple[int, int], ...]] = []
+    poses = []
+    for size in sorted(by_size, reverse=True):
+        group = by_size[size]
+        arr = np.array(group)                          # (h, m, 2)
+        pi, oi = arr[:, :, 0], arr[:, :, 1]
+        ego, wpts, sig = ego_all[pi], world.positions[oi], sig_all[pi]
+        centred = wpts - wpts.mean(axis=1, keepdims=True)
+        sv = np.linalg.svd(centred, compute_uv=False)
+        good = sv[:, 1] > 1e-6 * np.maximum(sv[:, 0], 1e-300)
+        if chirality:
+            good &= _chirality_ok(ego, wpts, sig, tol)
+        if not good.any():
+            continue
+        rot, t = weighted_kabsch_batch(ego[good], wpts[good], 1.0 / sig[good] ** 2)
+        mats = np.tile(np.eye(4), (len(rot), 1, 1))
+        mats[:, :3, :3] = rot
+        mats[:, :3, 3] = t
+        poses.append(mats)
+        kept.extend(g for g, ok in zip(group, good, strict=True) if ok)
+    if not kept:
+        return []
+    mats = np.concatenate(poses)
+    pred = np.einsum("hij,kj->hki", mats[:, :3, :3], ego_all) + mats[:, None, :3, 3]
+    scale = tol.residual_factor * sig_all
+    r2, obj = _Nearest(world, percepts).query(pred, scale, tol.cost_cap)
+    costs = r2.sum(axis=1)
+    out = []
+    for h, pairs in enumerate(kept):
+        clique_obj = dict(pairs)
+        used = set(clique_obj.values())
+        validated = []
+        for p in range(len(percepts)):
+            o = int(obj[h, p])
+            if p not in clique_obj and o >= 0 and o not in used:
+                used.add(o)
+                validated.append((p, o))
+        out.append(AssociationHypothesis(pairs=pairs, cost=float(costs[h]), size=len(pairs),
+                                         world_from_ego=mats[h], validated=tuple(validated),
+                                         inliers=int(np.sum(obj[h] >= 0))))
+    return out
+
+
+def _same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
+    return (float(np.linalg.norm(a[:3, 3] - b[:3, 3])) < tol.distinct_translation
+            and rotation_angle(a, b) < tol.distinct_angle)
+
+
+def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: int
+          ) -> list[AssociationHypothesis]:
+    hyps = sorted(hyps, key=lambda h: (h.cost, -h.size, h.pairs))
+    kept: list[AssociationHypothesis] = []
+    for h in hyps:
+        if any(_same_pose(h.world_from_ego, g.world_from_ego, tol) for g in kept):
+            continue
+        kept.append(h)
+        if len(kept) >= limit:
+            break
+    return kept
+
+
+def is_ambiguous(hypotheses: Sequence[AssociationHypothesis],
+                 tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES) -> bool:
+    """The best two hypotheses have costs within ``ambiguity_margin`` and poses that differ."""
+    if len(hypotheses) < 2:
+        return False
+    a, b = hypotheses[0], hypotheses[1]
+    return (b.cost - a.cost < tolerances.ambiguity_margin
+            and not _same_pose(a.world_from_ego, b.world_from_ego, tolerances))
+
+
+# ----------------------------------------------------------------------------------------------
+# the paper's filters
+# ----------------------------------------------------------------------------------------------
+def proximity_filter(world: WorldModel, percepts: Sequence[Percept],
+                     tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES) -> dict:
+    """Proximity filtering (paper eq. 1 and the intersection ``psi_act``).
+
+    For every percept pair (p, q) the model links of the same type pair whose length lies
+    within ``tau`` of the percept distance (``tau`` from the largest sigma of the percepts of
+    the two types, as the paper's ``tau = max eps_k``, widened to ``n_sigma`` standard
+    deviations); then the intersection: a model object stays a candidate of percept p only
+    while it has a link to a candidate of every other percept (iterated to a fixed point).
+
+    Returns
+    -------
+    dict
+        ``"candidates"``: list, per percept, of the surviving global object indices;
+        ``"links"``: dict (p, q) -> (k, 2) int array of surviving (object of p, object of q);
+        ``"adjacency"``: the same as boolean matrices over each percept's objects of its type.
+    """
+    percepts = _check_inputs(world, percepts)
+    objects = [world.type_index[p.type] for p in percepts]
+    k = len(percepts)
+    sig = np.array([p.sigma for p in percepts])
+    types = [p.type for p in percepts]
+    edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None] = {}
+    for p, q in itertools.combinations(range(k), 2):
+        theta = [s for s, t in zip(sig, types, strict=True) if t in (types[p], types[q])]
+        smax = max(theta)
+        tau = float(tolerances.pair_tolerance(smax, smax))
+        edges[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tolerances, objects)
+    graph = _Graph(objects, edges)
+    alive = _prune(graph, k)
+    compact, dense = graph.dense(alive)
+    adjacency = {key: np.ones((len(compact[key[0]]), len(compact[key[1]])), bool) if m is None else m
+                 for key, m in dense.items()}
+    return _filtered(compact, adjacency, [np.ones(len(o), bool) for o in compact])
+
+
+def _sparse(objects: list[NDArray[np.intp]], adjacency: dict) -> _Graph:
+    return _Graph(objects, {key: np.nonzero(m) for key, m in adjacency.items()})
+
+
+def _filtered(objects: list[NDArray[np.intp]], adjacency: dict, alive: list[NDArray[np.bool_]]) -> dict:
+    adj = {key: mat & alive[key[0]][:, None] & alive[key[1]][None, :] for key, mat in adjacency.items()}
+    links = {}
+    for (p, q), mat in adj.items():
+        a, b = np.nonzero(mat)
+        links[(p, q)] = np.column_stack([objects[p][a], objects[q][b]])
+    return {"candidates": [o[al] for o, al in zip(objects, alive, strict=True)], "links": links,
+            "adjacency": adj, "objects": objects, "alive": alive}
+
+
+def _frames(a: NDArray, b: NDArray, c: NDArray) -> tuple[NDArray, NDArray]:
+    """Rotations (m, 3, 3) of the eq.-5 frames of point triples (m, 3) each, and a validity mask."""
+    ab = b - a
+    nab = np.linalg.norm(ab, axis=1)
+    d1 = ab / np.where(nab > 0, nab, 1.0)[:, None]
+    cr = np.cross(d1, c - a)
+    ncr = np.linalg.norm(cr, axis=1)
+    ok = (nab > 0) & (ncr > 1e-9 * np.maximum(nab, 1e-300))
+    d2 = cr / np.where(ncr > 0, ncr, 1.0)[:, None]
+    d3 = np.cross(d1, d2)
+    return np.stack([d1, d2, d3], axis=2), ok
+
+
+def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity: dict,
+                       tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES) -> dict:
+    """Orientation filtering (paper eqs. 2-3) of the output of :func:`proximity_filter`.
+
+    For every non-collinear percept triple (i, j, k) the signature ``V = R_ijk^T (x_j - x_k)``
+    (the displacement in the eq.-5 frame of the triple) is compared with the signatures of the
+    model triples (u, v, w) linked in the proximity result: accepted when ``|V_p - V_m| <
+    mu_max`` (eq. 2) and the angle between them is below ``kappa_max`` (eq. 3).  Links that no
+    accepted triple uses are dropped, then the intersection is iterated again.
+
+    Returns
+    -------
+    dict
+        Same layout as :func:`proximity_filter`.
+    """
+    percepts = _check_inputs(world, percepts)
+    k = len(percepts)
+    objects = proximity["objects"]
+    adj = {key: m.copy() for key, m in proximity["adjacency"].items()}
+    x = np.array([p.position for p in percepts])
+    sig = np.array([p.sigma for p in percepts])
+    X = world.positions
+    if k >= 3:
+        support = {key: np.zeros_like(m) for key, m in adj.items()}
+        checked = {key: False for key in adj}
+        for i, j, kk in itertools.combinations(range(k), 3):
+            rp, okp = _frames(x[i][None], x[j][None], x[kk][None])
+            if not okp[0]:
+                continue
+            for key in ((i, j), (i, kk), (j, kk)):
+                checked[key] = True
+            vp = rp[0].T @ (x[j] - x[kk])
+            spread = math.sqrt(sig[i] ** 2 + sig[j] ** 2 + sig[kk] ** 2)
+            mu = tolerances.mu_max if tolerances.mu_max is not None else float(
+                tolerances.n_sigma * tolerances.pair_factor * spread + tolerances.min_tolerance)
+            a_ij, a_ik, a_jk = adj[(i, j)], adj[(i, kk)], adj[(j, kk)]
+            u, v = np.nonzero(a_ij)
+            if len(u) == 0:
+                continue
+            cand = a_ik[u] & a_jk[v]
+            rows, w = np.nonzero(cand)
+            if len(rows) == 0:
+                continue
+            u, v = u[rows], v[rows]
+            Xu, Xv, Xw = X[objects[i][u]], X[objects[j][v]], X[objects[kk][w]]
+            rm, okm = _frames(Xu, Xv, Xw)
+            vm = np.einsum("mji,mj->mi", rm, Xv - Xw)
+            dist = np.linalg.norm(vm - vp, axis=1)
+            cosang = (vm @ vp) / np.maximum(np.linalg.norm(vm, axis=1) * np.linalg.norm(vp), 1e-300)
+            acc = okm & (dist < mu) & (np.arccos(np.clip(cosang, -1, 1)) < tolerances.kappa_max)
+            u, v, w = u[acc], v[acc], w[acc]
+            support[(i, j)][u, v] = True
+            support[(i, kk)][u, w] = True
+            support[(j, kk)][v, w] = True
+        for key in adj:
+            if checked[key]:
+                adj[key] = adj[key] & support[key]
+    alive = _prune(_sparse(objects, adj), k)
+    return _filtered(objects, adj, alive)
+
+
+# ----------------------------------------------------------------------------------------------
+# associate
+# ----------------------------------------------------------------------------------------------
+def _hypotheses_from_cliques(world: WorldModel, percepts: list[Percept],
+                             graph_objects: list[NDArray[np.intp]],
+                             cliques: list[tuple[tuple[int, int], ...]], tol: AssociationTolerances
+                             ) -> list[AssociationHypothesis]:
+    sets = [tuple((p, int(graph_objects[p][a])) for p, a in clique) for clique in cliques[:tol.max_cliques]]
+    return _fit_all(world, percepts, sets, tol)
+
+
+def associate(world: WorldModel, percepts: Sequence[Percept],
+              tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES, method: str = "clique",
+              max_hypotheses: int | None = None) -> list[AssociationHypothesis]:
+    """Ranked association hypotheses of ``percepts`` (ego frame) to the objects of ``world``.
+
+    Parameters
+    ----------
+    world : WorldModel
+    percepts : sequence of perception.Percept
+        Every type must be a type of the world (filter unknown ones before; :func:`localize`
+        does).
+    tolerances : AssociationTolerances
+    method : {"clique", "paper"}
+        See the module docstring.
+    max_hypotheses : int, optional
+        Default ``tolerances.max_hypotheses``.
+
+    Returns
+    -------
+    list of AssociationHypothesis
+        By increasing robust cost; poses within ``distinct_translation``/``distinct_angle`` of
+        a better hypothesis are merged into it.  Empty when no clique of ``min_clique_size``
+        (or, for "paper", no complete assignment) exists.
+
+    Raises
+    ------
+    UnknownTypeError
+        A percept type the world does not have.
+    TooFewPerceptsError
+        Fewer than ``min_clique_size`` percepts.
+    """
+    if method not in ASSOCIATION_METHODS:
+        raise WorldGraphError(f"unknown association method {method!r}; choose one of {ASSOCIATION_METHODS}")
+    percepts = _check_inputs(world, percepts)
+    tol = tolerances
+    k = len(percepts)
+    if k < tol.min_clique_size:
+        raise TooFewPerceptsError(f"association needs at least {tol.min_clique_size} percepts, got {k}")
+    limit = tol.max_hypotheses if max_hypotheses is None else int(max_hypotheses)
+    if method == "paper":
+        prox = proximity_filter(world, percepts, tol)
+        filt = orientation_filter(world, percepts, prox, tol)
+        sizes = [len(o) for o in filt["objects"]]
+        search = maximum_cliques(sizes, filt["adjacency"], min_size=k, near_maximum=0,
+                                 max_nodes=tol.max_nodes, allowed=filt["alive"])
+        hyps = _hypotheses_from_cliques(world, percepts, filt["objects"], search.cliques, tol)
+        return _rank(hyps, tol, limit)
+
+    graph = _consistency_graph(world, percepts, tol)
+    # find the maximum size with strong pruning first (the first clique found of size ``need``
+    # is a maximum one: larger ones were ruled out before), then enumerate down to max - near
+    best = 0
+    for need in range(k, tol.min_clique_size - 1, -1):
+        alive = _prune(graph, need)
+        if sum(bool(a.any()) for a in alive) < need:
+            continue
+        objects, adjacency = graph.dense(alive)
+        search = maximum_cliques([len(o) for o in objects], adjacency, min_size=need, near_maximum=0,
+                                 max_nodes=tol.max_nodes, stop_at=need)
+        if search.maximum >= need:
+            best = search.maximum
+            break
+    if best == 0:
+        return []
+    floor = max(best - tol.near_maximum, tol.min_clique_size)
+    objects, adjacency = graph.dense(_prune(graph, floor))
+    search = maximum_cliques([len(o) for o in objects], adjacency, min_size=floor,
+                             near_maximum=tol.near_maximum, max_nodes=tol.max_nodes,
+                             max_cliques=tol.max_cliques)
+    cliques = search.cliques
+    if not search.complete and best > floor:
+        # truncated: make sure the maximum cliques themselves are among the candidates
+        top = maximum_cliques([len(o) for o in objects], adjacency, min_size=best, near_maximum=0,
+                              max_nodes=tol.max_nodes, max_cliques=tol.max_cliques)
+        cliques = sorted(set(top.cliques) | set(cliques), key=lambda c: (-len(c), c))
+    hyps = _hypotheses_from_cliques(world, percepts, objects, cliques, tol)
+    if not hyps and floor > tol.min_clique_size:
+        # every large clique was a mirror or degenerate: fall back to all sizes
+        objects, adjacency = graph.dense(_prune(graph, tol.min_clique_size))
+        search = maximum_cliques([len(o) for o in objects], adjacency, min_size=tol.min_clique_size,
+                                 near_maximum=k, max_nodes=tol.max_nodes, max_cliques=tol.max_cliques)
+        hyps = _hypotheses_from_cliques(world, percepts, objects, search.cliques, tol)
+    ranked = _rank(hyps, tol, limit)
+    if not search.complete:
+        ranked = [replace(h, complete=False) for h in ranked]
+    return ranked
+
+
+def discriminator(world: WorldModel, hypotheses: Sequence[AssociationHypothesis],
+                  max_range: float | None = None) -> int:
+    """The model object whose predicted ego position differs most between the best two hypotheses.
+
+    The paper's active validation (section 2.3, "Hypotheses Validation"): look for this object
+    to tell the hypotheses apart.
+
+    Parameters
+    ----------
+    world : WorldModel
+    hypotheses : sequence of AssociationHypothesis
+        At least two; the first two are compared.
+    max_range : float, optional
+        Only objects within this distance (m) of both hypothesised robot positions (visible
+        from both); all objects when None or when none qualifies.
+
+    Returns
+    -------
+    int
+        Global object index.
+    """
+    if len(hypotheses) < 2:
+        raise TooFewPerceptsError(f"the discriminator needs two hypotheses, got {len(hypotheses)}")
+    X = world.positions
+    ego_from_world = [invert_transformation(h.world_from_ego) for h in hypotheses[:2]]
+    pred = [X @ m[:3, :3].T + m[:3, 3] for m in ego_from_world]
+    diff = np.linalg.norm(pred[0] - pred[1], axis=1)
+    if max_range is not None:
+        if not math.isfinite(max_range) or max_range <= 0:
+            raise WorldGraphError(f"max_range must be finite and > 0, got {max_range!r}")
+        near = (np.linalg.norm(pred[0], axis=1) <= max_range) \
+            & (np.linalg.norm(pred[1], axis=1) <= max_range)
+        if near.any():
+            diff = np.where(near, diff, -1.0)
+    return int(np.argmax(diff))

@@ -1,0 +1,278 @@
+"""Global self-localisation: association -> Gaussian spheres -> position -> orientation.
+
+:func:`localize` runs the whole pipeline of the paper (sections 2.2-2.3, 4) on fused percepts:
+
+1. association (:func:`worldgraph.association.associate`; ``method="paper"`` uses the paper's
+   proximity and orientation filters, every other method the typed consistency-graph cliques);
+2. for the best hypothesis, one Gaussian sphere per matched pair: centre = model object
+   position, radius = ``|percept position|``, sigma = percept sigma;
+3. ``radialopt.estimate_position`` (the ``method`` of this call) inside ``region`` (default
+   ``world.region(REGION_MARGIN)``); when the landmarks are coplanar the estimator cannot tell
+   a candidate from its mirror image, and the hypothesis' Kabsch pose (which uses the full 3D percepts)
+   picks the candidate;
+4. orientation: the proper rotation R minimising ``sum w_p |R x_p - (X_o - t)|^2``, ``w_p =
+   1 / (sigma_p^2 + var_t)``, with the translation fixed to the estimated position t and
+   ``var_t`` a third of the trace of its covariance (1/sigma^2 alone lets one close percept
+   dominate and leaves the rotation about its direction free).
+
+Percepts whose type the world does not have are ignored (named in the result's message);
+when no percept type is known, :class:`~worldgraph.errors.UnknownTypeError` is raised.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+import radialopt as ro
+from perception import Percept
+
+from .association import (
+    ASSOCIATION_TOLERANCES,
+    AssociationHypothesis,
+    AssociationTolerances,
+    associate,
+    is_ambiguous,
+)
+from .errors import EmptyWorldError, UnknownTypeError, WorldGraphError
+from .model import WorldModel
+from .pose import transformation, weighted_rotation
+
+__all__ = ["LOCALIZE_METHODS", "LOCALIZE_STATUSES", "REGION_MARGIN", "LocalizationResult", "localize"]
+
+LOCALIZE_METHODS = ("ml", "paper", "srls", "gradient")
+#: Default region: ``world.region(REGION_MARGIN)`` (metres beyond the objects in x, y and up).
+REGION_MARGIN = 1.0
+#: Position candidates with at least this fraction of the best density are told apart by the
+#: association's 3D (Kabsch) pose.
+CANDIDATE_DENSITY_RATIO = 0.01
+
+#: Statuses of :class:`LocalizationResult`.  Position statuses of radialopt
+#: (``"outside_region"``, ``"degenerate_coplanar"``, ``"degenerate_collinear"``) pass through.
+LOCALIZE_STATUSES = (
+    "ok",                    # a unique pose
+    "ambiguous",             # another association or position candidate is about as good
+    "no_association",        # no consistent set of >= 3 percept-object pairs
+    "too_few_percepts",      # fewer than 3 percepts of known types
+    "degenerate",            # the matched landmarks cannot fix a pose (collinear, ...)
+    "outside_region",
+    "degenerate_coplanar",
+    "degenerate_collinear",
+)
+
+
+@dataclass(frozen=True)
+class LocalizationResult:
+    """Result of :func:`localize`.
+
+    Attributes
+    ----------
+    transformation : (4, 4) float
+        ``world_from_ego``; NaN everywhere when no pose could be determined.
+    position : (3,) float
+        Robot (ego origin) position in the world, ``transformation[:3, 3]``.
+    covariance : (3, 3) float
+        Cramer-Rao bound of the position (inf when unobservable, NaN when no pose).
+    correspondences : tuple of (percept_index, object_index)
+        Indices into the ``percepts`` passed in and into ``world.objects``.
+    hypotheses : tuple of AssociationHypothesis
+        Ranked; percept indices refer to the ``percepts`` passed in.
+    ambiguous : bool
+    status : str
+        One of :data:`LOCALIZE_STATUSES`.
+    message : str
+    timings : dict str -> float
+        Seconds per stage: ``"association"``, ``"position"``, ``"orientation"``, ``"total"``.
+    position_estimate : radialopt.PositionEstimate or None
+    """
+
+    transformation: NDArray[np.float64]
+    position: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    correspondences: tuple[tuple[int, int], ...]
+    hypotheses: tuple[AssociationHypothesis, ...]
+    ambiguous: bool
+    status: str
+    message: str = ""
+    timings: dict[str, float] = field(default_factory=dict)
+    position_estimate: ro.PositionEstimate | None = None
+
+
+def _failed(status: str, message: str, hyps: tuple = (), timings: dict | None = None,
+            ambiguous: bool = False) -> LocalizationResult:
+    nan3 = np.full(3, np.nan)
+    return LocalizationResult(np.full((4, 4), np.nan), nan3, np.full((3, 3), np.nan), (), hyps,
+                              ambiguous, status, message, timings or {})
+
+
+def _remap(h: AssociationHypothesis, idx: NDArray[np.intp]) -> AssociationHypothesis:
+    return AssociationHypothesis(
+        pairs=tuple((int(idx[p]), o) for p, o in h.pairs), cost=h.cost, size=h.size,
+        world_from_ego=h.world_from_ego, validated=tuple((int(idx[p]), o) for p, o in h.validated),
+        inliers=h.inliers)
+
+
+def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml", *,
+             tolerances: AssociationTolerances | None = None, region: ro.Region | None = None,
+             rng: np.random.Generator | None = None) -> LocalizationResult:
+    """Pose of the robot (``world_from_ego``) from percepts of known world objects.
+
+    Parameters
+    ----------
+    world : WorldModel
+    percepts : sequence of perception.Percept
+        Fused percepts in the ego frame.
+    method : {"ml", "paper", "srls", "gradient"}
+        Position estimator of ``radialopt.estimate_position``; ``"paper"`` also switches the
+        association to the paper's proximity + orientation filters.
+    tolerances : AssociationTolerances, optional
+    region : radialopt.Region, optional
+        Valid robot positions; default ``world.region(REGION_MARGIN)`` (above the lowest
+        object, at most a metre beyond the objects sideways and above).
+    rng : numpy.random.Generator, optional
+        Passed to the position estimator (extra random seeds).
+
+    Returns
+    -------
+    LocalizationResult
+        Never a silently wrong pose: when the association is ambiguous the status says so
+        (the best pose is still returned); when no pose can be determined it is NaN.
+
+    Raises
+    ------
+    EmptyWorldError
+        The world has no objects.
+    UnknownTypeError
+        Percepts were given but none has a type of the world.
+    WorldGraphError
+        Unknown method, or something other than Percepts.
+    """
+    t_start = time.perf_counter()
+    if method not in LOCALIZE_METHODS:
+        raise WorldGraphError(f"unknown localize method {method!r}; choose one of {LOCALIZE_METHODS}")
+    if not isinstance(world, WorldModel):
+        raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
+    if len(world) == 0:
+        raise EmptyWorldError("the world model has no objects")
+    percepts = list(percepts)
+    for k, p in enumerate(percepts):
+        if not isinstance(p, Percept):
+            raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
+        pos = np.asarray(p.position, dtype=np.float64)
+        if pos.shape != (3,) or not np.all(np.isfinite(pos)) or not (math.isfinite(p.sigma) and p.sigma > 0):
+            raise WorldGraphError(f"percepts[{k}] has an invalid position {pos.tolist()} "
+                                  f"or sigma {p.sigma!r}")
+    tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
+    if not isinstance(tol, AssociationTolerances):
+        raise WorldGraphError(f"tolerances must be AssociationTolerances, got {type(tol).__name__}")
+
+    known = np.array([p.type in world.type_index for p in percepts], dtype=bool)
+    unknown = sorted({p.type for p, ok in zip(percepts, known, strict=True) if not ok})
+    if percepts and not known.any():
+        raise UnknownTypeError(f"no percept type is in the world model: percept types {unknown}, "
+                               f"world types {list(world.type_index)}")
+    notes = [f"ignored {int((~known).sum())} percept(s) of unknown type(s) {unknown}"] if unknown else []
+    idx = np.flatnonzero(known)
+    used = [percepts[i] for i in idx]
+    if len(used) < max(3, tol.min_clique_size):
+        return _failed("too_few_percepts", "; ".join(notes + [
+            f"localisation needs at least {max(3, tol.min_clique_size)} percepts of known types, "
+            f"got {len(used)}"]), timings={"association": 0.0, "position": 0.0, "orientation": 0.0,
+                                          "total": time.perf_counter() - t_start})
+
+    t0 = time.perf_counter()
+    hyps_local = associate(world, used, tol, method="paper" if method == "paper" else "clique")
+    t_assoc = time.perf_counter() - t0
+    hyps = tuple(_remap(h, idx) for h in hyps_local)
+    timings = {"association": t_assoc, "position": 0.0, "orientation": 0.0}
+    if not hyps:
+        timings["total"] = time.perf_counter() - t_start
+        return _failed("no_association", "; ".join(notes + [
+            "no consistent association of >= 3 percepts with the world model"]), timings=timings)
+    ambiguous = is_ambiguous(hyps, tol)
+    if not hyps[0].complete:
+        ambiguous = True
+        notes.append("clique search truncated (max_nodes/max_cliques): the world repeats itself "
+                     "around these percepts, other associations may be as good")
+    best = hyps[0]
+    # one sphere per distinct centre: clique pairs first, then validated ones
+    pairs_list: list[tuple[int, int]] = []
+    for p, o in best.pairs + best.validated:
+        x = world.positions[o]
+        if all(np.linalg.norm(world.positions[q] - x) > 1e-9 for _, q in pairs_list):
+            pairs_list.append((p, o))
+    pairs = tuple(sorted(pairs_list))
+    pi = np.array([p for p, _ in pairs])
+    oi = np.array([o for _, o in pairs])
+    ego = np.array([percepts[p].position for p in pi])
+    sig = np.array([percepts[p].sigma for p in pi])
+    centers = world.positions[oi]
+
+    t0 = time.perf_counter()
+    spheres = ro.make_spheres(centers, np.linalg.norm(ego, axis=1), sig)
+    reg = world.region(margin=REGION_MARGIN) if region is None else region
+    est = ro.estimate_position(spheres, method=method, region=reg, rng=rng)
+    timings["position"] = time.perf_counter() - t0
+    status = "ambiguous" if ambiguous else "ok"
+    if ambiguous and len(hyps) > 1:
+        second = hyps[1]
+        gap = float(np.linalg.norm(second.world_from_ego[:3, 3] - best.world_from_ego[:3, 3]))
+        notes.append(f"association ambiguous: best cost {best.cost:.3g}, next {second.cost:.3g} "
+                     f"at a pose {gap:.3g} m away")
+    position = est.position
+    if est.status in ("too_few_spheres", "degenerate_collinear") or not np.all(np.isfinite(position)):
+        timings["total"] = time.perf_counter() - t_start
+        res = _failed("degenerate_collinear" if est.status == "degenerate_collinear" else "degenerate",
+                      "; ".join(notes + [est.message or "the matched landmarks fix no position"]),
+                      hyps, timings, ambiguous)
+        return res
+    # The Kabsch pose of the hypothesis uses the full 3D percepts, ranges alone do not: among
+    # the estimator's candidates of comparable density (mirror images across a near-plane of
+    # landmarks) take the one nearest to it.
+    t_h = best.world_from_ego[:3, 3]
+    cands = np.asarray(est.candidates, dtype=np.float64).reshape(-1, 3)
+    dens = np.asarray(est.candidate_density, dtype=np.float64).reshape(-1)
+    if len(cands) > 1 and len(dens) == len(cands):
+        close = cands[dens >= CANDIDATE_DENSITY_RATIO * dens.max()] if dens.max() > 0 else cands
+        d = np.linalg.norm(close - t_h, axis=1)
+        order = np.argsort(d)
+        if len(close) == 1 or d[order[0]] < 0.5 * d[order[1]]:
+            if not np.array_equal(close[order[0]], position):
+                notes.append("position candidate chosen by the association's 3D pose (mirror ambiguity)")
+            position = close[order[0]]
+            if est.status == "ambiguous":
+                est_status = "ok"
+            else:
+                est_status = est.status
+        else:
+            est_status = est.status
+    else:
+        est_status = est.status
+    if est_status == "ambiguous":
+        status = "ambiguous"
+        notes.append(est.message)
+    elif est_status != "ok":
+        status = est_status if status == "ok" else status
+        notes.append(est.message)
+
+    t0 = time.perf_counter()
+    cov = est.covariance
+    if not np.array_equal(position, est.position):
+        try:
+            cov = ro.crlb(centers, sig, position)
+        except ro.RadialError:
+            cov = np.full((3, 3), np.inf)
+    # residual of R x_p - (X_o - t): percept noise plus the (common) position error
+    pos_var = float(np.trace(cov)) / 3.0 if np.all(np.isfinite(cov)) else float(np.max(sig) ** 2)
+    rot = weighted_rotation(ego, centers - position, 1.0 / (sig**2 + pos_var))
+    timings["orientation"] = time.perf_counter() - t0
+    timings["total"] = time.perf_counter() - t_start
+    return LocalizationResult(
+        transformation=transformation(rot, position), position=np.array(position, dtype=np.float64),
+        covariance=cov, correspondences=pairs, hypotheses=hyps, ambiguous=ambiguous or status == "ambiguous",
+        status=status, message="; ".join(n for n in notes if n), timings=timings, position_estimate=est)

@@ -1,0 +1,240 @@
+"""Rigid pose from matched points: the eq.-5 frames and weighted Kabsch (paper section 2.3).
+
+Frames follow docs/conventions.md: a 4x4 matrix ``a_from_b`` maps coordinates in frame ``b``
+to frame ``a``.  :func:`pose_from_frames` returns ``world_from_ego``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import NonFiniteError, PoseError, ShapeError
+
+__all__ = [
+    "invert_transformation",
+    "percept_frame",
+    "pose_from_frames",
+    "rotation_angle",
+    "transformation",
+    "weighted_kabsch",
+    "weighted_kabsch_batch",
+    "weighted_rotation",
+]
+
+#: Three points whose triangle area is below this fraction of the squared longest side are
+#: collinear for :func:`percept_frame`.
+COLLINEAR_TOL = 1e-9
+
+
+def _points(name: str, x: ArrayLike, n: int | None = None) -> NDArray[np.float64]:
+    arr = np.asarray(x, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 3 or (n is not None and arr.shape[0] != n):
+        want = f"({n}, 3)" if n is not None else "(k, 3)"
+        raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def _point(name: str, x: ArrayLike) -> NDArray[np.float64]:
+    arr = np.asarray(x, dtype=np.float64)
+    if arr.shape != (3,):
+        raise ShapeError(f"{name} must have shape (3,), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def transformation(rotation: ArrayLike, translation: ArrayLike) -> NDArray[np.float64]:
+    """4x4 homogeneous matrix from ``rotation (3, 3)`` and ``translation (3,)``."""
+    rot = np.asarray(rotation, dtype=np.float64)
+    if rot.shape != (3, 3):
+        raise ShapeError(f"rotation must have shape (3, 3), got shape {rot.shape}")
+    out = np.eye(4)
+    out[:3, :3] = rot
+    out[:3, 3] = _point("translation", translation)
+    return out
+
+
+def invert_transformation(a_from_b: ArrayLike) -> NDArray[np.float64]:
+    """Inverse ``b_from_a`` of a rigid 4x4 transform (rotation transposed)."""
+    m = np.asarray(a_from_b, dtype=np.float64)
+    if m.shape != (4, 4):
+        raise ShapeError(f"transform must have shape (4, 4), got shape {m.shape}")
+    out = np.eye(4)
+    out[:3, :3] = m[:3, :3].T
+    out[:3, 3] = -m[:3, :3].T @ m[:3, 3]
+    return out
+
+
+def rotation_angle(rotation_a: ArrayLike, rotation_b: ArrayLike) -> float:
+    """Angle (rad) of the relative rotation ``R_a^T R_b``."""
+    ra = np.asarray(rotation_a, dtype=np.float64)[:3, :3]
+    rb = np.asarray(rotation_b, dtype=np.float64)[:3, :3]
+    c = (np.trace(ra.T @ rb) - 1.0) / 2.0
+    return float(np.arccos(np.clip(c, -1.0, 1.0)))
+
+
+def percept_frame(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> NDArray[np.float64]:
+    """The frame ``S^{i,j,k}`` of three non-collinear points (paper section 2.2, used in eq. 5).
+
+    Origin ``a``; ``d1 = (b - a) / |b - a|``; ``d2 = d1 x (c - a)`` normalised; ``d3 = d1 x d2``.
+    The columns ``d1, d2, d3`` form a proper rotation (det +1).
+
+    Parameters
+    ----------
+    a, b, c : (3,) float
+
+    Returns
+    -------
+    (4, 4) float
+        ``parent_from_frame``: maps frame coordinates to the coordinates ``a, b, c`` are in.
+
+    Raises
+    ------
+    PoseError
+        Non-finite or wrongly shaped input, or collinear (or coincident) points.
+    """
+    pa, pb, pc = _point("a", a), _point("b", b), _point("c", c)
+    ab = pb - pa
+    ac = pc - pa
+    scale = max(float(np.dot(ab, ab)), float(np.dot(ac, ac)))
+    nab = float(np.linalg.norm(ab))
+    cross = np.cross(ab / nab if nab > 0 else ab, ac)
+    ncross = float(np.linalg.norm(cross))
+    if nab == 0.0 or scale == 0.0 or ncross * nab <= COLLINEAR_TOL * scale:
+        raise PoseError(f"points a={pa.tolist()}, b={pb.tolist()}, c={pc.tolist()} are collinear "
+                        "(or coincident): they define no frame")
+    d1 = ab / nab
+    d2 = cross / ncross
+    d3 = np.cross(d1, d2)
+    return transformation(np.column_stack([d1, d2, d3]), pa)
+
+
+def pose_from_frames(model_frame: ArrayLike, percept_frame_: ArrayLike) -> NDArray[np.float64]:
+    """Eq. 5: ``world_from_ego = S_model @ S_percept^-1``.
+
+    Parameters
+    ----------
+    model_frame : (4, 4) float
+        :func:`percept_frame` of the model points (world coordinates), ``world_from_triple``.
+    percept_frame_ : (4, 4) float
+        :func:`percept_frame` of the matching percepts (ego coordinates), ``ego_from_triple``.
+
+    Returns
+    -------
+    (4, 4) float
+        ``world_from_ego``.
+    """
+    m = np.asarray(model_frame, dtype=np.float64)
+    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+        raise ShapeError(f"model_frame must be a finite (4, 4) array, got shape {m.shape}")
+    return m @ invert_transformation(percept_frame_)
+
+
+def _weights(weights: ArrayLike, k: int) -> NDArray[np.float64]:
+    w = np.asarray(weights, dtype=np.float64)
+    if w.shape != (k,):
+        raise ShapeError(f"weights must have shape ({k},), got shape {w.shape}")
+    if not np.all(np.isfinite(w)) or np.any(w < 0) or not np.any(w > 0):
+        raise PoseError(f"weights must be finite, >= 0 and not all 0, got {w.tolist()}")
+    return w
+
+
+def _proper_rotation(cross_cov: NDArray[np.float64]) -> NDArray[np.float64]:
+    """R maximising trace(R^T H) over SO(3) for ``H = sum w y x^T`` (maps x onto y)."""
+    u, _, vt = np.linalg.svd(cross_cov)
+    d = np.sign(np.linalg.det(u @ vt))
+    if d == 0:
+        d = 1.0
+    return u @ np.diag([1.0, 1.0, d]) @ vt
+
+
+def weighted_rotation(ego_vectors: ArrayLike, world_vectors: ArrayLike, weights: ArrayLike
+                      ) -> NDArray[np.float64]:
+    """Proper rotation R minimising ``sum_i w_i |R x_i - y_i|^2`` (no translation, no scale).
+
+    Parameters
+    ----------
+    ego_vectors : (k, 3) float
+    world_vectors : (k, 3) float
+    weights : (k,) float, >= 0
+
+    Returns
+    -------
+    (3, 3) float
+        A rotation (det +1); the reflection an unconstrained fit would give is avoided by
+        flipping the least significant singular direction (Umeyama 1991).
+    """
+    x = _points("ego_vectors", ego_vectors)
+    y = _points("world_vectors", world_vectors, len(x))
+    w = _weights(weights, len(x))
+    return _proper_rotation((y * w[:, None]).T @ x)
+
+
+def weighted_kabsch(ego_points: ArrayLike, world_points: ArrayLike, weights: ArrayLike
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Weighted Kabsch/Umeyama without scaling: ``min sum_i w_i |R x_i + t - X_i|^2``.
+
+    Parameters
+    ----------
+    ego_points : (k, 3) float
+        Points in the ego frame.
+    world_points : (k, 3) float
+        The matching points in the world frame.
+    weights : (k,) float, >= 0
+        E.g. ``1 / sigma_i^2``.
+
+    Returns
+    -------
+    R : (3, 3) float
+        Proper rotation (det +1), world_from_ego rotation.
+    t : (3,) float
+        Translation, so that ``X ~ R x + t``.
+    """
+    x = _points("ego_points", ego_points)
+    y = _points("world_points", world_points, len(x))
+    w = _weights(weights, len(x))
+    wn = w / w.sum()
+    cx = wn @ x
+    cy = wn @ y
+    rot = _proper_rotation(((y - cy) * wn[:, None]).T @ (x - cx))
+    return rot, cy - rot @ cx
+
+
+def weighted_kabsch_batch(ego_points: ArrayLike, world_points: ArrayLike, weights: ArrayLike
+                          ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`weighted_kabsch` of ``h`` point sets of one size at once.
+
+    Parameters
+    ----------
+    ego_points, world_points : (h, k, 3) float
+    weights : (h, k) float, > 0
+
+    Returns
+    -------
+    R : (h, 3, 3) float
+        Proper rotations.
+    t : (h, 3) float
+    """
+    x = np.asarray(ego_points, dtype=np.float64)
+    y = np.asarray(world_points, dtype=np.float64)
+    w = np.asarray(weights, dtype=np.float64)
+    if x.ndim != 3 or x.shape[2] != 3 or y.shape != x.shape or w.shape != x.shape[:2]:
+        raise ShapeError(f"ego_points and world_points must have one shape (h, k, 3) and weights (h, k), got "
+                         f"{x.shape}, {y.shape}, {w.shape}")
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y)) and np.all(np.isfinite(w))):
+        raise NonFiniteError("ego_points, world_points and weights must be finite")
+    if np.any(w < 0) or np.any(w.sum(axis=1) <= 0):
+        raise PoseError("weights must be >= 0 and not all 0 in any set")
+    wn = w / w.sum(axis=1, keepdims=True)
+    cx = np.einsum("hk,hki->hi", wn, x)
+    cy = np.einsum("hk,hki->hi", wn, y)
+    cross_cov = np.einsum("hk,hki,hkj->hij", wn, y - cy[:, None], x - cx[:, None])
+    u, _, vt = np.linalg.svd(cross_cov)
+    d = np.sign(np.linalg.det(u @ vt))
+    d[d == 0] = 1.0
+    u[:, :, 2] *= d[:, None]
+    rot = u @ vt
+    return rot, cy - np.einsum("hij,hj->hi", rot, cx)
