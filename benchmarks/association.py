@@ -8,9 +8,9 @@ percept types (within ``max_range`` and the horizontal field of view), with
 plus ``n_false`` false percepts placed in the visible region.  A localisation is
 unique-and-correct when its status is "ok", ``e^T J e <= 14.16`` (3 sigma of the CRLB in 3D,
 ``J`` the Fisher information of the returned covariance) and the rotation error is <= 2 deg.
-The column "Kabsch pose correct" applies the same test to the association's weighted-Kabsch
-pose (full 3D percepts, the ML pose under isotropic percept noise) instead of the spheres'
-range-only position.
+Every method of ``--methods`` runs on the same percepts: "ml" (the 6D ML pose of the full 3D
+percepts), "spheres" (range-only ML position of the Gaussian spheres), "paper" (the paper's
+filters and radial projection).  The floor row runs the first method.
 
 Run:  python benchmarks/association.py [--poses 200] [--seed 0] [--floor-poses 30]
 Prints Markdown tables.
@@ -32,7 +32,7 @@ from scipy.spatial.transform import Rotation  # noqa: E402
 
 from perception.simulate import simulate_percepts  # noqa: E402
 from worldgraph import scenes  # noqa: E402
-from worldgraph.association import associate  # noqa: E402
+from worldgraph.association import AssociationTolerances, associate  # noqa: E402
 from worldgraph.localize import localize  # noqa: E402
 from worldgraph.model import WorldModel  # noqa: E402
 
@@ -73,6 +73,21 @@ def _rot_err_deg(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.degrees(Rotation.from_matrix(a[:3, :3].T @ b[:3, :3]).magnitude()))
 
 
+def _judge(res, pose: np.ndarray) -> str:
+    """'good' (status ok, e^T J e <= 14.16 with J from the returned covariance, rotation <= 2 deg),
+    'ambiguous', 'wrong' (a unique pose that fails the test) or 'failed' (no pose)."""
+    if res.ambiguous or res.status == "ambiguous":
+        return "ambiguous"
+    if res.status != "ok":
+        return "failed"
+    e = res.position - pose[:3, 3]
+    cov = res.covariance
+    if not np.all(np.isfinite(cov)):
+        return "wrong"
+    ok = float(e @ np.linalg.solve(cov, e)) <= CHI2_3_3SIGMA and _rot_err_deg(res.transformation, pose) <= 2.0
+    return "good" if ok else "wrong"
+
+
 def kitchen_rows(args: argparse.Namespace) -> list[str]:
     world = scenes.kitchen(seed=args.seed, link_margin=args.link_margin)
     mask = np.isin(world.types, PERCEPT_TYPES)
@@ -82,42 +97,27 @@ def kitchen_rows(args: argparse.Namespace) -> list[str]:
     for n_percepts in args.n_percepts:
         for n_false in args.n_false:
             n_true = n_percepts - n_false
-            good = amb = wrong_unique = failed = kabsch_good = 0
-            t_assoc, t_total = [], []
+            counts = {m: dict.fromkeys(("good", "ambiguous", "wrong", "failed"), 0) for m in args.methods}
+            t_assoc = {m: [] for m in args.methods}
+            t_total = {m: [] for m in args.methods}
             for _ in range(args.poses):
                 pose, percepts, truth = _draw(world, mask, rng, n_true, n_false, args,
                                               lambda r: _pose(r, lo, hi, 1.5))
-                res = localize(world, percepts, method=args.method)
-                t_assoc.append(res.timings.get("association", np.nan))
-                t_total.append(res.timings.get("total", np.nan))
-                if res.ambiguous or res.status == "ambiguous":
-                    amb += 1
-                if res.status != "ok":
-                    failed += res.status != "ambiguous"
-                    continue
-                e = res.position - pose[:3, 3]
-                cov = res.covariance
-                ok = bool(np.all(np.isfinite(cov)))
-                if ok:
-                    ok = float(e @ np.linalg.solve(cov, e)) <= CHI2_3_3SIGMA and \
-                        _rot_err_deg(res.transformation, pose) <= 2.0
-                good += ok
-                wrong_unique += not ok
-                # the association's weighted-Kabsch pose (full 3D percepts), same criterion
-                kab = res.hypotheses[0].world_from_ego
-                ek = kab[:3, 3] - pose[:3, 3]
-                if np.all(np.isfinite(cov)):
-                    kabsch_good += float(ek @ np.linalg.solve(cov, ek)) <= CHI2_3_3SIGMA and \
-                        _rot_err_deg(kab, pose) <= 2.0
+                for method in args.methods:  # every method on the same percepts
+                    res = localize(world, percepts, method=method, tolerances=args.tolerances)
+                    t_assoc[method].append(res.timings.get("association", np.nan))
+                    t_total[method].append(res.timings.get("total", np.nan))
+                    counts[method][_judge(res, pose)] += 1
             n = args.poses
-            ta, tt = np.array(t_assoc) * 1e3, np.array(t_total) * 1e3
-            rows.append(f"| kitchen {len(world)} | {n_percepts} | {n_false} | {n} "
-                        f"| {100 * good / n:.1f} % | {100 * amb / n:.1f} % "
-                        f"| {100 * wrong_unique / n:.1f} % | {100 * failed / n:.1f} % "
-                        f"| {100 * kabsch_good / n:.1f} % "
-                        f"| {np.median(ta):.1f} | {np.percentile(ta, 95):.1f} | {np.median(tt):.1f} "
-                        f"| {np.percentile(tt, 95):.1f} |")
-            print(rows[-1], file=sys.stderr, flush=True)
+            for method in args.methods:
+                c = counts[method]
+                ta, tt = np.array(t_assoc[method]) * 1e3, np.array(t_total[method]) * 1e3
+                rows.append(f"| kitchen {len(world)} | {method} | {n_percepts} | {n_false} | {n} "
+                            f"| {100 * c['good'] / n:.1f} % | {100 * c['ambiguous'] / n:.1f} % "
+                            f"| {100 * c['wrong'] / n:.1f} % | {100 * c['failed'] / n:.1f} % "
+                            f"| {np.median(ta):.1f} | {np.percentile(ta, 95):.1f} | {np.median(tt):.1f} "
+                            f"| {np.percentile(tt, 95):.1f} |")
+                print(rows[-1], file=sys.stderr, flush=True)
     return rows
 
 
@@ -139,17 +139,17 @@ def floor_rows(args: argparse.Namespace) -> list[str]:
         for _ in range(args.floor_poses):
             pose, percepts, truth = _draw(world, mask, rng, n_percepts - n_false, n_false, args, pose_fn)
             t0 = time.perf_counter()
-            hyps = associate(world, percepts)
+            hyps = associate(world, percepts, args.tolerances)
             t_assoc.append(time.perf_counter() - t0)
-            res = localize(world, percepts, method=args.method)
+            res = localize(world, percepts, method=args.methods[0], tolerances=args.tolerances)
             t_total.append(res.timings["total"])
             if res.status == "ok" and np.linalg.norm(res.position - pose[:3, 3]) < 0.2 and hyps:
                 good += _rot_err_deg(res.transformation, pose) <= 2.0
         ta, tt = np.array(t_assoc) * 1e3, np.array(t_total) * 1e3
         n = args.floor_poses
-        rows.append(f"| floor {len(world)} | {n_percepts} | {n_false} | {n} "
+        rows.append(f"| floor {len(world)} | {args.methods[0]} | {n_percepts} | {n_false} | {n} "
                     f"| {100 * good / n:.1f} % (0.2 m) "
-                    f"| - | - | - | - | {np.median(ta):.1f} | {np.percentile(ta, 95):.1f} "
+                    f"| - | - | - | {np.median(ta):.1f} | {np.percentile(ta, 95):.1f} "
                     f"| {np.median(tt):.1f} | {np.percentile(tt, 95):.1f} |")
         print(rows[-1], file=sys.stderr, flush=True)
     return rows
@@ -160,22 +160,25 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--poses", type=int, default=200)
     ap.add_argument("--floor-poses", type=int, default=30)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--method", default="ml")
+    ap.add_argument("--methods", nargs="+", default=["ml", "spheres", "paper"],
+                    help="localize methods, each run on the same percepts")
     ap.add_argument("--depth-factor", type=float, default=1000.0)
     ap.add_argument("--max-range", type=float, default=8.0)
     ap.add_argument("--hfov", type=float, default=None, help="horizontal field of view, degrees")
     ap.add_argument("--link-margin", type=float, default=0.5)
     ap.add_argument("--n-percepts", type=int, nargs="+", default=[5, 7, 10])
     ap.add_argument("--n-false", type=int, nargs="+", default=[0, 1, 2])
+    ap.add_argument("--gravity", action="store_true",
+                    help="gravity-aligned invariants (the robot knows which way is up)")
     args = ap.parse_args(argv)
-    header = ("| world | percepts | false | poses | unique-correct | ambiguous | unique-wrong | failed "
-              "| Kabsch pose correct | assoc median ms | assoc p95 ms "
-              "| localize median ms | localize p95 ms |\n"
+    args.tolerances = AssociationTolerances(gravity_aligned=args.gravity)
+    header = ("| world | method | percepts | false | poses | unique-correct | ambiguous | unique-wrong "
+              "| failed | assoc median ms | assoc p95 ms | localize median ms | localize p95 ms |\n"
               "|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     rows = kitchen_rows(args) + floor_rows(args)
-    print(f"percept types {PERCEPT_TYPES} (kitchen), all types (floor); method={args.method}, "
+    print(f"percept types {PERCEPT_TYPES} (kitchen), all types (floor); methods={args.methods}, "
           f"depth_factor={args.depth_factor}, max_range={args.max_range}, hfov={args.hfov}, "
-          f"link_margin={args.link_margin}\n")
+          f"link_margin={args.link_margin}, gravity_aligned={args.gravity}\n")
     print(header)
     print("\n".join(rows))
 

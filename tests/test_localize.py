@@ -47,7 +47,7 @@ def rotation_error_deg(a: np.ndarray, b: np.ndarray) -> float:
 
 
 @settings(max_examples=10)
-@given(seeds, st.sampled_from(["ml", "paper"]))
+@given(seeds, st.sampled_from(["ml", "spheres", "paper"]))
 def test_noise_free_pose_is_exact(seed: int, method: str) -> None:
     rng = np.random.default_rng(seed)
     world = random_world(rng)
@@ -115,9 +115,10 @@ def test_coplanar_landmarks_mirror_resolved_by_the_3d_pose() -> None:
     pose[:3, 3] = [4.0, 4.0, 1.6]
     truth = nearest(world, pose, 6)
     big = ro.Region([-50, -50, -50], [50, 50, 50])  # keeps both mirror candidates
-    res = localize(world, exact_percepts(world, pose, truth, sigma=1e-3), region=big)
-    assert res.status == "ok", res.message
-    assert np.allclose(res.position, pose[:3, 3], atol=1e-3)
+    for method in ("spheres", "ml"):
+        res = localize(world, exact_percepts(world, pose, truth, sigma=1e-3), method, region=big)
+        assert res.status == "ok", res.message
+        assert np.allclose(res.position, pose[:3, 3], atol=1e-3)
 
 
 def test_symmetric_world_is_ambiguous() -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
@@ -13,6 +13,8 @@ from worldgraph.pose import (
     invert_transformation,
     percept_frame,
     pose_from_frames,
+    pose_information,
+    refine_pose,
     rotation_angle,
     transformation,
     weighted_kabsch,
@@ -157,3 +159,79 @@ def test_batch_kabsch_matches_scipy(seed: int) -> None:
         assert np.allclose(t[i], cy - ref.as_matrix() @ cx, atol=1e-8)
     with pytest.raises(ShapeError):
         weighted_kabsch_batch(x, y[:, :2], w)
+
+
+def _anisotropic_covariances(rng: np.random.Generator, k: int) -> np.ndarray:
+    """Stereo-like covariances: long along a random ray, short across it."""
+    out = np.empty((k, 3, 3))
+    for i in range(k):
+        q = Rotation.random(random_state=rng.integers(2**31)).as_matrix()
+        out[i] = q @ np.diag(rng.uniform(0.01, 0.05, 3) ** 2 * [1.0, 1.0, 25.0]) @ q.T
+    return out
+
+
+def _world_pose(rng: np.random.Generator) -> np.ndarray:
+    return transformation(Rotation.random(random_state=rng.integers(2**31)).as_matrix(),
+                          rng.uniform(-5, 5, 3))
+
+
+@settings(max_examples=15)
+@given(st.integers(0, 2**32 - 1))
+def test_refine_pose_matches_a_generic_least_squares_solver(seed: int) -> None:
+    """Anisotropic covariances: the Gauss-Newton optimum equals scipy's least_squares on the
+    whitened ego-frame residuals (an independent, slow reference)."""
+    from scipy.optimize import least_squares
+
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(4, 9))
+    T = _world_pose(rng)
+    X = rng.uniform(-4, 4, (k, 3)) + T[:3, 3]
+    C = _anisotropic_covariances(rng, k)
+    ego = (X - T[:3, 3]) @ T[:3, :3] + np.array([rng.multivariate_normal(np.zeros(3), c) for c in C])
+    start = transformation(Rotation.from_rotvec(rng.normal(0, 0.05, 3)).as_matrix() @ T[:3, :3],
+                           T[:3, 3] + rng.normal(0, 0.1, 3))
+    pose, info = refine_pose(ego, X, C, start)
+    L = np.linalg.cholesky(np.linalg.inv(C))  # whitening: |L^T r|^2 = r^T C^-1 r
+
+    def residual(p):
+        R = Rotation.from_rotvec(p[:3]).as_matrix()
+        r = ego - (X - p[3:]) @ R  # ego-frame residual x - R^T (X - t)
+        return np.einsum("kab,ka->kb", L, r).ravel()
+
+    p0 = np.concatenate([Rotation.from_matrix(start[:3, :3]).as_rotvec(), start[:3, 3]])
+    ref = least_squares(residual, p0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    ref_pose = transformation(Rotation.from_rotvec(ref.x[:3]).as_matrix(), ref.x[3:])
+    np.testing.assert_allclose(pose, ref_pose, atol=1e-6)
+    assert info.shape == (6, 6) and np.all(np.linalg.eigvalsh(info) > 0)
+
+
+def test_refine_pose_isotropic_is_weighted_kabsch() -> None:
+    rng = np.random.default_rng(5)
+    T = _world_pose(rng)
+    X = rng.uniform(-4, 4, (7, 3))
+    s = rng.uniform(0.01, 0.1, 7)
+    ego = (X - T[:3, 3]) @ T[:3, :3] + rng.normal(size=(7, 3)) * s[:, None]
+    pose, _ = refine_pose(ego, X, s[:, None, None] ** 2 * np.eye(3), np.eye(4))
+    R, t = weighted_kabsch(ego, X, 1.0 / s**2)
+    np.testing.assert_allclose(pose, transformation(R, t), atol=1e-12)
+
+
+def test_pose_information_is_the_inverse_covariance_of_the_ml_pose() -> None:
+    """Monte-Carlo: the spread of the refined position matches the CRLB block (400 draws)."""
+    rng = np.random.default_rng(8)
+    T = _world_pose(rng)
+    X = rng.uniform(-4, 4, (6, 3)) + T[:3, 3]
+    C = _anisotropic_covariances(rng, 6)
+    chol = np.linalg.cholesky(C)
+    exact = (X - T[:3, 3]) @ T[:3, :3]
+    positions = []
+    for _ in range(400):
+        ego = exact + np.einsum("kab,kb->ka", chol, rng.normal(size=(6, 3)))
+        pose, _ = refine_pose(ego, X, C, T)
+        positions.append(pose[:3, 3])
+    sample = np.cov(np.array(positions).T)
+    bound = np.linalg.inv(pose_information(T, exact, C))[3:, 3:]
+    ratio = np.trace(sample) / np.trace(bound)
+    assert 0.8 < ratio < 1.25, ratio
+    with pytest.raises(PoseError, match="positive definite"):
+        refine_pose(exact, X, -C, T)

@@ -4,9 +4,13 @@
 
 1. association (:func:`worldgraph.association.associate`; ``method="paper"`` uses the paper's
    proximity and orientation filters, every other method the typed consistency-graph cliques);
-2. for the best hypothesis, one Gaussian sphere per matched pair: centre = model object
-   position, radius = ``|percept position|``, sigma = percept sigma;
-3. ``radialopt.estimate_position`` (the ``method`` of this call) inside ``region`` (default
+2. ``method="ml"`` (default): the maximum-likelihood 6D pose of the matched percepts from
+   their full 3D positions and covariances (Gauss-Newton on SE(3) from the hypothesis' Kabsch
+   pose), with the Cramer-Rao bound of the position; the steps below are the range-only
+   methods (``"spheres"``, ``"paper"``, ``"srls"``, ``"gradient"``):
+3. for the best hypothesis, one Gaussian sphere per matched pair: centre = model object
+   position, radius = ``|percept position|``, sigma = percept sigma, and
+   ``radialopt.estimate_position`` (the sphere estimator of the method) inside ``region`` (default
    ``world.region(REGION_MARGIN)``); when the landmarks are coplanar the estimator cannot tell
    a candidate from its mirror image, and the hypothesis' Kabsch pose (which uses the full 3D percepts)
    picks the candidate;
@@ -41,11 +45,17 @@ from .association import (
 )
 from .errors import EmptyWorldError, UnknownTypeError, WorldGraphError
 from .model import WorldModel
-from .pose import transformation, weighted_rotation
+from .pose import refine_pose, transformation, weighted_rotation
 
 __all__ = ["LOCALIZE_METHODS", "LOCALIZE_STATUSES", "REGION_MARGIN", "LocalizationResult", "localize"]
 
-LOCALIZE_METHODS = ("ml", "paper", "srls", "gradient")
+#: ``"ml"``: the maximum-likelihood 6D pose from the full 3D percepts (their covariances);
+#: ``"spheres"``: the range-only maximum-likelihood position of the Gaussian spheres
+#: (``radialopt`` method ``"ml"``), then the rotation; ``"paper"``: the paper's association and
+#: its radial-projection position; ``"srls"``, ``"gradient"``: other range-only estimators.
+LOCALIZE_METHODS = ("ml", "spheres", "paper", "srls", "gradient")
+#: Range-only position estimator of ``radialopt.estimate_position`` behind each method.
+_SPHERE_ESTIMATOR = {"spheres": "ml", "paper": "paper", "srls": "srls", "gradient": "gradient"}
 #: Default region: ``world.region(REGION_MARGIN)`` (metres beyond the objects in x, y and up).
 REGION_MARGIN = 1.0
 #: Position candidates with at least this fraction of the best density are told apart by the
@@ -127,9 +137,15 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     world : WorldModel
     percepts : sequence of perception.Percept
         Fused percepts in the ego frame.
-    method : {"ml", "paper", "srls", "gradient"}
-        Position estimator of ``radialopt.estimate_position``; ``"paper"`` also switches the
-        association to the paper's proximity + orientation filters.
+    method : {"ml", "spheres", "paper", "srls", "gradient"}
+        ``"ml"`` (default): the maximum-likelihood 6D pose of the matched percepts, using their
+        full 3D positions and covariances (:func:`~worldgraph.pose.refine_pose`; weighted
+        Kabsch for isotropic percepts), covariance = the Cramer-Rao bound of the position.
+        ``"spheres"``: the range-only ML position of the Gaussian spheres (``radialopt``
+        ``"ml"``), then the rotation; right when the percept directions are unreliable
+        (space-to-ego errors rotate percepts about the ego origin, ranges survive them).
+        ``"paper"``: the paper's proximity + orientation filters and its radial-projection
+        position; ``"srls"``, ``"gradient"``: other range-only estimators, for comparison.
     tolerances : AssociationTolerances, optional
     region : radialopt.Region, optional
         Valid robot positions; default ``world.region(REGION_MARGIN)`` (above the lowest
@@ -213,17 +229,23 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     sig = np.array([percepts[p].sigma for p in pi])
     centers = world.positions[oi]
 
-    t0 = time.perf_counter()
-    spheres = ro.make_spheres(centers, np.linalg.norm(ego, axis=1), sig)
-    reg = world.region(margin=REGION_MARGIN) if region is None else region
-    est = ro.estimate_position(spheres, method=method, region=reg, rng=rng)
-    timings["position"] = time.perf_counter() - t0
     status = "ambiguous" if ambiguous else "ok"
     if ambiguous and len(hyps) > 1:
         second = hyps[1]
         gap = float(np.linalg.norm(second.world_from_ego[:3, 3] - best.world_from_ego[:3, 3]))
         notes.append(f"association ambiguous: best cost {best.cost:.3g}, next {second.cost:.3g} "
                      f"at a pose {gap:.3g} m away")
+    reg = world.region(margin=REGION_MARGIN) if region is None else region
+    if method == "ml":
+        covs = np.array([percepts[p].covariance if percepts[p].covariance is not None
+                         else percepts[p].sigma ** 2 * np.eye(3) for p in pi])
+        return _ml_pose(ego, centers, covs, best.world_from_ego, reg, pairs, hyps, ambiguous, status,
+                        notes, timings, t_start)
+
+    t0 = time.perf_counter()
+    spheres = ro.make_spheres(centers, np.linalg.norm(ego, axis=1), sig)
+    est = ro.estimate_position(spheres, method=_SPHERE_ESTIMATOR[method], region=reg, rng=rng)
+    timings["position"] = time.perf_counter() - t0
     position = est.position
     if est.status in ("too_few_spheres", "degenerate_collinear") or not np.all(np.isfinite(position)):
         timings["total"] = time.perf_counter() - t_start
@@ -276,3 +298,27 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         transformation=transformation(rot, position), position=np.array(position, dtype=np.float64),
         covariance=cov, correspondences=pairs, hypotheses=hyps, ambiguous=ambiguous or status == "ambiguous",
         status=status, message="; ".join(n for n in notes if n), timings=timings, position_estimate=est)
+
+
+def _ml_pose(ego: NDArray, centers: NDArray, covs: NDArray, start: NDArray, reg: ro.Region,
+             pairs: tuple[tuple[int, int], ...], hyps: tuple, ambiguous: bool, status: str,
+             notes: list[str], timings: dict[str, float], t_start: float) -> LocalizationResult:
+    """The maximum-likelihood pose of the matched percepts (:func:`~worldgraph.pose.refine_pose`)
+    with the Cramer-Rao bound of its position."""
+    t0 = time.perf_counter()
+    pose, info = refine_pose(ego, centers, covs, start)
+    timings["position"] = time.perf_counter() - t0
+    timings["total"] = time.perf_counter() - t_start
+    w, V = np.linalg.eigh(info)
+    if w[0] <= 1e-9 * w[-1]:
+        return _failed("degenerate", "; ".join(notes + [
+            f"the {len(pairs)} matched landmarks do not fix a 6D pose (collinear)"]),
+            hyps, timings, ambiguous)
+    cov = ((V / w) @ V.T)[3:, 3:]
+    position = pose[:3, 3].copy()
+    if status == "ok" and not reg.contains(position, tol=1e-6):
+        status = "outside_region"
+        notes.append(f"the pose {position.tolist()} lies outside the valid region")
+    return LocalizationResult(
+        transformation=pose, position=position, covariance=cov, correspondences=pairs, hypotheses=hyps,
+        ambiguous=ambiguous, status=status, message="; ".join(n for n in notes if n), timings=timings)

@@ -15,6 +15,8 @@ __all__ = [
     "invert_transformation",
     "percept_frame",
     "pose_from_frames",
+    "pose_information",
+    "refine_pose",
     "rotation_angle",
     "transformation",
     "weighted_kabsch",
@@ -238,3 +240,130 @@ def weighted_kabsch_batch(ego_points: ArrayLike, world_points: ArrayLike, weight
     u[:, :, 2] *= d[:, None]
     rot = u @ vt
     return rot, cy - np.einsum("hij,hj->hi", rot, cx)
+
+
+def _skew(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(k, 3) -> (k, 3, 3)`` cross-product matrices, ``skew(a) @ b = a x b``."""
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+def _rotation_vector_to_matrix(w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rodrigues' formula for one rotation vector ``(3,)``."""
+    angle = float(np.linalg.norm(w))
+    K = _skew(w[None])[0]
+    if angle < 1e-12:
+        return np.eye(3) + K
+    return np.eye(3) + np.sin(angle) / angle * K + (1.0 - np.cos(angle)) / angle**2 * (K @ K)
+
+
+def _covariances(covariances: ArrayLike, k: int) -> NDArray[np.float64]:
+    C = np.asarray(covariances, dtype=np.float64)
+    if C.shape != (k, 3, 3):
+        raise ShapeError(f"covariances must have shape ({k}, 3, 3), got shape {C.shape}")
+    if not np.all(np.isfinite(C)):
+        raise NonFiniteError("covariances must be finite")
+    symmetric = np.allclose(C, np.swapaxes(C, 1, 2), rtol=1e-9, atol=1e-15)
+    if not symmetric or np.any(np.linalg.eigvalsh(C)[:, 0] <= 0):
+        raise PoseError("covariances must be symmetric positive definite")
+    return C
+
+
+def pose_information(world_from_ego: ArrayLike, ego_points: ArrayLike, covariances: ArrayLike
+                     ) -> NDArray[np.float64]:
+    """Fisher information ``(6, 6)`` of the pose from 3D point correspondences.
+
+    Model: ``X_i = R x_i + t`` exactly for the world points, ``x_i`` measured in the ego
+    frame with covariance ``C_i``.  Parameters ``(dtheta, dt)``: a rotation vector applied on
+    the left, ``R <- exp(dtheta) R``, and the translation (the robot position).  With the
+    world residual ``e_i = R x_i + t - X_i`` (covariance ``R C_i R^T``) and its Jacobian
+    ``H_i = [-skew(R x_i), I]``, ``J = sum_i H_i^T (R C_i R^T)^-1 H_i``.
+    """
+    T = np.asarray(world_from_ego, dtype=np.float64)
+    x = _points("ego_points", ego_points)
+    C = _covariances(covariances, len(x))
+    R = T[:3, :3]
+    W = np.linalg.inv(R @ C @ R.T)  # (k, 3, 3)
+    H = np.concatenate([-_skew(x @ R.T), np.broadcast_to(np.eye(3), (len(x), 3, 3))], axis=2)
+    return np.einsum("kai,kab,kbj->ij", H, W, H)
+
+
+def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
+                world_from_ego: ArrayLike, max_iter: int = 20, tol: float = 1e-12
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Maximum-likelihood pose from 3D correspondences with per-point covariances.
+
+    Minimises ``sum_i r_i^T C_i^-1 r_i`` with the ego-frame residual ``r_i = x_i - R^T (X_i - t)``
+    (the negative log-likelihood of the measured ``x_i``) by Gauss-Newton on SE(3) from
+    ``world_from_ego``.  For isotropic ``C_i = s_i^2 I`` the
+    optimum is :func:`weighted_kabsch` with weights ``1 / s_i^2`` (closed form, returned
+    directly after the check that the start is no better); otherwise a few iterations
+    from the Kabsch start converge.
+
+    Parameters
+    ----------
+    ego_points, world_points : (k, 3) float
+    covariances : (k, 3, 3) float
+        Covariance of each ego point.
+    world_from_ego : (4, 4) float
+        Start.
+
+    Returns
+    -------
+    world_from_ego : (4, 4) float
+    information : (6, 6) float
+        :func:`pose_information` at the result; its inverse's lower-right block is the
+        Cramer-Rao bound of the position.
+    """
+    x = _points("ego_points", ego_points)
+    y = _points("world_points", world_points, len(x))
+    C = _covariances(covariances, len(x))
+    T = np.array(world_from_ego, dtype=np.float64)
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        raise ShapeError(f"world_from_ego must be a finite (4, 4) array, got shape {T.shape}")
+    R, t = T[:3, :3], T[:3, 3]
+
+    Cinv = np.linalg.inv(C)
+
+    def cost(R: NDArray, t: NDArray) -> float:
+        r = x - (y - t) @ R  # ego-frame residual x_i - R^T (X_i - t), covariance C_i
+        return float(np.einsum("ka,kab,kb->", r, Cinv, r))
+
+    scale = np.trace(C, axis1=1, axis2=2) / 3.0
+    if np.allclose(C, scale[:, None, None] * np.eye(3), rtol=1e-9, atol=0.0):
+        Rk, tk = weighted_kabsch(x, y, 1.0 / scale)
+        if cost(Rk, tk) <= cost(R, t):
+            R, t = Rk, tk
+    else:
+        current = cost(R, t)
+        for _ in range(int(max_iter)):
+            r = x - (y - t) @ R
+            # R <- exp(dtheta) R, t <- t + dt:  dr = -R^T skew(X - t) dtheta + R^T dt
+            H = np.concatenate([-np.einsum("ba,kbc->kac", R, _skew(y - t)),
+                                np.broadcast_to(R.T, (len(x), 3, 3))], axis=2)
+            J = np.einsum("kai,kab,kbj->ij", H, Cinv, H)
+            g = np.einsum("kai,kab,kb->i", H, Cinv, r)
+            try:
+                step = -np.linalg.solve(J, g)
+            except np.linalg.LinAlgError as exc:
+                raise PoseError("the correspondences do not fix a pose (singular information)") from exc
+            for _halving in range(30):  # backtracking keeps every accepted step a descent
+                Rn = _rotation_vector_to_matrix(step[:3]) @ R
+                tn = t + step[3:]
+                new = cost(Rn, tn)
+                if new <= current:
+                    break
+                step = step / 2.0
+            else:
+                break
+            u, _, vt = np.linalg.svd(Rn)  # stay on SO(3)
+            R, t = u @ vt, tn
+            done = current - new <= tol * max(1.0, current)
+            current = new
+            if done:
+                break
+    out = transformation(R, t)
+    return out, pose_information(out, x, C)
