@@ -45,6 +45,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import eigh
 from scipy.optimize import brentq
+from scipy.spatial import cKDTree
 
 from .conformal import MeetStatus, meet3_batch
 from .errors import (
@@ -112,6 +113,11 @@ class EstimatorOptions:
         Extra uniformly drawn seeds for "ml" and "gradient" when an ``rng`` is passed.
     region_tol : float
         Slack (metres) of the region test.
+    max_generation_spheres : int
+        Candidates and seeds that grow combinatorially (the paper's level sets, the points
+        and mirror planes of sphere triples) come from at most this many spheres, the most
+        certain ones (smallest sigma); every sphere scores every candidate.  The paper: "the
+        amount of spheres n is never greater than 6 while generating candidates".
     """
 
     rank_tol: float = 1e-9
@@ -125,6 +131,7 @@ class EstimatorOptions:
     ambiguity_sigmas: float = 3.0
     random_seeds: int = 32
     region_tol: float = 1e-9
+    max_generation_spheres: int = 6
 
 
 ESTIMATOR_OPTIONS = EstimatorOptions()
@@ -493,20 +500,30 @@ class _Data:
     rank: int
 
 
-def _triple_points(d: _Data) -> NDArray:
+def _generation_subset(sigmas: NDArray, limit: int) -> NDArray[np.intp]:
+    """Indices of the ``limit`` spheres of smallest sigma (ties by index), increasing."""
+    if len(sigmas) <= limit:
+        return np.arange(len(sigmas))
+    return np.sort(np.argsort(sigmas, kind="stable")[:limit])
+
+
+def _triples(d: _Data, limit: int) -> NDArray[np.intp]:
+    """Sphere triples ``(t, 3)`` among the generation subset."""
+    return np.array(list(combinations(_generation_subset(d.sigmas, limit).tolist(), 3)), dtype=np.intp)
+
+
+def _triple_points(d: _Data, limit: int) -> NDArray:
     """Points of every sphere triple (the paper's Phi_2, imaginary pairs by their foot)."""
-    n = len(d.centers)
-    triples = np.array(list(combinations(range(n), 3)))
+    triples = _triples(d, limit)
     pb = meet3_batch(d.centers[triples], d.radii[triples] ** 2)
     ok = pb.status <= MeetStatus.IMAGINARY
     return pb.points[ok].reshape(-1, 3)
 
 
-def _triple_mirrors(d: _Data, x: NDArray) -> NDArray:
+def _triple_mirrors(d: _Data, x: NDArray, limit: int) -> NDArray:
     """Reflections of points ``(m, 3)`` across the plane of every landmark triple and the
     best-fit plane of the landmarks."""
-    n = len(d.centers)
-    triples = np.array(list(combinations(range(n), 3)))
+    triples = _triples(d, limit)
     p0 = d.centers[triples[:, 0]]
     nrm = np.cross(d.centers[triples[:, 1]] - p0, d.centers[triples[:, 2]] - p0)
     length = np.linalg.norm(nrm, axis=1)
@@ -529,10 +546,11 @@ def _random_seeds(d: _Data, rng: np.random.Generator | None, region: Region | No
     return rng.uniform(lo, hi, size=(count, 3))
 
 
-def _paper_candidates(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None
-                      ) -> NDArray:
+def _paper_candidates(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None,
+                      limit: int) -> NDArray:
     from .projection import project_radii  # imported where used: only "paper" and "ml" need it
 
+    spheres = [spheres[i] for i in _generation_subset(d.sigmas, limit)]
     sol = project_radii(spheres, method="active_set")
     adjusted = [s.with_radius(max(float(r), 0.0)) for s, r in zip(spheres, sol.radii, strict=True)]
     return generate_hypotheses(adjusted, region=region, keep_imaginary=True).positions
@@ -540,7 +558,7 @@ def _paper_candidates(spheres: Sequence[GaussianSphere], d: _Data, region: Regio
 
 def _method_paper(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None,
                   rng: np.random.Generator | None, opts: EstimatorOptions) -> NDArray:
-    return _paper_candidates(spheres, d, region)
+    return _paper_candidates(spheres, d, region, opts.max_generation_spheres)
 
 
 def _method_srls(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None,
@@ -552,12 +570,13 @@ def _method_ml(spheres: Sequence[GaussianSphere], d: _Data, region: Region | Non
                rng: np.random.Generator | None, opts: EstimatorOptions) -> NDArray:
     seed = srls(d.centers, d.radii, d.sigmas, opts.rank_tol)
     try:
-        paper = _paper_candidates(spheres, d, region)
+        paper = _paper_candidates(spheres, d, region, opts.max_generation_spheres)
     except SolverError:
         paper = np.zeros((0, 3))
     # the paper's candidates (unrefined) stay in the pool, so ML never ends below them
-    seeds = np.vstack([seed, _triple_mirrors(d, seed) if len(seed) else np.zeros((0, 3)),
-                       _triple_points(d), paper,
+    limit = opts.max_generation_spheres
+    seeds = np.vstack([seed, _triple_mirrors(d, seed, limit) if len(seed) else np.zeros((0, 3)),
+                       _triple_points(d, limit), paper,
                        _random_seeds(d, rng, region, opts.random_seeds)])
     seeds = seeds[np.all(np.isfinite(seeds), axis=1)]
     x, _ = _levenberg_marquardt(seeds, d.centers, d.radii, d.sigmas, d.frame.spread, opts)
@@ -567,7 +586,7 @@ def _method_ml(spheres: Sequence[GaussianSphere], d: _Data, region: Region | Non
 def _method_gradient(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None,
                      rng: np.random.Generator | None, opts: EstimatorOptions) -> NDArray:
     # seeds "strategically located based on the spheres centres and intersection zones"
-    seeds = np.vstack([d.frame.origin[None], _triple_points(d),
+    seeds = np.vstack([d.frame.origin[None], _triple_points(d, opts.max_generation_spheres),
                        _random_seeds(d, rng, region, opts.random_seeds)])
     seeds = seeds[np.all(np.isfinite(seeds), axis=1)]
     return _gradient_ascent(seeds, d.centers, d.radii, d.sigmas, d.frame.spread, opts)
@@ -596,13 +615,13 @@ def _distinct(points: NDArray, costs: NDArray, tol: float) -> tuple[NDArray, NDA
     """Greedy de-duplication, lowest cost first (ties broken by coordinates)."""
     order = np.lexsort((points[:, 2], points[:, 1], points[:, 0], costs))
     pts = points[order]
-    close = np.linalg.norm(pts[:, None, :] - pts[None], axis=2) <= tol
+    neighbours = cKDTree(pts).query_ball_point(pts, r=tol)  # O(k log k), not a (k, k) matrix
     suppressed = np.zeros(len(pts), dtype=bool)
     kept: list[int] = []
     for i in range(len(pts)):
         if not suppressed[i]:
             kept.append(i)
-            suppressed |= close[i]
+            suppressed[neighbours[i]] = True
     return pts[kept], costs[order][kept]
 
 

@@ -10,6 +10,8 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = {
     "01_gaussian_circles.py": ["01_gaussian_circles.png"],
     "02_radial_polytope.py": ["02_radial_polytope.png"],
+    "03_localize_kitchen.py": ["03_localize_kitchen.png"],
+    "04_from_images.py": ["04_from_images.png"],
     "05_compare_solvers.py": ["solver_comparison.md", "solver_comparison.csv"],
 }
 

@@ -309,3 +309,20 @@ def test_srls_is_the_global_squared_range_optimum():
         for x0 in rng.uniform(-5, 15, size=(20, 3)):
             other = least_squares(f, x0, method="lm")
             assert sr_cost <= 2 * other.cost * (1 + 1e-9) + 1e-12
+
+
+@pytest.mark.parametrize("method", ["ml", "paper", "srls", "gradient"])
+def test_many_spheres_stay_polynomial_and_exact(method):
+    """40 landmarks (a fused scan's worth): candidate generation uses the most certain
+    spheres only, so nothing grows as n^4 (the paper's level sets of 40 spheres would hold
+    ~10^5 points and a pairwise de-duplication matrix of terabytes); exact ranges still give
+    the truth, and every sphere scores the candidates."""
+    rng = np.random.default_rng(3)
+    centers = rng.uniform([0, 0, 0], [10, 8, 3], (40, 3))
+    truth = np.array([4.0, 3.0, 1.5])
+    radii = np.linalg.norm(centers - truth, axis=1)
+    sigmas = rng.uniform(0.01, 0.05, 40)
+    est = ro.estimate_position(ro.make_spheres(centers, radii, sigmas), method=method)
+    assert est.status == "ok", est.message
+    np.testing.assert_allclose(est.position, truth, atol=1e-6)
+    assert len(est.candidates) < 2000

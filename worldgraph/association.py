@@ -118,6 +118,11 @@ class AssociationTolerances:
         the two types have at most this many object pairs, otherwise by a k-d tree ball query.
     max_hypotheses : int
         Default number of hypotheses returned by :func:`associate`.
+    max_search_percepts : int
+        The clique search (and the paper's filters) use at most this many percepts, the most
+        certain ones (smallest sigma); the others are validated against each hypothesis' pose
+        and enter its cost (the paper generates candidates from at most 6 spheres and
+        validates with the rest).
     """
 
     n_sigma: float = 3.0
@@ -139,6 +144,7 @@ class AssociationTolerances:
     max_cliques: int = 2000
     dense_pair_limit: int = 250_000
     max_hypotheses: int = 16
+    max_search_percepts: int = 10
 
     def __post_init__(self) -> None:
         for name in ("n_sigma", "pair_factor", "kappa_max", "cost_cap", "residual_factor",
@@ -156,6 +162,9 @@ class AssociationTolerances:
                 raise WorldGraphError(f"AssociationTolerances.{name} must be None or finite > 0, got {v!r}")
         if int(self.min_clique_size) < 2:
             raise WorldGraphError(f"min_clique_size must be >= 2, got {self.min_clique_size!r}")
+        if int(self.max_search_percepts) < self.min_clique_size:
+            raise WorldGraphError(f"max_search_percepts must be >= min_clique_size, "
+                                  f"got {self.max_search_percepts!r}")
         for name in ("near_maximum", "max_nodes", "max_cliques", "dense_pair_limit", "max_hypotheses"):
             if int(getattr(self, name)) < 0:
                 raise WorldGraphError(f"AssociationTolerances.{name} must be >= 0, "
@@ -824,10 +833,22 @@ def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity
 # ----------------------------------------------------------------------------------------------
 def _hypotheses_from_cliques(world: WorldModel, percepts: list[Percept],
                              graph_objects: list[NDArray[np.intp]],
-                             cliques: list[tuple[tuple[int, int], ...]], tol: AssociationTolerances
-                             ) -> list[AssociationHypothesis]:
-    sets = [tuple((p, int(graph_objects[p][a])) for p, a in clique) for clique in cliques[:tol.max_cliques]]
+                             cliques: list[tuple[tuple[int, int], ...]], tol: AssociationTolerances,
+                             searched: NDArray[np.intp]) -> list[AssociationHypothesis]:
+    """Fit every clique; ``searched[p]`` is the index in ``percepts`` of the graph's percept p."""
+    sets = [tuple((int(searched[p]), int(graph_objects[p][a])) for p, a in clique)
+            for clique in cliques[:tol.max_cliques]]
     return _fit_all(world, percepts, sets, tol)
+
+
+def _search_subset(percepts: list[Percept], limit: int) -> NDArray[np.intp]:
+    """Indices of the ``limit`` most certain percepts (smallest sigma; ties by type and position,
+    so the choice does not depend on the percept order), in increasing index order."""
+    if len(percepts) <= limit:
+        return np.arange(len(percepts))
+    order = sorted(range(len(percepts)),
+                   key=lambda i: (percepts[i].sigma, percepts[i].type, *percepts[i].position.tolist()))
+    return np.sort(np.array(order[:limit], dtype=np.intp))
 
 
 def associate(world: WorldModel, percepts: Sequence[Percept],
@@ -869,16 +890,19 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     if k < tol.min_clique_size:
         raise TooFewPerceptsError(f"association needs at least {tol.min_clique_size} percepts, got {k}")
     limit = tol.max_hypotheses if max_hypotheses is None else int(max_hypotheses)
+    searched = _search_subset(percepts, int(tol.max_search_percepts))
+    sub = [percepts[i] for i in searched]
+    k = len(sub)
     if method == "paper":
-        prox = proximity_filter(world, percepts, tol)
-        filt = orientation_filter(world, percepts, prox, tol)
+        prox = proximity_filter(world, sub, tol)
+        filt = orientation_filter(world, sub, prox, tol)
         sizes = [len(o) for o in filt["objects"]]
         search = maximum_cliques(sizes, filt["adjacency"], min_size=k, near_maximum=0,
                                  max_nodes=tol.max_nodes, allowed=filt["alive"])
-        hyps = _hypotheses_from_cliques(world, percepts, filt["objects"], search.cliques, tol)
+        hyps = _hypotheses_from_cliques(world, percepts, filt["objects"], search.cliques, tol, searched)
         return _rank(hyps, tol, limit)
 
-    graph = _consistency_graph(world, percepts, tol)
+    graph = _consistency_graph(world, sub, tol)
     # find the maximum size with strong pruning first (the first clique found of size ``need``
     # is a maximum one: larger ones were ruled out before), then enumerate down to max - near
     best = 0
@@ -905,13 +929,13 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
         top = maximum_cliques([len(o) for o in objects], adjacency, min_size=best, near_maximum=0,
                               max_nodes=tol.max_nodes, max_cliques=tol.max_cliques)
         cliques = sorted(set(top.cliques) | set(cliques), key=lambda c: (-len(c), c))
-    hyps = _hypotheses_from_cliques(world, percepts, objects, cliques, tol)
+    hyps = _hypotheses_from_cliques(world, percepts, objects, cliques, tol, searched)
     if not hyps and floor > tol.min_clique_size:
         # every large clique was a mirror or degenerate: fall back to all sizes
         objects, adjacency = graph.dense(_prune(graph, tol.min_clique_size))
         search = maximum_cliques([len(o) for o in objects], adjacency, min_size=tol.min_clique_size,
                                  near_maximum=k, max_nodes=tol.max_nodes, max_cliques=tol.max_cliques)
-        hyps = _hypotheses_from_cliques(world, percepts, objects, search.cliques, tol)
+        hyps = _hypotheses_from_cliques(world, percepts, objects, search.cliques, tol, searched)
     ranked = _rank(hyps, tol, limit)
     if not search.complete:
         ranked = [replace(h, complete=False) for h in ranked]
