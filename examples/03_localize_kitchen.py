@@ -72,6 +72,8 @@ def report(name: str, res: wg.LocalizationResult, truth: np.ndarray) -> None:
     print(f"{name:>5}: status {res.status}, {len(res.correspondences)} matched percepts, "
           f"position error {100 * err:.1f} cm (CRLB sqrt(trace) {100 * bound:.1f} cm), "
           f"rotation error {rotation_error_deg(res.transformation, truth):.2f} deg")
+    if res.message:
+        print(f"       {res.message}")
 
 
 def main() -> None:

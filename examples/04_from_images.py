@@ -101,6 +101,8 @@ def main() -> None:
         print(f"pose: status {res.status}, {len(res.correspondences)} matched percepts, position "
               f"error {100 * err:.1f} cm (CRLB sqrt(trace) {100 * np.sqrt(np.trace(res.covariance)):.1f} "
               f"cm), rotation error {rot:.2f} deg, localize {1e3 * res.timings['total']:.1f} ms")
+        if res.message:
+            print(f"      {res.message}")
     else:
         print(f"no pose: {res.status}: {res.message}")
     save_figure(args, world, truth, fused, res, shown)
