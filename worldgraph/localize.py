@@ -14,10 +14,12 @@
    ``world.region(REGION_MARGIN)``); when the landmarks are coplanar the estimator cannot tell
    a candidate from its mirror image, and the hypothesis' Kabsch pose (which uses the full 3D percepts)
    picks the candidate;
-4. orientation: the proper rotation R minimising ``sum w_p |R x_p - (X_o - t)|^2``, ``w_p =
-   1 / (sigma_p^2 + var_t)``, with the translation fixed to the estimated position t and
-   ``var_t`` a third of the trace of its covariance (1/sigma^2 alone lets one close percept
-   dominate and leaves the rotation about its direction free).
+4. orientation (``"paper"``: eq. 5, ``S_model S_percept^-1`` of the best-conditioned matched
+   triple; the other range-only methods): the proper rotation R minimising
+   ``sum w_p |R x_p - (X_o - t)|^2``, ``w_p = 1 / (sigma_p^2 + var_t)``, with the translation
+   fixed to the estimated position t and ``var_t`` a third of the trace of its covariance
+   (1/sigma^2 alone lets one close percept dominate and leaves the rotation about its
+   direction free).
 
 Percepts whose type the world does not have are ignored (named in the result's message);
 when no percept type is known, :class:`~worldgraph.errors.UnknownTypeError` is raised.
@@ -25,6 +27,7 @@ when no percept type is known, :class:`~worldgraph.errors.UnknownTypeError` is r
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from collections.abc import Sequence
@@ -45,7 +48,7 @@ from .association import (
 )
 from .errors import EmptyWorldError, UnknownTypeError, WorldGraphError
 from .model import WorldModel
-from .pose import refine_pose, transformation, weighted_rotation
+from .pose import percept_frame, pose_from_frames, refine_pose, transformation, weighted_rotation
 
 __all__ = ["LOCALIZE_METHODS", "LOCALIZE_STATUSES", "REGION_MARGIN", "LocalizationResult", "localize"]
 
@@ -290,14 +293,27 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         except ro.RadialError:
             cov = np.full((3, 3), np.inf)
     # residual of R x_p - (X_o - t): percept noise plus the (common) position error
-    pos_var = float(np.trace(cov)) / 3.0 if np.all(np.isfinite(cov)) else float(np.max(sig) ** 2)
-    rot = weighted_rotation(ego, centers - position, 1.0 / (sig**2 + pos_var))
+    if method == "paper":  # eq. 5: S_ego = S_model S_percept^-1 from the best-conditioned triple
+        rot = _eq5_rotation(ego, centers)
+    else:
+        pos_var = float(np.trace(cov)) / 3.0 if np.all(np.isfinite(cov)) else float(np.max(sig) ** 2)
+        rot = weighted_rotation(ego, centers - position, 1.0 / (sig**2 + pos_var))
     timings["orientation"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - t_start
     return LocalizationResult(
         transformation=transformation(rot, position), position=np.array(position, dtype=np.float64),
         covariance=cov, correspondences=pairs, hypotheses=hyps, ambiguous=ambiguous or status == "ambiguous",
         status=status, message="; ".join(n for n in notes if n), timings=timings, position_estimate=est)
+
+
+def _eq5_rotation(ego: NDArray, centers: NDArray) -> NDArray:
+    """Rotation of eq. 5 from the matched triple whose model triangle has the largest area."""
+    triples = np.array(list(itertools.combinations(range(len(ego)), 3)))
+    a, b, c = (centers[triples[:, i]] for i in range(3))
+    best = triples[int(np.argmax(np.linalg.norm(np.cross(b - a, c - a), axis=1)))]
+    model = percept_frame(*centers[best])
+    seen = percept_frame(*ego[best])
+    return pose_from_frames(model, seen)[:3, :3]
 
 
 def _ml_pose(ego: NDArray, centers: NDArray, covs: NDArray, start: NDArray, reg: ro.Region,
