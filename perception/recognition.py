@@ -45,6 +45,7 @@ from .errors import (
     UnknownClassError,
 )
 from .percept import Percept
+from .stereo import _matrix as _as_float_array
 from .uncertainty import triangulation_covariance
 
 __all__ = [
@@ -98,18 +99,6 @@ _FACES = np.array(
 _FACE_NORMALS = np.array(
     [[0, 0, -1], [0, 0, 1], [0, -1, 0], [0, 1, 0], [1, 0, 0], [-1, 0, 0]], dtype=np.float64
 )
-
-
-def _as_float_array(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a real array of shape {shape}, got {value!r}") from exc
-    if arr.shape != shape:
-        raise ShapeError(f"{name} must have shape {shape}, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
-    return arr
 
 
 def _check_rotation(name: str, rot: NDArray[np.float64], atol: float = 1e-6) -> None:

@@ -394,7 +394,8 @@ def maximum_cliques(
 # ----------------------------------------------------------------------------------------------
 # input checks and the consistency graph
 # ----------------------------------------------------------------------------------------------
-def _check_inputs(world: WorldModel, percepts: Sequence[Percept]) -> list[Percept]:
+def check_world_and_percepts(world: WorldModel, percepts: Sequence[Percept]) -> list[Percept]:
+    """A non-empty WorldModel and a list of Percepts (which validate their own values)."""
     if not isinstance(world, WorldModel):
         raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
     if len(world) == 0:
@@ -403,6 +404,12 @@ def _check_inputs(world: WorldModel, percepts: Sequence[Percept]) -> list[Percep
     for k, p in enumerate(percepts):
         if not isinstance(p, Percept):
             raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
+    return percepts
+
+
+def _check_inputs(world: WorldModel, percepts: Sequence[Percept]) -> list[Percept]:
+    percepts = check_world_and_percepts(world, percepts)
+    for k, p in enumerate(percepts):
         if p.type not in world.type_index:
             raise UnknownTypeError(f"percepts[{k}] has type {p.type!r}, which is not in the world model; "
                                    f"known types: {list(world.type_index)}")

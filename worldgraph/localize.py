@@ -28,7 +28,6 @@ when no percept type is known, :class:`~worldgraph.errors.UnknownTypeError` is r
 from __future__ import annotations
 
 import itertools
-import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -44,9 +43,10 @@ from .association import (
     AssociationHypothesis,
     AssociationTolerances,
     associate,
+    check_world_and_percepts,
     is_ambiguous,
 )
-from .errors import EmptyWorldError, UnknownTypeError, WorldGraphError
+from .errors import UnknownTypeError, WorldGraphError
 from .model import WorldModel
 from .pose import percept_frame, pose_from_frames, refine_pose, transformation, weighted_rotation
 
@@ -174,18 +174,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     t_start = time.perf_counter()
     if method not in LOCALIZE_METHODS:
         raise WorldGraphError(f"unknown localize method {method!r}; choose one of {LOCALIZE_METHODS}")
-    if not isinstance(world, WorldModel):
-        raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
-    if len(world) == 0:
-        raise EmptyWorldError("the world model has no objects")
-    percepts = list(percepts)
-    for k, p in enumerate(percepts):
-        if not isinstance(p, Percept):
-            raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
-        pos = np.asarray(p.position, dtype=np.float64)
-        if pos.shape != (3,) or not np.all(np.isfinite(pos)) or not (math.isfinite(p.sigma) and p.sigma > 0):
-            raise WorldGraphError(f"percepts[{k}] has an invalid position {pos.tolist()} "
-                                  f"or sigma {p.sigma!r}")
+    percepts = check_world_and_percepts(world, percepts)
     tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
     if not isinstance(tol, AssociationTolerances):
         raise WorldGraphError(f"tolerances must be AssociationTolerances, got {type(tol).__name__}")
