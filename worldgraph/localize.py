@@ -283,7 +283,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
             cov = np.full((3, 3), np.inf)
     # residual of R x_p - (X_o - t): percept noise plus the (common) position error
     if method == "paper":  # eq. 5: S_ego = S_model S_percept^-1 from the best-conditioned triple
-        rot = _eq5_rotation(ego, centers)
+        rot = _eq5_rotation(ego, centers, sig)
     else:
         pos_var = float(np.trace(cov)) / 3.0 if np.all(np.isfinite(cov)) else float(np.max(sig) ** 2)
         rot = weighted_rotation(ego, centers - position, 1.0 / (sig**2 + pos_var))
@@ -295,9 +295,11 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         status=status, message="; ".join(n for n in notes if n), timings=timings, position_estimate=est)
 
 
-def _eq5_rotation(ego: NDArray, centers: NDArray) -> NDArray:
-    """Rotation of eq. 5 from the matched triple whose model triangle has the largest area."""
-    triples = np.array(list(itertools.combinations(range(len(ego)), 3)))
+def _eq5_rotation(ego: NDArray, centers: NDArray, sigmas: NDArray, limit: int = 10) -> NDArray:
+    """Rotation of eq. 5 from the matched triple whose model triangle has the largest area,
+    among the ``limit`` most certain matches."""
+    pool = np.sort(np.argsort(sigmas, kind="stable")[:limit])
+    triples = np.array(list(itertools.combinations(pool.tolist(), 3)))
     a, b, c = (centers[triples[:, i]] for i in range(3))
     best = triples[int(np.argmax(np.linalg.norm(np.cross(b - a, c - a), axis=1)))]
     model = percept_frame(*centers[best])
