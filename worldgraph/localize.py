@@ -241,16 +241,16 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     position = est.position
     if est.status in ("too_few_spheres", "degenerate_collinear") or not np.all(np.isfinite(position)):
         timings["total"] = time.perf_counter() - t_start
-        res = _failed("degenerate_collinear" if est.status == "degenerate_collinear" else "degenerate",
-                      "; ".join(notes + [est.message or "the matched landmarks fix no position"]),
-                      hyps, timings, ambiguous)
-        return res
+        return _failed("degenerate_collinear" if est.status == "degenerate_collinear" else "degenerate",
+                       "; ".join(notes + [est.message or "the matched landmarks fix no position"]),
+                       hyps, timings, ambiguous)
     # The Kabsch pose of the hypothesis uses the full 3D percepts, ranges alone do not: among
     # the estimator's candidates of comparable density (mirror images across a near-plane of
     # landmarks) take the one nearest to it.
     t_h = best.world_from_ego[:3, 3]
     cands = np.asarray(est.candidates, dtype=np.float64).reshape(-1, 3)
     dens = np.asarray(est.candidate_density, dtype=np.float64).reshape(-1)
+    est_status = est.status
     if len(cands) > 1 and len(dens) == len(cands):
         close = cands[dens >= CANDIDATE_DENSITY_RATIO * dens.max()] if dens.max() > 0 else cands
         d = np.linalg.norm(close - t_h, axis=1)
@@ -259,14 +259,8 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
             if not np.array_equal(close[order[0]], position):
                 notes.append("position candidate chosen by the association's 3D pose (mirror ambiguity)")
             position = close[order[0]]
-            if est.status == "ambiguous":
+            if est_status == "ambiguous":  # the 3D pose has resolved it
                 est_status = "ok"
-            else:
-                est_status = est.status
-        else:
-            est_status = est.status
-    else:
-        est_status = est.status
     if est_status == "ambiguous":
         status = "ambiguous"
         notes.append(est.message)
@@ -281,10 +275,10 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
             cov = ro.crlb(centers, sig, position)
         except ro.RadialError:
             cov = np.full((3, 3), np.inf)
-    # residual of R x_p - (X_o - t): percept noise plus the (common) position error
     if method == "paper":  # eq. 5: S_ego = S_model S_percept^-1 from the best-conditioned triple
         rot = _eq5_rotation(ego, centers, sig)
     else:
+        # residual of R x_p - (X_o - t): percept noise plus the (common) position error
         pos_var = float(np.trace(cov)) / 3.0 if np.all(np.isfinite(cov)) else float(np.max(sig) ** 2)
         rot = weighted_rotation(ego, centers - position, 1.0 / (sig**2 + pos_var))
     timings["orientation"] = time.perf_counter() - t0

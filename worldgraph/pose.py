@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 from .errors import NonFiniteError, PoseError, ShapeError
 
@@ -251,15 +252,6 @@ def _skew(v: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def _rotation_vector_to_matrix(w: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Rodrigues' formula for one rotation vector ``(3,)``."""
-    angle = float(np.linalg.norm(w))
-    K = _skew(w[None])[0]
-    if angle < 1e-12:
-        return np.eye(3) + K
-    return np.eye(3) + np.sin(angle) / angle * K + (1.0 - np.cos(angle)) / angle**2 * (K @ K)
-
-
 def _covariances(covariances: ArrayLike, k: int) -> NDArray[np.float64]:
     C = np.asarray(covariances, dtype=np.float64)
     if C.shape != (k, 3, 3):
@@ -351,7 +343,7 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
             except np.linalg.LinAlgError as exc:
                 raise PoseError("the correspondences do not fix a pose (singular information)") from exc
             for _halving in range(30):  # backtracking keeps every accepted step a descent
-                Rn = _rotation_vector_to_matrix(step[:3]) @ R
+                Rn = Rotation.from_rotvec(step[:3]).as_matrix() @ R
                 tn = t + step[3:]
                 new = cost(Rn, tn)
                 if new <= current:
