@@ -128,3 +128,12 @@ def test_small_mjcf_with_degrees_and_includes(tmp_path):
     np.testing.assert_allclose(door, [1.0, 2.2, 1.0], atol=1e-12)
     np.testing.assert_allclose(handle, [1.05, 2.35, 1.0], atol=1e-12)
     assert len(w.scene.graph.nodes_geometry) == 2  # the collision geom is left out
+    assert w.room is None  # no floor plane in this file
+
+
+@needs_kitchen
+def test_room_over_the_mjcf_floor(world):
+    # basic_scene.xml: <geom name='floor' pos='0 0 0' size='5 5 .1' type='plane'/>
+    np.testing.assert_allclose(world.room.lower, [-5.0, -5.0, 0.0])
+    np.testing.assert_allclose(world.room.upper, [5.0, 5.0, 3.0])
+    assert world.room.contains(world.positions).all()

@@ -155,3 +155,96 @@ def test_kitchen_objects_match_the_scene_transforms(kitchen0):
         assert obj.type == edge_data[(base, obj.id)]["metadata"]["type"] == obj.id.rsplit("_", 1)[0]
         local = (world_mesh.vertices - obj.position) @ obj.pose[:3, :3]
         np.testing.assert_allclose(local.max(axis=0) - local.min(axis=0), obj.size, atol=1e-9)
+
+
+# ----------------------------------------------------------------------------------------------
+# kitchen layouts
+# ----------------------------------------------------------------------------------------------
+def _base_widths(scene: trimesh.Scene) -> list[float]:
+    """Widths of the base cabinet carcasses (untyped boxes 0.76 m high named cabinet_*)."""
+    out = []
+    for node in scene.graph.nodes_geometry:
+        ext = scene.geometry[scene.graph[node][1]].extents
+        if node.startswith("cabinet_") and abs(ext[2] - 0.76) < 1e-9:
+            out.append(round(float(ext[0]), 3))
+    return out
+
+
+@pytest.mark.parametrize("kind", scenes.LAYOUT_KINDS)
+def test_layout_builds_with_room_and_landmarks_only(kind):
+    w = scenes.kitchen_layout(kind, seed=0)
+    types = set(w.type_names)
+    assert types <= set(scenes.LAYOUT_TYPES)
+    assert not types & {"floor", "wall", "ceiling"}
+    for t in ("door", "handle", "knob", "panel", "fridge", "oven", "stove", "sink", "microwave"):
+        assert t in types, t
+    assert 40 <= len(w) <= 400
+    # the scene holds the room structure; the room box is the walls' outer faces, floor to ceiling
+    scene = w.scene
+    nodes = list(scene.graph.nodes_geometry)
+    assert sum(n.startswith("wall_") for n in nodes) == 4
+    assert "floor_000" in nodes and "ceiling_000" in nodes
+    rx, ry, rz = scene.metadata["room_size"]
+    np.testing.assert_allclose(w.room.lower, [-0.1, -0.1, 0.0], atol=1e-12)
+    np.testing.assert_allclose(w.room.upper, [rx + 0.1, ry + 0.1, rz], atol=1e-12)
+    lo, hi = w.bounds  # every object's box lies in the room, above the floor
+    assert np.all(lo >= w.room.lower - 1e-9) and np.all(hi <= w.room.upper + 1e-9)
+    assert np.all(lo >= [0.0, 0.0, 0.0]) and np.all(hi <= [rx, ry, rz])
+
+
+@pytest.mark.parametrize("kind", scenes.LAYOUT_KINDS)
+def test_layout_repeats_identical_units(kind):
+    for seed in range(4):
+        scene = scenes.kitchen_layout_scene(kind, seed)
+        widths = _base_widths(scene)
+        counts = {x: widths.count(x) for x in widths}
+        assert max(counts.values()) >= 2, (seed, widths)
+        w = scenes.kitchen_layout(kind, seed)
+        # identical fronts: at least two doors (or drawers) of one size
+        sizes = [tuple(np.round(o.size, 4)) for o in w.objects if o.type in ("door", "drawer")]
+        assert len(sizes) > len(set(sizes))
+
+
+@pytest.mark.parametrize("kind", scenes.LAYOUT_KINDS)
+def test_layout_is_deterministic_and_seed_dependent(kind):
+    a, b = scenes.kitchen_layout(kind, 3), scenes.kitchen_layout(kind, 3)
+    assert a == b
+    assert [o.id for o in a.objects] == [o.id for o in b.objects]
+    sizes = {scenes.kitchen_layout_scene(kind, s).metadata["room_size"] for s in range(4)}
+    assert len(sizes) == 4  # the room changes with the seed
+    c = scenes.kitchen_layout(kind, 4)
+    assert c != a
+
+
+def test_layout_room_dimensions_follow_the_kind():
+    for seed in range(10):
+        rx, ry, rz = scenes.kitchen_layout_scene("one_wall", seed).metadata["room_size"]
+        assert 3.0 <= ry <= 5.0 and 2.6 <= rz <= 3.0
+        w = scenes.kitchen_layout("one_wall", seed)
+        cabinets = w.positions[np.isin(w.types, ["door", "drawer"]) & (w.positions[:, 2] < 1.0)]
+        assert np.all(cabinets[:, 1] > ry - 0.7)  # one run, along the back wall
+        rx, ry, _ = scenes.kitchen_layout_scene("galley", seed).metadata["room_size"]
+        assert 1.2 <= ry - 2 * 0.62 <= 2.5 + 1e-9  # the aisle between the two runs
+        w = scenes.kitchen_layout("island", seed)
+        mid = w.positions[(w.positions[:, 1] > 1.0) & (w.positions[:, 1] < w.room.upper[1] - 1.5)]
+        assert len(mid) >= 10  # the island in the middle of the room
+
+
+def test_layout_builds_fast_and_bad_kind():
+    import time
+
+    for kind in scenes.LAYOUT_KINDS:
+        best = np.inf
+        for _ in range(2):
+            t0 = time.perf_counter()
+            scenes.kitchen_layout(kind, 1)
+            best = min(best, time.perf_counter() - t0)
+        assert best < 0.5, kind
+    with pytest.raises(wg.WorldGraphError, match="kind must be one of"):
+        scenes.kitchen_layout_scene("studio")
+
+
+def test_kitchen_room_is_set(kitchen0):
+    np.testing.assert_allclose(kitchen0.room.lower, [-0.1, -0.1, 0.0], atol=1e-12)
+    np.testing.assert_allclose(kitchen0.room.upper, [10.1, 8.1, 3.0], atol=1e-12)
+    assert len(kitchen0) == 753 and "wall" in kitchen0.type_names

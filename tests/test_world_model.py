@@ -391,3 +391,113 @@ def test_from_trimesh_type_of_overrides_and_skips():
         WorldModel.from_trimesh(scene, type_of=lambda name, geom: None)
     with pytest.raises(wg.UnknownTypeError, match="door_1"):
         WorldModel.from_trimesh(scene, type_of=lambda name, geom: 5)
+
+
+# ----------------------------------------------------------------------------------------------
+# room
+# ----------------------------------------------------------------------------------------------
+def _room_scene(ceiling: bool = True, walls: bool = True) -> trimesh.Scene:
+    """A 4 x 3 m room by hand: floor slab top at z = 0, two walls (one rotated), a ceiling."""
+    scene = trimesh.Scene()
+    scene.geometry.update({
+        "slab": trimesh.creation.box(extents=(4.0, 3.0, 0.1)),
+        "wall_long": trimesh.creation.box(extents=(4.0, 0.2, 2.5)),
+        "wall_short": trimesh.creation.box(extents=(3.0, 0.2, 2.5)),
+        "door": trimesh.creation.box(extents=(0.9, 0.04, 2.0)),
+    })
+    t = trimesh.transformations.translation_matrix
+    rz90 = trimesh.transformations.rotation_matrix(np.pi / 2, [0, 0, 1])
+    nodes = [("floor_0", "slab", t([2.0, 1.5, -0.05]), None),        # x 0..4, y 0..3, z -0.1..0
+             ("door_0", "door", t([1.0, 0.02, 1.0]), None)]
+    if walls:
+        nodes += [("wall_0", "wall_long", t([2.0, -0.1, 1.25]), None),  # x 0..4, y -0.2..0, z 0..2.5
+                  ("side", "wall_short", t([4.1, 1.5, 1.25]) @ rz90, {"type": "wall"})]  # x 4.0..4.2, y 0..3
+    if ceiling:
+        nodes.append(("ceiling_0", "slab", t([2.0, 1.5, 2.45]), None))  # z 2.4..2.5
+    for name, geom, matrix, meta in nodes:
+        kwargs = {} if meta is None else {"metadata": meta}
+        scene.graph.update(frame_to=name, frame_from=scene.graph.base_frame, matrix=matrix, geometry=geom,
+                           **kwargs)
+    return scene
+
+
+def test_from_trimesh_finds_the_room_box():
+    w = WorldModel.from_trimesh(_room_scene())
+    assert sorted(w.type_names) == ["ceiling", "door", "floor", "wall"]
+    # x: floor 0..4 and the rotated wall up to 4.2; y: the long wall from -0.2, floor/side wall to 3
+    np.testing.assert_allclose(w.room.lower, [0.0, -0.2, 0.0], atol=1e-12)
+    np.testing.assert_allclose(w.room.upper, [4.2, 3.0, 2.4], atol=1e-12)  # z: under the ceiling
+    # type_of skipping the room nodes keeps the room
+    only_doors = WorldModel.from_trimesh(_room_scene(), type_of=lambda n, g: "door" if n.startswith("door")
+                                         else None)
+    assert len(only_doors) == 1
+    np.testing.assert_allclose(only_doors.room.upper, [4.2, 3.0, 2.4], atol=1e-12)
+    no_ceiling = WorldModel.from_trimesh(_room_scene(ceiling=False))
+    np.testing.assert_allclose(no_ceiling.room.upper[2], 2.5)  # top of the walls
+    floor_only = WorldModel.from_trimesh(_room_scene(ceiling=False, walls=False))
+    np.testing.assert_allclose(floor_only.room.lower, [0.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(floor_only.room.upper, [4.0, 3.0, 3.0], atol=1e-12)  # floor + 3 m
+    assert WorldModel.from_trimesh(_room_scene(), room=None).room is None
+    assert WorldModel.from_trimesh(_hand_scene()).room is None  # its wall_0 has type None
+
+
+def test_from_trimesh_room_given_or_from_scene_metadata():
+    from radialopt import Region
+
+    given = Region([1.0, 1.0, 0.0], [2.0, 2.0, 2.0])
+    assert WorldModel.from_trimesh(_room_scene(), room=given).room is given
+    scene = _room_scene()
+    scene.metadata["room"] = ([-1.0, -1.0, 0.0], [5.0, 4.0, 2.0])
+    w = WorldModel.from_trimesh(scene)
+    np.testing.assert_allclose(w.room.lower, [-1.0, -1.0, 0.0])
+    np.testing.assert_allclose(w.room.upper, [5.0, 4.0, 2.0])
+    with pytest.raises(wg.WorldGraphError, match="room must be 'auto'"):
+        WorldModel.from_trimesh(_room_scene(), room="detect")
+
+
+@pytest.mark.parametrize(
+    ("room", "error", "match"),
+    [
+        (([0, 0, 0], [1, 1]), wg.ShapeError, r"room = \(\[0, 0, 0\], \[1, 1\]\) .*upper.*shape \(3,\)"),
+        (([0, 0, float("nan")], [1, 1, 1]), wg.NonFiniteError, r"room = .*nan.*valid box.*lower.*finite"),
+        (([0, 0, 0], [1, -1, 1]), wg.WorldGraphError, r"room = \(\[0, 0, 0\], \[1, -1, 1\]\) is not a valid"),
+        ("kitchen", wg.WorldGraphError, "room must be .*a radialopt.Region.*'kitchen'"),
+        ((["a", "b", "c"], [1, 1, 1]), wg.ShapeError, "room corners"),
+    ],
+)
+def test_bad_room(room, error, match):
+    w = _small_world()
+    with pytest.raises(error, match=match):
+        WorldModel(w.objects, w.max_link_length, w.class_vertices, room=room)
+    with pytest.raises(error, match=match):
+        WorldModel.from_trimesh(_room_scene(), room=room)
+
+
+def test_room_round_trip_equality_and_subset(tmp_path):
+    from radialopt import Region
+
+    w = _small_world()
+    roomy = WorldModel(w.objects, w.max_link_length, w.class_vertices, link_margin=w.link_margin,
+                       room=([-1.0, -1.0, 0.0], [6.0, 6.0, 3.0]))
+    assert isinstance(roomy.room, Region)
+    assert roomy != w and w != roomy
+    moved = WorldModel(w.objects, w.max_link_length, w.class_vertices, link_margin=w.link_margin,
+                       room=Region([-1.0, -1.0, 0.0], [6.0, 6.0, 3.5]))
+    assert moved != roomy
+    roomy.save(tmp_path / "r.json")
+    data = json.loads((tmp_path / "r.json").read_text())
+    assert data["room"] == {"lower": [-1.0, -1.0, 0.0], "upper": [6.0, 6.0, 3.0]}
+    back = WorldModel.load(tmp_path / "r.json")
+    assert back == roomy
+    np.testing.assert_array_equal(back.room.upper, [6.0, 6.0, 3.0])
+    assert "room" not in w.to_dict()  # files without a room stay as they were
+    sub = roomy.subset(["door"])
+    np.testing.assert_array_equal(sub.room.lower, [-1.0, -1.0, 0.0])
+    data["room"] = {"lower": [0, 0, 0], "upper": [1, -1, 1]}
+    with pytest.raises(wg.MalformedFileError, match="room = .*not a valid box"):
+        WorldModel.load(_write(tmp_path, data))
+    data["room"] = {"lower": [0, 0, 0]}
+    with pytest.raises(wg.MalformedFileError, match="room must be null or an object"):
+        WorldModel.load(_write(tmp_path, data))
+    data["room"] = None
+    assert WorldModel.load(_write(tmp_path, data)).room is None

@@ -43,7 +43,8 @@ body                                   geom                                     
 =====================================  ============================================  ==========
 
 The scene is in the MJCF world frame (z up, metres).  The kettle is a free body; it is placed
-at its ``<body pos>`` (not the keyframe).
+at its ``<body pos>`` (not the keyframe).  The world model's ``room`` is the box over the MJCF
+floor plane (x, y: the plane's extent; z: from the floor up 3 m).
 """
 
 from __future__ import annotations
@@ -63,10 +64,13 @@ from numpy.typing import NDArray
 from .errors import ImporterError, MalformedFileError
 from .model import WorldModel
 
-__all__ = ["FRANKA_TYPE_RULES", "franka_kitchen_path", "franka_kitchen_scene", "load_franka_kitchen"]
+__all__ = ["FRANKA_TYPE_RULES", "ROOM_HEIGHT", "franka_kitchen_path", "franka_kitchen_scene",
+           "load_franka_kitchen"]
 
 _PIP = "pip install --no-deps gymnasium-robotics"
 _MAIN_FILE = "kitchen_env_model.xml"
+#: Height (metres) of the room box over the MJCF floor.
+ROOM_HEIGHT = 3.0
 
 
 def franka_kitchen_path() -> pathlib.Path:
@@ -188,6 +192,7 @@ class _Geom:
     mesh: str | None
     rotated: bool  # has an orientation attribute of its own
     world_from_geom: NDArray[np.float64]
+    name: str | None = None  # the geom's own name attribute
 
 
 @dataclass
@@ -312,7 +317,8 @@ def _walk(body: ET.Element, world_from_body: NDArray[np.float64], name: str, chi
             size = np.array([size[0], length / 2])
         rotated = any(geom.get(a) is not None for a in ("quat", "euler", "axisangle", "zaxis", "xyaxes"))
         world_from_geom = world_from_body @ local
-        model.geoms.append(_Geom(name, k - 1, kind, size, attrs.get("mesh"), rotated, world_from_geom))
+        model.geoms.append(_Geom(name, k - 1, kind, size, attrs.get("mesh"), rotated, world_from_geom,
+                                 geom.get("name")))
     for n, child in enumerate(body.findall("body")):
         child_name = child.get("name") or f"{name}/body{n}"
         m = world_from_body @ _local_transform(child, model.compiler, f"body {child_name!r}")
@@ -393,11 +399,30 @@ def _geometry(g: _Geom, model: _Model, cache: dict[str, trimesh.Trimesh]) -> tup
     return key, mesh
 
 
+def _floor_room(model: _Model) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """``(lower, upper)`` of the room over the MJCF floor: the first upright plane geom of finite
+    size (one named ``floor`` first), its x, y extent, from its height up :data:`ROOM_HEIGHT`."""
+    planes = [g for g in model.geoms if g.kind == "plane" and g.size.size >= 2 and np.all(g.size[:2] > 0)
+              and g.world_from_geom[2, 2] > 1.0 - 1e-9]
+    planes.sort(key=lambda g: g.name != "floor")
+    if not planes:
+        return None
+    g = planes[0]
+    sx, sy = g.size[:2]
+    corners = np.array([[x, y, 0.0, 1.0] for x in (-sx, sx) for y in (-sy, sy)]) @ g.world_from_geom.T
+    z = float(g.world_from_geom[2, 3])
+    lower = np.array([*corners[:, :2].min(axis=0), z])
+    return lower, np.array([*corners[:, :2].max(axis=0), z + ROOM_HEIGHT])
+
+
 def franka_kitchen_scene(path: str | pathlib.Path | None = None) -> tuple[trimesh.Scene, dict[str, str]]:
     """The Franka kitchen as a scene, and the type of each typed node (``node name -> type``).
 
     Node names are ``f"{body}:{geom index}"``; node metadata holds ``{"type": ...}`` (``None``
-    for untyped geoms).
+    for untyped geoms).  ``scene.metadata["room"]`` is ``(lower, upper)`` of the room over the
+    MJCF floor plane (``basic_scene.xml``'s ``floor``, 10 x 10 m about the origin): its x, y
+    extent, from the floor up :data:`ROOM_HEIGHT` metres; absent when the model has no finite
+    upright plane.
     """
     directory = franka_kitchen_path() if path is None else pathlib.Path(path)
     main = directory / _MAIN_FILE if directory.is_dir() else directory
@@ -417,6 +442,9 @@ def franka_kitchen_scene(path: str | pathlib.Path | None = None) -> tuple[trimes
                            geometry=key, metadata={"type": typ})
         if typ is not None:
             types[node] = typ
+    room = _floor_room(model)
+    if room is not None:
+        scene.metadata["room"] = room
     return scene, types
 
 
@@ -429,6 +457,9 @@ def load_franka_kitchen(path: str | pathlib.Path | None = None, max_link_length:
     path : path, optional
         The ``kitchen_assets`` directory or its ``kitchen_env_model.xml``; default
         :func:`franka_kitchen_path`.
+
+    The model's :attr:`~WorldModel.room` is the box over the MJCF floor plane (see
+    :func:`franka_kitchen_scene`), ``None`` if the file has none.
     """
     scene, types = franka_kitchen_scene(path)
     return WorldModel.from_trimesh(scene, type_of=lambda node, _geom: types.get(node),

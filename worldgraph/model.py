@@ -29,10 +29,13 @@ File format (:meth:`WorldModel.save` / :meth:`WorldModel.load`), JSON, meant to 
         {"id": "handle_000", "type": "handle",
          "pose": [[1, 0, 0, 2.0], [0, 1, 0, 0.5], [0, 0, 1, 0.9], [0, 0, 0, 1]],
          "size": [0.12, 0.02, 0.02], "geometry": "handle_bar"}
-      ]
+      ],
+      "room": {"lower": [0, 0, 0], "upper": [4, 3, 2.6]}   # optional, null or absent: no room
     }
 
-Every object's ``geometry`` must be a key of ``class_vertices``.
+Every object's ``geometry`` must be a key of ``class_vertices``.  ``room`` (the free space of the
+room, an axis-aligned box, :attr:`WorldModel.room`) is written only when it is set; files
+without it read as ``room = None``.
 """
 
 from __future__ import annotations
@@ -72,10 +75,13 @@ __all__ = [
     "DEFAULT_SIZE",
     "FILE_FORMAT",
     "FILE_VERSION",
+    "DEFAULT_ROOM_HEIGHT",
     "LinkTable",
     "ObjectModel",
+    "ROOM_TYPES",
     "WorldModel",
     "box_vertices",
+    "room_from_trimesh",
 ]
 
 FILE_FORMAT = "worldgraph.WorldModel"
@@ -92,6 +98,96 @@ def box_vertices(size: ArrayLike) -> NDArray[np.float64]:
     half = 0.5 * np.asarray(size, dtype=np.float64)
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64)
     return signs * half
+
+
+def _check_room(room: Any, what: str = "room") -> radialopt.Region | None:
+    """``None``, a :class:`radialopt.Region`, or a ``(lower, upper)`` pair made into one; a bad
+    pair raises this package's errors (shape, finiteness, ``lower <= upper``) naming ``what``."""
+    if room is None:
+        return None
+    from radialopt import Region
+    from radialopt import errors as ro_errors
+
+    if isinstance(room, Region):  # checked when it was made (finite, lower <= upper)
+        return room
+    if not isinstance(room, tuple | list) or len(room) != 2:
+        raise WorldGraphError(f"{what} must be a radialopt.Region, a (lower, upper) pair or None, "
+                              f"got {room!r}")
+    try:
+        return Region(*room)
+    except ro_errors.RadialError as exc:
+        error = {ro_errors.ShapeError: ShapeError, ro_errors.NonFiniteError: NonFiniteError}.get(
+            type(exc), WorldGraphError)
+        raise error(f"{what} = {room!r} is not a valid box: {exc}") from exc
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{what} corners must be arrays of 3 numbers, got {room!r}") from exc
+
+
+def _default_type(scene: trimesh.Scene, node: str, geometry: Any) -> Any:
+    """The type of a scene node by the default rule of :meth:`WorldModel.from_trimesh`."""
+    meta = None
+    parent = scene.graph.transforms.parents.get(node)
+    if parent is not None:
+        meta = scene.graph.transforms.edge_data.get((parent, node), {}).get("metadata")
+    gmeta = getattr(geometry, "metadata", None) or {}
+    if isinstance(meta, dict) and "type" in meta:
+        return meta["type"]
+    if "type" in gmeta:
+        return gmeta["type"]
+    return str(node).replace(":", "_").split("_", 1)[0]
+
+
+#: Node types :meth:`WorldModel.from_trimesh` reads the room box from.
+ROOM_TYPES = ("floor", "wall", "ceiling")
+#: Room height (metres) assumed when a scene has a floor but neither ceiling nor walls.
+DEFAULT_ROOM_HEIGHT = 3.0
+
+
+def _world_bounds(matrix: NDArray[np.float64], bounds: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(2, 3)`` axis-aligned bounds of a local box ``bounds (2, 3)`` moved by ``matrix``."""
+    corners = np.array([[bounds[i, 0], bounds[j, 1], bounds[k, 2]]
+                        for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    world = corners @ matrix[:3, :3].T + matrix[:3, 3]
+    return np.array([world.min(axis=0), world.max(axis=0)])
+
+
+def room_from_trimesh(scene: trimesh.Scene) -> radialopt.Region | None:
+    """The room box of a scene, or ``None`` when it has no room nodes.
+
+    ``scene.metadata["room"]`` (a :class:`radialopt.Region` or a ``(lower, upper)`` pair) wins
+    when present.  Else the room nodes are the geometry nodes whose type by the default rule of
+    :meth:`WorldModel.from_trimesh` is ``"floor"``, ``"wall"`` or ``"ceiling"``: x and y span the
+    union of the floor and wall nodes' world bounds (of the ceiling's if there are neither); the
+    lower z is the top of the floor (the highest floor top), else the lowest point of the room
+    nodes; the upper z is the bottom of the ceiling (the lowest), else the top of the walls, else
+    the lower z + :data:`DEFAULT_ROOM_HEIGHT`.
+    """
+    meta = getattr(scene, "metadata", None) or {}
+    if meta.get("room") is not None:
+        return _check_room(meta["room"], 'scene.metadata["room"]')
+    found: dict[str, list[NDArray[np.float64]]] = {t: [] for t in ROOM_TYPES}
+    for node in scene.graph.nodes_geometry:
+        matrix, geom_name = scene.graph[node]
+        geometry = scene.geometry[geom_name]
+        typ = _default_type(scene, node, geometry)
+        if typ in found:
+            bounds = np.asarray(geometry.bounds, dtype=np.float64)
+            found[typ].append(_world_bounds(np.asarray(matrix, dtype=np.float64), bounds))
+    floors, walls, ceilings = (np.array(found[t]).reshape(-1, 2, 3) for t in ROOM_TYPES)
+    every = np.concatenate([floors, walls, ceilings])
+    if not len(every):
+        return None
+    planar = np.concatenate([floors, walls]) if len(floors) + len(walls) else ceilings
+    lo_xy, hi_xy = planar[:, 0, :2].min(axis=0), planar[:, 1, :2].max(axis=0)
+    z0 = floors[:, 1, 2].max() if len(floors) else every[:, 0, 2].min()
+    if len(ceilings):
+        z1 = ceilings[:, 0, 2].min()
+    elif len(walls):
+        z1 = walls[:, 1, 2].max()
+    else:
+        z1 = z0 + DEFAULT_ROOM_HEIGHT
+    return _check_room((np.array([lo_xy[0], lo_xy[1], z0]), np.array([hi_xy[0], hi_xy[1], z1])),
+                       "room found in the scene")
 
 
 def _check_type_name(value: Any, what: str) -> str:
@@ -271,6 +367,10 @@ class WorldModel:
     link_margin : float
         The link tables hold pairs closer than ``max_link_length + link_margin`` (``>= 0``), so
         pairs just above ``max_link_length`` survive percept noise.
+    room : radialopt.Region or None
+        The room's free space (the robot is inside it): an axis-aligned box, finite, ``lower <=
+        upper``; a ``(lower, upper)`` pair is turned into a Region.  Room structure (floor,
+        walls, ceiling) need not be objects of the model when the room is known this way.
 
     Attributes
     ----------
@@ -287,8 +387,10 @@ class WorldModel:
     class_vertices: Mapping[str, NDArray[np.float64]] = field(default_factory=dict)
     scene: Any = None
     link_margin: float = 0.0
+    room: radialopt.Region | None = None
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "room", _check_room(self.room))
         objects = tuple(self.objects)
         if not objects:
             raise EmptyWorldError("a WorldModel needs at least one object, got 0")
@@ -459,7 +561,8 @@ class WorldModel:
 
     @classmethod
     def from_trimesh(cls, scene: trimesh.Scene, type_of: Callable[[str, Any], str | None] | None = None,
-                     max_link_length: float = 5.0, link_margin: float = 0.0) -> WorldModel:
+                     max_link_length: float = 5.0, link_margin: float = 0.0,
+                     room: radialopt.Region | str | None = "auto") -> WorldModel:
         """World model from a :class:`trimesh.Scene`: one object per geometry node.
 
         The type of a node is, in this order: ``type_of(node_name, geometry)`` when given (its
@@ -473,34 +576,29 @@ class WorldModel:
         ``size`` is the geometry's extents in its own frame times the node's axis scales.  The
         geometry key is the scene's geometry name; ``class_vertices`` holds its vertices about
         the box centre (scaled by the first node that uses it).
+
+        ``room="auto"`` sets :attr:`room` by :func:`room_from_trimesh` (from the floor, wall and
+        ceiling nodes by the default typing rule, whether or not ``type_of`` skips them, or from
+        ``scene.metadata["room"]``); ``None`` leaves it unset; a Region is used as is.
         """
         try:
             import trimesh as _trimesh  # noqa: F401
         except ImportError as exc:  # pragma: no cover
             from .errors import ImporterError
             raise ImporterError("from_trimesh needs trimesh: pip install trimesh") from exc
+        if isinstance(room, str):
+            if room != "auto":
+                raise WorldGraphError(f"room must be 'auto', a radialopt.Region or None, got {room!r}")
+            room = room_from_trimesh(scene)
+        else:
+            room = _check_room(room)
         graph = scene.graph
-        edge_data = graph.transforms.edge_data
-        parents = graph.transforms.parents
         objs: list[ObjectModel] = []
         class_vertices: dict[str, NDArray[np.float64]] = {}
         for node in graph.nodes_geometry:
             matrix, geom_name = graph[node]
             geometry = scene.geometry[geom_name]
-            if type_of is not None:
-                typ = type_of(node, geometry)
-            else:
-                meta = None
-                parent = parents.get(node)
-                if parent is not None:
-                    meta = edge_data.get((parent, node), {}).get("metadata")
-                gmeta = getattr(geometry, "metadata", None) or {}
-                if isinstance(meta, dict) and "type" in meta:
-                    typ = meta["type"]
-                elif "type" in gmeta:
-                    typ = gmeta["type"]
-                else:
-                    typ = str(node).replace(":", "_").split("_", 1)[0]
+            typ = type_of(node, geometry) if type_of is not None else _default_type(scene, node, geometry)
             if typ is None:
                 continue
             _check_type_name(typ, f"type of node {node!r}")
@@ -519,7 +617,7 @@ class WorldModel:
         if not objs:
             raise EmptyWorldError("the scene has no typed geometry nodes")
         return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
-                   link_margin=link_margin)
+                   link_margin=link_margin, room=room)
 
     # -- derived data ----------------------------------------------------------------------------
     @property
@@ -573,6 +671,11 @@ class WorldModel:
             return NotImplemented
         if (self.max_link_length != other.max_link_length or self.link_margin != other.link_margin
                 or self.objects != other.objects):
+            return False
+        if (self.room is None) != (other.room is None):
+            return False
+        if self.room is not None and not (np.array_equal(self.room.lower, other.room.lower)
+                                          and np.array_equal(self.room.upper, other.room.upper)):
             return False
         if self.class_vertices.keys() != other.class_vertices.keys():
             return False
@@ -634,18 +737,19 @@ class WorldModel:
         return Region(lower, upper)
 
     def subset(self, types: Iterable[str]) -> WorldModel:
-        """A world model holding only the objects of the given types (same link settings)."""
+        """A world model holding only the objects of the given types (same link settings and room)."""
         keep = set(types)
         for t in keep:
             self._check_known_type(t)
         objs = tuple(o for o in self.objects if o.type in keep)
         cv = {o.geometry: self.class_vertices[o.geometry] for o in objs}
-        return WorldModel(objs, self.max_link_length, cv, scene=None, link_margin=self.link_margin)
+        return WorldModel(objs, self.max_link_length, cv, scene=None, link_margin=self.link_margin,
+                          room=self.room)
 
     # -- files -----------------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary in the documented file format."""
-        return {
+        out: dict[str, Any] = {
             "format": FILE_FORMAT,
             "version": FILE_VERSION,
             "max_link_length": self.max_link_length,
@@ -653,6 +757,9 @@ class WorldModel:
             "class_vertices": {k: v.tolist() for k, v in self.class_vertices.items()},
             "objects": [o.to_dict() for o in self.objects],
         }
+        if self.room is not None:
+            out["room"] = {"lower": self.room.lower.tolist(), "upper": self.room.upper.tolist()}
+        return out
 
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the model as JSON (see the module docstring for the format)."""
@@ -729,7 +836,12 @@ class WorldModel:
                 objs.append(ObjectModel(entry["id"], entry["type"], pose, size, entry["geometry"]))
             except WorldGraphError as exc:
                 raise bad(str(exc)) from exc
+        room = data.get("room")
+        if room is not None:
+            if not isinstance(room, dict) or set(room) != {"lower", "upper"}:
+                raise bad(f"room must be null or an object with keys 'lower' and 'upper', got {room!r}")
+            room = (array(room["lower"], (3,), "room.lower"), array(room["upper"], (3,), "room.upper"))
         try:
-            return cls(tuple(objs), max_link_length=mll, class_vertices=cv, link_margin=margin)
+            return cls(tuple(objs), max_link_length=mll, class_vertices=cv, link_margin=margin, room=room)
         except WorldGraphError as exc:
             raise bad(str(exc)) from exc
