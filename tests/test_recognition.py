@@ -25,6 +25,7 @@ from perception.errors import (
     UnknownClassError,
 )
 from perception.recognition import (
+    CENTROID_OFFSET_SCALE,
     COLOR_RANGES,
     Box,
     Detection,
@@ -428,6 +429,77 @@ def test_recognize_frames_and_sigma(trained: GaussianClassifier) -> None:
     for p in recognize(RIG, left, right, trained, pixel_sigma=pixel_sigma):
         z = p.position[2]
         assert p.covariance[2, 2] == pytest.approx((z**2 / fb) ** 2 * 2 * pixel_sigma**2, rel=0.05)
+    # centroid offset common to both images: a lateral shift (z / f) * offset at fixed depth,
+    # offset ~ N(0, scale^2 S) with S the mean pixel covariance of the two matched regions
+    scale = 0.1
+    dets_l, dets_r = detect(left, trained), detect(right, trained)
+    matches = match_stereo(RIG, dets_l, dets_r)
+    found = recognize(RIG, left, right, trained, pixel_sigma=1e-6, centroid_offset_scale=scale)
+    assert len(found) == len(matches) >= 2
+    for p, m in zip(found, matches, strict=True):
+        shape = (dets_l[m.left].shape_covariance + dets_r[m.right].shape_covariance) / 2
+        lateral = (p.position[2] / RIG.K1[0, 0]) ** 2 * scale**2 * shape
+        np.testing.assert_allclose(p.covariance[:2, :2], lateral, rtol=0.02, atol=1e-12)
+        assert abs(p.covariance[2, 2]) < 1e-6 * lateral[0, 0]
+
+
+def test_detection_shape_covariance_matches_region_features(trained: GaussianClassifier) -> None:
+    rng = np.random.default_rng(410)
+    boxes, pose = random_scene(rng, n_doors=(2, 2), n_clutter=(0, 0))
+    left, _ = render_stereo(RIG, pose, boxes, rng)
+    dets = detect(left, trained)
+    assert len(dets) >= 2
+    for d in dets:
+        log_area, elongation, horizontal, fill = d.features[:4]
+        geometric_mean = np.exp(log_area) / (12 * fill)  # sqrt(l1 l2)
+        evals, evecs = np.linalg.eigh(d.shape_covariance)
+        np.testing.assert_allclose(
+            evals, [geometric_mean * np.exp(-elongation), geometric_mean * np.exp(elongation)], rtol=1e-9
+        )
+        if evals[1] > 1.05 * evals[0]:
+            assert abs(evecs[0, 1]) == pytest.approx(horizontal, abs=1e-9)
+    square = Detection(type="handle", centroid_uv=(5.0, 5.0), area=48.0, features=np.zeros(7))
+    np.testing.assert_array_equal(square.shape_covariance, 4.0 * np.eye(2))
+
+
+def nees_on_rendered_scenes(
+    classifier: GaussianClassifier, seed: int, n_scenes: int, **kwargs: float
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """NEES ``e^T C^-1 e`` of every percept and ``|range error| / sigma``, and the number of
+    false percepts. The truth of a percept is the box whose label covers its reprojection in
+    the left image (render_labels); e = percept - box centre, both in the left camera frame."""
+    rng = np.random.default_rng(seed)
+    nees, range_ratio, false = [], [], 0
+    for _ in range(n_scenes):
+        boxes, pose = random_scene(rng)
+        left, right = render_stereo(RIG, pose, boxes, rng)
+        labels, _ = render_labels(RIG, pose, boxes)
+        for p in recognize(RIG, left, right, classifier, **kwargs):
+            uvw = RIG.K1 @ p.position
+            u, v = np.round(uvw[:2] / uvw[2]).astype(int)
+            i = labels[v, u] if 0 <= u < WIDTH and 0 <= v < HEIGHT else -1
+            if i < 0 or boxes[i].type != p.type:
+                false += 1
+                continue
+            truth = pose[:3, :3] @ boxes[i].center + pose[:3, 3]
+            e = p.position - truth
+            nees.append(e @ np.linalg.solve(p.covariance, e))
+            range_ratio.append(abs(np.linalg.norm(p.position) - np.linalg.norm(truth)) / p.sigma)
+    return np.array(nees), np.array(range_ratio), false
+
+
+def test_percept_covariances_are_calibrated_on_rendered_scenes(trained: GaussianClassifier) -> None:
+    # chi^2 with 3 degrees of freedom: mean 3, P(<= 14.16) = 0.9973 (3 sigma)
+    nees, range_ratio, false = nees_on_rendered_scenes(trained, seed=700, n_scenes=120)
+    assert len(nees) >= 300
+    assert false <= 0.02 * len(nees)
+    assert 2.0 <= nees.mean() <= 4.5
+    assert np.mean(nees <= 14.16) >= 0.95
+    # sigma = rho^2 / depth_factor bounds the range error (|N(0, 1)| has median 0.674)
+    assert 0.3 <= np.median(range_ratio) <= 1.0
+    # without the centroid offset the covariances are far too small (the issue's symptom)
+    few, _, _ = nees_on_rendered_scenes(trained, seed=700, n_scenes=30, centroid_offset_scale=0.0)
+    assert few.mean() > 10 * nees.mean() and CENTROID_OFFSET_SCALE > 0
 
 
 # ---------------------------------------------------------------------------------- bad input
@@ -472,6 +544,11 @@ def test_bad_boxes_and_parameters_raise_specific_errors(trained: GaussianClassif
     image = np.zeros((HEIGHT, WIDTH, 3), np.uint8)
     with pytest.raises(NonPositiveSigmaError, match="depth_factor"):
         recognize(RIG, image, image, trained, depth_factor=-1.0)
+    with pytest.raises(NonPositiveSigmaError, match="centroid_offset_scale"):
+        recognize(RIG, image, image, trained, centroid_offset_scale=-0.1)
+    with pytest.raises(NonPositiveSigmaError, match="shape_covariance"):
+        Detection(type="handle", centroid_uv=(1.0, 1.0), area=10.0, features=np.zeros(7),
+                  shape_covariance=[[1.0, 2.0], [2.0, 1.0]])
     with pytest.raises(NonPositiveSigmaError, match="max_epipolar_px"):
         match_stereo(RIG, [], [], max_epipolar_px=0.0)
     with pytest.raises(NonFiniteError):
