@@ -61,6 +61,7 @@ __all__ = [
     "discriminator",
     "is_ambiguous",
     "maximum_cliques",
+    "same_pose",
     "orientation_filter",
     "proximity_filter",
 ]
@@ -622,41 +623,94 @@ class _Nearest:
         return r2, obj
 
 
+#: At most this many subsets of failed or outlier-ridden cliques are fitted per association.
+MAX_SUBSETS = 400
+
+
+_PairSet = tuple[tuple[int, int], ...]
+
+
+def _fit_group(world: WorldModel, ego_all: NDArray, sig_all: NDArray, group: list[_PairSet],
+               tol: AssociationTolerances, chirality: bool) -> tuple[list[_PairSet], NDArray, list[_PairSet]]:
+    """Weighted Kabsch of pair sets of one size.
+
+    Returns the kept sets, their poses ``(h, 4, 4)`` and the subsets worth trying instead:
+    every leave-one-out subset of a mirror match, and a set without its worst member when that
+    member is a gross outlier of the set's own fit (a false percept that fits the pairwise
+    distances of the true matches, but not their 3D arrangement).
+    """
+    arr = np.array(group)                          # (h, m, 2)
+    m = arr.shape[1]
+    pi, oi = arr[:, :, 0], arr[:, :, 1]
+    ego, wpts, sig = ego_all[pi], world.positions[oi], sig_all[pi]
+    centred = wpts - wpts.mean(axis=1, keepdims=True)
+    sv = np.linalg.svd(centred, compute_uv=False)
+    good = sv[:, 1] > 1e-6 * np.maximum(sv[:, 0], 1e-300)
+    mirror = ~_chirality_ok(ego, wpts, sig, tol) if chirality else np.zeros(len(group), dtype=bool)
+    children: list[tuple[tuple[int, int], ...]] = []
+    if m > 3:
+        for h in np.flatnonzero(good & mirror):
+            children.extend(group[h][:j] + group[h][j + 1:] for j in range(m))
+    good &= ~mirror
+    if not good.any():
+        return [], np.zeros((0, 4, 4)), children
+    rot, t = weighted_kabsch_batch(ego[good], wpts[good], 1.0 / sig[good] ** 2)
+    mats = np.tile(np.eye(4), (len(rot), 1, 1))
+    mats[:, :3, :3] = rot
+    mats[:, :3, 3] = t
+    kept = [g for g, ok in zip(group, good, strict=True) if ok]
+    if m > 3:
+        res = np.einsum("hij,hkj->hki", rot, ego[good]) + t[:, None] - wpts[good]
+        r2 = np.sum(res**2, axis=2) / (tol.residual_factor * sig[good]) ** 2
+        worst = np.argmax(r2, axis=1)
+        for h in np.flatnonzero(r2[np.arange(len(kept)), worst] > tol.cost_cap):
+            j = int(worst[h])
+            children.append(kept[h][:j] + kept[h][j + 1:])
+    return kept, mats, children
+
+
 def _fit_all(world: WorldModel, percepts: list[Percept], candidates: list[tuple[tuple[int, int], ...]],
              tol: AssociationTolerances, chirality: bool = True) -> list[AssociationHypothesis]:
     """Weighted Kabsch on each pair set, then the robust cost of all percepts.
 
     Pair sets with fewer than 3 or collinear model points, and (``chirality``) mirror matches,
-    are dropped.  Sets of one size are processed together.
+    are dropped; in place of a mirror match, or of a set with a gross outlier of its own fit,
+    its subsets one member smaller are tried (at most :data:`MAX_SUBSETS` in all), so that a
+    false percept which joined the true matches cannot hide them.  Sets of one size are
+    processed together.
     """
     if not candidates:
         return []
     ego_all = np.array([p.position for p in percepts])
     sig_all = np.array([p.sigma for p in percepts])
-    by_size: dict[int, list[tuple[tuple[int, int], ...]]] = {}
+    seen: set[tuple[tuple[int, int], ...]] = set()
+    queue = []
     for pairs in candidates:
-        if len(pairs) >= 3:
-            by_size.setdefault(len(pairs), []).append(tuple(sorted(pairs)))
+        key = tuple(sorted(pairs))
+        if len(key) >= 3 and key not in seen:
+            seen.add(key)
+            queue.append(key)
     kept: list[tuple[tuple[int, int], ...]] = []
     poses = []
-    for size in sorted(by_size, reverse=True):
-        group = by_size[size]
-        arr = np.array(group)                          # (h, m, 2)
-        pi, oi = arr[:, :, 0], arr[:, :, 1]
-        ego, wpts, sig = ego_all[pi], world.positions[oi], sig_all[pi]
-        centred = wpts - wpts.mean(axis=1, keepdims=True)
-        sv = np.linalg.svd(centred, compute_uv=False)
-        good = sv[:, 1] > 1e-6 * np.maximum(sv[:, 0], 1e-300)
-        if chirality:
-            good &= _chirality_ok(ego, wpts, sig, tol)
-        if not good.any():
-            continue
-        rot, t = weighted_kabsch_batch(ego[good], wpts[good], 1.0 / sig[good] ** 2)
-        mats = np.tile(np.eye(4), (len(rot), 1, 1))
-        mats[:, :3, :3] = rot
-        mats[:, :3, 3] = t
-        poses.append(mats)
-        kept.extend(g for g, ok in zip(group, good, strict=True) if ok)
+    budget = MAX_SUBSETS
+    first = True
+    while queue:
+        by_size: dict[int, list[tuple[tuple[int, int], ...]]] = {}
+        for pairs in queue:
+            by_size.setdefault(len(pairs), []).append(pairs)
+        queue = []
+        for size in sorted(by_size, reverse=True):
+            sets, mats, children = _fit_group(world, ego_all, sig_all, by_size[size], tol, chirality)
+            kept.extend(sets)
+            poses.append(mats)
+            if not first:  # one level: a single false percept joins a true clique
+                continue
+            for child in children:
+                if budget > 0 and len(child) >= 3 and child not in seen:
+                    seen.add(child)
+                    queue.append(child)
+                    budget -= 1
+        first = False
     if not kept:
         return []
     mats = np.concatenate(poses)
@@ -680,18 +734,26 @@ def _fit_all(world: WorldModel, percepts: list[Percept], candidates: list[tuple[
     return out
 
 
-def _same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
+def same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
     return (float(np.linalg.norm(a[:3, 3] - b[:3, 3])) < tol.distinct_translation
             and rotation_angle(a, b) < tol.distinct_angle)
 
 
 def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: int
           ) -> list[AssociationHypothesis]:
+    """By cost; a hypothesis is merged into a cheaper one with the same pose unless they match
+    some percept to different objects (a close percept matched to the neighbour of its object
+    moves the pose only a little, but it is another hypothesis)."""
     hyps = sorted(hyps, key=lambda h: (h.cost, -h.size, h.pairs))
     kept: list[AssociationHypothesis] = []
+    matched: list[dict[int, int]] = []
     for h in hyps:
-        if any(_same_pose(h.world_from_ego, g.world_from_ego, tol) for g in kept):
+        mine = dict(h.all_pairs)
+        if any(same_pose(h.world_from_ego, g.world_from_ego, tol)
+               and all(m.get(p, o) == o for p, o in mine.items())
+               for g, m in zip(kept, matched, strict=True)):
             continue
+        matched.append(mine)
         kept.append(h)
         if len(kept) >= limit:
             break
@@ -705,7 +767,7 @@ def is_ambiguous(hypotheses: Sequence[AssociationHypothesis],
         return False
     a, b = hypotheses[0], hypotheses[1]
     return (b.cost - a.cost < tolerances.ambiguity_margin
-            and not _same_pose(a.world_from_ego, b.world_from_ego, tolerances))
+            and not same_pose(a.world_from_ego, b.world_from_ego, tolerances))
 
 
 # ----------------------------------------------------------------------------------------------

@@ -1,25 +1,34 @@
-"""Global self-localisation: association -> Gaussian spheres -> position -> orientation.
+"""Global self-localisation: association -> validation -> 6D pose with its covariance.
 
-:func:`localize` runs the whole pipeline of the paper (sections 2.2-2.3, 4) on fused percepts:
+:func:`localize` runs the pipeline of the paper (sections 2.2-2.3, 4) on fused percepts:
 
 1. association (:func:`worldgraph.association.associate`; ``method="paper"`` uses the paper's
    proximity and orientation filters, every other method the typed consistency-graph cliques);
-2. ``method="ml"`` (default): the maximum-likelihood 6D pose of the matched percepts from
-   their full 3D positions and covariances (Gauss-Newton on SE(3) from the hypothesis' Kabsch
-   pose), with the Cramer-Rao bound of the position; the steps below are the range-only
-   methods (``"spheres"``, ``"paper"``, ``"srls"``, ``"gradient"``):
-3. for the best hypothesis, one Gaussian sphere per matched pair: centre = model object
-   position, radius = ``|percept position|``, sigma = percept sigma, and
-   ``radialopt.estimate_position`` (the sphere estimator of the method) inside ``region`` (default
-   ``world.region(REGION_MARGIN)``); when the landmarks are coplanar the estimator cannot tell
-   a candidate from its mirror image, and the hypothesis' Kabsch pose (which uses the full 3D percepts)
-   picks the candidate;
-4. orientation (``"paper"``: eq. 5, ``S_model S_percept^-1`` of the best-conditioned matched
-   triple; the other range-only methods): the proper rotation R minimising
-   ``sum w_p |R x_p - (X_o - t)|^2``, ``w_p = 1 / (sigma_p^2 + var_t)``, with the translation
-   fixed to the estimated position t and ``var_t`` a third of the trace of its covariance
-   (1/sigma^2 alone lets one close percept dominate and leaves the rotation about its
-   direction free).
+2. hypothesis validation (:mod:`worldgraph.validation`; every method but ``"paper"``): the
+   best association hypotheses are fitted by maximum likelihood, every percept is re-associated
+   to its nearest same-type object by Mahalanobis distance and the fit repeated on the inliers;
+   the fits are ranked by their robust cost (a log-likelihood ratio), poses outside the region
+   give way to poses inside it, and a runner-up within ``ambiguity_margin`` makes the answer
+   ``"ambiguous"`` (its pose is in ``alternatives``);
+3. the pose of the chosen hypothesis: ``method="ml"`` (default) is the validated ML 6D pose of the
+   matched percepts' full 3D positions and covariances; the range-only methods (``"spheres"``,
+   ``"paper"``, ``"srls"``, ``"gradient"``) put one Gaussian sphere per matched pair (centre =
+   model object, radius = ``|percept|``, sigma = percept sigma), estimate the position with
+   ``radialopt.estimate_position`` and then the orientation (``"paper"``: eq. 5 from the
+   best-conditioned matched triple; the others: the proper rotation minimising ``sum w_p |R x_p
+   - (X_o - t)|^2``, ``w_p = 1 / (sigma_p^2 + var_t)``);
+4. the 6x6 ``pose_covariance`` (ROS order): the inverse Fisher information for ``"ml"``, widened
+   where the cost is flatter than its quadratic model (:func:`~worldgraph.validation.laplace_inflate`),
+   and the sandwich covariance of the two-stage estimator for the range-only methods;
+5. the answer checks itself: a chi-square test of its matched percepts placed by its pose
+   (``"inconsistent"`` when it fails), at least 3 inliers, and the 3-sigma rotation and position
+   bounds against ``max_rotation_3sigma`` and ``max_position_3sigma`` (``"weak"`` beyond them).
+
+The default region is where the robot could stand and see what it saw: the room when the world
+knows it (``world.room``, from an importer's floor and walls), otherwise the objects' bounds
+grown sideways by the largest percept range and by :data:`REGION_MARGIN` up and down.  A region
+given by the caller or the room rejects poses outside it (``"outside_region"``); the grown bounds
+only choose between candidates.
 
 Percepts whose type the world does not have are ignored (named in the result's message);
 when no percept type is known, :class:`~worldgraph.errors.UnknownTypeError` is raised.
@@ -28,12 +37,15 @@ when no percept type is known, :class:`~worldgraph.errors.UnknownTypeError` is r
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
 import radialopt as ro
 from perception import Percept
@@ -48,9 +60,30 @@ from .association import (
 )
 from .errors import UnknownTypeError, WorldGraphError
 from .model import WorldModel
-from .pose import percept_frame, pose_from_frames, refine_pose, transformation, weighted_rotation
+from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
+from .validation import (
+    CHI2_3_GATE,
+    CHI2_6_GATE,
+    NearestObjects,
+    PoseFit,
+    fit_hypothesis,
+    laplace_inflate,
+    percept_covariances,
+    rotation_only_covariance,
+    self_check,
+)
 
-__all__ = ["LOCALIZE_METHODS", "LOCALIZE_STATUSES", "REGION_MARGIN", "LocalizationResult", "localize"]
+__all__ = [
+    "LOCALIZE_METHODS",
+    "LOCALIZE_STATUSES",
+    "MAX_POSITION_3SIGMA",
+    "MAX_ROTATION_3SIGMA",
+    "REGION_MARGIN",
+    "LocalizationResult",
+    "LocalizeStatus",
+    "default_region",
+    "localize",
+]
 
 #: ``"ml"``: the maximum-likelihood 6D pose from the full 3D percepts (their covariances);
 #: ``"spheres"``: the range-only maximum-likelihood position of the Gaussian spheres
@@ -59,24 +92,39 @@ __all__ = ["LOCALIZE_METHODS", "LOCALIZE_STATUSES", "REGION_MARGIN", "Localizati
 LOCALIZE_METHODS = ("ml", "spheres", "paper", "srls", "gradient")
 #: Range-only position estimator of ``radialopt.estimate_position`` behind each method.
 _SPHERE_ESTIMATOR = {"spheres": "ml", "paper": "paper", "srls": "srls", "gradient": "gradient"}
-#: Default region: ``world.region(REGION_MARGIN)`` (metres beyond the objects in x, y and up).
+#: Metres added above and below the objects' bounds by the default region (sideways it grows by
+#: the largest percept range).
 REGION_MARGIN = 1.0
 #: Position candidates with at least this fraction of the best density are told apart by the
-#: association's 3D (Kabsch) pose.
+#: validated 3D pose.
 CANDIDATE_DENSITY_RATIO = 0.01
+#: Default largest 3-sigma position bound (m, along the worst direction) of an "ok" pose, and ...
+MAX_POSITION_3SIGMA = 0.25
+#: ... of the rotation (rad, about the worst axis).  Chosen for a mobile manipulator's global
+#: localisation: good enough to drive to a cabinet and turn the head to the handle it wants
+#: (5 degrees move a handle 2 m away by 17 cm, which the head camera then finds and servoes on);
+#: tighten both for grasping from the global pose alone.
+MAX_ROTATION_3SIGMA = math.radians(5.0)
+#: Validation stops after this many distinct fits (hypotheses that converge to the same inliers
+#: count once) ...
+MAX_VALIDATED = 8
+#: ... among at most this many association hypotheses.
+ASSOCIATION_CANDIDATES = 32
 
-#: Statuses of :class:`LocalizationResult`.  Position statuses of radialopt
-#: (``"outside_region"``, ``"degenerate_coplanar"``, ``"degenerate_collinear"``) pass through.
-LOCALIZE_STATUSES = (
-    "ok",                    # a unique pose
+LocalizeStatus = Literal[
+    "ok",                    # a unique pose, well determined, consistent with its matches
+    "weak",                  # unique and consistent, but a 3-sigma bound exceeds the tolerance
     "ambiguous",             # another association or position candidate is about as good
+    "inconsistent",          # the pose contradicts its own matches (chi-square self-check)
     "no_association",        # no consistent set of >= 3 percept-object pairs
     "too_few_percepts",      # fewer than 3 percepts of known types
     "degenerate",            # the matched landmarks cannot fix a pose (collinear, ...)
-    "outside_region",
-    "degenerate_coplanar",
-    "degenerate_collinear",
-)
+    "outside_region",        # the pose lies outside the region given (or the room)
+    "degenerate_coplanar",   # range-only methods: coplanar landmarks, position on their plane
+    "degenerate_collinear",  # range-only methods: collinear landmarks
+]
+#: Statuses of :class:`LocalizationResult`; only ``"ok"`` and ``"weak"`` are unique answers.
+LOCALIZE_STATUSES: tuple[str, ...] = get_args(LocalizeStatus)
 
 
 @dataclass(frozen=True)
@@ -90,18 +138,40 @@ class LocalizationResult:
     position : (3,) float
         Robot (ego origin) position in the world, ``transformation[:3, 3]``.
     covariance : (3, 3) float
-        Cramer-Rao bound of the position (inf when unobservable, NaN when no pose).
+        Position block of ``pose_covariance`` (NaN when no pose).
     correspondences : tuple of (percept_index, object_index)
-        Indices into the ``percepts`` passed in and into ``world.objects``.
+        The inliers the pose rests on; indices into the ``percepts`` passed in and into
+        ``world.objects``.
     hypotheses : tuple of AssociationHypothesis
-        Ranked; percept indices refer to the ``percepts`` passed in.
+        The association's hypotheses, the validated ones first in their validated order;
+        percept indices refer to the ``percepts`` passed in.
     ambiguous : bool
-    status : str
+    status : LocalizeStatus
         One of :data:`LOCALIZE_STATUSES`.
     message : str
     timings : dict str -> float
-        Seconds per stage: ``"association"``, ``"position"``, ``"orientation"``, ``"total"``.
+        Seconds per stage: ``"association"``, ``"validation"``, ``"position"``,
+        ``"orientation"``, ``"total"``.
     position_estimate : radialopt.PositionEstimate or None
+        The range-only estimate (range-only methods).
+    pose_covariance : (6, 6) float
+        ROS ``PoseWithCovariance`` order ``(x, y, z, rx, ry, rz)``: translation error ``t_true -
+        t_est`` in world axes, rotation error the rotation vector of ``R_true @ R_est.T`` (world
+        axes).  NaN when no pose.
+    fitness : float
+        Fraction of the percepts passed in that are inliers of the pose (Open3D's ``fitness``).
+    inlier_rmse : float
+        Root-mean-square distance (m) of the inliers from their objects (Open3D's
+        ``inlier_rmse``); NaN without inliers.
+    residuals : (k,) float
+        Mahalanobis distance of every percept passed in, placed by the pose, from its nearest
+        same-type object (percept and pose covariance); inf when none is in reach, NaN for
+        percepts of unknown type or when no pose.
+    alternatives : tuple of (4, 4) float
+        ``world_from_ego`` of the validated runner-ups within ``ambiguity_margin`` of the best.
+    log_likelihood_ratio : float
+        Half the robust-cost difference between the runner-up and the chosen pose (inf when no
+        runner-up was validated).
     """
 
     transformation: NDArray[np.float64]
@@ -110,29 +180,61 @@ class LocalizationResult:
     correspondences: tuple[tuple[int, int], ...]
     hypotheses: tuple[AssociationHypothesis, ...]
     ambiguous: bool
-    status: str
+    status: LocalizeStatus
     message: str = ""
     timings: dict[str, float] = field(default_factory=dict)
     position_estimate: ro.PositionEstimate | None = None
+    pose_covariance: NDArray[np.float64] = field(default_factory=lambda: np.full((6, 6), np.nan))
+    fitness: float = 0.0
+    inlier_rmse: float = math.nan
+    residuals: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    alternatives: tuple[NDArray[np.float64], ...] = ()
+    log_likelihood_ratio: float = math.inf
+
+    @property
+    def unique(self) -> bool:
+        """A unique, consistent pose (status ``"ok"`` or ``"weak"``)."""
+        return self.status in ("ok", "weak")
 
 
-def _failed(status: str, message: str, hyps: tuple = (), timings: dict | None = None,
+def _failed(status: LocalizeStatus, message: str, n: int, hyps: tuple = (), timings: dict | None = None,
             ambiguous: bool = False) -> LocalizationResult:
     nan3 = np.full(3, np.nan)
     return LocalizationResult(np.full((4, 4), np.nan), nan3, np.full((3, 3), np.nan), (), hyps,
-                              ambiguous, status, message, timings or {})
+                              ambiguous, status, message, timings or {}, residuals=np.full(n, np.nan))
 
 
 def _remap(h: AssociationHypothesis, idx: NDArray[np.intp]) -> AssociationHypothesis:
     return AssociationHypothesis(
         pairs=tuple((int(idx[p]), o) for p, o in h.pairs), cost=h.cost, size=h.size,
         world_from_ego=h.world_from_ego, validated=tuple((int(idx[p]), o) for p, o in h.validated),
-        inliers=h.inliers)
+        inliers=h.inliers, complete=h.complete)
+
+
+def default_region(world: WorldModel, percepts: Sequence[Percept]) -> ro.Region:
+    """Where the robot could stand and see ``percepts``: ``world.room`` when known, else the
+    objects' bounds grown sideways by the largest percept range and by :data:`REGION_MARGIN`
+    up and down."""
+    room = getattr(world, "room", None)
+    if room is not None:
+        return room
+    lo, hi = world.bounds
+    reach = max((p.range for p in percepts), default=0.0)
+    grow = np.array([reach + REGION_MARGIN, reach + REGION_MARGIN, REGION_MARGIN])
+    return ro.Region(lo - grow, hi + grow)
+
+
+def _check_bound(name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) \
+            or value <= 0:
+        raise WorldGraphError(f"{name} must be a finite number > 0, got {value!r}")
+    return float(value)
 
 
 def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml", *,
              tolerances: AssociationTolerances | None = None, region: ro.Region | None = None,
-             rng: np.random.Generator | None = None) -> LocalizationResult:
+             rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
+             max_rotation_3sigma: float = MAX_ROTATION_3SIGMA) -> LocalizationResult:
     """Pose of the robot (``world_from_ego``) from percepts of known world objects.
 
     Parameters
@@ -141,26 +243,31 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     percepts : sequence of perception.Percept
         Fused percepts in the ego frame.
     method : {"ml", "spheres", "paper", "srls", "gradient"}
-        ``"ml"`` (default): the maximum-likelihood 6D pose of the matched percepts, using their
-        full 3D positions and covariances (:func:`~worldgraph.pose.refine_pose`; weighted
-        Kabsch for isotropic percepts), covariance = the Cramer-Rao bound of the position.
-        ``"spheres"``: the range-only ML position of the Gaussian spheres (``radialopt``
-        ``"ml"``), then the rotation; right when the percept directions are unreliable
-        (space-to-ego errors rotate percepts about the ego origin, ranges survive them).
-        ``"paper"``: the paper's proximity + orientation filters and its radial-projection
-        position; ``"srls"``, ``"gradient"``: other range-only estimators, for comparison.
+        ``"ml"`` (default): the maximum-likelihood 6D pose of the validated matches, using the
+        percepts' full 3D positions and covariances.  ``"spheres"``: the range-only ML position
+        of the Gaussian spheres (``radialopt`` ``"ml"``), then the rotation; right when the
+        percept directions are unreliable (space-to-ego errors rotate percepts about the ego
+        origin, ranges survive them).  ``"paper"``: the paper's proximity + orientation filters,
+        its radial-projection position and eq. 5; ``"srls"``, ``"gradient"``: other range-only
+        estimators, for comparison.
     tolerances : AssociationTolerances, optional
     region : radialopt.Region, optional
-        Valid robot positions; default ``world.region(REGION_MARGIN)`` (above the lowest
-        object, at most a metre beyond the objects sideways and above).
+        Valid robot positions; poses outside it are rejected.  Default :func:`default_region`.
     rng : numpy.random.Generator, optional
         Passed to the position estimator (extra random seeds).
+    max_position_3sigma : float
+        Metres; a unique pose whose 3-sigma position bound (worst direction) is larger is
+        ``"weak"``.
+    max_rotation_3sigma : float
+        Radians; likewise for the rotation (worst axis).
 
     Returns
     -------
     LocalizationResult
-        Never a silently wrong pose: when the association is ambiguous the status says so
-        (the best pose is still returned); when no pose can be determined it is NaN.
+        Never a silently wrong pose: "ok" only for a unique, well-determined pose that passes
+        its own chi-square check with at least 3 inliers; otherwise the status says why (the
+        best pose is still returned for "ambiguous", "weak", "inconsistent" and
+        "outside_region"; NaN when no pose can be determined).
 
     Raises
     ------
@@ -169,7 +276,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     UnknownTypeError
         Percepts were given but none has a type of the world.
     WorldGraphError
-        Unknown method, or something other than Percepts.
+        Unknown method, something other than Percepts, a bad region or bound.
     """
     t_start = time.perf_counter()
     if method not in LOCALIZE_METHODS:
@@ -178,7 +285,14 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
     if not isinstance(tol, AssociationTolerances):
         raise WorldGraphError(f"tolerances must be AssociationTolerances, got {type(tol).__name__}")
+    if region is not None and not isinstance(region, ro.Region):
+        raise WorldGraphError(f"region must be a radialopt.Region, got {type(region).__name__}")
+    if rng is not None and not isinstance(rng, np.random.Generator):
+        raise WorldGraphError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    pos_tol = _check_bound("max_position_3sigma", max_position_3sigma)
+    rot_tol = _check_bound("max_rotation_3sigma", max_rotation_3sigma)
 
+    n_all = len(percepts)
     known = np.array([p.type in world.type_index for p in percepts], dtype=bool)
     unknown = sorted({p.type for p, ok in zip(percepts, known, strict=True) if not ok})
     if percepts and not known.any():
@@ -187,139 +301,300 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     notes = [f"ignored {int((~known).sum())} percept(s) of unknown type(s) {unknown}"] if unknown else []
     idx = np.flatnonzero(known)
     used = [percepts[i] for i in idx]
+    timings = {"association": 0.0, "validation": 0.0, "position": 0.0, "orientation": 0.0}
     if len(used) < max(3, tol.min_clique_size):
+        timings["total"] = time.perf_counter() - t_start
         return _failed("too_few_percepts", "; ".join(notes + [
             f"localisation needs at least {max(3, tol.min_clique_size)} percepts of known types, "
-            f"got {len(used)}"]), timings={"association": 0.0, "position": 0.0, "orientation": 0.0,
-                                          "total": time.perf_counter() - t_start})
+            f"got {len(used)}"]), n_all, timings=timings)
 
     t0 = time.perf_counter()
-    hyps_local = associate(world, used, tol, method="paper" if method == "paper" else "clique")
-    t_assoc = time.perf_counter() - t0
-    hyps = tuple(_remap(h, idx) for h in hyps_local)
-    timings = {"association": t_assoc, "position": 0.0, "orientation": 0.0}
-    if not hyps:
+    hyps_local = associate(world, used, tol, method="paper" if method == "paper" else "clique",
+                           max_hypotheses=max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES))
+    timings["association"] = time.perf_counter() - t0
+    if not hyps_local:
         timings["total"] = time.perf_counter() - t_start
         return _failed("no_association", "; ".join(notes + [
-            "no consistent association of >= 3 percepts with the world model"]), timings=timings)
-    ambiguous = is_ambiguous(hyps, tol)
-    if not hyps[0].complete:
-        ambiguous = True
-        notes.append("clique search truncated (max_nodes/max_cliques): the world repeats itself "
-                     "around these percepts, other associations may be as good")
-    best = hyps[0]
-    # one sphere per distinct centre: clique pairs first, then validated ones
-    pairs_list: list[tuple[int, int]] = []
-    for p, o in best.pairs + best.validated:
+            "no consistent association of >= 3 percepts with the world model"]), n_all, timings=timings)
+
+    explicit = region is not None or getattr(world, "room", None) is not None
+    reg = region if region is not None else default_region(world, used)
+    ego = np.array([p.position for p in used])
+    covs = percept_covariances(used)
+    nearest = NearestObjects(world, [p.type for p in used])
+    ctx = _Context(world, used, ego, covs, nearest, idx, n_all, reg, explicit, tol, pos_tol, rot_tol,
+                   notes, timings, t_start)
+    if method == "paper":
+        return _paper(ctx, hyps_local)
+    return _validated(ctx, hyps_local, method, rng)
+
+
+@dataclass
+class _Context:
+    world: WorldModel
+    used: list[Percept]
+    ego: NDArray[np.float64]
+    covs: NDArray[np.float64]
+    nearest: NearestObjects
+    idx: NDArray[np.intp]               # used -> index in the percepts passed in
+    n_all: int
+    region: ro.Region
+    explicit_region: bool
+    tol: AssociationTolerances
+    pos_tol: float
+    rot_tol: float
+    notes: list[str]
+    timings: dict[str, float]
+    t_start: float
+
+    def remap(self, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
+        return tuple((int(self.idx[p]), int(o)) for p, o in pairs)
+
+    def failed(self, status: LocalizeStatus, message: str, hyps: tuple, ambiguous: bool = False
+               ) -> LocalizationResult:
+        self.timings["total"] = time.perf_counter() - self.t_start
+        return _failed(status, "; ".join(self.notes + [message]), self.n_all, hyps, self.timings, ambiguous)
+
+
+def _distinct_centres(world: WorldModel, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
+    """One pair per distinct model position (a sphere per centre)."""
+    out: list[tuple[int, int]] = []
+    for p, o in pairs:
         x = world.positions[o]
-        if all(np.linalg.norm(world.positions[q] - x) > 1e-9 for _, q in pairs_list):
-            pairs_list.append((p, o))
-    pairs = tuple(sorted(pairs_list))
-    pi = np.array([p for p, _ in pairs])
-    oi = np.array([o for _, o in pairs])
-    ego = np.array([percepts[p].position for p in pi])
-    sig = np.array([percepts[p].sigma for p in pi])
-    centers = world.positions[oi]
+        if all(np.linalg.norm(world.positions[q] - x) > 1e-9 for _, q in out):
+            out.append((p, o))
+    return tuple(sorted(out))
 
-    status = "ambiguous" if ambiguous else "ok"
-    if ambiguous and len(hyps) > 1:
-        second = hyps[1]
-        gap = float(np.linalg.norm(second.world_from_ego[:3, 3] - best.world_from_ego[:3, 3]))
-        notes.append(f"association ambiguous: best cost {best.cost:.3g}, next {second.cost:.3g} "
-                     f"at a pose {gap:.3g} m away")
-    reg = world.region(margin=REGION_MARGIN) if region is None else region
-    if method == "ml":
-        covs = np.array([percepts[p].covariance if percepts[p].covariance is not None
-                         else percepts[p].sigma ** 2 * np.eye(3) for p in pi])
-        return _ml_pose(ego, centers, covs, best.world_from_ego, reg, pairs, hyps, ambiguous, status,
-                        notes, timings, t_start)
 
+def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: str,
+               rng: np.random.Generator | None) -> LocalizationResult:
+    """Validate the best hypotheses by ML fits, choose, then the pose of ``method``."""
     t0 = time.perf_counter()
-    spheres = ro.make_spheres(centers, np.linalg.norm(ego, axis=1), sig)
-    est = ro.estimate_position(spheres, method=_SPHERE_ESTIMATOR[method], region=reg, rng=rng)
-    timings["position"] = time.perf_counter() - t0
+    fits: dict[tuple[tuple[int, int], ...], tuple[PoseFit, int]] = {}
+    for h_i, h in enumerate(hyps_local):
+        if len(fits) >= MAX_VALIDATED:
+            break
+        fit = fit_hypothesis(ctx.world, ctx.ego, ctx.covs, ctx.nearest, h.all_pairs, h.world_from_ego)
+        if fit is not None and fit.pairs not in fits:  # converged to the same inliers: one answer
+            fits[fit.pairs] = (fit, h_i)
+    distinct = sorted(fits.values(), key=lambda f: (f[0].cost, -f[0].inliers, f[1]))
+    ctx.timings["validation"] = time.perf_counter() - t0
+    order = [h_i for _, h_i in distinct]
+    hyps = tuple(_remap(hyps_local[i], ctx.idx) for i in order) + tuple(
+        _remap(h, ctx.idx) for i, h in enumerate(hyps_local) if i not in order)
+    incomplete = not hyps_local[0].complete
+    if not distinct:
+        return ctx.failed("degenerate", "no hypothesis has 3 inliers that fix a 6D pose (collinear "
+                          "landmarks)", hyps, incomplete)
+    inside = [f for f in distinct if ctx.region.contains(f[0].world_from_ego[:3, 3], tol=1e-6)]
+    if inside and len(inside) < len(distinct):
+        if not ctx.region.contains(distinct[0][0].world_from_ego[:3, 3], tol=1e-6):
+            ctx.notes.append(f"{len(distinct) - len(inside)} better-fitting pose(s) outside the region "
+                             "were set aside")
+        distinct = inside
+    best = distinct[0][0]
+    runners = [f for f, _ in distinct[1:] if f.cost - best.cost < ctx.tol.ambiguity_margin
+               and _pose_nees(best, f.world_from_ego) > CHI2_6_GATE]
+    ambiguous = bool(runners) or incomplete
+    if incomplete:
+        ctx.notes.append("clique search truncated (max_nodes/max_cliques): the world repeats itself "
+                         "around these percepts, other associations may be as good")
+    if runners:
+        gap = float(np.linalg.norm(runners[0].world_from_ego[:3, 3] - best.world_from_ego[:3, 3]))
+        ctx.notes.append(f"association ambiguous: best robust cost {best.cost:.3g} "
+                         f"({best.inliers} inliers), next {runners[0].cost:.3g} ({runners[0].inliers} "
+                         f"inliers) at a pose {gap:.3g} m away")
+    llr = 0.5 * (distinct[1][0].cost - best.cost) if len(distinct) > 1 else math.inf
+    alternatives = tuple(f.world_from_ego.copy() for f in runners)
+    pairs = best.pairs
+    p_i = np.array([p for p, _ in pairs])
+    o_i = np.array([o for _, o in pairs])
+    centers = ctx.world.positions[o_i]
+    if method == "ml":
+        t0 = time.perf_counter()
+        pose = best.world_from_ego
+        cov6 = laplace_inflate(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
+        ctx.timings["position"] = time.perf_counter() - t0
+        return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, None, check=False)
+
+    # range-only methods on the validated matches
+    sph = _sphere_position(ctx, pairs, _SPHERE_ESTIMATOR[method], best.world_from_ego[:3, 3], rng)
+    sp, s_centers, sig, est, position, status, pos_cov = sph
+    if status in ("degenerate", "degenerate_collinear"):
+        return ctx.failed(status, est.message or "the matched landmarks fix no position", hyps, ambiguous)
+    t0 = time.perf_counter()
+    pos_var = float(np.trace(pos_cov)) / 3.0 if np.all(np.isfinite(pos_cov)) else float(np.max(sig) ** 2)
+    w = 1.0 / (sig**2 + pos_var)
+    rot = weighted_rotation(ctx.ego[sp], s_centers - position, w)
+    pose = transformation(rot, position)
+    cov6 = rotation_only_covariance(pose, ctx.ego[sp], ctx.covs[sp], w, pos_cov)
+    ctx.timings["orientation"] = time.perf_counter() - t0
+    if status == "ambiguous":
+        ambiguous = True
+    return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, est, check=True,
+                   status_hint=status)
+
+
+def _pose_nees(fit: PoseFit, other: NDArray) -> float:
+    """``e^T C^-1 e`` of another pose against a fit's pose and covariance (a runner-up inside the
+    fit's own 3-sigma ellipsoid is the same answer, not an ambiguity)."""
+    e = np.concatenate([other[:3, 3] - fit.world_from_ego[:3, 3],
+                        Rotation.from_matrix(other[:3, :3] @ fit.world_from_ego[:3, :3].T).as_rotvec()])
+    try:
+        return float(e @ np.linalg.solve(fit.pose_covariance, e))
+    except np.linalg.LinAlgError:
+        return math.inf
+
+
+def _sphere_position(ctx: _Context, pairs: tuple[tuple[int, int], ...], estimator: str, t_ref: NDArray,
+                     rng: np.random.Generator | None) -> tuple:
+    """One Gaussian sphere per distinct matched centre and the range-only position.
+
+    Returns the percepts used, the centres, sigmas, the estimate, the chosen position (mirror
+    candidates told apart by ``t_ref``), its status and its CRLB.
+    """
+    t0 = time.perf_counter()
+    sph_pairs = _distinct_centres(ctx.world, pairs)
+    sp = np.array([p for p, _ in sph_pairs])
+    centers = ctx.world.positions[np.array([o for _, o in sph_pairs])]
+    sig = np.array([ctx.used[p].sigma for p in sp])
+    spheres = ro.make_spheres(centers, np.linalg.norm(ctx.ego[sp], axis=1), sig)
+    est = ro.estimate_position(spheres, method=estimator, region=ctx.region, rng=rng)
+    ctx.timings["position"] = time.perf_counter() - t0
+    position, status = _choose_candidate(ctx, est, t_ref)
+    return sp, centers, sig, est, position, status, _position_covariance(est, position, centers, sig)
+
+
+def _position_covariance(est: ro.PositionEstimate, position: NDArray, centers: NDArray, sig: NDArray
+                         ) -> NDArray[np.float64]:
+    """The range-only CRLB at the chosen candidate (the estimator's own when it is its estimate)."""
+    if np.array_equal(position, est.position):
+        return est.covariance
+    try:
+        return ro.crlb(centers, sig, position)
+    except ro.RadialError:
+        return np.full((3, 3), np.inf)
+
+
+def _choose_candidate(ctx: _Context, est: ro.PositionEstimate, t_ref: NDArray) -> tuple[NDArray, str]:
+    """The range-only position, its mirror ambiguity resolved by the 3D pose ``t_ref``."""
     position = est.position
     if est.status in ("too_few_spheres", "degenerate_collinear") or not np.all(np.isfinite(position)):
-        timings["total"] = time.perf_counter() - t_start
-        return _failed("degenerate_collinear" if est.status == "degenerate_collinear" else "degenerate",
-                       "; ".join(notes + [est.message or "the matched landmarks fix no position"]),
-                       hyps, timings, ambiguous)
-    # The Kabsch pose of the hypothesis uses the full 3D percepts, ranges alone do not: among
-    # the estimator's candidates of comparable density (mirror images across a near-plane of
-    # landmarks) take the one nearest to it.
-    t_h = best.world_from_ego[:3, 3]
+        return position, "degenerate_collinear" if est.status == "degenerate_collinear" else "degenerate"
     cands = np.asarray(est.candidates, dtype=np.float64).reshape(-1, 3)
     dens = np.asarray(est.candidate_density, dtype=np.float64).reshape(-1)
-    est_status = est.status
+    status = est.status
     if len(cands) > 1 and len(dens) == len(cands):
         close = cands[dens >= CANDIDATE_DENSITY_RATIO * dens.max()] if dens.max() > 0 else cands
-        d = np.linalg.norm(close - t_h, axis=1)
+        d = np.linalg.norm(close - t_ref, axis=1)
         order = np.argsort(d)
         if len(close) == 1 or d[order[0]] < 0.5 * d[order[1]]:
             if not np.array_equal(close[order[0]], position):
-                notes.append("position candidate chosen by the association's 3D pose (mirror ambiguity)")
+                ctx.notes.append("position candidate chosen by the validated 3D pose (mirror ambiguity)")
             position = close[order[0]]
-            if est_status == "ambiguous":  # the 3D pose has resolved it
-                est_status = "ok"
-    if est_status == "ambiguous":
+            if status == "ambiguous":
+                status = "ok"
+    if status == "outside_region" and not ctx.explicit_region:
+        status = "ok"
+    if status != "ok":
+        ctx.notes.append(est.message)
+    return position, status
+
+
+def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int, int], ...], hyps: tuple,
+            ambiguous: bool, alternatives: tuple, llr: float, est: ro.PositionEstimate | None, check: bool,
+            status_hint: str = "ok") -> LocalizationResult:
+    """Residuals, fitness, the self-check, the region and the weak-pose test; the result."""
+    world = ctx.world
+    p_i = np.array([p for p, _ in pairs])
+    centers = world.positions[np.array([o for _, o in pairs])]
+    status: str = "ok"
+    if check:
+        passed, _, msg = self_check(pose, ctx.ego[p_i], ctx.covs[p_i], centers, cov6)
+        if not passed:
+            status = "inconsistent"
+            ctx.notes.append(msg)
+    finite_cov = np.all(np.isfinite(cov6))
+    d2, obj, _ = ctx.nearest.query(pose, ctx.ego, ctx.covs, cov6 if finite_cov else None)
+    inl = d2 <= CHI2_3_GATE
+    pred = ctx.ego @ pose[:3, :3].T + pose[:3, 3]
+    dist = np.linalg.norm(pred[inl] - world.positions[obj[inl]], axis=1) if inl.any() else np.zeros(0)
+    n_inl = int(inl.sum())
+    residuals = np.full(ctx.n_all, np.nan)
+    residuals[ctx.idx] = np.sqrt(d2)
+    if status == "ok" and n_inl < 3:
+        status = "inconsistent"
+        ctx.notes.append(f"only {n_inl} percept(s) agree with the pose (3 needed)")
+    if status == "ok" and status_hint not in ("ok", "ambiguous"):
+        status = status_hint
+    if status == "ok" and ambiguous:
         status = "ambiguous"
-        notes.append(est.message)
-    elif est_status != "ok":
-        status = est_status if status == "ok" else status
-        notes.append(est.message)
-
-    t0 = time.perf_counter()
-    cov = est.covariance
-    if not np.array_equal(position, est.position):
-        try:
-            cov = ro.crlb(centers, sig, position)
-        except ro.RadialError:
-            cov = np.full((3, 3), np.inf)
-    if method == "paper":  # eq. 5: S_ego = S_model S_percept^-1 from the best-conditioned triple
-        rot = _eq5_rotation(ego, centers, sig)
-    else:
-        # residual of R x_p - (X_o - t): percept noise plus the (common) position error
-        pos_var = float(np.trace(cov)) / 3.0 if np.all(np.isfinite(cov)) else float(np.max(sig) ** 2)
-        rot = weighted_rotation(ego, centers - position, 1.0 / (sig**2 + pos_var))
-    timings["orientation"] = time.perf_counter() - t0
-    timings["total"] = time.perf_counter() - t_start
+    position = pose[:3, 3].copy()
+    if status == "ok" and ctx.explicit_region and not ctx.region.contains(position, tol=1e-6):
+        status = "outside_region"
+        ctx.notes.append(f"the pose {position.tolist()} lies outside the valid region")
+    elif not ctx.region.contains(position, tol=1e-6):
+        ctx.notes.append(f"the pose {position.tolist()} lies outside the default region")
+    if status == "ok":
+        if not finite_cov:
+            status = "weak"
+            ctx.notes.append("the matched landmarks do not determine the pose (infinite covariance)")
+        else:
+            pos3 = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(cov6[:3, :3])[-1]), 0.0))
+            rot3 = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(cov6[3:, 3:])[-1]), 0.0))
+            if pos3 > ctx.pos_tol or rot3 > ctx.rot_tol:
+                status = "weak"
+                ctx.notes.append(f"weakly determined: 3-sigma bounds {pos3:.3g} m (tolerance "
+                                 f"{ctx.pos_tol:.3g})"
+                                 f" and {math.degrees(rot3):.3g} deg (tolerance "
+                                 f"{math.degrees(ctx.rot_tol):.3g})")
+    ctx.timings["total"] = time.perf_counter() - ctx.t_start
     return LocalizationResult(
-        transformation=transformation(rot, position), position=np.array(position, dtype=np.float64),
-        covariance=cov, correspondences=pairs, hypotheses=hyps, ambiguous=ambiguous or status == "ambiguous",
-        status=status, message="; ".join(n for n in notes if n), timings=timings, position_estimate=est)
+        transformation=pose.copy(), position=position, covariance=cov6[:3, :3].copy(),
+        correspondences=ctx.remap(pairs), hypotheses=hyps, ambiguous=ambiguous or status == "ambiguous",
+        status=status, message="; ".join(n for n in ctx.notes if n), timings=ctx.timings,  # type: ignore[arg-type]
+        position_estimate=est, pose_covariance=cov6, fitness=n_inl / max(ctx.n_all, 1),
+        inlier_rmse=float(np.sqrt(np.mean(dist**2))) if n_inl else math.nan, residuals=residuals,
+        alternatives=alternatives, log_likelihood_ratio=llr)
 
 
-def _eq5_rotation(ego: NDArray, centers: NDArray, sigmas: NDArray, limit: int = 10) -> NDArray:
+def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> LocalizationResult:
+    """The paper's pipeline: its association's best hypothesis, radial position, eq. 5."""
+    hyps = tuple(_remap(h, ctx.idx) for h in hyps_local)
+    ambiguous = is_ambiguous(hyps_local, ctx.tol) or not hyps_local[0].complete
+    best = hyps_local[0]
+    if ambiguous and len(hyps_local) > 1:
+        second = hyps_local[1]
+        gap = float(np.linalg.norm(second.world_from_ego[:3, 3] - best.world_from_ego[:3, 3]))
+        ctx.notes.append(f"association ambiguous: best cost {best.cost:.3g}, next {second.cost:.3g} "
+                         f"at a pose {gap:.3g} m away")
+    pairs = _distinct_centres(ctx.world, best.pairs + best.validated)
+    pi, centers, sig, est, position, status, pos_cov = _sphere_position(
+        ctx, pairs, "paper", best.world_from_ego[:3, 3], None)
+    if status in ("degenerate", "degenerate_collinear"):
+        return ctx.failed(status, est.message or "the matched landmarks fix no position", hyps, ambiguous)
+    t0 = time.perf_counter()
+    rot, triple = _eq5_rotation(ctx.ego[pi], centers, sig)
+    pose = transformation(rot, position)
+    w = np.zeros(len(pi))
+    w[triple] = 1.0
+    cov6 = rotation_only_covariance(pose, ctx.ego[pi], ctx.covs[pi], w, pos_cov)
+    ctx.timings["orientation"] = time.perf_counter() - t0
+    if status == "ambiguous":
+        ambiguous = True
+    alternatives = tuple(h.world_from_ego.copy() for h in hyps_local[1:2]) if ambiguous else ()
+    return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, math.inf, est, check=True,
+                   status_hint=status)
+
+
+def _eq5_rotation(ego: NDArray, centers: NDArray, sigmas: NDArray, limit: int = 10
+                  ) -> tuple[NDArray, NDArray[np.intp]]:
     """Rotation of eq. 5 from the matched triple whose model triangle has the largest area,
-    among the ``limit`` most certain matches."""
+    among the ``limit`` most certain matches; and that triple."""
     pool = np.sort(np.argsort(sigmas, kind="stable")[:limit])
     triples = np.array(list(itertools.combinations(pool.tolist(), 3)))
     a, b, c = (centers[triples[:, i]] for i in range(3))
     best = triples[int(np.argmax(np.linalg.norm(np.cross(b - a, c - a), axis=1)))]
     model = percept_frame(*centers[best])
     seen = percept_frame(*ego[best])
-    return pose_from_frames(model, seen)[:3, :3]
-
-
-def _ml_pose(ego: NDArray, centers: NDArray, covs: NDArray, start: NDArray, reg: ro.Region,
-             pairs: tuple[tuple[int, int], ...], hyps: tuple, ambiguous: bool, status: str,
-             notes: list[str], timings: dict[str, float], t_start: float) -> LocalizationResult:
-    """The maximum-likelihood pose of the matched percepts (:func:`~worldgraph.pose.refine_pose`)
-    with the Cramer-Rao bound of its position."""
-    t0 = time.perf_counter()
-    pose, info = refine_pose(ego, centers, covs, start)
-    timings["position"] = time.perf_counter() - t0
-    timings["total"] = time.perf_counter() - t_start
-    w, V = np.linalg.eigh(info)
-    if w[0] <= 1e-9 * w[-1]:
-        return _failed("degenerate", "; ".join(notes + [
-            f"the {len(pairs)} matched landmarks do not fix a 6D pose (collinear)"]),
-            hyps, timings, ambiguous)
-    cov = ((V / w) @ V.T)[3:, 3:]
-    position = pose[:3, 3].copy()
-    if status == "ok" and not reg.contains(position, tol=1e-6):
-        status = "outside_region"
-        notes.append(f"the pose {position.tolist()} lies outside the valid region")
-    return LocalizationResult(
-        transformation=pose, position=position, covariance=cov, correspondences=pairs, hypotheses=hyps,
-        ambiguous=ambiguous, status=status, message="; ".join(n for n in notes if n), timings=timings)
+    return pose_from_frames(model, seen)[:3, :3], best

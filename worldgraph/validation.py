@@ -1,0 +1,357 @@
+"""Hypothesis validation: robust ML fits, 6D pose covariance, self-checks (paper section 2.3).
+
+An association hypothesis (a set of percept-object pairs) is *validated* by fitting the pose
+to it and asking every percept whether it agrees.  This module holds the pieces that
+:func:`worldgraph.localize` uses for that, as plain functions:
+
+* :func:`percept_covariances`: the (k, 3, 3) ego-frame covariance of each percept (its full
+  covariance when known, else ``sigma^2 I``).
+* :func:`ros_pose_covariance`: the 6x6 covariance in the order of ROS
+  ``geometry_msgs/PoseWithCovariance`` ``(x, y, z, rx, ry, rz)`` from the Fisher information of
+  :func:`~worldgraph.pose.refine_pose` (order ``(dtheta, dt)``).  Error convention: translation
+  ``t_true - t_est`` in world axes, rotation the rotation vector of ``R_true @ R_est.T`` (world
+  axes).  Flipping the sign of both errors leaves the covariance unchanged, so it is the
+  inverse information up to the reordering.
+* :func:`placed_mahalanobis`: the squared Mahalanobis distance of each percept, placed in the
+  world by a pose, from a model point, with covariance ``R C R^T + H Sigma H^T`` (percept noise
+  plus the pose's own uncertainty, ``H = [-I, skew(R x)]`` in ROS order).
+* :func:`fit_hypothesis`: iteratively re-weighted ML fit of a hypothesis: the ML pose of its
+  inliers, then every percept re-associated to its nearest same-type object by Mahalanobis
+  distance, inliers inside the chi-square gate, until the inlier set is stable.  Its robust
+  cost ``sum_p min(d_p^2, gate)`` is minus twice the log-likelihood of an inlier/outlier
+  mixture up to a constant, so cost differences are log-likelihood ratios.
+* :func:`laplace_inflate`: where the linearised covariance is poor (weak rotation about a
+  nearly collinear or flat landmark set) the cost is evaluated along the profile line of the
+  weakest rotation and position directions at +-3 sigma; where it rises less than the quadratic
+  model's 9 the variance along that line is widened to where it really reaches 9 (a Laplace fit
+  along the weak direction).
+* :func:`rotation_only_covariance`: the 6x6 covariance of the range-only methods (position from
+  the Gaussian spheres, then the rotation fitted with the translation fixed), by the sandwich
+  formula of that two-stage estimator.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+from scipy.stats import chi2
+
+from perception import Percept
+
+from .errors import PoseError
+from .model import WorldModel
+from .pose import _skew, refine_pose
+
+__all__ = [
+    "CHI2_3_GATE",
+    "CHI2_6_GATE",
+    "PoseFit",
+    "fit_hypothesis",
+    "laplace_inflate",
+    "percept_covariances",
+    "placed_mahalanobis",
+    "pose_cost",
+    "rotation_only_covariance",
+    "ros_pose_covariance",
+    "self_check",
+]
+
+#: 3-sigma gate (probability 0.9973) of the squared Mahalanobis distance of one 3D percept.
+CHI2_3_GATE = float(chi2.ppf(0.9973002039, 3))
+#: 3-sigma gate of a 6D pose error ``e^T C^-1 e``.
+CHI2_6_GATE = float(chi2.ppf(0.9973002039, 6))
+#: Reorders the ``(dtheta, dt)`` parameters of :func:`~worldgraph.pose.pose_information` to
+#: ROS ``(x, y, z, rx, ry, rz)``.
+_ROS = np.array([3, 4, 5, 0, 1, 2])
+
+
+def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
+    """``(k, 3, 3)`` ego-frame covariances: ``covariance`` when given, else ``sigma^2 I``."""
+    out = np.empty((len(percepts), 3, 3))
+    for k, p in enumerate(percepts):
+        out[k] = p.covariance if p.covariance is not None else p.sigma**2 * np.eye(3)
+    return out
+
+
+def ros_pose_covariance(information: NDArray[np.float64]) -> NDArray[np.float64]:
+    """6x6 covariance in ROS order from the ``(dtheta, dt)`` Fisher information.
+
+    Raises
+    ------
+    PoseError
+        The information is singular (the landmarks do not fix a 6D pose).
+    """
+    J = np.asarray(information, dtype=np.float64)
+    w, V = np.linalg.eigh(J)
+    if not np.all(np.isfinite(w)) or w[0] <= 1e-12 * max(w[-1], 1e-300):
+        raise PoseError("the pose information is singular: the matched landmarks do not fix a 6D pose")
+    cov = (V / w) @ V.T
+    cov = 0.5 * (cov + cov.T)
+    return cov[np.ix_(_ROS, _ROS)]
+
+
+def _placement_jacobian(world_from_ego: NDArray, ego: NDArray) -> NDArray[np.float64]:
+    """``(k, 3, 6)`` derivative of a placed percept's residual by the ROS-order pose error."""
+    Rx = ego @ world_from_ego[:3, :3].T
+    return np.concatenate([np.broadcast_to(-np.eye(3), (len(ego), 3, 3)), _skew(Rx)], axis=2)
+
+
+def placed_mahalanobis(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
+                       pose_covariance: NDArray | None = None) -> NDArray[np.float64]:
+    """Squared Mahalanobis distance of each percept, placed by the pose, from its model point.
+
+    ``ego (k, 3)``, ``covs (k, 3, 3)`` (ego frame), ``world_points (k, 3)``; the residual
+    covariance is ``R C R^T`` plus, when ``pose_covariance`` (ROS order) is given, the pose's
+    own uncertainty ``H Sigma H^T``.
+    """
+    R = world_from_ego[:3, :3]
+    r = ego @ R.T + world_from_ego[:3, 3] - world_points
+    S = np.einsum("ij,kjl,ml->kim", R, covs, R)
+    if pose_covariance is not None and np.all(np.isfinite(pose_covariance)):
+        H = _placement_jacobian(world_from_ego, ego)
+        S = S + np.einsum("kai,ij,kbj->kab", H, pose_covariance, H)
+    return np.einsum("ka,ka->k", r, np.linalg.solve(S, r[..., None])[..., 0])
+
+
+def pose_cost(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray) -> float:
+    """ML cost ``sum_i r_i^T C_i^-1 r_i``, ego-frame residual ``r_i = x_i - R^T (X_i - t)``."""
+    R, t = world_from_ego[:3, :3], world_from_ego[:3, 3]
+    r = ego - (world_points - t) @ R
+    return float(np.einsum("ka,ka->", r, np.linalg.solve(covs, r[..., None])[..., 0]))
+
+
+@dataclass(frozen=True)
+class PoseFit:
+    """The validated ML fit of one hypothesis.
+
+    Attributes
+    ----------
+    world_from_ego : (4, 4) float
+    information : (6, 6) float
+        Fisher information, ``(dtheta, dt)`` order (:func:`~worldgraph.pose.pose_information`).
+    pose_covariance : (6, 6) float
+        ROS order, :func:`ros_pose_covariance` (inf when the inliers fix no pose).
+    pairs : tuple of (percept, object)
+        The inliers the pose was fitted to (indices into the fitted percepts and the world).
+    mahalanobis2 : (k,) float
+        Squared Mahalanobis distance of every percept from its nearest same-type object under
+        the pose.
+    nearest : (k,) int
+        That object, or -1.
+    cost : float
+        Robust cost ``sum_p min(mahalanobis2_p, CHI2_3_GATE)``.
+    """
+
+    world_from_ego: NDArray[np.float64]
+    information: NDArray[np.float64]
+    pose_covariance: NDArray[np.float64]
+    pairs: tuple[tuple[int, int], ...]
+    mahalanobis2: NDArray[np.float64]
+    nearest: NDArray[np.intp]
+    cost: float
+
+    @property
+    def inliers(self) -> int:
+        return len(self.pairs)
+
+
+class NearestObjects:
+    """Nearest same-type model objects by Mahalanobis distance (k-d tree per type, ``k`` candidates)."""
+
+    def __init__(self, world: WorldModel, types: list[str], k: int = 4) -> None:
+        self.world = world
+        self.k = k
+        self.groups = {t: np.array([i for i, s in enumerate(types) if s == t]) for t in sorted(set(types))}
+        self.objects = {t: world.type_index[t] for t in self.groups}
+        self.trees = {t: cKDTree(world.positions[o]) for t, o in self.objects.items()}
+
+    def query(self, world_from_ego: NDArray, ego: NDArray, covs: NDArray, pose_covariance: NDArray | None
+              ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]:
+        """``(d2, object, d2 of the runner-up object)`` of every percept, ``(k,)`` each; ``inf``
+        (object -1) where no object of the type exists."""
+        n = len(ego)
+        d2 = np.full(n, np.inf)
+        second = np.full(n, np.inf)
+        obj = np.full(n, -1, dtype=np.intp)
+        pred = ego @ world_from_ego[:3, :3].T + world_from_ego[:3, 3]
+        for t, idx in self.groups.items():
+            objs = self.objects[t]
+            kk = min(self.k, len(objs))
+            _, j = self.trees[t].query(pred[idx], k=kk)
+            j = np.asarray(j).reshape(len(idx), kk)
+            m2 = np.stack([placed_mahalanobis(world_from_ego, ego[idx], covs[idx],
+                                              self.world.positions[objs[j[:, c]]], pose_covariance)
+                           for c in range(kk)], axis=1)
+            order = np.argsort(m2, axis=1)
+            rows = np.arange(len(idx))
+            d2[idx] = m2[rows, order[:, 0]]
+            obj[idx] = objs[j[rows, order[:, 0]]]
+            if kk > 1:
+                second[idx] = m2[rows, order[:, 1]]
+        return d2, obj, second
+
+
+def _unique_inliers(d2: NDArray, obj: NDArray, second: NDArray, gate: float) -> tuple[tuple[int, int], ...]:
+    """Percepts inside the gate whose object is the only one of its type inside it, one percept
+    per object (the closest wins), sorted by percept.  A percept between two objects of its
+    type (knobs in a row) tells nothing certain and would bias the pose: it is left out."""
+    taken: dict[int, int] = {}
+    for p in np.argsort(d2, kind="stable"):
+        if d2[p] > gate or obj[p] < 0:
+            break
+        if second[p] > gate and int(obj[p]) not in taken:
+            taken[int(obj[p])] = int(p)
+    return tuple(sorted((p, o) for o, p in taken.items()))
+
+
+def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: NearestObjects,
+                   pairs: tuple[tuple[int, int], ...], start: NDArray, max_rounds: int = 4,
+                   gate: float = CHI2_3_GATE) -> PoseFit | None:
+    """ML pose of ``pairs`` from ``start``, then re-associated inliers until stable.
+
+    Returns None when fewer than three inliers remain or they fix no pose.
+    """
+    T = np.asarray(start, dtype=np.float64)
+    current = tuple(sorted(pairs))
+    fit: PoseFit | None = None
+    for _ in range(max_rounds):
+        if len(current) < 3:
+            break
+        p = np.array([a for a, _ in current])
+        o = np.array([b for _, b in current])
+        try:
+            T_new, info = refine_pose(ego[p], world.positions[o], covs[p], T)
+            cov6 = ros_pose_covariance(info)
+        except PoseError:
+            break
+        d2, obj, second = nearest.query(T_new, ego, covs, cov6)
+        fit = PoseFit(T_new, info, cov6, current, d2, obj, float(np.minimum(d2, gate).sum()))
+        T = T_new
+        new = _unique_inliers(d2, obj, second, gate)
+        if new == current or len(new) < 3:
+            break
+        current = new
+    return fit
+
+
+def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
+                    pose_covariance: NDArray, n_sigma: float = 3.0, rounds: int = 4) -> NDArray[np.float64]:
+    """Widen ``pose_covariance`` (ROS order) where the cost is flatter than its quadratic model.
+
+    For the weakest rotation direction ``u`` (largest eigenvalue of the rotation block) and the
+    weakest position direction, the pose is moved along the profile line of ``f = u^T e``
+    (``delta = Sigma a f / (a^T Sigma a)``: the other parameters at their conditional optimum) to
+    ``f = +-n_sigma sigma_f``.  The quadratic model says the ML cost rises by ``n_sigma^2``;
+    where it rises by less on the worse side, the point where it does reach ``n_sigma^2`` is
+    found by secant steps and the variance of ``f`` set to ``(f / n_sigma)^2`` by a rank-one
+    update that keeps the correlations.  Never narrows.
+    """
+    cov = np.array(pose_covariance, dtype=np.float64)
+    if not np.all(np.isfinite(cov)):
+        return cov
+    base = pose_cost(world_from_ego, ego, covs, world_points)
+    target = n_sigma**2
+
+    def moved(delta: NDArray) -> NDArray:
+        # delta in ROS order is the error (true - est); the true pose is est moved by it
+        out = np.eye(4)
+        out[:3, :3] = Rotation.from_rotvec(delta[3:]).as_matrix() @ world_from_ego[:3, :3]
+        out[:3, 3] = world_from_ego[:3, 3] + delta[:3]
+        return out
+
+    for block in (slice(3, 6), slice(0, 3)):
+        w, V = np.linalg.eigh(cov[block, block])
+        a = np.zeros(6)
+        a[block] = V[:, -1]
+        var_f = float(a @ cov @ a)
+        if not var_f > 0:
+            continue
+        line = cov @ a / var_f          # delta per unit of f
+        s = n_sigma * math.sqrt(var_f)
+        rises = []
+        for sign in (1.0, -1.0):
+            rise = pose_cost(moved(sign * s * line), ego, covs, world_points) - base
+            rises.append((rise, sign))
+        rise, sign = min(rises)
+        if rise >= 0.8 * target:
+            continue
+        f = s
+        for _ in range(rounds):  # secant in f^2 (rise ~ c f^2 locally)
+            f = f * math.sqrt(target / max(rise, 1e-3 * target))
+            f = min(f, 100.0 * s)
+            rise = pose_cost(moved(sign * f * line), ego, covs, world_points) - base
+            if abs(rise - target) < 0.1 * target:
+                break
+        new_var = max((f / n_sigma) ** 2, var_f)
+        b = cov @ a
+        cov = cov + (new_var - var_f) * np.outer(b, b) / var_f**2
+    return 0.5 * (cov + cov.T)
+
+
+def rotation_only_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray, weights: NDArray,
+                             position_covariance: NDArray) -> NDArray[np.float64]:
+    """6x6 covariance (ROS order) of a range-only position followed by a fixed-translation rotation.
+
+    The rotation minimises ``sum_i w_i |R x_i - (X_i - t)|^2`` with ``t`` the range-only
+    position (covariance ``Sigma_t``).  Linearised about the estimate with ``A_i = skew(R x_i)``
+    and ``M = sum_i w_i A_i^T A_i``, the rotation error is ``e_r = M^-1 sum_i w_i A_i^T (e_t -
+    R n_i)``: the percept's noise enters only through its component across the line of sight
+    (``A_i^T`` removes the component along ``R x_i``), the range only through ``e_t``, so the two
+    are uncorrelated for isotropic percepts and ``Cov(e_r) = M^-1 (sum w_i^2 A_i^T R C_i R^T A_i)
+    M^-1 + M^-1 S^T Sigma_t S M^-1``, ``Cov(e_t, e_r) = Sigma_t S M^-1`` with ``S = sum w_i A_i``.
+    """
+    R = world_from_ego[:3, :3]
+    A = _skew(ego @ R.T)
+    w = np.asarray(weights, dtype=np.float64)
+    M = np.einsum("k,kai,kaj->ij", w, A, A)
+    S = np.einsum("k,kij->ij", w, A)
+    RC = np.einsum("ij,kjl,ml->kim", R, covs, R)
+    N = np.einsum("k,kai,kab,kbj->ij", w**2, A, RC, A)
+    St = np.asarray(position_covariance, dtype=np.float64)
+    out = np.full((6, 6), np.inf)
+    try:
+        Mi = np.linalg.inv(M)
+    except np.linalg.LinAlgError:
+        return out
+    if not np.all(np.isfinite(St)) or not np.all(np.isfinite(Mi)):
+        return out
+    out[:3, :3] = St
+    cross = St @ S @ Mi
+    out[:3, 3:] = cross
+    out[3:, :3] = cross.T
+    out[3:, 3:] = Mi @ N @ Mi + Mi @ S.T @ St @ S @ Mi
+    return 0.5 * (out + out.T)
+
+
+def self_check(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
+               pose_covariance: NDArray, alpha: float = 1e-3) -> tuple[bool, NDArray[np.float64], str]:
+    """Chi-square test of matched percepts placed by their own pose.
+
+    Fails when the sum of the squared Mahalanobis distances (residual covariance ``R C R^T + H
+    Sigma H^T``) exceeds the ``1 - alpha`` quantile of chi-square with ``3 k`` degrees of freedom,
+    or one of them exceeds the Bonferroni quantile ``1 - alpha / k`` of chi-square with 3.
+
+    Returns
+    -------
+    passed : bool
+    mahalanobis2 : (k,) float
+    message : str
+        Empty when passed.
+    """
+    k = len(ego)
+    d2 = placed_mahalanobis(world_from_ego, ego, covs, world_points, pose_covariance)
+    total, worst = float(d2.sum()), int(np.argmax(d2)) if k else -1
+    lim_total = float(chi2.ppf(1 - alpha, 3 * k))
+    lim_one = float(chi2.ppf(1 - alpha / max(k, 1), 3))
+    if not np.all(np.isfinite(d2)) or total > lim_total or (k and d2[worst] > lim_one):
+        dist = float(np.linalg.norm(ego[worst] @ world_from_ego[:3, :3].T + world_from_ego[:3, 3]
+                                    - world_points[worst])) if k else math.nan
+        return False, d2, (f"the pose contradicts its own matches: chi-square {total:.3g} over {k} matched "
+                           f"percepts (limit {lim_total:.3g}); the worst lands {dist:.3g} m from its object "
+                           f"(squared Mahalanobis {d2[worst]:.3g}, limit {lim_one:.3g})")
+    return True, d2, ""
