@@ -491,7 +491,7 @@ class WorldModel:
     @classmethod
     def from_arrays(cls, types: Sequence[str] | ArrayLike, positions: ArrayLike, max_link_length: float = 5.0,
                     ids: Sequence[str] | None = None, sizes: ArrayLike | None = None,
-                    link_margin: float = 0.0) -> WorldModel:
+                    link_margin: float = 0.0, room: Any = None) -> WorldModel:
         """World model from bare typed positions.
 
         Parameters
@@ -501,6 +501,8 @@ class WorldModel:
         positions : (n, 3) float
             World positions (metres); poses get the identity rotation.
         max_link_length, link_margin : float
+            See :class:`WorldModel`.
+        room : radialopt.Region or (lower, upper), optional
             See :class:`WorldModel`.
         ids : (n,) str, optional
             Default ``f"{type}_{k}"`` with ``k`` the object index.
@@ -557,7 +559,7 @@ class WorldModel:
         objs = [ObjectModel._trusted(id_list[k], str(type_list[k]), poses[k], sz[k], str(type_list[k]))
                 for k in range(n)]
         return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices,
-                   link_margin=link_margin)
+                   link_margin=link_margin, room=room)
 
     @classmethod
     def from_trimesh(cls, scene: trimesh.Scene, type_of: Callable[[str, Any], str | None] | None = None,
