@@ -103,7 +103,10 @@ class AssociationTolerances:
     near_maximum : int
         Maximal cliques down to ``maximum size - near_maximum`` are kept.
     ambiguity_margin : float
-        The best two (pose-distinct) hypotheses are ambiguous when their costs differ by less.
+        The best two (pose-distinct) hypotheses are ambiguous when their robust costs differ by
+        less.  A cost difference is twice a log-likelihood ratio: the default 6 calls a runner-up
+        ambiguous unless the best is 20 times as likely (at 4, chance fits of repeated cabinet
+        modules were answered "ok" and wrong in our layouts).
     distinct_translation, distinct_angle : float
         Two hypotheses with translations closer than this (m) and rotations closer than this
         (rad) are the same pose: only the cheaper one is kept.
@@ -137,7 +140,7 @@ class AssociationTolerances:
     residual_factor: float = math.sqrt(2.0)
     min_clique_size: int = 3
     near_maximum: int = 1
-    ambiguity_margin: float = 4.0
+    ambiguity_margin: float = 6.0
     distinct_translation: float = 0.25
     distinct_angle: float = math.radians(5.0)
     chirality_sigmas: float = 3.0
