@@ -47,7 +47,12 @@ from perception import Percept
 from worldgraph import localize
 from worldgraph.model import WorldModel
 from worldgraph.pose import refine_pose, weighted_kabsch
-from worldgraph.validation import laplace_inflate, percept_covariances, ros_pose_covariance
+from worldgraph.validation import (
+    calibrated_pose_covariance,
+    laplace_inflate,
+    percept_covariances,
+    ros_pose_covariance,
+)
 
 #: The percept noise of the tests: sigma = rho^2 / DEPTH_FACTOR (metres).
 DEPTH_FACTOR = 1000.0
@@ -158,8 +163,9 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class Draws:
     errors: np.ndarray      # (n, 6)
-    returned: np.ndarray    # (n, 6, 6) pose covariance as localize returns it (widened)
+    returned: np.ndarray    # (n, 6, 6) pose covariance as localize returns it (widened, curved)
     fisher: np.ndarray      # (n, 6, 6) before laplace_inflate
+    laplace: np.ndarray     # (n, 6, 6) after laplace_inflate alone
     widened: int            # draws where laplace_inflate changed the covariance
 
 
@@ -175,6 +181,7 @@ def ml_draws(name: str, n: int = N_DRAWS, seed: int = 10) -> Draws:
     errors = np.empty((n, 6))
     returned = np.empty((n, 6, 6))
     fisher = np.empty((n, 6, 6))
+    laplace = np.empty((n, 6, 6))
     widened = 0
     for i in range(n):
         truth = yaw_pose(yaws[i], geo.robot)
@@ -188,25 +195,19 @@ def ml_draws(name: str, n: int = N_DRAWS, seed: int = 10) -> Draws:
         start[:3, :3], start[:3, 3] = rot, t
         est, info = refine_pose(ego, X, covs, start)
         fisher[i] = ros_pose_covariance(info)
-        returned[i] = laplace_inflate(est, ego, covs, X, fisher[i])
-        widened += not np.array_equal(returned[i], fisher[i])
+        returned[i] = calibrated_pose_covariance(est, ego, covs, X, fisher[i])
+        laplace[i] = laplace_inflate(est, ego, covs, X, fisher[i])
+        widened += not np.array_equal(laplace[i], fisher[i])
         errors[i] = pose_error(truth, est)
-    return Draws(errors, returned, fisher, widened)
+    return Draws(errors, returned, fisher, laplace, widened)
 
 
-CURVED_RIDGE = (
-    "library defect: pose_covariance is overconfident for near-collinear landmarks (one cabinet "
-    "run, robot 2.5 m in front): NEES mean 11.5 and 3-sigma coverage 0.879 over 2000 draws "
-    "(chi-square(6): 6 and 0.9973; end to end through localize, all 'weak': 11.7 and 0.887). "
-    "The rotation about the counter line is weak (sd 0.14 rad) and swings the robot along a "
-    "circle, so t_true - t_est along the robot-to-counter axis (y) carries a second-order term "
-    "(correlation -0.88 with rx^2): the error variance along that direction is 6.4x the "
-    "linearised inverse Fisher information (even evaluated at the true pose). laplace_inflate "
-    "only widens the weakest rotation/position direction along a straight profile line and never "
-    "acts here (0 of 2000 draws widened)."
-)
-NEES_CASES = [pytest.param("cabinet_run", marks=pytest.mark.xfail(strict=True, reason=CURVED_RIDGE)),
-              "three_walls", "wall_grid", "three_walls_anisotropic", "wall_grid_anisotropic"]
+#: Geometries whose error is curved (a weak rotation swings the robot along a circle about the
+#: landmarks): no ellipsoid matches both the mean and the tail of such a distribution, and the
+#: library keeps the tail (its 3-sigma gate holds 99.7 % of the errors), so there the NEES mean
+#: may be low and the variances conservative, but never overconfident.
+CURVED = {"cabinet_run"}
+NEES_CASES = ["cabinet_run", "three_walls", "wall_grid", "three_walls_anisotropic", "wall_grid_anisotropic"]
 
 
 @pytest.mark.parametrize("name", NEES_CASES)
@@ -214,6 +215,8 @@ def test_ml_nees_is_chi_square_6(name: str) -> None:
     d = ml_draws(name)
     q = nees(d.errors, d.returned)
     lo, hi = nees_band(len(q))
+    if name in CURVED:
+        lo = 3.0
     assert lo <= q.mean() <= hi, f"{name}: NEES mean {q.mean():.3f} outside [{lo:.2f}, {hi:.2f}]"
     coverage = float(np.mean(q <= GATE_6))
     assert coverage >= 0.985, f"{name}: {coverage:.4f} of the NEES inside the 3-sigma gate {GATE_6:.2f}"
@@ -225,7 +228,8 @@ def test_ml_second_moments_match_the_mean_covariance(name: str) -> None:
     second = d.errors.T @ d.errors / len(d.errors)      # about the truth: a bias counts too
     mean_cov = d.returned.mean(axis=0)
     ratio = np.diag(second) / np.diag(mean_cov)
-    assert np.all((ratio >= 0.8) & (ratio <= 1.2)), f"{name}: empirical / returned variances {ratio}"
+    low = 0.3 if name in CURVED else 0.8
+    assert np.all((ratio >= low) & (ratio <= 1.2)), f"{name}: empirical / returned variances {ratio}"
 
 
 @pytest.mark.parametrize("name", list(GEOMETRIES))
@@ -248,9 +252,9 @@ def test_ml_translation_rotation_cross_covariance_sign(name: str) -> None:
 @pytest.mark.parametrize("name", list(GEOMETRIES))
 def test_laplace_widening_never_narrows(name: str) -> None:
     d = ml_draws(name)
-    q_ret, q_fisher = nees(d.errors, d.returned), nees(d.errors, d.fisher)
+    q_ret, q_fisher = nees(d.errors, d.laplace), nees(d.errors, d.fisher)
     assert np.all(q_ret <= q_fisher * (1 + 1e-9) + 1e-12)
-    assert np.all(np.linalg.eigvalsh(d.returned - d.fisher)
+    assert np.all(np.linalg.eigvalsh(d.laplace - d.fisher)
                   >= -1e-9 * np.linalg.eigvalsh(d.fisher)[:, -1:])
 
 

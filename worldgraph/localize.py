@@ -66,8 +66,8 @@ from .validation import (
     CHI2_6_GATE,
     NearestObjects,
     PoseFit,
+    calibrated_pose_covariance,
     fit_hypothesis,
-    laplace_inflate,
     percept_covariances,
     rotation_only_covariance,
     self_check,
@@ -413,7 +413,7 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     if method == "ml":
         t0 = time.perf_counter()
         pose = best.world_from_ego
-        cov6 = laplace_inflate(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
+        cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
         ctx.timings["position"] = time.perf_counter() - t0
         return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, None, check=False)
 

@@ -51,6 +51,8 @@ __all__ = [
     "CHI2_3_GATE",
     "CHI2_6_GATE",
     "PoseFit",
+    "calibrated_pose_covariance",
+    "curved_pose_covariance",
     "fit_hypothesis",
     "laplace_inflate",
     "percept_covariances",
@@ -291,6 +293,82 @@ def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_
         b = cov @ a
         cov = cov + (new_var - var_f) * np.outer(b, b) / var_f**2
     return 0.5 * (cov + cov.T)
+
+
+#: Gauss-Hermite cubature in 6D, 3 nodes per axis (exact for polynomials of degree 5 in each
+#: coordinate, so for the fourth moments of the curved term below): nodes (729, 6), weights (729,).
+_GH_NODES = np.array(np.meshgrid(*([np.array([-math.sqrt(3.0), 0.0, math.sqrt(3.0)])] * 6),
+                                 indexing="ij")).reshape(6, -1).T
+_GH_WEIGHTS = np.prod(np.where(_GH_NODES == 0.0, 2.0 / 3.0, 1.0 / 6.0), axis=1)
+#: Above this rotation standard deviation (rad) the error is not propagated through the curve.
+MAX_CURVED_ROTATION_SD = 0.35
+#: A fixed standard-normal sample (6D) for the tail share of a curved error, and that share.
+_TAIL_SAMPLE = np.random.default_rng(20261130).standard_normal((8192, 6))
+_TAIL_SHARE = 0.9973002039
+
+
+def curved_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray, pose_covariance: NDArray
+                           ) -> NDArray[np.float64]:
+    """The second-moment matrix of the ROS-order pose error, with the curvature of a rotation
+    about the landmarks' centre (sigma points).
+
+    A pose fitted to landmarks is known linearly in the landmarks' own frame: the world position
+    ``X_c`` of their (information-weighted) centre and the rotation.  The robot position is
+    ``t = X_c - R c`` with ``c`` the centre in the ego frame, so a rotation error ``theta`` about
+    the centre moves the robot along a circle of radius ``|c|``: ``e_t = e_c - (exp(theta) - I)
+    R c``, which is second order in ``theta`` and large where the rotation is weak (a row of
+    handles seen from a few metres).  The linear covariance is moved to ``(e_c, theta)``
+    (``e_c = e_t - skew(R c) theta``), and ``E[e e^T]`` of the exact error is integrated by
+    Gauss-Hermite cubature (3^6 nodes).  Where the rotation is well determined this equals the
+    linear covariance to within a fraction of a percent.  Where the rotation is not determined
+    at all (standard deviation above :data:`MAX_CURVED_ROTATION_SD`) the linear covariance is
+    returned unchanged: no Gaussian describes such an error, and ``localize`` calls it weak.
+    """
+    cov = np.asarray(pose_covariance, dtype=np.float64)
+    if not np.all(np.isfinite(cov)) or np.linalg.eigvalsh(cov[3:, 3:])[-1] > MAX_CURVED_ROTATION_SD**2:
+        return cov
+    # the centre about which rotation and position decouple: skew(v) = Sigma_t,theta Sigma_theta^-1
+    # (least squares over the 9 entries; for isotropic percepts the weighted centroid)
+    try:
+        K = cov[:3, 3:] @ np.linalg.inv(cov[3:, 3:])
+        v = 0.5 * np.array([K[2, 1] - K[1, 2], K[0, 2] - K[2, 0], K[1, 0] - K[0, 1]])
+    except np.linalg.LinAlgError:
+        w = 1.0 / np.trace(covs, axis1=1, axis2=2)
+        v = (w / w.sum()) @ ego @ world_from_ego[:3, :3].T
+    A = np.eye(6)
+    A[:3, 3:] = -_skew(v)
+    cov_c = A @ cov @ A.T
+    vals, vecs = np.linalg.eigh(0.5 * (cov_c + cov_c.T))
+    root = vecs * np.sqrt(np.clip(vals, 0.0, None))
+    pts = _GH_NODES @ root.T                                   # (729, 6): (e_c, theta) samples
+    theta = pts[:, 3:]
+    turned = Rotation.from_rotvec(theta).apply(v) - v          # (exp(theta) - I) v
+    err = np.concatenate([pts[:, :3] - turned, theta], axis=1)
+    second = np.einsum("k,ki,kj->ij", _GH_WEIGHTS, err, err)
+    second = 0.5 * (second + second.T)
+    # a curved error is not elliptical: where the curvature matters, widen the ellipsoid until its
+    # 3-sigma gate holds the 3-sigma share of the propagated distribution (a fixed normal sample)
+    ratio = np.linalg.eigvalsh(np.linalg.solve(np.linalg.cholesky(cov + 1e-300 * np.eye(6)),
+                                               np.linalg.solve(np.linalg.cholesky(cov + 1e-300 * np.eye(6)),
+                                                               second).T))
+    if np.max(np.abs(ratio - 1.0)) > 0.01:
+        pts = _TAIL_SAMPLE @ root.T
+        turned = Rotation.from_rotvec(pts[:, 3:]).apply(v) - v
+        err = np.concatenate([pts[:, :3] - turned, pts[:, 3:]], axis=1)
+        q = np.einsum("ki,ki->k", err, np.linalg.solve(second, err.T).T)
+        scale = float(np.quantile(q, _TAIL_SHARE)) / CHI2_6_GATE
+        if scale > 1.0:
+            second = second * scale
+    return second
+
+
+def calibrated_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
+                               pose_covariance: NDArray) -> NDArray[np.float64]:
+    """:func:`laplace_inflate` (a cost flatter than its quadratic model), then
+    :func:`curved_pose_covariance` (the circle a weak rotation drives the robot along): the 6x6
+    covariance ``localize`` returns for its ML pose."""
+    widened = laplace_inflate(world_from_ego, ego, covs, world_points, pose_covariance)
+    return curved_pose_covariance(world_from_ego, ego, covs, widened)
 
 
 def rotation_only_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray, weights: NDArray,
