@@ -374,6 +374,8 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     for h_i, h in enumerate(hyps_local):
         if len(fits) >= MAX_VALIDATED:
             break
+        if any(_pose_nees(f, h.world_from_ego) <= CHI2_6_GATE for f, _ in fits.values()):
+            continue  # its pose lies inside a fit's 3-sigma ellipsoid: it would converge there
         fit = fit_hypothesis(ctx.world, ctx.ego, ctx.covs, ctx.nearest, h.all_pairs, h.world_from_ego)
         if fit is not None and fit.pairs not in fits:  # converged to the same inliers: one answer
             fits[fit.pairs] = (fit, h_i)

@@ -175,24 +175,30 @@ class NearestObjects:
     def query(self, world_from_ego: NDArray, ego: NDArray, covs: NDArray, pose_covariance: NDArray | None
               ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]:
         """``(d2, object, d2 of the runner-up object)`` of every percept, ``(k,)`` each; ``inf``
-        (object -1) where no object of the type exists."""
+        (object -1) where no object of the type exists.  The ``k`` Euclidean nearest objects of
+        each type are the candidates (:func:`placed_mahalanobis`' covariance, computed once)."""
         n = len(ego)
         d2 = np.full(n, np.inf)
         second = np.full(n, np.inf)
         obj = np.full(n, -1, dtype=np.intp)
-        pred = ego @ world_from_ego[:3, :3].T + world_from_ego[:3, 3]
+        R = world_from_ego[:3, :3]
+        pred = ego @ R.T + world_from_ego[:3, 3]
+        S = np.einsum("ij,kjl,ml->kim", R, covs, R)
+        if pose_covariance is not None and np.all(np.isfinite(pose_covariance)):
+            H = _placement_jacobian(world_from_ego, ego)
+            S = S + np.einsum("kai,ij,kbj->kab", H, pose_covariance, H)
+        S_inv = np.linalg.inv(S)
         for t, idx in self.groups.items():
             objs = self.objects[t]
             kk = min(self.k, len(objs))
             _, j = self.trees[t].query(pred[idx], k=kk)
-            j = np.asarray(j).reshape(len(idx), kk)
-            m2 = np.stack([placed_mahalanobis(world_from_ego, ego[idx], covs[idx],
-                                              self.world.positions[objs[j[:, c]]], pose_covariance)
-                           for c in range(kk)], axis=1)
+            cand = objs[np.asarray(j).reshape(len(idx), kk)]
+            r = self.world.positions[cand] - pred[idx][:, None, :]
+            m2 = np.einsum("mca,mab,mcb->mc", r, S_inv[idx], r)
             order = np.argsort(m2, axis=1)
             rows = np.arange(len(idx))
             d2[idx] = m2[rows, order[:, 0]]
-            obj[idx] = objs[j[rows, order[:, 0]]]
+            obj[idx] = cand[rows, order[:, 0]]
             if kk > 1:
                 second[idx] = m2[rows, order[:, 1]]
         return d2, obj, second
