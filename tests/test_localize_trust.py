@@ -114,6 +114,42 @@ def test_an_explicit_region_still_rejects_and_bad_regions_raise() -> None:
         localize(world, percepts_of(world, pose, idx), region=(np.zeros(3), np.ones(3)))
 
 
+def test_an_implausible_room_is_not_the_default_region() -> None:
+    world = one_wall(1, False)[0]
+    pos = world.positions
+    lone_wall = ro.Region(pos.min(axis=0) - [0.0, 0.0, 0.0], pos.min(axis=0) + [0.1, 5.0, 2.5])
+    thin = WorldModel.from_arrays(world.types, pos, room=lone_wall)
+    assert not lone_wall.contains(pos).all()
+    pose = facing(np.array([*pos.mean(axis=0)[:2], 1.5]), 0.0)
+    region = default_region(thin, percepts_of(thin, pose, range(3)))
+    assert np.all(region.contains(pos))
+    lo, hi = world.bounds
+    reach = max(p.range for p in percepts_of(thin, pose, range(3)))
+    assert np.allclose(region.lower[:2], lo[:2] - reach - 1.0)
+    assert np.allclose(region.upper[:2], hi[:2] + reach + 1.0)
+
+
+def test_a_room_chooses_but_does_not_reject() -> None:
+    world, across, wall_c, inward = one_wall(2, True)
+    pos = world.positions
+    robot = pos.mean(axis=0).copy()
+    robot[across] = wall_c + inward * 2.5
+    robot[2] = 1.5
+    towards_wall = -inward * np.eye(3)[across]
+    pose = facing(robot, math.atan2(towards_wall[1], towards_wall[0]))
+    ego = (pos - robot) @ pose[:3, :3]
+    idx = np.flatnonzero((np.linalg.norm(ego, axis=1) < 7.0) & (ego[:, 0] > 0.3))[:8]
+    percepts = percepts_of(world, pose, idx)
+    small = ro.Region(world.room.lower, world.room.lower + 0.5)   # a room that misses the robot
+    shrunk = WorldModel.from_arrays(world.types, pos, room=ro.Region(pos.min(axis=0) - 1.0,
+                                                                       pos.max(axis=0) + 1.0))
+    assert not shrunk.room.contains(robot)
+    res = localize(shrunk, percepts)
+    assert res.status in ("ok", "weak", "ambiguous") and res.status != "outside_region"
+    assert "outside the default region" in res.message
+    assert localize(world, percepts, region=small).status == "outside_region"
+
+
 # ----------------------------------------------------------------------------------------------
 # cause 2: a false percept that fits the true matches' pairwise distances
 # ----------------------------------------------------------------------------------------------

@@ -25,10 +25,11 @@
    bounds against ``max_rotation_3sigma`` and ``max_position_3sigma`` (``"weak"`` beyond them).
 
 The default region is where the robot could stand and see what it saw: the room when the world
-knows it (``world.room``, from an importer's floor and walls), otherwise the objects' bounds
-grown sideways by the largest percept range and by :data:`REGION_MARGIN` up and down.  A region
-given by the caller or the room rejects poses outside it (``"outside_region"``); the grown bounds
-only choose between candidates.
+knows a plausible one (``world.room``, from an importer's floor and walls, holding the objects),
+otherwise the objects' bounds grown sideways by the largest percept range and by
+:data:`REGION_MARGIN` up and down.  The default region chooses between candidates (a pose inside
+it beats a better-fitting one outside) but never fails a unique answer; a region given by the
+caller also rejects poses outside it (``"outside_region"``).
 
 Percepts whose type the world does not have are ignored (named in the result's message);
 when no percept type is known, :class:`~worldgraph.errors.UnknownTypeError` is raised.
@@ -95,6 +96,8 @@ _SPHERE_ESTIMATOR = {"spheres": "ml", "paper": "paper", "srls": "srls", "gradien
 #: Metres added above and below the objects' bounds by the default region (sideways it grows by
 #: the largest percept range).
 REGION_MARGIN = 1.0
+#: A room narrower than this (m) in x or y is no room (a lone wall node, a floor tile).
+MIN_ROOM_SIZE = 1.5
 #: Position candidates with at least this fraction of the best density are told apart by the
 #: validated 3D pose.
 CANDIDATE_DENSITY_RATIO = 0.01
@@ -119,7 +122,7 @@ LocalizeStatus = Literal[
     "no_association",        # no consistent set of >= 3 percept-object pairs
     "too_few_percepts",      # fewer than 3 percepts of known types
     "degenerate",            # the matched landmarks cannot fix a pose (collinear, ...)
-    "outside_region",        # the pose lies outside the region given (or the room)
+    "outside_region",        # the pose lies outside the region the caller gave
     "degenerate_coplanar",   # range-only methods: coplanar landmarks, position on their plane
     "degenerate_collinear",  # range-only methods: collinear landmarks
 ]
@@ -212,12 +215,17 @@ def _remap(h: AssociationHypothesis, idx: NDArray[np.intp]) -> AssociationHypoth
 
 
 def default_region(world: WorldModel, percepts: Sequence[Percept]) -> ro.Region:
-    """Where the robot could stand and see ``percepts``: ``world.room`` when known, else the
-    objects' bounds grown sideways by the largest percept range and by :data:`REGION_MARGIN`
-    up and down."""
+    """Where the robot could stand and see ``percepts``: ``world.room`` when it is a plausible
+    room (at least :data:`MIN_ROOM_SIZE` wide both ways and holding the objects' positions to
+    within :data:`REGION_MARGIN`; a scene whose only "wall" node is one wall is not), else the
+    objects' bounds grown sideways by the largest percept range and by :data:`REGION_MARGIN` up
+    and down."""
     room = getattr(world, "room", None)
     if room is not None:
-        return room
+        size = room.upper - room.lower
+        if size[0] >= MIN_ROOM_SIZE and size[1] >= MIN_ROOM_SIZE and bool(
+                np.all(room.contains(world.positions, tol=REGION_MARGIN))):
+            return room
     lo, hi = world.bounds
     reach = max((p.range for p in percepts), default=0.0)
     grow = np.array([reach + REGION_MARGIN, reach + REGION_MARGIN, REGION_MARGIN])
@@ -317,7 +325,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         return _failed("no_association", "; ".join(notes + [
             "no consistent association of >= 3 percepts with the world model"]), n_all, timings=timings)
 
-    explicit = region is not None or getattr(world, "room", None) is not None
+    explicit = region is not None
     reg = region if region is not None else default_region(world, used)
     ego = np.array([p.position for p in used])
     covs = percept_covariances(used)
