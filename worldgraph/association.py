@@ -36,6 +36,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
+import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
@@ -58,6 +59,8 @@ __all__ = [
     "AssociationTolerances",
     "CliqueSearch",
     "associate",
+    "consistency_graph",
+    "filtered_graph_view",
     "discriminator",
     "is_ambiguous",
     "maximum_cliques",
@@ -791,7 +794,9 @@ def proximity_filter(world: WorldModel, percepts: Sequence[Percept],
     dict
         ``"candidates"``: list, per percept, of the surviving global object indices;
         ``"links"``: dict (p, q) -> (k, 2) int array of surviving (object of p, object of q);
-        ``"adjacency"``: the same as boolean matrices over each percept's objects of its type.
+        ``"adjacency"``: the same as boolean matrices over each percept's objects of its type;
+        ``"graph"``: the surviving part of ``world.graph`` as a networkx subgraph view
+        (:func:`filtered_graph_view`).
     """
     percepts = _check_inputs(world, percepts)
     objects = [world.type_index[p.type] for p in percepts]
@@ -809,21 +814,74 @@ def proximity_filter(world: WorldModel, percepts: Sequence[Percept],
     compact, dense = graph.dense(alive)
     adjacency = {key: np.ones((len(compact[key[0]]), len(compact[key[1]])), bool) if m is None else m
                  for key, m in dense.items()}
-    return _filtered(compact, adjacency, [np.ones(len(o), bool) for o in compact])
+    return _filtered(world, compact, adjacency, [np.ones(len(o), bool) for o in compact])
 
 
 def _sparse(objects: list[NDArray[np.intp]], adjacency: dict) -> _Graph:
     return _Graph(objects, {key: np.nonzero(m) for key, m in adjacency.items()})
 
 
-def _filtered(objects: list[NDArray[np.intp]], adjacency: dict, alive: list[NDArray[np.bool_]]) -> dict:
+def _filtered(world: WorldModel, objects: list[NDArray[np.intp]], adjacency: dict,
+              alive: list[NDArray[np.bool_]]) -> dict:
     adj = {key: mat & alive[key[0]][:, None] & alive[key[1]][None, :] for key, mat in adjacency.items()}
     links = {}
     for (p, q), mat in adj.items():
         a, b = np.nonzero(mat)
         links[(p, q)] = np.column_stack([objects[p][a], objects[q][b]])
-    return {"candidates": [o[al] for o, al in zip(objects, alive, strict=True)], "links": links,
-            "adjacency": adj, "objects": objects, "alive": alive}
+    candidates = [o[al] for o, al in zip(objects, alive, strict=True)]
+    return {"candidates": candidates, "links": links, "adjacency": adj, "objects": objects,
+            "alive": alive, "graph": filtered_graph_view(world, candidates, links)}
+
+
+def filtered_graph_view(world: WorldModel, candidates: Sequence[NDArray[np.intp]],
+                        links: dict[tuple[int, int], NDArray[np.intp]]) -> nx.Graph:
+    """The part of ``world.graph`` that survives a filter: a read-only subgraph view (networkx)
+    of the candidate objects and of the proximity edges that some surviving link uses.
+
+    ``world.graph`` holds the pairs closer than ``max_link_length``; links between percepts
+    farther apart than that have no edge there and so do not show in the view (they are in
+    the filter's ``"links"``).
+    """
+    nodes = {int(o) for c in candidates for o in c}
+    edges: set[tuple[int, int]] = set()
+    for pairs in links.values():
+        for a, b in pairs.tolist():
+            edges.add((a, b) if a <= b else (b, a))
+    return nx.subgraph_view(world.graph, filter_node=nodes.__contains__,
+                            filter_edge=lambda u, v: (min(u, v), max(u, v)) in edges)
+
+
+def consistency_graph(world: WorldModel, percepts: Sequence[Percept],
+                      tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES,
+                      min_size: int | None = None) -> nx.Graph:
+    """The typed consistency graph of :func:`associate` ("clique") as a networkx graph.
+
+    A node ``(p, o)`` pairs percept ``p`` with an object ``o`` of its type (attributes
+    ``percept``, ``object``, ``type``); an edge joins two pairs whose percept and model distances
+    agree within the gate (and that use different percepts and objects).  Only the pairs that can
+    still be in a clique of ``min_size`` (default ``tolerances.min_clique_size``) are kept, as
+    :func:`associate` prunes them.  Its maximal cliques are the association candidates (the array
+    search in :func:`maximum_cliques` finds the largest of them without building this graph).
+    """
+    percepts = _check_inputs(world, percepts)
+    need = tolerances.min_clique_size if min_size is None else int(min_size)
+    graph = _consistency_graph(world, percepts, tolerances)
+    alive = _prune(graph, need)
+    g = nx.Graph()
+    for p, (objs, al) in enumerate(zip(graph.objects, alive, strict=True)):
+        g.add_nodes_from(((p, int(o)), {"percept": p, "object": int(o), "type": percepts[p].type})
+                         for o in objs[al])
+    for (p, q), e in graph.edges.items():
+        if e is None:
+            a, b = np.nonzero(np.outer(alive[p], alive[q]))
+        else:
+            a, b = e
+            keep = alive[p][a] & alive[q][b]
+            a, b = a[keep], b[keep]
+        op, oq = graph.objects[p][a], graph.objects[q][b]
+        diff = op != oq
+        g.add_edges_from(zip(((p, int(o)) for o in op[diff]), ((q, int(o)) for o in oq[diff]), strict=True))
+    return g
 
 
 def _frames(a: NDArray, b: NDArray, c: NDArray) -> tuple[NDArray, NDArray]:
@@ -897,7 +955,7 @@ def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity
             if checked[key]:
                 adj[key] = adj[key] & support[key]
     alive = _prune(_sparse(objects, adj), k)
-    return _filtered(objects, adj, alive)
+    return _filtered(world, objects, adj, alive)
 
 
 # ----------------------------------------------------------------------------------------------
