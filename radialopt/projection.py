@@ -195,10 +195,24 @@ def _polish(
     joins it; at most a few steps are needed from the NNLS support.  Falls back to the NNLS
     answer if the loop does not settle.
     """
+    if not np.any(support):
+        return z
+    return _polish_certified(G, h, z, support)[0]
+
+
+def _polish_certified(
+    G: NDArray[np.float64], h: NDArray[np.float64], z: NDArray[np.float64], support: NDArray[np.bool_]
+) -> tuple[NDArray[np.float64], bool]:
+    """:func:`_polish` that also says whether it ended on a KKT point: ``(z, True)`` when the
+    returned ``z`` has multipliers ``>= 0`` on its working set and violates no row (to 1e-12
+    of ``max|h|``), ``(z_in, False)`` when the loop did not settle.  An empty support with a
+    feasible origin is the KKT point ``z = 0``."""
     tol = 1e-12 * max(float(np.abs(h).max()), 1.0)
     work = np.flatnonzero(support).tolist()
     if not work:
-        return z
+        work = [int(np.argmax(G @ np.zeros(G.shape[1]) - h))]
+        if h[work[0]] >= 0:
+            return np.zeros(G.shape[1]), True
     for _ in range(2 * G.shape[0]):
         GS = G[work]
         y = _solve_small(GS @ GS.T, -h[work])
@@ -206,18 +220,18 @@ def _polish(
         if y[k] < -tol:
             del work[k]
             if not work:
-                return z
+                return z, False
             continue
         z2 = -(y @ GS)
         viol = G @ z2 - h
         j = int(np.argmax(viol))
         if viol[j] > tol:
             if j in work:
-                return z
+                return z, False
             work.append(j)
             continue
-        return z2
-    return z
+        return z2, True
+    return z, False
 
 
 def _solve_small(M: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -251,7 +265,7 @@ def installed_cvxpy_solvers() -> tuple[str, ...]:
 
 
 @lru_cache(maxsize=64)
-def _cvxpy_problem(n: int, m: int):  # noqa: ANN202 - returns (problem, z, G, h)
+def _cvxpy_problem(n: int, m: int):  # noqa: ANN202 - returns (problem, w, G, h)
     """The DPP-parametrised least-distance problem for n spheres, compiled on first solve."""
     import cvxpy as cp
 
@@ -297,7 +311,31 @@ def solver_options(solver: str) -> dict:
     return dict(SOLVER_OPTIONS.get(solver.upper(), {}))
 
 
+def _scaled_instance(
+    G: NDArray[np.float64], h: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """The least-distance problem rescaled for an interior-point solver.
+
+    ``min |z|^2 s.t. G z <= h`` has rows of norm ``sigma_i`` (a spread of the sigma ratio) and
+    an optimum ``|z|`` of up to ``1e5`` on grossly inconsistent ranges, so the solver's
+    absolute tolerances (1e-10) meet relative ones of 1e-15 and it stops early.  Rows are
+    normalised to unit length and ``z = s w`` with ``s`` the largest distance from the origin
+    to a violated half-space (a lower bound on ``|z*|``), so that ``|w*|`` is of order one.
+    Returns ``(G_hat, h_hat, s)``.
+    """
+    norms = np.linalg.norm(G, axis=1)
+    norms = np.where(norms > 0, norms, 1.0)
+    Gn = G / norms[:, None]
+    hn = h / norms
+    s = float(max(-hn.min(), 0.0)) or 1.0
+    return Gn, hn / s, s
+
+
 def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
+    """Scaled solve (see :func:`_scaled_instance`), then an exact polish on the rows the solver
+    reports active; the answer is called ``"optimal"`` only when the solver said so and the
+    polish ended on an exact KKT point (multipliers >= 0, no violated row), else
+    ``"optimal_inaccurate"`` (a solver's own ``optimal_inaccurate`` is never upgraded)."""
     import cvxpy as cp
 
     name = (solver or "CLARABEL").upper()
@@ -306,9 +344,10 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
             f"cvxpy solver {name!r} is not installed; installed: "
             f"{', '.join(installed_cvxpy_solvers())}. Install e.g. `pip install osqp scs ecos`."
         )
-    prob, z, G, h = _cvxpy_problem(*p.G.shape[::-1])
-    G.value = p.G
-    h.value = p.h
+    prob, w, G, h = _cvxpy_problem(*p.G.shape[::-1])
+    Gs, hs, s = _scaled_instance(p.G, p.h)
+    G.value = Gs
+    h.value = hs
     try:
         if name == "OSQP":  # OSQP 1.x prints a line per solve even when not verbose (osqp#785)
             with contextlib.redirect_stdout(io.StringIO()):
@@ -318,10 +357,23 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
     except cp.error.SolverError as exc:
         raise SolverError(f"cvxpy solver {name} failed: {exc}") from exc
     status = _CVXPY_STATUS.get(str(prob.status), "error")
-    if status in ("error", "infeasible") or z.value is None:
+    if status in ("error", "infeasible") or w.value is None:
         # The restriction polytope is never empty, so 'infeasible' is a solver failure too.
         raise SolverError(f"cvxpy solver {name} returned status {prob.status!r}; no answer")
-    return np.asarray(z.value, dtype=np.float64), status
+    w_raw = np.asarray(w.value, dtype=np.float64)
+    dual = prob.constraints[0].dual_value
+    slack = hs - Gs @ w_raw
+    if dual is not None:
+        y = np.asarray(dual, dtype=np.float64)
+        support = (y > 1e-7 * max(float(y.max()), 1e-12)) | (slack <= 1e-9)
+    else:
+        support = slack <= 1e-7
+    if hs.min() >= 0:  # the measured radii are feasible: the answer is exactly z = 0
+        return np.zeros(p.G.shape[1]), status
+    w_exact, certified = _polish_certified(Gs, hs, w_raw, support)
+    if not certified:
+        return s * w_raw, "optimal_inaccurate"
+    return s * w_exact, status
 
 
 # --------------------------------------------------------------------------------- paper
