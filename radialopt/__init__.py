@@ -131,3 +131,8 @@ __all__ += [
 from .vertices import VertexEnumeration, certify_projection, enumerate_vertices, project_vform  # noqa: E402
 
 __all__ += ["VertexEnumeration", "certify_projection", "enumerate_vertices", "project_vform"]
+
+# --- certificates of global optimality of the ML position (issue 11) ---
+from .certificates import CERTIFICATE_METHODS, Certificate, certify_position  # noqa: E402
+
+__all__ += ["CERTIFICATE_METHODS", "Certificate", "certify_position"]

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from itertools import combinations
 
 import numpy as np
@@ -47,6 +47,7 @@ from scipy.linalg import eigh
 from scipy.optimize import brentq
 from scipy.spatial import cKDTree
 
+from .certificates import Certificate, certify_arrays
 from .conformal import MeetStatus, meet3_batch
 from .errors import (
     NonFiniteError,
@@ -162,6 +163,9 @@ class PositionEstimate:
         Density of each candidate.
     solve_time : float
         Seconds.
+    certificate : Certificate or None
+        With ``certify=True``: the proof (or failed attempt) that ``position`` minimises the
+        ML cost globally (:func:`radialopt.certify_position`); None otherwise.
     """
 
     position: NDArray[np.float64]
@@ -173,6 +177,7 @@ class PositionEstimate:
     message: str = ""
     candidate_density: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     solve_time: float = 0.0
+    certificate: Certificate | None = None
 
 
 # --- Fisher information ------------------------------------------------------------------
@@ -631,6 +636,7 @@ def estimate_position(
     region: Region | None = None,
     rng: np.random.Generator | None = None,
     options: EstimatorOptions = ESTIMATOR_OPTIONS,
+    certify: bool = False,
 ) -> PositionEstimate:
     """Estimate the robot position from Gaussian spheres.
 
@@ -647,6 +653,10 @@ def estimate_position(
         Adds ``options.random_seeds`` uniformly drawn seeds ("ml", "gradient").  Without it
         the estimate is deterministic and uses only geometric seeds.
     options : EstimatorOptions
+    certify : bool
+        Fill ``PositionEstimate.certificate`` for the returned position with
+        :func:`radialopt.certify_position` (default budgets); a NaN position gets an
+        uncertified certificate.
 
     Returns
     -------
@@ -659,6 +669,14 @@ def estimate_position(
     RadialError
         Invalid spheres (e.g. :class:`~radialopt.errors.CoincidentCentersError`).
     """
+    if certify:
+        est = estimate_position(spheres, method, region, rng, options, certify=False)
+        c, r, s = sphere_arrays(list(spheres), min_count=0, check_centers=False)
+        if len(c) and np.all(np.isfinite(est.position)):
+            cert = certify_arrays(c, r, s, est.position)
+        else:
+            cert = Certificate(False, "none", 0.0, float("inf"), 0.0, f"no position: {est.message}")
+        return replace(est, certificate=cert, solve_time=est.solve_time + cert.solve_time)
     t0 = time.perf_counter()
     if method not in _METHODS:
         raise UnknownMethodError(f"unknown position method {method!r}; choose one of "
