@@ -136,3 +136,8 @@ __all__ += ["VertexEnumeration", "certify_projection", "enumerate_vertices", "pr
 from .certificates import CERTIFICATE_METHODS, Certificate, certify_position  # noqa: E402
 
 __all__ += ["CERTIFICATE_METHODS", "Certificate", "certify_position"]
+
+# --- the reusable cvxpy formulation (l2 / l1 / Huber, added constraints) ---
+from .formulation import OBJECTIVES, RadialProblem  # noqa: E402
+
+__all__ += ["OBJECTIVES", "RadialProblem"]
