@@ -4,7 +4,9 @@
 
 Problems: n = 3..8 spheres, feasible and infeasible, well and badly scaled.  Solvers: the
 active-set fast path, vertex enumeration in V-form (n <= 6), the paper's eq. 17, and every
-installed QP-capable cvxpy solver (Clarabel, OSQP, SCS, ECOS, HiGHS, ...).  Prints a Markdown
+installed QP-capable cvxpy solver (Clarabel, OSQP, SCS, ECOS, HiGHS, ...), and the
+RadialProblem objectives (l2, l1, Huber) with Clarabel.  "success" counts only status
+"optimal" within tolerance; "optimal_inaccurate" has its own column.  Prints a Markdown
 table and writes it with a CSV of every run into --out.  Runs in local processes by default;
 with --scheduler they go to a Dask distributed cluster instead.  Timing columns are cleanest
 with --workers 1.

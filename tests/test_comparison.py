@@ -1,6 +1,7 @@
 """Solver comparison: the library function behind examples/05_compare_solvers.py."""
 
 import csv
+import dataclasses
 import io
 import math
 
@@ -93,6 +94,47 @@ def test_markdown_and_csv_outputs(problems):
     assert len(rows) == len(runs) and rows[0]["solver"] == "active_set"
 
 
+def test_optimal_inaccurate_has_its_own_column_and_is_never_success():
+    def run(status, ok):
+        return Run("s", "p", 3, True, "well", ok, status, 1e-3, 0.0, 0.0)
+
+    runs = [run("optimal", True), run("optimal_inaccurate", False), run("optimal", True),
+            run("error", False)]
+    (s,) = summarize(runs)
+    assert s.success_rate == 0.5 and s.inaccurate_rate == 0.25
+    table = markdown_table([s])
+    assert "| optimal_inaccurate |" in table.splitlines()[0]
+    assert "| 50.0% | 25.0% |" in table
+
+
+def test_runs_count_optimal_inaccurate_apart_from_success(problems, monkeypatch):
+    import radialopt.comparison as cmp
+
+    real = cmp.solve_with
+
+    def degraded(name, spheres):
+        sol = real(name, spheres)
+        return dataclasses.replace(sol, status="optimal_inaccurate")
+
+    monkeypatch.setattr(cmp, "solve_with", degraded)
+    runs = compare_solvers(problems[:3], ["cvxpy:CLARABEL"], workers=1)
+    assert all(r.inaccurate and not r.success for r in runs)
+    assert summarize(runs)[0].inaccurate_rate == 1.0
+
+
+def test_formulation_rows_run_and_l2_matches_exact(problems):
+    names = available_solvers()
+    assert {"formulation:l2", "formulation:l1", "formulation:huber"} <= set(names)
+    runs = compare_solvers(problems, ["formulation:l2", "formulation:l1", "formulation:huber"],
+                           workers=1)
+    assert all(r.success for r in runs)
+    assert all(r.distance < 1e-6 for r in runs if r.solver == "formulation:l2")
+    table = markdown_table(summarize(runs))
+    assert "| formulation:huber |" in table
+
+
 def test_unknown_solver_is_rejected(problems):
     with pytest.raises(UnknownMethodError, match="nope"):
         compare_solvers(problems, ["nope"])
+    with pytest.raises(UnknownMethodError, match="formulation:l3"):
+        compare_solvers(problems, ["formulation:l3"])
