@@ -30,7 +30,13 @@ which is a least-distance problem.  Four methods, one entry point :func:`project
 
 ``check=True`` verifies any method's answer against the vertex enumeration (V-form optimality
 certificate and the V-form optimum) and raises :class:`~radialopt.errors.VerificationError`
-on disagreement.
+on disagreement; ``check="exact"`` does the same in exact rational arithmetic with pycddlib's
+GMP mode (:func:`verify_solution_exact`).
+
+The cvxpy path rescales the whitened problem for the solver (unit rows, ``z`` in units of the
+largest violation), then polishes the answer exactly on the rows the solver reports active;
+it reports ``"optimal"`` only when the polish ends on an exact KKT point and the solver said
+``optimal``, otherwise ``"optimal_inaccurate"``.
 """
 
 from __future__ import annotations
@@ -40,6 +46,7 @@ import io
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from fractions import Fraction
 from functools import cached_property, lru_cache
 from itertools import combinations
 
@@ -446,7 +453,7 @@ def project_radii(
     spheres: Sequence[GaussianSphere],
     method: str = "active_set",
     solver: str | None = None,
-    check: bool = False,
+    check: bool | str = False,
     tol: Tolerances = TOLERANCES,
 ) -> RadialSolution:
     """Project measured radii onto the restriction polytope in normalised radial space.
@@ -459,9 +466,12 @@ def project_radii(
         Backend, see the module docstring.
     solver : str, optional
         cvxpy solver name for ``method="cvxpy"`` (default ``"CLARABEL"``).
-    check : bool
-        Verify the answer against explicit vertex enumeration; raise
-        :class:`~radialopt.errors.VerificationError` on disagreement.
+    check : bool or "exact"
+        True: verify the answer against explicit vertex enumeration in floating point;
+        ``"exact"``: verify it in exact rational arithmetic with pycddlib's GMP mode
+        (:func:`verify_solution_exact`; :class:`~radialopt.errors.UnknownMethodError` when
+        ``cdd.gmp`` is missing).  Either raises :class:`~radialopt.errors.VerificationError`
+        on disagreement.
     tol : Tolerances
         Numerical tolerances.
 
@@ -480,6 +490,10 @@ def project_radii(
         raise UnknownMethodError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if solver is not None and method != "cvxpy":
         raise UnknownMethodError(f"solver={solver!r} only applies to method='cvxpy', not {method!r}")
+    if check not in (False, True, "exact"):
+        raise UnknownMethodError(f"check must be False, True or 'exact', got check={check!r}")
+    if check == "exact":
+        _cdd_gmp()  # fail before solving when the exact mode is missing
     problem = _Problem.build(spheres, tol)
     t0 = time.perf_counter()
     z, status = _BACKENDS[method](problem, solver, tol)
@@ -487,7 +501,9 @@ def project_radii(
         raise SolverError(f"method {method!r} found no feasible radii (status {status!r})")
     solver_name = (solver or "CLARABEL").upper() if method == "cvxpy" else None
     sol = problem.solution(z, status, method, solver_name, t0)
-    if check:
+    if check == "exact":
+        verify_solution_exact(spheres, sol, tol)
+    elif check:
         verify_solution(spheres, sol, tol)
     return sol
 
@@ -589,3 +605,157 @@ def verify_solution(
             f"{sol.method}: radii {sol.radii.tolist()} differ from the vertex-enumeration "
             f"optimum {ref.tolist()} by {gap:.3g} m (tolerance {atol:.3g}); certificate: {message}"
         )
+
+
+# ------------------------------------------------------------------------ exact check
+def _cdd_gmp():  # noqa: ANN202 - returns (cdd, cdd.gmp)
+    """pycddlib and its exact rational mode, or a clear error when the GMP mode is missing."""
+    try:
+        import cdd
+        import cdd.gmp as gmp
+    except ImportError as exc:
+        raise UnknownMethodError(
+            "check='exact' needs pycddlib's exact rational mode (the module cdd.gmp), which is "
+            "not installed here; install a pycddlib built with GMP (e.g. `pip install pycddlib` "
+            "with libcdd and libgmp present), or use check=True (float vertex check)"
+        ) from exc
+    return cdd, gmp
+
+
+def _exact_generators(A: list[list[Fraction]], b: list[Fraction]) -> tuple[list, list]:
+    """Vertices and rays of ``{x : A x <= b}`` in exact rational arithmetic (pycddlib GMP)."""
+    cdd, gmp = _cdd_gmp()
+    rows = [[bi] + [-a for a in row] for row, bi in zip(A, b, strict=True)]
+    mat = gmp.matrix_from_array(rows, rep_type=cdd.RepType.INEQUALITY)
+    gen = gmp.copy_generators(gmp.polyhedron_from_matrix(mat))
+    if gen.lin_set:
+        raise VerificationError("exact enumeration: the polyhedron contains a line")
+    vertices, rays = [], []
+    for row in gen.array:
+        head = Fraction(row[0])
+        if head != 0:
+            vertices.append([Fraction(v) / head for v in row[1:]])
+        else:
+            rays.append([Fraction(v) for v in row[1:]])
+    return vertices, rays
+
+
+def _independent_rows(rows: list[list[Fraction]]) -> list[int]:
+    """Indices of a maximal linearly independent subset of ``rows`` (exact elimination)."""
+    basis: list[tuple[int, list[Fraction]]] = []  # (pivot column, reduced row)
+    keep = []
+    for i, row in enumerate(rows):
+        v = list(row)
+        for col, brow in basis:
+            if v[col] != 0:
+                f = v[col] / brow[col]
+                v = [a - f * c for a, c in zip(v, brow, strict=True)]
+        piv = next((j for j, a in enumerate(v) if a != 0), None)
+        if piv is not None:
+            basis.append((piv, v))
+            keep.append(i)
+    return keep
+
+
+def _solve_rational(M: list[list[Fraction]], rhs: list[Fraction]) -> list[Fraction] | None:
+    """Gauss-Jordan elimination in Fractions; None when M is singular."""
+    k = len(rhs)
+    aug = [list(M[i]) + [rhs[i]] for i in range(k)]
+    for c in range(k):
+        p = next((r for r in range(c, k) if aug[r][c] != 0), None)
+        if p is None:
+            return None
+        aug[c], aug[p] = aug[p], aug[c]
+        piv = aug[c][c]
+        aug[c] = [a / piv for a in aug[c]]
+        for r in range(k):
+            if r != c and aug[r][c] != 0:
+                f = aug[r][c]
+                aug[r] = [a - f * bb for a, bb in zip(aug[r], aug[c], strict=True)]
+    return [aug[i][k] for i in range(k)]
+
+
+def _exact_kkt_point(
+    A: list[list[Fraction]], b: list[Fraction], r: list[Fraction], s2: list[Fraction],
+    active: list[int],
+) -> list[Fraction] | None:
+    """The sigma-weighted projection of r onto the affine set ``A_S x = b_S`` (exact)."""
+    n = len(r)
+    S = [active[i] for i in _independent_rows([A[j] for j in active])]
+    if not S:
+        return list(r)
+    AS = [A[j] for j in S]
+    M = [[sum(AS[i][t] * s2[t] * AS[j][t] for t in range(n)) for j in range(len(S))]
+         for i in range(len(S))]
+    rhs = [b[j] - sum(A[j][t] * r[t] for t in range(n)) for j in S]
+    y = _solve_rational(M, rhs)
+    if y is None:
+        return None
+    return [r[t] + s2[t] * sum(AS[i][t] * y[i] for i in range(len(S))) for t in range(n)]
+
+
+def verify_solution_exact(
+    spheres: Sequence[GaussianSphere], sol: RadialSolution, tol: Tolerances = TOLERANCES
+) -> None:
+    """``check="exact"``: verify a solution against vertex enumeration in rational arithmetic.
+
+    The float data (``A``, ``b`` from the centre distances, radii, sigmas and the answer) are
+    read as exact Fractions, the polyhedron's vertices and rays are enumerated exactly by
+    pycddlib's GMP mode, and:
+
+    1. the returned radii satisfy ``A x <= b + atol`` (exactly evaluated);
+    2. the rows tight at the answer (slack <= atol) define, exactly, the sigma-weighted
+       projection ``x*`` of the measured radii onto their affine hull; ``x*`` must lie in the
+       polyhedron exactly and satisfy the variational inequality
+       ``(x* - r)/sigma^2 . (v - x*) >= 0`` for every exact vertex v and ``. d >= 0`` for every
+       ray d -- an exact certificate that ``x*`` is *the* optimum;
+    3. the returned radii are within ``atol = tol.agreement * scale`` of ``x*``.
+
+    Raises
+    ------
+    UnknownMethodError
+        pycddlib's GMP mode (``cdd.gmp``) is not installed.
+    VerificationError
+        Any of the three conditions fails.
+    """
+    problem = _Problem.build(spheres, tol)
+    P = problem.polytope
+    A = [[Fraction(int(a)) if float(a).is_integer() else Fraction(float(a)) for a in row]
+         for row in np.asarray(P.A)]
+    b = [Fraction(float(v)) for v in P.b]
+    r = [Fraction(float(v)) for v in problem.radii]
+    s2 = [Fraction(float(v)) ** 2 for v in problem.sigmas]
+    x = [Fraction(float(v)) for v in sol.radii]
+    n = len(r)
+    atol = Fraction(tol.agreement * problem.scale)
+    vertices, rays = _exact_generators(A, b)
+    slack = [b[i] - sum(A[i][t] * x[t] for t in range(n)) for i in range(len(b))]
+    worst = min(range(len(b)), key=lambda i: slack[i])
+    if slack[worst] < -atol:
+        raise VerificationError(
+            f"{sol.method} (exact check): radii violate row {worst} by {float(-slack[worst]):.3g} "
+            f"(tolerance {float(atol):.3g})")
+    if sol.method == "paper":
+        return
+    candidates = [[i for i in range(len(b)) if abs(slack[i]) <= atol], list(sol.active_rows)]
+    for active in candidates:
+        xs = _exact_kkt_point(A, b, r, s2, active)
+        if xs is None or any(sum(A[i][t] * xs[t] for t in range(n)) > b[i] for i in range(len(b))):
+            continue
+        g = [(xs[t] - r[t]) / s2[t] for t in range(n)]
+        gx = sum(g[t] * xs[t] for t in range(n))
+        if any(sum(g[t] * v[t] for t in range(n)) < gx for v in vertices):
+            continue
+        if any(sum(g[t] * d[t] for t in range(n)) < 0 for d in rays):
+            continue
+        gap = max(abs(x[t] - xs[t]) for t in range(n))
+        if gap > atol:
+            raise VerificationError(
+                f"{sol.method} (exact check): radii {sol.radii.tolist()} differ from the exact "
+                f"optimum {[float(v) for v in xs]} by {float(gap):.3g} m (tolerance "
+                f"{float(atol):.3g})")
+        return
+    raise VerificationError(
+        f"{sol.method} (exact check): the facets tight at radii {sol.radii.tolist()} do not give "
+        f"an exactly optimal point over the {len(vertices)} exact vertices and {len(rays)} rays; "
+        "the answer is not the optimum within tolerance")

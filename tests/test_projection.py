@@ -303,3 +303,81 @@ def test_uncertified_answer_is_not_called_optimal(monkeypatch):
     monkeypatch.setattr(proj, "_polish_certified", lambda G, h, z, s: (z, False))
     sol = ro.project_radii(hard_spheres(26), method="cvxpy")
     assert sol.status == "optimal_inaccurate"
+
+
+# ------------------------------------------------------------------ check="exact"
+def _has_gmp():
+    try:
+        import cdd.gmp  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _rational_bruteforce(A, b):
+    """Exact vertices (every n-subset of rows, Fractions) and the restriction ray (1, ..., 1):
+    an independent stand-in for pycddlib's GMP mode where it is not installed."""
+    from itertools import combinations
+
+    from radialopt.projection import _solve_rational
+
+    n = len(A[0])
+    verts = set()
+    for S in combinations(range(len(A)), n):
+        x = _solve_rational([A[i] for i in S], [b[i] for i in S])
+        if x is not None and all(sum(a * v for a, v in zip(row, x, strict=True)) <= bi
+                                 for row, bi in zip(A, b, strict=True)):
+            verts.add(tuple(x))
+    return [list(v) for v in verts], [[1] * n]
+
+
+@pytest.fixture
+def exact_mode(monkeypatch):
+    """Real cdd.gmp when installed, else the rational brute force above."""
+    import radialopt.projection as proj
+
+    if not _has_gmp():
+        monkeypatch.setattr(proj, "_cdd_gmp", lambda: (None, None))
+        monkeypatch.setattr(proj, "_exact_generators", _rational_bruteforce)
+
+
+@pytest.mark.parametrize("n", [3, 4])
+def test_exact_check_accepts_every_method(exact_mode, n):
+    spheres = infeasible_spheres(np.random.default_rng(30 + n), n)
+    for method in ("active_set", "cvxpy", "vertices", "paper"):
+        assert ro.project_radii(spheres, method=method, check="exact").status == "optimal"
+
+
+def test_exact_check_rejects_a_feasible_but_wrong_answer(exact_mode):
+    from radialopt.projection import verify_solution_exact
+
+    spheres = infeasible_spheres(np.random.default_rng(33), 3)
+    sol = ro.project_radii(spheres)
+    moved = sol.radii + 1e-3  # along the ray: still feasible, no longer optimal
+    bad = ro.RadialSolution(moved, moved - (sol.radii - sol.displacement), sol.density,
+                            "optimal", "active_set", None, 0.0, sol.active_rows)
+    with pytest.raises(ro.VerificationError, match="exact"):
+        verify_solution_exact(spheres, bad)
+    outside = ro.RadialSolution(0.0 * sol.radii, sol.displacement, sol.density, "optimal",
+                                "active_set", None, 0.0)
+    with pytest.raises(ro.VerificationError, match="violate"):
+        verify_solution_exact(spheres, outside)
+
+
+@pytest.mark.skipif(_has_gmp(), reason="pycddlib's GMP mode is installed")
+def test_exact_check_without_gmp_names_the_missing_mode():
+    spheres = infeasible_spheres(np.random.default_rng(34), 3)
+    with pytest.raises(ro.UnknownMethodError, match="cdd.gmp"):
+        ro.project_radii(spheres, check="exact")
+
+
+def test_check_argument_is_validated():
+    spheres = infeasible_spheres(np.random.default_rng(35), 3)
+    with pytest.raises(ro.UnknownMethodError, match="check"):
+        ro.project_radii(spheres, check="rational")
+
+
+@pytest.mark.skipif(not _has_gmp(), reason="pycddlib's GMP mode (cdd.gmp) is not installed")
+def test_exact_check_with_gmp_on_a_hard_instance():
+    spheres = hard_spheres(HARD_SEEDS[0], n=5)
+    assert ro.project_radii(spheres, method="cvxpy", check="exact").status == "optimal"
