@@ -35,6 +35,7 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import networkx as nx
 import numpy as np
@@ -209,6 +210,10 @@ class AssociationHypothesis:
     complete : bool
         False when the clique search hit ``max_nodes`` or ``max_cliques``: other hypotheses
         of the same size may exist (a highly repetitive world); treat as ambiguous.
+    radial : radialopt.RadialSolution or None
+        Filled by :func:`~worldgraph.localize`: the projection of the hypothesis' Gaussian
+        spheres (centre = model object, radius = percept range, sigma) onto their restriction
+        polytope, the paper's range-consistency score (its ``normalized_displacement``).
     """
 
     pairs: tuple[tuple[int, int], ...]
@@ -218,6 +223,7 @@ class AssociationHypothesis:
     validated: tuple[tuple[int, int], ...] = ()
     inliers: int = 0
     complete: bool = True
+    radial: Any = None
 
     @property
     def all_pairs(self) -> tuple[tuple[int, int], ...]:

@@ -41,12 +41,13 @@ import itertools
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
+from scipy.stats import chi2
 
 import radialopt as ro
 from perception import Percept
@@ -242,7 +243,8 @@ def _check_bound(name: str, value: object) -> float:
 def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml", *,
              tolerances: AssociationTolerances | None = None, region: ro.Region | None = None,
              rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
-             max_rotation_3sigma: float = MAX_ROTATION_3SIGMA) -> LocalizationResult:
+             max_rotation_3sigma: float = MAX_ROTATION_3SIGMA, solver: str = "active_set",
+             check: bool = False) -> LocalizationResult:
     """Pose of the robot (``world_from_ego``) from percepts of known world objects.
 
     Parameters
@@ -268,6 +270,14 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         ``"weak"``.
     max_rotation_3sigma : float
         Radians; likewise for the rotation (worst axis).
+    solver : str
+        How every validated hypothesis' radial problem (the design card's convex problem: its
+        Gaussian spheres projected onto their restriction polytope, kept as
+        ``AssociationHypothesis.radial``) is solved: ``"active_set"`` (exact, default) or the
+        name of an installed cvxpy solver (``"CLARABEL"``, ...), compiled once per sphere count.
+    check : bool
+        Verify every radial solution against explicit vertex enumeration (raises
+        ``radialopt.VerificationError`` on disagreement).
 
     Returns
     -------
@@ -297,6 +307,14 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         raise WorldGraphError(f"region must be a radialopt.Region, got {type(region).__name__}")
     if rng is not None and not isinstance(rng, np.random.Generator):
         raise WorldGraphError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    if not isinstance(solver, str):
+        raise WorldGraphError(f"solver must be 'active_set' or a cvxpy solver name, got {solver!r}")
+    solver_name = solver if solver == "active_set" else solver.upper()
+    if solver_name != "active_set" and solver_name not in ro.installed_cvxpy_solvers():
+        raise WorldGraphError(f"solver {solver!r} is neither 'active_set' nor an installed cvxpy solver "
+                              f"({', '.join(ro.installed_cvxpy_solvers())})")
+    if not isinstance(check, bool | np.bool_):
+        raise WorldGraphError(f"check must be a bool, got {check!r}")
     pos_tol = _check_bound("max_position_3sigma", max_position_3sigma)
     rot_tol = _check_bound("max_rotation_3sigma", max_rotation_3sigma)
 
@@ -309,7 +327,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     notes = [f"ignored {int((~known).sum())} percept(s) of unknown type(s) {unknown}"] if unknown else []
     idx = np.flatnonzero(known)
     used = [percepts[i] for i in idx]
-    timings = {"association": 0.0, "validation": 0.0, "position": 0.0, "orientation": 0.0}
+    timings = {"association": 0.0, "validation": 0.0, "radial": 0.0, "position": 0.0, "orientation": 0.0}
     if len(used) < max(3, tol.min_clique_size):
         timings["total"] = time.perf_counter() - t_start
         return _failed("too_few_percepts", "; ".join(notes + [
@@ -331,7 +349,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     covs = percept_covariances(used)
     nearest = NearestObjects(world, [p.type for p in used])
     ctx = _Context(world, used, ego, covs, nearest, idx, n_all, reg, explicit, tol, pos_tol, rot_tol,
-                   notes, timings, t_start)
+                   notes, timings, t_start, solver_name, bool(check))
     if method == "paper":
         return _paper(ctx, hyps_local)
     return _validated(ctx, hyps_local, method, rng)
@@ -354,6 +372,8 @@ class _Context:
     notes: list[str]
     timings: dict[str, float]
     t_start: float
+    solver: str = "active_set"
+    check: bool = False
 
     def remap(self, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
         return tuple((int(self.idx[p]), int(o)) for p, o in pairs)
@@ -387,11 +407,24 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
         fit = fit_hypothesis(ctx.world, ctx.ego, ctx.covs, ctx.nearest, h.all_pairs, h.world_from_ego)
         if fit is not None and fit.pairs not in fits:  # converged to the same inliers: one answer
             fits[fit.pairs] = (fit, h_i)
-    distinct = sorted(fits.values(), key=lambda f: (f[0].cost, -f[0].inliers, f[1]))
     ctx.timings["validation"] = time.perf_counter() - t0
+    # the card's convex problem for every validated hypothesis: the Gaussian spheres of its
+    # matches (clique and validated percepts, one per distinct centre) projected
+    # onto their restriction polytope; a displacement beyond the chi-square gate means ranges
+    # that cannot belong to one robot position (the paper's range-consistency test)
+    t0 = time.perf_counter()
+    radial = {key: _radial(ctx, hyps_local[h_i].all_pairs) for key, (_, h_i) in fits.items()}
+    ctx.timings["radial"] = time.perf_counter() - t0
+    consistent = {key: v for key, v in fits.items() if _range_consistent(radial[key])}
+    if len(consistent) < len(fits):
+        ctx.notes.append(f"{len(fits) - len(consistent)} hypothesis fit(s) rejected: their ranges do not "
+                         "meet (radial projection beyond the chi-square gate)")
+    distinct = sorted(consistent.values(), key=lambda f: (f[0].cost, _radial_score(radial[f[0].pairs]),
+                                                           -f[0].inliers, f[1]))
     order = [h_i for _, h_i in distinct]
-    hyps = tuple(_remap(hyps_local[i], ctx.idx) for i in order) + tuple(
-        _remap(h, ctx.idx) for i, h in enumerate(hyps_local) if i not in order)
+    sol_of = {h_i: radial[f.pairs] for f, h_i in fits.values()}
+    hyps = tuple(replace(_remap(hyps_local[i], ctx.idx), radial=sol_of[i]) for i in order) + tuple(
+        replace(_remap(h, ctx.idx), radial=sol_of.get(i)) for i, h in enumerate(hyps_local) if i not in order)
     incomplete = not hyps_local[0].complete
     if not distinct:
         return ctx.failed("degenerate", "no hypothesis has 3 inliers that fix a 6D pose (collinear "
@@ -443,6 +476,30 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
         ambiguous = True
     return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, est, check=True,
                    status_hint=status)
+
+
+def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]]) -> ro.RadialSolution | None:
+    """:func:`radialopt.project_radii` of the spheres of ``pairs`` (one per distinct centre) with
+    the solver asked for; None with fewer than two spheres."""
+    sph = _distinct_centres(ctx.world, pairs)
+    if len(sph) < 2:
+        return None
+    p_i = np.array([p for p, _ in sph])
+    spheres = ro.make_spheres(ctx.world.positions[np.array([o for _, o in sph])],
+                              np.linalg.norm(ctx.ego[p_i], axis=1), [ctx.used[p].sigma for p in p_i])
+    if ctx.solver == "active_set":
+        return ro.project_radii(spheres, method="active_set", check=ctx.check)
+    return ro.project_radii(spheres, method="cvxpy", solver=ctx.solver, check=ctx.check)
+
+
+def _radial_score(sol: ro.RadialSolution | None) -> float:
+    """Minus twice the log density kept by the radial projection (0 when the ranges meet)."""
+    return 0.0 if sol is None else float(sol.normalized_displacement) ** 2
+
+
+def _range_consistent(sol: ro.RadialSolution | None, alpha: float = 1e-3) -> bool:
+    """The radial displacement is within the ``1 - alpha`` chi-square gate (n degrees of freedom)."""
+    return sol is None or _radial_score(sol) <= float(chi2.ppf(1.0 - alpha, len(sol.radii)))
 
 
 def _pose_nees(fit: PoseFit, other: NDArray) -> float:
@@ -570,7 +627,9 @@ def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int,
 
 def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> LocalizationResult:
     """The paper's pipeline: its association's best hypothesis, radial position, eq. 5."""
-    hyps = tuple(_remap(h, ctx.idx) for h in hyps_local)
+    t0 = time.perf_counter()
+    hyps = tuple(replace(_remap(h, ctx.idx), radial=_radial(ctx, h.pairs + h.validated)) for h in hyps_local)
+    ctx.timings["radial"] = time.perf_counter() - t0
     ambiguous = is_ambiguous(hyps_local, ctx.tol) or not hyps_local[0].complete
     best = hyps_local[0]
     if ambiguous and len(hyps_local) > 1:
