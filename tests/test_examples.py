@@ -13,6 +13,7 @@ EXAMPLES = {
     "03_localize_kitchen.py": ["03_localize_kitchen.png"],
     "04_from_images.py": ["04_from_images.png"],
     "05_compare_solvers.py": ["solver_comparison.md", "solver_comparison.csv"],
+    "06_robust_ranges.py": ["06_robust_ranges.png"],
 }
 
 

@@ -105,17 +105,3 @@ def test_ecos_status_maps_like_project_radii():
     spheres = infeasible_spheres(np.random.default_rng(8), 3)
     sol = RadialProblem(3).solve(spheres, solver="ECOS")
     assert sol.status in ("optimal", "optimal_inaccurate") and sol.solver == "ECOS"
-
-
-def test_robust_ranges_example_runs_in_smoke_mode(tmp_path):
-    """examples/06 (tests/test_examples.py lists the older examples)."""
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    script = Path(__file__).resolve().parents[1] / "examples" / "06_robust_ranges.py"
-    done = subprocess.run([sys.executable, str(script), "--smoke", "--out", str(tmp_path)],
-                          capture_output=True, text=True, timeout=300, cwd=tmp_path)
-    assert done.returncode == 0, done.stderr[-2000:]
-    assert "| huber | optimal |" in done.stdout
-    assert (tmp_path / "06_robust_ranges.png").stat().st_size > 100
