@@ -62,3 +62,46 @@ def test_active_set_is_the_default_and_bad_solvers_raise(kitchen_case) -> None:
         localize(world, percepts, check="yes")
     with pytest.raises(WorldGraphError, match="solver"):
         localize(world, percepts, solver=3)
+
+
+def test_localize_certificate_agrees_with_brute_force_multistart() -> None:
+    """certify=True: the ML pose is proven global, and no multi-start finds a lower cost."""
+    from scipy.spatial.transform import Rotation
+
+    from perception import Percept
+    from worldgraph.model import WorldModel
+    from worldgraph.pose import refine_pose
+    from worldgraph.validation import percept_covariances, pose_cost
+
+    rng = np.random.default_rng(12)
+    for trial in range(4):
+        n = 4 + trial
+        world = WorldModel.from_arrays([f"t{k}" for k in range(n)],
+                                       rng.uniform([0, 0, 0], [4, 4, 2.5], (n, 3)))
+        pose = np.eye(4)
+        pose[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
+        pose[:3, 3] = [2.0, -2.5, 1.5]
+        ego = (world.positions - pose[:3, 3]) @ pose[:3, :3]
+        sig = 0.05
+        percepts = [Percept(str(t), e + rng.normal(0, sig, 3), sig)
+                    for t, e in zip(world.types, ego, strict=True)]
+        res = localize(world, percepts, certify=True, max_rotation_3sigma=3.0, max_position_3sigma=10.0)
+        assert res.certificate is not None and res.certificate.certified, res.certificate
+        x = np.array([p.position for p in percepts])
+        covs = percept_covariances(percepts)
+        X = world.positions[[o for _, o in sorted(res.correspondences)]]
+        x = x[[p for p, _ in sorted(res.correspondences)]]
+        covs = covs[[p for p, _ in sorted(res.correspondences)]]
+        mine = pose_cost(res.transformation, x, covs, X)
+        best = np.inf
+        for R0 in Rotation.random(30, random_state=trial).as_matrix():
+            start = np.eye(4)
+            start[:3, :3] = R0
+            start[:3, 3] = X.mean(axis=0) - R0 @ x.mean(axis=0)
+            T, _ = refine_pose(x, X, covs, start)
+            best = min(best, pose_cost(T, x, covs, X))
+        assert mine <= best + 1e-7 * max(1.0, best)
+        assert res.certificate.lower_bound <= best + 1e-7 * max(1.0, best)
+    assert localize(world, percepts).certificate is None
+    with pytest.raises(WorldGraphError, match="certify"):
+        localize(world, percepts, certify="yes")

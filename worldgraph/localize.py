@@ -63,6 +63,7 @@ from .association import (
 from .errors import UnknownTypeError, WorldGraphError
 from .model import WorldModel
 from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
+from .pose_certificate import certify_pose, solve_pose_sdp
 from .validation import (
     CHI2_3_GATE,
     CHI2_6_GATE,
@@ -71,6 +72,7 @@ from .validation import (
     calibrated_pose_covariance,
     fit_hypothesis,
     percept_covariances,
+    pose_cost,
     rotation_only_covariance,
     self_check,
 )
@@ -176,6 +178,10 @@ class LocalizationResult:
     log_likelihood_ratio : float
         Half the robust-cost difference between the runner-up and the chosen pose (inf when no
         runner-up was validated).
+    certificate : radialopt.Certificate or None
+        With ``certify=True``: whether the pose is proven the global minimum of the ML cost of
+        its matches (the rotation SDP of :mod:`worldgraph.pose_certificate`), with the proven
+        lower bound and the gap.  None otherwise.
     """
 
     transformation: NDArray[np.float64]
@@ -194,6 +200,7 @@ class LocalizationResult:
     residuals: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     alternatives: tuple[NDArray[np.float64], ...] = ()
     log_likelihood_ratio: float = math.inf
+    certificate: ro.Certificate | None = None
 
     @property
     def unique(self) -> bool:
@@ -244,7 +251,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
              tolerances: AssociationTolerances | None = None, region: ro.Region | None = None,
              rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
              max_rotation_3sigma: float = MAX_ROTATION_3SIGMA, solver: str = "active_set",
-             check: bool = False) -> LocalizationResult:
+             check: bool = False, certify: bool = False) -> LocalizationResult:
     """Pose of the robot (``world_from_ego``) from percepts of known world objects.
 
     Parameters
@@ -278,6 +285,10 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     check : bool
         Verify every radial solution against explicit vertex enumeration (raises
         ``radialopt.VerificationError`` on disagreement).
+    certify : bool
+        Fill ``certificate``: the rotation SDP's proof (or not) that the returned pose is the
+        global minimum of the ML cost of its matched percepts.  With 3 or 4 matches the SDP is
+        also the solver (``"ml"``).
 
     Returns
     -------
@@ -315,6 +326,8 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
                               f"({', '.join(ro.installed_cvxpy_solvers())})")
     if not isinstance(check, bool | np.bool_):
         raise WorldGraphError(f"check must be a bool, got {check!r}")
+    if not isinstance(certify, bool | np.bool_):
+        raise WorldGraphError(f"certify must be a bool, got {certify!r}")
     pos_tol = _check_bound("max_position_3sigma", max_position_3sigma)
     rot_tol = _check_bound("max_rotation_3sigma", max_rotation_3sigma)
 
@@ -349,7 +362,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     covs = percept_covariances(used)
     nearest = NearestObjects(world, [p.type for p in used])
     ctx = _Context(world, used, ego, covs, nearest, idx, n_all, reg, explicit, tol, pos_tol, rot_tol,
-                   notes, timings, t_start, solver_name, bool(check))
+                   notes, timings, t_start, solver_name, bool(check), bool(certify))
     if method == "paper":
         return _paper(ctx, hyps_local)
     return _validated(ctx, hyps_local, method, rng)
@@ -374,6 +387,7 @@ class _Context:
     t_start: float
     solver: str = "active_set"
     check: bool = False
+    certify: bool = False
 
     def remap(self, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
         return tuple((int(self.idx[p]), int(o)) for p, o in pairs)
@@ -456,6 +470,12 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     if method == "ml":
         t0 = time.perf_counter()
         pose = best.world_from_ego
+        if ctx.certify and len(pairs) <= 4:  # few matches: the rotation SDP is a global solver
+            sdp_pose, _ = solve_pose_sdp(ctx.ego[p_i], centers, ctx.covs[p_i])
+            if pose_cost(sdp_pose, ctx.ego[p_i], ctx.covs[p_i], centers) < \
+                    pose_cost(pose, ctx.ego[p_i], ctx.covs[p_i], centers) - 1e-12:
+                pose = sdp_pose
+                ctx.notes.append("the rotation SDP found a better pose than the local fit")
         cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
         ctx.timings["position"] = time.perf_counter() - t0
         return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, None, check=False)
@@ -615,6 +635,14 @@ def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int,
                                  f"{ctx.pos_tol:.3g})"
                                  f" and {math.degrees(rot3):.3g} deg (tolerance "
                                  f"{math.degrees(ctx.rot_tol):.3g})")
+    certificate = None
+    if ctx.certify:
+        t0 = time.perf_counter()
+        try:
+            certificate = certify_pose(ctx.ego[p_i], centers, ctx.covs[p_i], pose)
+        except WorldGraphError as exc:  # e.g. a degenerate match set: no certificate, say why
+            ctx.notes.append(f"no certificate: {exc}")
+        ctx.timings["certificate"] = time.perf_counter() - t0
     ctx.timings["total"] = time.perf_counter() - ctx.t_start
     return LocalizationResult(
         transformation=pose.copy(), position=position, covariance=cov6[:3, :3].copy(),
@@ -622,7 +650,7 @@ def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int,
         status=status, message="; ".join(n for n in ctx.notes if n), timings=ctx.timings,  # type: ignore[arg-type]
         position_estimate=est, pose_covariance=cov6, fitness=n_inl / max(ctx.n_all, 1),
         inlier_rmse=float(np.sqrt(np.mean(dist**2))) if n_inl else math.nan, residuals=residuals,
-        alternatives=alternatives, log_likelihood_ratio=llr)
+        alternatives=alternatives, log_likelihood_ratio=llr, certificate=certificate)
 
 
 def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> LocalizationResult:
