@@ -259,21 +259,8 @@ class RadialProblem:
             raise SolverError(
                 f"RadialProblem(objective={self.objective!r}) with solver {name}: status "
                 f"{self.problem.status!r}, no answer (infeasible added constraints?)")
-        radii = np.asarray(x, dtype=np.float64)
-        z = (radii - inst.radii) / inst.sigmas
-        slack = inst.b - self.A @ radii
-        active = tuple(np.flatnonzero(np.abs(slack) <= 1e-7 * inst.scale).tolist())
-        return RadialSolution(
-            radii=radii,
-            displacement=radii - inst.radii,
-            density=float(np.exp(-0.5 * float(z @ z))),
-            status=status,
-            method=f"formulation:{self.objective}",
-            solver=name,
-            solve_time=time.perf_counter() - t0,
-            active_rows=active,
-            normalized_displacement=float(np.sqrt(z @ z)),
-        )
+        z = (np.asarray(x, dtype=np.float64) - inst.radii) / inst.sigmas
+        return inst.solution(z, status, f"formulation:{self.objective}", name, t0)
 
     def __repr__(self) -> str:
         extra = f", huber_delta={self.huber_delta}" if self.objective == "huber" else ""
