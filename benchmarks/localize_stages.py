@@ -27,17 +27,7 @@ from layouts import landmark_world, sample_pose, simulate  # noqa: E402
 
 import radialopt as ro  # noqa: E402
 from worldgraph import scenes  # noqa: E402
-from worldgraph.localize import localize  # noqa: E402
-
-
-def spheres_of(world, percepts, h) -> list:
-    pairs: list[tuple[int, int]] = []
-    for p, o in h.all_pairs:
-        if all(np.linalg.norm(world.positions[o] - world.positions[q]) > 1e-9 for _, q in pairs):
-            pairs.append((p, o))
-    pairs.sort()
-    return ro.make_spheres(world.positions[[o for _, o in pairs]],
-                           [percepts[p].range for p, _ in pairs], [percepts[p].sigma for p, _ in pairs])
+from worldgraph.localize import localize, match_spheres  # noqa: E402
 
 
 def main() -> None:
@@ -72,7 +62,7 @@ def main() -> None:
                 per_set.append(h.radial.solve_time)
                 sizes.append(len(h.radial.radii))
                 if solver != "active_set":
-                    exact = ro.project_radii(spheres_of(world, percepts, h))
+                    exact = ro.project_radii(match_spheres(world, percepts, h.all_pairs)[2])
                     worst = max(worst, float(np.max(np.abs(exact.radii - h.radial.radii))))
         ms = np.array(per_set) * 1e3
         dist = "-" if solver == "active_set" else f"{worst:.1e}"

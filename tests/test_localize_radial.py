@@ -10,7 +10,7 @@ import radialopt as ro
 from perception.simulate import simulate_percepts
 from worldgraph import scenes
 from worldgraph.errors import WorldGraphError
-from worldgraph.localize import localize
+from worldgraph.localize import localize, match_spheres
 
 
 @pytest.fixture(scope="module")
@@ -25,16 +25,6 @@ def kitchen_case():
     return world, percepts[:5] + percepts[-1:], pose  # <= 6 spheres: vertex enumeration stays fast
 
 
-def spheres_of(world, percepts, h):
-    pairs = []
-    for p, o in h.all_pairs:
-        if all(np.linalg.norm(world.positions[o] - world.positions[q]) > 1e-9 for _, q in pairs):
-            pairs.append((p, o))
-    pairs.sort()
-    return ro.make_spheres(world.positions[[o for _, o in pairs]],
-                           [percepts[p].range for p, _ in pairs], [percepts[p].sigma for p, _ in pairs])
-
-
 @pytest.mark.parametrize("method", ["ml", "spheres", "paper"])
 def test_clarabel_with_vertex_check_on_every_evaluated_hypothesis(kitchen_case, method: str) -> None:
     world, percepts, pose = kitchen_case
@@ -45,7 +35,7 @@ def test_clarabel_with_vertex_check_on_every_evaluated_hypothesis(kitchen_case, 
         assert res.hypotheses[0].radial is not None
     for h in evaluated:
         assert h.radial.method == "cvxpy" and h.radial.solver == "CLARABEL"
-        exact = ro.project_radii(spheres_of(world, percepts, h), method="active_set")
+        exact = ro.project_radii(match_spheres(world, percepts, h.all_pairs)[2], method="active_set")
         assert np.max(np.abs(h.radial.radii - exact.radii)) <= 1e-7
         assert h.radial.status == "optimal"
     assert res.timings["radial"] > 0.0

@@ -87,6 +87,7 @@ __all__ = [
     "LocalizeStatus",
     "default_region",
     "localize",
+    "match_spheres",
 ]
 
 #: ``"ml"``: the maximum-likelihood 6D pose from the full 3D percepts (their covariances);
@@ -498,15 +499,25 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
                    status_hint=status)
 
 
+def match_spheres(world: WorldModel, percepts: Sequence[Percept], pairs: Sequence[tuple[int, int]]
+                  ) -> tuple[NDArray[np.intp], NDArray[np.intp], list[ro.GaussianSphere]]:
+    """The Gaussian spheres of matched pairs ``(percept index, object index)``: one per distinct
+    model position (centre = object, radius = percept range, sigma = percept sigma), sorted by
+    percept; with the percept and object index of each."""
+    sph = _distinct_centres(world, pairs)
+    p_i = np.array([p for p, _ in sph], dtype=np.intp)
+    o_i = np.array([o for _, o in sph], dtype=np.intp)
+    spheres = ro.make_spheres(world.positions[o_i], [percepts[p].range for p in p_i],
+                              [percepts[p].sigma for p in p_i]) if len(sph) else []
+    return p_i, o_i, spheres
+
+
 def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]]) -> ro.RadialSolution | None:
-    """:func:`radialopt.project_radii` of the spheres of ``pairs`` (one per distinct centre) with
+    """:func:`radialopt.project_radii` of the spheres of ``pairs`` (:func:`match_spheres`) with
     the solver asked for; None with fewer than two spheres."""
-    sph = _distinct_centres(ctx.world, pairs)
-    if len(sph) < 2:
+    _, _, spheres = match_spheres(ctx.world, ctx.used, pairs)
+    if len(spheres) < 2:
         return None
-    p_i = np.array([p for p, _ in sph])
-    spheres = ro.make_spheres(ctx.world.positions[np.array([o for _, o in sph])],
-                              np.linalg.norm(ctx.ego[p_i], axis=1), [ctx.used[p].sigma for p in p_i])
     if ctx.solver == "active_set":
         return ro.project_radii(spheres, method="active_set", check=ctx.check)
     return ro.project_radii(spheres, method="cvxpy", solver=ctx.solver, check=ctx.check)
@@ -541,11 +552,9 @@ def _sphere_position(ctx: _Context, pairs: tuple[tuple[int, int], ...], estimato
     candidates told apart by ``t_ref``), its status and its CRLB.
     """
     t0 = time.perf_counter()
-    sph_pairs = _distinct_centres(ctx.world, pairs)
-    sp = np.array([p for p, _ in sph_pairs])
-    centers = ctx.world.positions[np.array([o for _, o in sph_pairs])]
+    sp, o_i, spheres = match_spheres(ctx.world, ctx.used, pairs)
+    centers = ctx.world.positions[o_i]
     sig = np.array([ctx.used[p].sigma for p in sp])
-    spheres = ro.make_spheres(centers, np.linalg.norm(ctx.ego[sp], axis=1), sig)
     est = ro.estimate_position(spheres, method=estimator, region=ctx.region, rng=rng)
     ctx.timings["position"] = time.perf_counter() - t0
     position, status = _choose_candidate(ctx, est, t_ref)

@@ -354,9 +354,8 @@ def curved_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
     second = 0.5 * (second + second.T)
     # a curved error is not elliptical: where the curvature matters, widen the ellipsoid until its
     # 3-sigma gate holds the 3-sigma share of the propagated distribution (a fixed normal sample)
-    ratio = np.linalg.eigvalsh(np.linalg.solve(np.linalg.cholesky(cov + 1e-300 * np.eye(6)),
-                                               np.linalg.solve(np.linalg.cholesky(cov + 1e-300 * np.eye(6)),
-                                                               second).T))
+    L = np.linalg.cholesky(cov + 1e-300 * np.eye(6))
+    ratio = np.linalg.eigvalsh(np.linalg.solve(L, np.linalg.solve(L, second).T))  # of L^-1 S L^-T
     if np.max(np.abs(ratio - 1.0)) > 0.01:
         pts = _TAIL_SAMPLE @ root.T
         turned = Rotation.from_rotvec(pts[:, 3:]).apply(v) - v
