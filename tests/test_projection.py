@@ -316,7 +316,7 @@ def _has_gmp():
 
 def _rational_bruteforce(A, b):
     """Exact vertices (every n-subset of rows, Fractions) and the restriction ray (1, ..., 1):
-    an independent stand-in for pycddlib's GMP mode where it is not installed."""
+    an independent reference for pycddlib's GMP mode."""
     from itertools import combinations
 
     from radialopt.projection import _solve_rational
@@ -332,13 +332,28 @@ def _rational_bruteforce(A, b):
 
 
 @pytest.fixture
-def exact_mode(monkeypatch):
-    """Real cdd.gmp when installed, else the rational brute force above."""
-    import radialopt.projection as proj
-
+def exact_mode():
+    """pycddlib's exact mode; skipped only where it is not installed (CI installs it)."""
     if not _has_gmp():
-        monkeypatch.setattr(proj, "_cdd_gmp", lambda: (None, None))
-        monkeypatch.setattr(proj, "_exact_generators", _rational_bruteforce)
+        pytest.skip("pycddlib's exact mode (cdd.gmp) is not installed")
+
+
+@pytest.mark.parametrize("n", [3, 4])
+def test_gmp_generators_equal_rational_bruteforce(exact_mode, n):
+    """pycddlib's rational enumeration against every n-subset of rows solved in Fractions."""
+    from fractions import Fraction
+
+    from radialopt.polytope import RestrictionPolytope
+    from radialopt.projection import _exact_generators
+
+    centers = np.random.default_rng(40 + n).uniform(-3, 3, (n, 3))
+    P = RestrictionPolytope.from_centers(centers)
+    A = [[Fraction(float(a)) for a in row] for row in P.A]
+    b = [Fraction(float(v)) for v in P.b]
+    verts, rays = _exact_generators(A, b)
+    ref_verts, _ = _rational_bruteforce(A, b)
+    assert sorted(map(tuple, verts)) == sorted(map(tuple, ref_verts))
+    assert len(rays) == 1 and len(set(rays[0])) == 1 and rays[0][0] > 0  # the ray (1, ..., 1)
 
 
 @pytest.mark.parametrize("n", [3, 4])
@@ -364,8 +379,10 @@ def test_exact_check_rejects_a_feasible_but_wrong_answer(exact_mode):
         verify_solution_exact(spheres, outside)
 
 
-@pytest.mark.skipif(_has_gmp(), reason="pycddlib's GMP mode is installed")
-def test_exact_check_without_gmp_names_the_missing_mode():
+def test_exact_check_without_gmp_names_the_missing_mode(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "cdd.gmp", None)  # import cdd.gmp now raises ImportError
     spheres = infeasible_spheres(np.random.default_rng(34), 3)
     with pytest.raises(ro.UnknownMethodError, match="cdd.gmp"):
         ro.project_radii(spheres, check="exact")
@@ -377,7 +394,6 @@ def test_check_argument_is_validated():
         ro.project_radii(spheres, check="rational")
 
 
-@pytest.mark.skipif(not _has_gmp(), reason="pycddlib's GMP mode (cdd.gmp) is not installed")
-def test_exact_check_with_gmp_on_a_hard_instance():
+def test_exact_check_with_gmp_on_a_hard_instance(exact_mode):
     spheres = hard_spheres(HARD_SEEDS[0], n=5)
     assert ro.project_radii(spheres, method="cvxpy", check="exact").status == "optimal"

@@ -203,13 +203,42 @@ def test_bruteforce_near_double_description_on_degenerate_inputs(n: int, data) -
 @given(data=st.data())
 @settings(max_examples=10)
 def test_degenerate_inputs_are_complete(strategy, data) -> None:
-    """pycddlib's float mode is unreliable here and its exact mode (cdd.gmp) is not installed,
-    so completeness is checked against LPs over the H-form instead."""
+    """pycddlib's float mode is unreliable here, so completeness is checked against LPs over the
+    H-form (and, below, against pycddlib's exact mode)."""
     n = data.draw(st.integers(3, 6))
     P = RestrictionPolytope.from_centers(data.draw(strategy(n)))
     E = enumerate_vertices(P, method="double_description")
     assert_valid_enumeration(P, E)
     assert_complete(P, E, np.random.default_rng(data.draw(st.integers(0, 2**32 - 1))))
+
+
+def exact_generators(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and unit rays of the float polyhedron in exact rational arithmetic (cdd.gmp)."""
+    from fractions import Fraction
+
+    gmp = pytest.importorskip("cdd.gmp", reason="pycddlib's exact mode (cdd.gmp) is not installed")
+    rows = [[Fraction(float(bi))] + [-Fraction(float(a)) for a in row] for row, bi in zip(A, b, strict=True)]
+    gen = gmp.copy_generators(gmp.polyhedron_from_matrix(
+        gmp.matrix_from_array(rows, rep_type=cdd.RepType.INEQUALITY)))
+    verts = [[float(Fraction(v) / Fraction(r[0])) for v in r[1:]] for r in gen.array if Fraction(r[0]) != 0]
+    rays = np.array([[float(v) for v in r[1:]] for r in gen.array if Fraction(r[0]) == 0])
+    return np.array(verts), rays / np.linalg.norm(rays, axis=1)[:, None]
+
+
+@pytest.mark.parametrize("strategy", [collinear_centers, one_height_centers, integer_centers])
+@given(data=st.data())
+@settings(max_examples=8)
+def test_degenerate_inputs_match_exact_enumeration(strategy, data) -> None:
+    """Exactly degenerate centre sets: double description equals pycddlib's rational-arithmetic
+    enumeration of the same (float) polyhedron, vertex for vertex."""
+    n = data.draw(st.integers(3, 5))
+    P = RestrictionPolytope.from_centers(data.draw(strategy(n)))
+    E = enumerate_vertices(P, method="double_description")
+    V, R = exact_generators(P.A, P.b)
+    scale = max(1.0, float(np.abs(P.b).max()))
+    # ties within the merge tolerance collapse to one vertex in floating point, never in exact mode
+    assert hausdorff(E.vertices, V) <= TOL["vertex"] * scale
+    assert hausdorff(E.rays, R) <= TOL["ray"]
 
 
 @pytest.mark.parametrize(
