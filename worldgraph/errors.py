@@ -7,12 +7,16 @@ can catch the whole family at once or a single case.
 from __future__ import annotations
 
 __all__ = [
+    "ArgumentTypeError",
     "CoincidentObjectsError",
     "EmptyWorldError",
     "ImporterError",
     "MalformedFileError",
     "NonFiniteError",
     "NonPositiveError",
+    "NonRigidError",
+    "OutOfRangeError",
+    "PoseError",
     "ShapeError",
     "TooFewPerceptsError",
     "UnknownGeometryError",
@@ -35,6 +39,19 @@ class NonFiniteError(WorldGraphError):
 
 class NonPositiveError(WorldGraphError):
     """A length that must be positive (or non-negative) is not."""
+
+
+class ArgumentTypeError(WorldGraphError):
+    """A value of the wrong kind: None, bool, str or complex where a number is meant, a float
+    where an integer is meant, a non-Generator where a random generator is meant."""
+
+
+class OutOfRangeError(WorldGraphError):
+    """A value outside its documented range (e.g. a coordinate above 1e6 m, a negative count)."""
+
+
+class NonRigidError(WorldGraphError):
+    """A transform that must be rigid is scaled, sheared or reflected (or its last row is wrong)."""
 
 
 class EmptyWorldError(WorldGraphError):

@@ -1,0 +1,221 @@
+"""Validation helpers of :mod:`worldgraph` (private): one place for argument checks.
+
+Every helper takes the ARGUMENT NAME first and raises a :class:`~worldgraph.errors.WorldGraphError`
+subclass whose message names the argument, the index of a bad element (where there is one) and
+the offending value.  They return the validated value in a canonical form (``float``, ``int``,
+a float64 array, a :class:`numpy.random.Generator`).
+
+* :func:`float_array` -- real, finite float64 array of a given shape (``None`` = any length),
+  optionally bounded by ``max_abs``; complex, bool, str, None, ragged input rejected.
+* :func:`finite_float`, :func:`positive_float` -- a real scalar (int or float, not bool).
+* :func:`strict_int` -- an integer (Python or numpy int, not bool/float/NaN/None/str), in range.
+* :func:`rigid_transform` -- a (4, 4) rigid transform: finite, last row ``0 0 0 1``, rotation
+  orthonormal with determinant +1 (no scale, shear or reflection).
+* :func:`generator`, :func:`rng_from_seed` -- a :class:`numpy.random.Generator`, or a seed.
+* :func:`name_string` -- a non-empty ``str`` without NUL characters.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import (
+    ArgumentTypeError,
+    NonFiniteError,
+    NonPositiveError,
+    NonRigidError,
+    OutOfRangeError,
+    ShapeError,
+    WorldGraphError,
+)
+
+__all__ = [
+    "RIGID_TOLERANCE",
+    "finite_float",
+    "float_array",
+    "generator",
+    "name_string",
+    "positive_float",
+    "rigid_transform",
+    "rng_from_seed",
+    "strict_int",
+]
+
+#: Largest allowed ``|R^T R - I|`` entry and ``|det R - 1|`` of a rigid transform's rotation.
+RIGID_TOLERANCE = 1e-6
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+
+
+def _short(value: Any, limit: int = 200) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _index(idx: tuple[int, ...]) -> str:
+    return "[" + ", ".join(str(int(i)) for i in idx) + "]"
+
+
+def _shape_ok(shape: tuple[int, ...], want: tuple[int | None, ...]) -> bool:
+    return len(shape) == len(want) and all(w is None or w == s for s, w in zip(shape, want, strict=True))
+
+
+def _shape_text(want: tuple[int | None, ...]) -> str:
+    return "(" + ", ".join("k" if w is None else str(w) for w in want) + ("," if len(want) == 1 else "") + ")"
+
+
+def float_array(name: str, value: Any, shape: tuple[int | None, ...] | None = None, *,
+                max_abs: float | None = None, min_size: int = 0) -> NDArray[np.float64]:
+    """``value`` as a new finite float64 array of ``shape`` (``None`` entries: any length).
+
+    Raises :class:`ArgumentTypeError` (None, str, bool, complex or non-numeric elements),
+    :class:`ShapeError` (ragged input or wrong shape, fewer than ``min_size`` elements),
+    :class:`NonFiniteError` (NaN/inf, naming the first bad index and value) and
+    :class:`OutOfRangeError` (an element with ``|x| > max_abs``).
+    """
+    if value is None or isinstance(value, str | bytes):
+        raise ArgumentTypeError(f"{name} must be an array of real numbers, got {_short(value)}")
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ShapeError(f"{name} must be a rectangular array of real numbers, got {_short(value)}") from exc
+    if raw.dtype.kind == "c":
+        raise ArgumentTypeError(f"{name} must be real, got complex values {_short(value)}")
+    if raw.dtype.kind == "b":
+        raise ArgumentTypeError(f"{name} must be real numbers, got booleans {_short(value)}")
+    if raw.dtype.kind not in "fiuO":
+        raise ArgumentTypeError(f"{name} must be an array of real numbers, got dtype {raw.dtype} "
+                                f"{_short(value)}")
+    if raw.dtype.kind == "O":
+        flat = raw.reshape(-1)
+        for k, item in enumerate(flat):
+            if (isinstance(item, bool | np.bool_) or not isinstance(item, numbers.Real)
+                    or isinstance(item, complex)):
+                idx = np.unravel_index(k, raw.shape) if raw.ndim else ()
+                raise ArgumentTypeError(f"{name}{_index(idx)} must be a real number, got {_short(item)}")
+            try:
+                float(item)
+            except OverflowError as exc:
+                idx = np.unravel_index(k, raw.shape) if raw.ndim else ()
+                raise NonFiniteError(f"{name}{_index(idx)} = {_short(item)} does not fit a float64") from exc
+    try:
+        arr = np.array(raw, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise NonFiniteError(f"{name} must hold real numbers representable as float64, "
+                             f"got {_short(value)}") from exc
+    if shape is not None and not _shape_ok(arr.shape, shape):
+        raise ShapeError(f"{name} must have shape {_shape_text(shape)}, got shape {arr.shape}")
+    if arr.size < min_size:
+        raise ShapeError(f"{name} must hold at least {min_size} element(s), got shape {arr.shape}")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        idx = tuple(np.argwhere(bad)[0]) if arr.ndim else ()
+        raise NonFiniteError(f"{name}{_index(idx)} must be finite, got {float(arr[idx])!r}")
+    if max_abs is not None:
+        over = np.abs(arr) > max_abs
+        if over.any():
+            idx = tuple(np.argwhere(over)[0]) if arr.ndim else ()
+            raise OutOfRangeError(f"{name}{_index(idx)} = {float(arr[idx])!r} is out of range: "
+                                  f"|value| must be <= {max_abs:g}")
+    return arr
+
+
+def _real_scalar(name: str, value: Any) -> float:
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        raise ArgumentTypeError(f"{name} must be a real number, got {_short(value)}")
+    try:
+        return float(value)
+    except OverflowError as exc:  # a Python int above ~1.8e308
+        raise NonFiniteError(f"{name} = {_short(value)} does not fit a float64") from exc
+
+
+def finite_float(name: str, value: Any, *, max_abs: float | None = None) -> float:
+    """A finite real scalar as ``float`` (bool, complex, str, None rejected)."""
+    x = _real_scalar(name, value)
+    if not math.isfinite(x):
+        raise NonFiniteError(f"{name} must be finite, got {x!r}")
+    if max_abs is not None and abs(x) > max_abs:
+        raise OutOfRangeError(f"{name} = {x!r} is out of range: |value| must be <= {max_abs:g}")
+    return x
+
+
+def positive_float(name: str, value: Any, *, allow_zero: bool = False, maximum: float | None = None) -> float:
+    """A finite real scalar ``> 0`` (``>= 0`` with ``allow_zero``), at most ``maximum``."""
+    x = finite_float(name, value)
+    if x < 0 or (x == 0 and not allow_zero):
+        raise NonPositiveError(f"{name} must be {'>= 0' if allow_zero else '> 0'}, got {x!r}")
+    if maximum is not None and x > maximum:
+        raise OutOfRangeError(f"{name} = {x!r} is out of range: must be <= {maximum:g}")
+    return x
+
+
+def strict_int(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
+    """An integer (``int`` or numpy integer; not bool, float, NaN, None, str) in ``[minimum, maximum]``."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
+        raise ArgumentTypeError(f"{name} must be an integer, got {_short(value)}")
+    n = int(value)
+    if minimum is not None and n < minimum:
+        raise OutOfRangeError(f"{name} must be >= {minimum}, got {n}")
+    if maximum is not None and n > maximum:
+        raise OutOfRangeError(f"{name} must be <= {maximum}, got {n}")
+    return n
+
+
+def rigid_transform(name: str, value: Any, *, tol: float = RIGID_TOLERANCE,
+                    max_translation: float | None = None) -> NDArray[np.float64]:
+    """A (4, 4) rigid transform as a new float64 array.
+
+    Finite, last row ``[0, 0, 0, 1]`` (within ``tol``), rotation block ``R`` with
+    ``max |R^T R - I| <= tol`` and ``|det R - 1| <= tol``: scaled, sheared and reflected
+    transforms raise :class:`NonRigidError` naming the determinant and the orthogonality error.
+    ``max_translation`` bounds ``|t_i|`` (:class:`OutOfRangeError`).
+    """
+    m = float_array(name, value, (4, 4))
+    if np.abs(m[3] - _LAST_ROW).max() > tol:
+        raise NonRigidError(f"{name} last row must be [0, 0, 0, 1], got {m[3].tolist()}")
+    rot = m[:3, :3]
+    orth = float(np.abs(rot.T @ rot - np.eye(3)).max())
+    det = float(np.linalg.det(rot))
+    if not (orth <= tol and abs(det - 1.0) <= tol):
+        kind = "a reflection" if det < 0 else "scaled or sheared"
+        raise NonRigidError(f"{name} must be rigid (rotation with R^T R = I, det R = +1), but it is {kind}: "
+                            f"det R = {det:.6g}, max |R^T R - I| = {orth:.3g} (tolerance {tol:g})")
+    if max_translation is not None:
+        over = np.abs(m[:3, 3]) > max_translation
+        if over.any():
+            i = int(np.argmax(over))
+            raise OutOfRangeError(f"{name}[{i}, 3] = {float(m[i, 3])!r} is out of range: "
+                                  f"|translation| must be <= {max_translation:g}")
+    return m
+
+
+def generator(name: str, value: Any) -> np.random.Generator:
+    """``value`` if it is a :class:`numpy.random.Generator`, else :class:`ArgumentTypeError`."""
+    if not isinstance(value, np.random.Generator):
+        raise ArgumentTypeError(f"{name} must be a numpy.random.Generator, got {_short(value)}")
+    return value
+
+
+def rng_from_seed(name: str, value: Any) -> np.random.Generator:
+    """A Generator from ``None`` (fresh entropy), a non-negative integer seed or a Generator."""
+    if value is None:
+        return np.random.default_rng()
+    if isinstance(value, np.random.Generator):
+        return value
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
+        raise ArgumentTypeError(f"{name} must be None, a non-negative integer seed or a "
+                                f"numpy.random.Generator, got {_short(value)}")
+    return np.random.default_rng(strict_int(name, value, minimum=0))
+
+
+def name_string(name: str, value: Any, error: type[WorldGraphError] = WorldGraphError) -> str:
+    """A non-empty ``str`` without NUL characters (``error`` otherwise)."""
+    if not isinstance(value, str) or not value:
+        raise error(f"{name} must be a non-empty string, got {_short(value)}")
+    if "\x00" in value:
+        raise error(f"{name} must not contain NUL characters, got {_short(value)}")
+    return value
