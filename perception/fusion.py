@@ -6,16 +6,22 @@ form its delineation set, which is melted into one fused percept. Sets with fewe
 
 With the Epanechnikov kernel the mean-shift step is the (weighted) mean of the points inside
 the kernel's support (its shadow is the flat kernel), so each iteration is exact and the
-procedure stops at a fixed point after finitely many steps.
+procedure stops at a fixed point after finitely many steps. The support is bounded (the unit
+ball in whitened coordinates), so the points inside it are found exactly by a k-d tree
+(``scipy.spatial.cKDTree.query_ball_point``); memory is O(n + neighbour pairs of a chunk),
+never an n x n array.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 
+from ._checks import integer, real_array, real_scalar, spd
 from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
 from .percept import Percept
 
@@ -25,24 +31,103 @@ DEFAULT_BANDWIDTH = 0.1
 MERGE_RADIUS = 0.5
 """Converged points closer than this (in bandwidth units) belong to one mode."""
 
+MAX_WHITENED = 1e150
+"""Largest coordinate (in bandwidth units) the fusion accepts; beyond it squares overflow."""
 
-def _bandwidth_matrix(name: str, value: float | ArrayLike) -> NDArray[np.float64]:
-    """A (3, 3) SPD bandwidth matrix from a radius (metres) or a matrix."""
-    try:
-        H = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a float or a (3, 3) matrix, got {value!r}") from exc
-    if not np.all(np.isfinite(H)):
-        raise NonFiniteError(f"{name} must be finite, got {H.tolist()}")
+SIGMA_RANGE = (1e-150, 1e150)
+"""Percept sigmas (metres) fusion accepts: their variances must be normal floats."""
+
+VARIANCE_RANGE = (1e-300, 1e300)
+"""Largest covariance entry (m^2) of a percept or bandwidth matrix that fusion accepts."""
+
+MAX_ITER_LIMIT = 1_000_000
+"""Largest ``max_iter`` accepted."""
+
+_PAIR_BUDGET = 2_000_000  # neighbour pairs held at once per chunk of mean-shift queries
+_SLACK = 1e-9  # the tree is queried slightly beyond the support; the exact test follows
+
+
+def _bandwidth_factor(name: str, value: Any, d: int) -> NDArray[np.float64] | float:
+    """Whitening factor of a bandwidth: the radius ``h`` (float) or the Cholesky factor ``L`` of ``H``."""
+    H = real_array(name, value)
     if H.ndim == 0:
-        if H <= 0:
-            raise NonPositiveSigmaError(f"{name} must be > 0, got {float(H)!r}")
-        return float(H) ** 2 * np.eye(3)
-    if H.shape != (3, 3):
-        raise ShapeError(f"{name} must be a scalar or shape (3, 3), got shape {H.shape}")
-    if not np.allclose(H, H.T, rtol=1e-10, atol=1e-15) or np.linalg.eigvalsh(H).min() <= 0:
-        raise NonPositiveSigmaError(f"{name} must be symmetric positive definite, got {H.tolist()}")
-    return H
+        h = real_scalar(name, value, positive=True)
+        if not SIGMA_RANGE[0] <= h <= SIGMA_RANGE[1]:
+            raise NonPositiveSigmaError(f"{name} must lie in [{SIGMA_RANGE[0]:g}, {SIGMA_RANGE[1]:g}] "
+                                        f"(length units), got {h!r}")
+        return h
+    if H.shape != (d, d):
+        raise ShapeError(f"{name} must be a scalar or shape ({d}, {d}), got shape {H.shape}")
+    H = spd(name, H, d)
+    top = float(np.max(np.abs(H)))
+    if not VARIANCE_RANGE[0] <= top <= VARIANCE_RANGE[1]:
+        raise NonPositiveSigmaError(f"{name}: largest entry must lie in [{VARIANCE_RANGE[0]:g}, "
+                                    f"{VARIANCE_RANGE[1]:g}], got {top!r}")
+    return np.linalg.cholesky(H)
+
+
+def _whiten(X: NDArray[np.float64], L: NDArray[np.float64] | float) -> NDArray[np.float64]:
+    with np.errstate(over="ignore", invalid="ignore"):
+        if isinstance(L, float):
+            return X / L
+        return np.linalg.solve(L, X.T).T
+
+
+def _neighbour_means(
+    tree: cKDTree, Z: NDArray[np.float64], w: NDArray[np.float64], Y: NDArray[np.float64], radius: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Weighted sums ``sum w_j Z_j`` and ``sum w_j`` over ``|Z_j - Y_i| < radius``, per row of ``Y``.
+
+    Processed in chunks so that at most about ``_PAIR_BUDGET`` neighbour pairs are held at once.
+    """
+    m, d = Y.shape
+    num = np.zeros((m, d))
+    den = np.zeros(m)
+    if m == 0:
+        return num, den
+    counts = np.asarray(tree.query_ball_point(Y, radius * (1.0 + _SLACK), return_length=True))
+    csum = np.cumsum(counts)
+    start = 0
+    while start < m:
+        base = csum[start - 1] if start else 0
+        stop = int(np.searchsorted(csum, base + _PAIR_BUDGET, side="right"))
+        stop = min(max(stop, start + 1), m)
+        lists = tree.query_ball_point(Y[start:stop], radius * (1.0 + _SLACK))
+        lens = np.fromiter((len(lst) for lst in lists), dtype=np.int64, count=stop - start)
+        if lens.sum():
+            flat = np.concatenate([np.asarray(lst, dtype=np.int64) for lst in lists])
+            owner = np.repeat(np.arange(stop - start), lens)
+            d2 = np.sum((Y[start:stop][owner] - Z[flat]) ** 2, axis=1)
+            wk = np.where(d2 < radius**2, w[flat], 0.0)
+            den[start:stop] = np.bincount(owner, wk, minlength=stop - start)
+            for k in range(d):
+                num[start:stop, k] = np.bincount(owner, wk * Z[flat, k], minlength=stop - start)
+        start = stop
+    return num, den
+
+
+def _first_rep_labels(Y: NDArray[np.float64], radius: float) -> NDArray[np.int64]:
+    """Label of each point: the mode of the first earlier representative closer than ``radius``.
+
+    Equivalent to scanning the points in order and joining the first (lowest-index)
+    representative within ``radius`` or founding a new one; a new representative claims every
+    later unclaimed point within ``radius`` (each claimed point's lowest-index rep in reach).
+    """
+    n = Y.shape[0]
+    labels = np.full(n, -1, dtype=np.int64)
+    tree = cKDTree(Y)
+    k = 0
+    for i in range(n):
+        if labels[i] >= 0:
+            continue
+        labels[i] = k
+        nb = np.asarray(tree.query_ball_point(Y[i], radius * (1.0 + _SLACK)), dtype=np.int64)
+        if nb.size:
+            near = nb[(nb > i) & (labels[nb] < 0)]
+            near = near[np.sum((Y[near] - Y[i]) ** 2, axis=1) < radius**2]
+            labels[near] = k
+        k += 1
+    return labels
 
 
 def mean_shift_modes(
@@ -58,19 +143,21 @@ def mean_shift_modes(
     A point ``y`` moves to the weighted mean of the points ``x`` with
     ``(x - y)^T H^-1 (x - y) < 1``; a float bandwidth ``h`` means ``H = h^2 I``. Points whose
     fixed points lie within ``MERGE_RADIUS`` (in ``H`` units) of a mode's first member (in
-    input order) share that mode.
+    input order) share that mode. The points inside the kernel are found with a k-d tree;
+    memory grows linearly with the number of points (and neighbour pairs).
 
     Parameters
     ----------
     points : (n, d) float
+        Finite, in length units (e.g. metres).
     bandwidth : float or (d, d) float
-        Kernel radius (length units) or SPD bandwidth matrix.
+        Kernel radius (length units, in [1e-150, 1e150]) or SPD bandwidth matrix (length^2).
     weights : (n,) float, optional
-        Positive point weights (default 1).
+        Positive finite point weights (default 1); only their ratios matter.
     max_iter : int
-        Iteration limit per point.
+        Iteration limit per point, in [1, 1e6].
     tol : float
-        A point has converged when it moves less than ``tol`` (bandwidth units).
+        A point has converged when it moves less than ``tol`` (bandwidth units), > 0.
 
     Returns
     -------
@@ -79,65 +166,51 @@ def mean_shift_modes(
     labels : (n,) int
         Mode index of each point.
     """
-    try:
-        X = np.array(points, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"points must be a float array of shape (n, d), got {points!r}") from exc
-    if X.ndim != 2:
-        raise ShapeError(f"points must have shape (n, d), got shape {X.shape}")
-    if not np.all(np.isfinite(X)):
-        raise NonFiniteError(f"points must be finite, got {X.tolist()}")
+    X = real_array("points", points, (-1, -1))
     n, d = X.shape
-    H = np.array(bandwidth, dtype=np.float64)
-    if H.ndim == 0:
-        H = _bandwidth_matrix("bandwidth", bandwidth)[0, 0] * np.eye(d)
-    elif d == 3:
-        H = _bandwidth_matrix("bandwidth", bandwidth)
-    elif H.shape != (d, d) or not np.all(np.isfinite(H)) or np.linalg.eigvalsh(H).min() <= 0:
-        raise ShapeError(f"bandwidth must be a positive scalar or an SPD ({d}, {d}) matrix, got {H.tolist()}")
+    if d < 1:
+        raise ShapeError(f"points must have at least one column, got shape {X.shape}")
+    L = _bandwidth_factor("bandwidth", bandwidth, d)
     if weights is None:
         w = np.ones(n)
     else:
-        w = np.array(weights, dtype=np.float64)
-        if w.shape != (n,):
-            raise ShapeError(f"weights must have shape ({n},), got shape {w.shape}")
-        if not np.all(np.isfinite(w)):
-            raise NonFiniteError(f"weights must be finite, got {w.tolist()}")
-        if np.any(w <= 0):
-            raise NonPositiveSigmaError(f"weights must be > 0, got {w.tolist()}")
+        w = real_array("weights", weights, (n,))
+        bad = np.flatnonzero(w <= 0)
+        if bad.size:
+            raise NonPositiveSigmaError(f"weights[{bad[0]}] must be > 0, got {w[bad[0]]!r}")
+    max_iter = integer("max_iter", max_iter, minimum=1, maximum=MAX_ITER_LIMIT)
+    tol = real_scalar("tol", tol, positive=True)
     if n == 0:
         return np.zeros((0, d)), np.zeros(0, dtype=np.int64)
-    # Whiten so the kernel support is the unit ball.
-    L = np.linalg.cholesky(H)
-    Z = np.linalg.solve(L, X.T).T
+    w = w / w.max()  # only ratios matter; keeps the weighted sums in range
+    Z = _whiten(X, L)
+    bad_rows = ~np.all(np.isfinite(Z) & (np.abs(Z) <= MAX_WHITENED), axis=1)
+    if np.any(bad_rows):
+        i = int(np.flatnonzero(bad_rows)[0])
+        raise NonFiniteError(
+            f"points[{i}] = {X[i].tolist()} is more than {MAX_WHITENED:g} bandwidths from the origin "
+            f"(bandwidth {bandwidth!r}); fusion would overflow"
+        )
+    tree = cKDTree(Z)
     Y = Z.copy()
     active = np.ones(n, dtype=bool)
-    for _ in range(int(max_iter)):
+    for _ in range(max_iter):
         idx = np.flatnonzero(active)
         if idx.size == 0:
             break
-        Ya = Y[idx]
-        d2 = np.sum((Ya[:, None, :] - Z[None, :, :]) ** 2, axis=2)
-        W = (d2 < 1.0) * w[None, :]
-        new = (W @ Z) / W.sum(axis=1, keepdims=True)
-        moved = np.linalg.norm(new - Ya, axis=1)
+        num, den = _neighbour_means(tree, Z, w, Y[idx], 1.0)
+        empty = den <= 0  # no point strictly inside the kernel: y is a fixed point
+        with np.errstate(invalid="ignore", divide="ignore"):
+            new = np.where(empty[:, None], Y[idx], num / np.where(empty, 1.0, den)[:, None])
+        moved = np.linalg.norm(new - Y[idx], axis=1)
         Y[idx] = new
-        active[idx[moved < tol]] = False
-    near = (np.sum((Y[:, None, :] - Y[None, :, :]) ** 2, axis=2) < MERGE_RADIUS**2).tolist()
-    labels_list: list[int] = []
-    reps: list[int] = []  # index of each mode's first member
-    for i in range(n):
-        row = near[i]
-        for k, r in enumerate(reps):
-            if row[r]:
-                labels_list.append(k)
-                break
-        else:
-            labels_list.append(len(reps))
-            reps.append(i)
-    labels = np.array(labels_list, dtype=np.int64)
-    modes_z = np.array([Y[labels == k].mean(axis=0) for k in range(len(reps))])
-    return modes_z @ L.T, labels
+        active[idx[(moved < tol) | empty]] = False
+    labels = _first_rep_labels(Y, MERGE_RADIUS)
+    m = int(labels.max()) + 1
+    counts = np.bincount(labels, minlength=m).astype(np.float64)
+    modes_z = np.column_stack([np.bincount(labels, Y[:, k], minlength=m) for k in range(d)]) / counts[:, None]
+    modes = modes_z * L if isinstance(L, float) else modes_z @ L.T
+    return modes, labels
 
 
 def _canonical_order(percepts: Sequence[Percept]) -> NDArray[np.int64]:
@@ -149,22 +222,85 @@ def _canonical_order(percepts: Sequence[Percept]) -> NDArray[np.int64]:
 
 
 def _melt(members: Sequence[Percept]) -> Percept:
-    """One fused percept from a delineation set (inverse-information combination)."""
+    """One fused percept from a delineation set (inverse-information combination).
+
+    Computed in scaled units (each covariance ``C_i = q_i A_i`` with ``q_i`` its largest
+    entry, information relative to the most precise member), so that variances from 1e-300
+    to 1e300 m^2 neither overflow nor underflow.
+    """
     X = np.array([p.position for p in members])
-    C = np.array([p.covariance if p.covariance is not None else p.sigma**2 * np.eye(3) for p in members])
-    info = np.linalg.inv(C)
-    S = np.linalg.inv(info.sum(axis=0))
-    m = S @ np.einsum("kij,kj->i", info, X)
+    A = np.empty((len(members), 3, 3))
+    q = np.empty(len(members))
+    for i, p in enumerate(members):
+        if p.covariance is None:
+            q[i] = p.sigma**2
+            A[i] = np.eye(3)
+        else:
+            q[i] = float(np.max(np.abs(p.covariance)))
+            A[i] = p.covariance / q[i]
+    q0 = float(q.min())
+    with np.errstate(under="ignore"):
+        rel = q0 / q  # in (0, 1]; a vanishing share contributes nothing
+        info = np.linalg.inv(A) * rel[:, None, None]  # information in units of 1 / q0
+    S = np.linalg.inv(info.sum(axis=0))  # covariance in units of q0
+    x0 = X[int(np.argmin(q))]
+    m = x0 + S @ np.einsum("kij,kj->i", info, X - x0)
     k = len(members)
-    if k > 1:
-        r = X - m
-        chi2 = float(np.einsum("ki,kij,kj->", r, info, r))
-        S = S * max(1.0, chi2 / (3.0 * (k - 1)))
-    S = 0.5 * (S + S.T)
-    rng = np.linalg.norm(m)
-    sigma = float(np.sqrt(m @ S @ m) / rng) if rng > 0 else float(np.sqrt(np.trace(S) / 3.0))
+    factor = 1.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        if k > 1:
+            r = X - m
+            chi2 = float(np.einsum("ki,kij,kj->", r, info, r)) / q0
+            factor = max(1.0, chi2 / (3.0 * (k - 1)))
+        S = 0.5 * (S + S.T) * (q0 * factor)
+    scale = float(np.max(np.abs(m)))
+    if scale > 0:
+        u = m / scale
+        u = u / np.linalg.norm(u)
+        var = float(u @ S @ u)
+    else:
+        var = float(np.trace(S) / 3.0)
+    if not (np.all(np.isfinite(m)) and np.all(np.isfinite(S)) and np.isfinite(var) and var > 0):
+        raise NonFiniteError(
+            f"fusing {k} percepts of type {members[0].type!r} near {X[0].tolist()} overflows "
+            f"(scatter factor {factor!r}, variance scale {q0!r} m^2); the positions are too far apart "
+            "for their covariances"
+        )
     views = int(sum(p.views for p in members))
-    return Percept(members[0].type, m, sigma, covariance=S, views=views)
+    try:
+        return Percept(members[0].type, m, float(np.sqrt(var)), covariance=S, views=views)
+    except PerceptionError as exc:
+        raise PerceptionError(
+            f"fusing {k} percepts of type {members[0].type!r} near {X[0].tolist()} gives an invalid "
+            f"percept: {exc}"
+        ) from exc
+
+
+def _check_percepts(percepts: Any) -> list[Percept]:
+    what = f"percepts must be a sequence of Percept, got {type(percepts).__name__}"
+    if percepts is None or isinstance(percepts, (str, bytes, Percept, Mapping)):
+        raise ShapeError(what)
+    try:
+        ps = list(percepts)
+    except TypeError as exc:
+        raise ShapeError(what) from exc
+    for i, p in enumerate(ps):
+        if not isinstance(p, Percept):
+            raise ShapeError(f"percepts[{i}] must be a Percept, got {type(p).__name__}")
+        if p.covariance is None:
+            if not SIGMA_RANGE[0] <= p.sigma <= SIGMA_RANGE[1]:
+                raise NonPositiveSigmaError(
+                    f"percepts[{i}].sigma must lie in [{SIGMA_RANGE[0]:g}, {SIGMA_RANGE[1]:g}] m for fusion "
+                    f"(its square must be a normal float), got {p.sigma!r}"
+                )
+        else:
+            top = float(np.max(np.abs(p.covariance)))
+            if not VARIANCE_RANGE[0] <= top <= VARIANCE_RANGE[1]:
+                raise NonPositiveSigmaError(
+                    f"percepts[{i}].covariance: largest entry must lie in [{VARIANCE_RANGE[0]:g}, "
+                    f"{VARIANCE_RANGE[1]:g}] m^2 for fusion, got {top!r}"
+                )
+    return ps
 
 
 def fuse_percepts(
@@ -190,18 +326,22 @@ def fuse_percepts(
     - views: the number of raw views in the set.
 
     The percepts are sorted canonically first, so the result does not depend on their order.
+    Memory grows linearly with the number of percepts (k-d tree neighbour queries).
 
     Parameters
     ----------
     percepts : sequence of Percept
+        Sigmas in [1e-150, 1e150] m (covariance entries up to [1e-300, 1e300] m^2).
     bandwidth : float, (3, 3) float, or dict type -> float | (3, 3) float, optional
-        Kernel radius in metres, or bandwidth matrix (e.g. a scaled
+        Kernel radius in metres, or bandwidth matrix in m^2 (e.g. a scaled
         :func:`perception.class_bandwidth`); default ``DEFAULT_BANDWIDTH``. A dict must name
         every type present.
     min_views : int
         Smallest delineation set kept (>= 1).
-    max_iter, tol
-        Mean-shift iteration limit and convergence threshold.
+    max_iter : int
+        Mean-shift iteration limit, in [1, 1e6].
+    tol : float
+        Convergence threshold (bandwidth units), > 0.
 
     Returns
     -------
@@ -212,29 +352,41 @@ def fuse_percepts(
     ------
     UnknownClassError
         ``bandwidth`` is a dict without an entry for a type present.
+    PerceptionError
+        Any invalid argument (named with index and value), or a set that cannot be melted
+        without overflow.
     """
-    ps = list(percepts)
-    for i, p in enumerate(ps):
-        if not isinstance(p, Percept):
-            raise PerceptionError(f"percepts[{i}] must be a Percept, got {type(p).__name__}")
-    if int(min_views) != min_views or min_views < 1:
-        raise PerceptionError(f"min_views must be a positive integer, got {min_views!r}")
+    ps = _check_percepts(percepts)
+    min_views = integer("min_views", min_views, minimum=1)
+    max_iter = integer("max_iter", max_iter, minimum=1, maximum=MAX_ITER_LIMIT)
+    tol = real_scalar("tol", tol, positive=True)
     types = sorted({p.type for p in ps})
     if isinstance(bandwidth, Mapping):
         missing = [t for t in types if t not in bandwidth]
         if missing:
-            raise UnknownClassError(f"bandwidth has no entry for types {missing}; it has {sorted(bandwidth)}")
-        H = {t: _bandwidth_matrix(f"bandwidth[{t!r}]", bandwidth[t]) for t in types}
+            raise UnknownClassError(
+                f"bandwidth has no entry for types {missing}; it has {sorted(map(repr, bandwidth))}"
+            )
+        H = {t: bandwidth[t] for t in types}
+        for t in types:
+            _bandwidth_factor(f"bandwidth[{t!r}]", H[t], 3)
     else:
-        Hall = _bandwidth_matrix("bandwidth", DEFAULT_BANDWIDTH if bandwidth is None else bandwidth)
+        Hall = DEFAULT_BANDWIDTH if bandwidth is None else bandwidth
+        _bandwidth_factor("bandwidth", Hall, 3)
         H = dict.fromkeys(types, Hall)
     fused: list[Percept] = []
     for t in types:
         group = [p for p in ps if p.type == t]
         group = [group[i] for i in _canonical_order(group)]
         X = np.array([p.position for p in group])
-        w = np.array([1.0 / p.sigma**2 for p in group])
-        _, labels = mean_shift_modes(X, H[t], w, max_iter=max_iter, tol=tol)
+        sig = np.array([p.sigma for p in group])
+        with np.errstate(under="ignore"):
+            w = np.maximum((sig.min() / sig) ** 2, 1e-300)  # 1 / sigma^2 up to a common factor
+        name = "bandwidth" if not isinstance(bandwidth, Mapping) else f"bandwidth[{t!r}]"
+        try:
+            _, labels = mean_shift_modes(X, H[t], w, max_iter=max_iter, tol=tol)
+        except PerceptionError as exc:
+            raise type(exc)(f"percepts of type {t!r} with {name}: {exc}") from exc
         out = []
         for k in range(int(labels.max()) + 1):
             members = [group[i] for i in np.flatnonzero(labels == k)]

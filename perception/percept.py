@@ -7,7 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import NonFiniteError, NonPositiveSigmaError, ShapeError, UnknownClassError
+from ._checks import integer, name_str, real_scalar, spd, vector3
+from .errors import UnknownClassError
 
 
 @dataclass(frozen=True)
@@ -37,35 +38,18 @@ class Percept:
     views: int = 1
 
     def __post_init__(self) -> None:
-        if not isinstance(self.type, str) or not self.type:
-            raise UnknownClassError(f"type must be a non-empty string, got {self.type!r}")
-        pos = np.array(self.position, dtype=np.float64)
-        if pos.shape != (3,):
-            raise ShapeError(f"position must have shape (3,), got shape {pos.shape}")
-        if not np.all(np.isfinite(pos)):
-            raise NonFiniteError(f"position must be finite, got {pos.tolist()}")
-        try:
-            sigma = float(self.sigma)
-        except (TypeError, ValueError) as exc:
-            raise ShapeError(f"sigma must be a real scalar, got {self.sigma!r}") from exc
-        if not np.isfinite(sigma):
-            raise NonFiniteError(f"sigma must be finite, got {sigma!r}")
-        if sigma <= 0:
-            raise NonPositiveSigmaError(f"sigma must be > 0, got {sigma!r}")
+        name_str("type", self.type, UnknownClassError)
+        pos = vector3("position", self.position)
+        sigma = real_scalar("sigma", self.sigma, positive=True)
+        views = integer("views", self.views, minimum=1)
         pos.setflags(write=False)
         object.__setattr__(self, "position", pos)
         object.__setattr__(self, "sigma", sigma)
         if self.covariance is not None:
-            cov = np.array(self.covariance, dtype=np.float64)
-            if cov.shape != (3, 3):
-                raise ShapeError(f"covariance must have shape (3, 3), got shape {cov.shape}")
-            if not np.all(np.isfinite(cov)):
-                raise NonFiniteError(f"covariance must be finite, got {cov.tolist()}")
+            cov = spd("covariance", self.covariance)
             cov.setflags(write=False)
             object.__setattr__(self, "covariance", cov)
-        if int(self.views) < 1:
-            raise ShapeError(f"views must be >= 1, got {self.views!r}")
-        object.__setattr__(self, "views", int(self.views))
+        object.__setattr__(self, "views", views)
 
     @property
     def range(self) -> float:

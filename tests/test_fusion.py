@@ -176,3 +176,127 @@ def test_bandwidth_matrix_and_dict() -> None:
     with pytest.raises(PerceptionError, match="Percept"):
         fuse_percepts([a, (3.0, 0.0, 0.0)])  # type: ignore[list-item]
     assert fuse_percepts([]) == []
+
+
+# ------------------------------------------------------------------------------------------
+# The dense O(n^2) implementation the k-d tree version replaced, kept here as the reference.
+# ------------------------------------------------------------------------------------------
+
+
+def dense_mean_shift(X: np.ndarray, H: np.ndarray, w: np.ndarray, max_iter: int = 100, tol: float = 1e-6):
+    """All-pairs mean shift (an (n, n) distance matrix per iteration) and all-pairs grouping."""
+    n = len(X)
+    L = np.linalg.cholesky(H)
+    Z = np.linalg.solve(L, X.T).T
+    Y = Z.copy()
+    active = np.ones(n, dtype=bool)
+    for _ in range(max_iter):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        d2 = np.sum((Y[idx][:, None, :] - Z[None, :, :]) ** 2, axis=2)
+        W = (d2 < 1.0) * w[None, :]
+        new = (W @ Z) / W.sum(axis=1, keepdims=True)
+        moved = np.linalg.norm(new - Y[idx], axis=1)
+        Y[idx] = new
+        active[idx[moved < tol]] = False
+    near = np.sum((Y[:, None, :] - Y[None, :, :]) ** 2, axis=2) < 0.25
+    labels: list[int] = []
+    reps: list[int] = []
+    for i in range(n):
+        for k, r in enumerate(reps):
+            if near[i, r]:
+                labels.append(k)
+                break
+        else:
+            labels.append(len(reps))
+            reps.append(i)
+    lab = np.array(labels)
+    modes = np.array([Y[lab == k].mean(axis=0) for k in range(len(reps))]) @ L.T
+    return modes, lab
+
+
+def dense_fuse(
+    percepts: list[Percept], h: float, min_views: int
+) -> list[tuple[str, np.ndarray, np.ndarray, int]]:
+    """Fusion by the textbook formulas on the dense mean shift: (type, position, covariance, views)."""
+    out = []
+    for t in sorted({p.type for p in percepts}):
+        group = sorted((p for p in percepts if p.type == t), key=lambda p: (*p.position, p.sigma, p.views))
+        X = np.array([p.position for p in group])
+        w = np.array([1.0 / p.sigma**2 for p in group])
+        _, lab = dense_mean_shift(X, h**2 * np.eye(3), w)
+        for k in range(lab.max() + 1):
+            mem = [group[i] for i in np.flatnonzero(lab == k)]
+            if sum(p.views for p in mem) < min_views:
+                continue
+            C = [p.covariance if p.covariance is not None else p.sigma**2 * np.eye(3) for p in mem]
+            info = [np.linalg.inv(c) for c in C]
+            S = np.linalg.inv(sum(info))
+            m = S @ sum(i @ p.position for i, p in zip(info, mem, strict=True))
+            if len(mem) > 1:
+                chi2 = sum((p.position - m) @ i @ (p.position - m) for i, p in zip(info, mem, strict=True))
+                S = S * max(1.0, chi2 / (3.0 * (len(mem) - 1)))
+            out.append((t, m, S, sum(p.views for p in mem)))
+    return sorted(out, key=lambda r: (r[0], *r[1]))
+
+
+@st.composite
+def small_percepts(draw: st.DrawFn) -> list[Percept]:
+    rng = np.random.default_rng(draw(st.integers(0, 100_000)))
+    n = draw(st.integers(1, 40))
+    k = draw(st.integers(1, 6))
+    centres = rng.uniform(-2.0, 2.0, (k, 3))
+    out = []
+    for _ in range(n):
+        c = centres[rng.integers(k)]
+        s = rng.uniform(0.005, 0.05)
+        cov = None
+        if rng.random() < 0.5:
+            A = rng.normal(size=(3, 3)) * s
+            cov = A @ A.T + s**2 * np.eye(3)
+        out.append(Percept(str(rng.choice(["door", "handle"])), c + rng.normal(0, 0.03, 3), s, cov,
+                           views=int(rng.integers(1, 3))))
+    return out
+
+
+@given(X=st.integers(0, 100_000).map(lambda s: np.random.default_rng(s).normal(0, 0.3, (30, 3))),
+       h=st.sampled_from([0.05, 0.1, 0.3, 1.0]))
+def test_tree_mean_shift_equals_dense_reference(X: np.ndarray, h: float) -> None:
+    w = np.random.default_rng(len(X)).uniform(0.2, 3.0, len(X))
+    modes, labels = mean_shift_modes(X, h, w)
+    ref_modes, ref_labels = dense_mean_shift(X, h**2 * np.eye(3), w)
+    np.testing.assert_array_equal(labels, ref_labels)
+    np.testing.assert_allclose(modes, ref_modes, rtol=0, atol=1e-9)
+
+
+@given(ps=small_percepts(), h=st.sampled_from([0.05, 0.1, 0.2]), min_views=st.integers(1, 3))
+def test_tree_fusion_equals_dense_reference(ps: list[Percept], h: float, min_views: int) -> None:
+    fused = fuse_percepts(ps, bandwidth=h, min_views=min_views)
+    ref = dense_fuse(ps, h, min_views)
+    assert len(fused) == len(ref)
+    for f, (t, m, S, views) in zip(fused, ref, strict=True):
+        assert f.type == t and f.views == views
+        np.testing.assert_allclose(f.position, m, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(f.covariance, S, rtol=1e-9, atol=1e-15)
+        np.testing.assert_allclose(f.sigma, np.sqrt(m @ S @ m) / np.linalg.norm(m), rtol=1e-9)
+
+
+def test_fusion_extreme_sigmas_raise_named_or_fuse() -> None:
+    tiny = [Percept("door", [1.0, 0.0, 0.0], 1e-300), Percept("door", [1.0, 0.0, 0.0], 1e-300)]
+    with pytest.raises(NonPositiveSigmaError, match=r"percepts\[0\]\.sigma.*1e-300"):
+        fuse_percepts(tiny)
+    with pytest.raises(PerceptionError, match="covariance"):
+        Percept("door", [1.0, 0.0, 0.0], 0.1, covariance=np.zeros((3, 3)))
+    # sigmas 1e-100 and 1e100 in one set: representable, the precise one dominates
+    ps = [Percept("door", [1.0, 0.0, 0.0], 1e-100), Percept("door", [1.0, 0.0, 0.05], 1e100)]
+    (f,) = fuse_percepts(ps, min_views=2)
+    np.testing.assert_array_equal(f.position, [1.0, 0.0, 0.0])
+    assert np.all(np.isfinite(f.covariance)) and 0 < f.sigma < 1e-90
+
+
+def test_tiny_bandwidth_names_argument() -> None:
+    with pytest.raises(PerceptionError, match="bandwidth"):
+        fuse_percepts([Percept("door", [1.0, 0.0, 0.0], 0.1)], bandwidth=1e-300)
+    with pytest.raises(PerceptionError, match=r"points\[0\]"):
+        mean_shift_modes([[1e200, 0.0, 0.0]], 1e-100)

@@ -1,0 +1,160 @@
+"""Input validation shared by the public entry points of :mod:`perception` (private).
+
+Every helper raises a :class:`~perception.errors.PerceptionError` subclass whose message names
+the argument, the index of a bad element (where there is one) and the offending value.
+"""
+
+from __future__ import annotations
+
+import numbers
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError
+
+#: Relative floor of the smallest eigenvalue of a covariance (numerical positive definiteness).
+SPD_RTOL = 1e-14
+#: Relative tolerance of the symmetry check of a covariance, ``|C - C^T| <= SYM_RTOL max|C|``.
+SYM_RTOL = 1e-8
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 200 else text[:200] + "..."
+
+
+def _index(idx: tuple[int, ...]) -> str:
+    return "[" + ", ".join(str(int(i)) for i in idx) + "]"
+
+
+def real_array(name: str, value: Any, shape: tuple[int, ...] | None = None) -> NDArray[np.float64]:
+    """``value`` as a finite float64 array of ``shape`` (``-1`` matches any length).
+
+    Rejects None, strings, booleans, complex numbers, ragged sequences, wrong shapes and
+    NaN/inf, naming the index of the first bad element.
+    """
+    if value is None or isinstance(value, (str, bytes)):
+        raise ShapeError(f"{name} must be a real float array, got {_short(value)}")
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ShapeError(f"{name} must be a real float array (not ragged), got {_short(value)}") from exc
+    if raw.dtype.kind in "cbUSVMm" or (
+        raw.dtype.kind == "O"
+        and any(isinstance(v, (str, bytes, bool, np.bool_, complex, np.complexfloating)) or v is None
+                for v in raw.ravel().tolist())
+    ):
+        raise ShapeError(f"{name} must hold real numbers, got dtype {raw.dtype}: {_short(value)}")
+    try:
+        arr = np.array(raw, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ShapeError(f"{name} must hold real numbers, got {_short(value)}") from exc
+    if shape is not None:
+        ok = arr.ndim == len(shape) and all(s < 0 or s == a for s, a in zip(shape, arr.shape, strict=False))
+        if not ok:
+            dims = ", ".join("n" if s < 0 else str(s) for s in shape)
+            want = f"({dims},)" if len(shape) == 1 else f"({dims})"
+            raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
+    finite = np.isfinite(arr)
+    if not np.all(finite):
+        idx = np.argwhere(~finite)[0]
+        where = _index(tuple(idx)) if arr.ndim else ""
+        raise NonFiniteError(f"{name}{where} must be finite, got {arr[tuple(idx)]!r}")
+    return arr
+
+
+def real_scalar(
+    name: str,
+    value: Any,
+    *,
+    positive: bool = False,
+    nonnegative: bool = False,
+    low: float | None = None,
+    high: float | None = None,
+) -> float:
+    """``value`` as a finite Python float (not bool/str/None/complex), optionally range-checked."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        if not (isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "fiu"):
+            raise ShapeError(f"{name} must be a real number, got {type(value).__name__} {_short(value)}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise NonFiniteError(f"{name} must be a finite real number, got {_short(value)}") from exc
+    if not np.isfinite(v):
+        raise NonFiniteError(f"{name} must be finite, got {v!r}")
+    if positive and v <= 0:
+        raise NonPositiveSigmaError(f"{name} must be > 0, got {v!r}")
+    if nonnegative and v < 0:
+        raise NonPositiveSigmaError(f"{name} must be >= 0, got {v!r}")
+    if (low is not None and v < low) or (high is not None and v > high):
+        raise PerceptionError(f"{name} must lie in [{low}, {high}], got {v!r}")
+    return v
+
+
+def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
+    """``value`` as a Python int: rejects bool, float (even 2.0), NaN, None, str and out-of-range."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ShapeError(f"{name} must be an integer, got {type(value).__name__} {_short(value)}")
+    v = int(value)
+    if minimum is not None and v < minimum:
+        raise PerceptionError(f"{name} must be >= {minimum}, got {v!r}")
+    if maximum is not None and v > maximum:
+        raise PerceptionError(f"{name} must be <= {maximum}, got {v!r}")
+    return v
+
+
+def boolean(name: str, value: Any) -> bool:
+    """A real bool (Python or numpy)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ShapeError(f"{name} must be a bool, got {type(value).__name__} {_short(value)}")
+    return bool(value)
+
+
+def vector3(name: str, value: Any) -> NDArray[np.float64]:
+    """A finite (3,) float vector."""
+    return real_array(name, value, (3,))
+
+
+def spd(name: str, value: Any, size: int = 3) -> NDArray[np.float64]:
+    """A real, finite, symmetric (to ``SYM_RTOL``) positive definite ``(size, size)`` matrix.
+
+    Positive definite numerically: the smallest eigenvalue exceeds ``SPD_RTOL`` times the
+    largest. Returned exactly symmetrised.
+    """
+    C = real_array(name, value, (size, size))
+    scale = float(np.max(np.abs(C))) if C.size else 0.0
+    if scale == 0.0:
+        raise NonPositiveSigmaError(f"{name} must be symmetric positive definite, got the zero matrix")
+    asym = float(np.max(np.abs(C - C.T)))
+    if asym > SYM_RTOL * scale:
+        raise NonPositiveSigmaError(
+            f"{name} must be symmetric (max |C - C^T| = {asym:.3g} > {SYM_RTOL:g} * max|C| = {scale:.3g}), "
+            f"got {C.tolist()}"
+        )
+    S = 0.5 * (C + C.T)
+    eig = np.linalg.eigvalsh(S / scale) * scale
+    if not eig[0] > SPD_RTOL * eig[-1] or eig[-1] <= 0:
+        raise NonPositiveSigmaError(
+            f"{name} must be symmetric positive definite (smallest eigenvalue {eig[0]:.3g}, largest "
+            f"{eig[-1]:.3g}), got {S.tolist()}"
+        )
+    return S
+
+
+def rng(name: str, value: Any) -> np.random.Generator:
+    """A ``numpy.random.Generator`` (seeds, strings and legacy RandomState are refused)."""
+    if not isinstance(value, np.random.Generator):
+        raise PerceptionError(
+            f"{name} must be a numpy.random.Generator (e.g. numpy.random.default_rng(0)), got "
+            f"{type(value).__name__} {_short(value)}"
+        )
+    return value
+
+
+def name_str(name: str, value: Any, error: type[PerceptionError] = PerceptionError) -> str:
+    """A non-empty string without NUL characters."""
+    if not isinstance(value, str) or not value or "\0" in value:
+        raise error(f"{name} must be a non-empty string without NUL characters, got {_short(value)}")
+    return value
