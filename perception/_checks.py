@@ -54,7 +54,7 @@ def real_array(name: str, value: Any, shape: tuple[int, ...] | None = None) -> N
     if shape is not None:
         ok = arr.ndim == len(shape) and all(s < 0 or s == a for s, a in zip(shape, arr.shape, strict=False))
         if not ok:
-            dims = ", ".join("n" if s < 0 else str(s) for s in shape)
+            dims = ", ".join("N" if s < 0 else str(s) for s in shape)
             want = f"({dims},)" if len(shape) == 1 else f"({dims})"
             raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
     finite = np.isfinite(arr)
@@ -158,3 +158,40 @@ def name_str(name: str, value: Any, error: type[PerceptionError] = PerceptionErr
     if not isinstance(value, str) or not value or "\0" in value:
         raise error(f"{name} must be a non-empty string without NUL characters, got {_short(value)}")
     return value
+
+
+_UNEXPECTED: tuple[type[BaseException], ...] = (
+    TypeError,
+    ValueError,
+    IndexError,
+    KeyError,
+    AttributeError,
+    np.linalg.LinAlgError,
+    OverflowError,
+    ZeroDivisionError,
+    FloatingPointError,
+    RecursionError,
+    MemoryError,
+)
+
+
+def guard(func: Any) -> Any:
+    """Boundary safety net of a public entry point: a failure that validation did not prevent
+    (numpy, OpenCV, Python built-ins) leaves as a :class:`PerceptionError` naming the call,
+    chained to the original (``from exc``)."""
+    import functools
+
+    import cv2
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return func(*args, **kwargs)
+        except PerceptionError:
+            raise
+        except (*_UNEXPECTED, cv2.error) as exc:
+            raise PerceptionError(
+                f"{func.__qualname__}: invalid arguments ({type(exc).__name__}: {str(exc)[:300]})"
+            ) from exc
+
+    return wrapper

@@ -15,15 +15,24 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._checks import guard, integer, real_array, real_scalar
 from .errors import (
     BehindCameraError,
     CalibrationError,
     CalibrationFileError,
     NonFiniteError,
+    PerceptionError,
     ShapeError,
 )
 
 _DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
+MAX_IMAGE_SIDE = 100_000
+"""Largest image width or height accepted, pixels."""
+MAX_PIXELS = 1e9
+"""Largest camera-matrix entry (focal length, principal point), pixels."""
+MAX_COORD = 1e150
+"""Largest coordinate accepted for points (metres) and pixels."""
+
 _FILE_KEYS = ("K1", "D1", "K2", "D2", "R", "T", "image_size")
 # Iterative undistortion: OpenCV's default (5 iterations) is not enough for strong distortion.
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-15)
@@ -50,24 +59,13 @@ class Rectification(NamedTuple):
 
 
 def _matrix(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a float array of shape {shape}, got {value!r}") from exc
-    if arr.shape != shape:
-        raise ShapeError(f"{name} must have shape {shape}, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
-    return arr
+    return real_array(name, value, shape)
 
 
 def _distortion(name: str, value: ArrayLike | None) -> NDArray[np.float64]:
     if value is None:
         return np.zeros(0)
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a float array, got {value!r}") from exc
+    arr = real_array(name, value)
     if arr.ndim == 2 and 1 in arr.shape:
         arr = arr.ravel()
     if arr.ndim != 1 or arr.size not in _DISTORTION_LENGTHS:
@@ -83,23 +81,51 @@ def _camera_matrix(name: str, value: ArrayLike) -> NDArray[np.float64]:
     K = _matrix(name, value, (3, 3))
     if K[0, 0] <= 0 or K[1, 1] <= 0:
         raise CalibrationError(f"{name} focal lengths must be > 0, got fx={K[0, 0]!r}, fy={K[1, 1]!r}")
+    if max(abs(K[0, 0]), abs(K[1, 1]), abs(K[0, 1]), abs(K[0, 2]), abs(K[1, 2])) > MAX_PIXELS:
+        raise CalibrationError(f"{name} entries must be at most {MAX_PIXELS:g} px, got {K.tolist()}")
     if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
         raise CalibrationError(f"{name} must be upper triangular with K[2, 2] = 1, got {K.tolist()}")
     return K
 
 
 def _points(name: str, value: ArrayLike, width: int) -> NDArray[np.float64]:
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a float array of shape (N, {width}), got {value!r}") from exc
-    if arr.ndim != 2 or arr.shape[1] != width:
-        raise ShapeError(f"{name} must have shape (N, {width}), got shape {arr.shape}")
-    bad = ~np.all(np.isfinite(arr), axis=1)
-    if np.any(bad):
-        i = int(np.flatnonzero(bad)[0])
-        raise NonFiniteError(f"{name} must be finite; row {i} of shape {arr.shape} is {arr[i].tolist()}")
+    arr = real_array(name, value, (-1, width))
+    big = np.flatnonzero(np.any(np.abs(arr) > MAX_COORD, axis=1))
+    if big.size:
+        i = int(big[0])
+        raise NonFiniteError(f"{name}[{i}] = {arr[i].tolist()} exceeds {MAX_COORD:g} in magnitude")
     return arr
+
+
+def _image_size(value: object) -> tuple[int, int]:
+    if value is None or isinstance(value, (str, bytes)):
+        raise ShapeError(f"image_size must be (width, height), got {value!r}")
+    try:
+        items = list(value)  # type: ignore[call-overload]
+    except TypeError as exc:
+        raise ShapeError(f"image_size must be (width, height), got {value!r}") from exc
+    if len(items) != 2:
+        raise ShapeError(f"image_size must be two integers (width, height), got {value!r}")
+    return (
+        integer("image_size[0] (width)", items[0], minimum=1, maximum=MAX_IMAGE_SIDE),
+        integer("image_size[1] (height)", items[1], minimum=1, maximum=MAX_IMAGE_SIDE),
+    )
+
+
+def _path(path: object) -> Path:
+    if not isinstance(path, (str, Path)) or "\0" in str(path) or not str(path):
+        raise CalibrationFileError(
+            f"path must be a non-empty str or Path without NUL characters, got {path!r}"
+        )
+    return Path(path)
+
+
+def _file_int(path: Path, value: float) -> int:
+    if not np.isfinite(value) or value != int(value):
+        raise CalibrationFileError(
+            f"calibration file {str(path)!r}: image_size must hold integers, got {value!r}"
+        )
+    return int(value)
 
 
 @dataclass(frozen=True)
@@ -128,6 +154,7 @@ class StereoRig:
     T: NDArray[np.float64]
     image_size: tuple[int, int]
 
+    @guard
     def __post_init__(self) -> None:
         K1 = _camera_matrix("K1", self.K1)
         K2 = _camera_matrix("K2", self.K2)
@@ -139,14 +166,9 @@ class StereoRig:
             raise CalibrationError(f"R must be a rotation matrix, got {R.tolist()}")
         if np.linalg.norm(T) <= 0:
             raise CalibrationError(f"T must be a non-zero baseline, got {T.tolist()}")
-        try:
-            size = tuple(int(s) for s in self.image_size)
-        except (TypeError, ValueError) as exc:
-            raise ShapeError(f"image_size must be (width, height), got {self.image_size!r}") from exc
-        if len(size) != 2 or min(size) <= 0 or not np.allclose(size, np.ravel(self.image_size)):
-            raise ShapeError(
-                f"image_size must be two positive integers (width, height), got {self.image_size!r}"
-            )
+        size = _image_size(self.image_size)
+        if np.linalg.norm(T) > MAX_COORD:
+            raise CalibrationError(f"T must be at most {MAX_COORD:g} m long, got {T.tolist()}")
         for name, arr in (("K1", K1), ("K2", K2), ("D1", D1), ("D2", D2), ("R", R), ("T", T)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
@@ -154,6 +176,7 @@ class StereoRig:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
+    @guard
     def from_opencv(
         cls,
         K1: ArrayLike,
@@ -165,12 +188,13 @@ class StereoRig:
         image_size: tuple[int, int],
     ) -> StereoRig:
         """Build a rig from the outputs of ``cv2.stereoCalibrate`` (any array layout)."""
-        T_arr = np.asarray(T, dtype=np.float64)
+        T_arr = real_array("T", T)
         if T_arr.shape in ((3, 1), (1, 3)):
             T_arr = T_arr.ravel()
         return cls(K1=K1, D1=D1, K2=K2, D2=D2, R=R, T=T_arr, image_size=image_size)  # type: ignore[arg-type]
 
     @classmethod
+    @guard
     def default(
         cls, image_size: tuple[int, int] = (640, 480), baseline: float = 0.093, hfov_deg: float = 60.0
     ) -> StereoRig:
@@ -185,11 +209,13 @@ class StereoRig:
         hfov_deg : float
             Horizontal field of view in degrees, in (0, 180).
         """
-        if not np.isfinite(baseline) or baseline <= 0:
-            raise CalibrationError(f"baseline must be finite and > 0, got {baseline!r}")
-        if not np.isfinite(hfov_deg) or not 0 < hfov_deg < 180:
-            raise CalibrationError(f"hfov_deg must lie in (0, 180), got {hfov_deg!r}")
-        w, h = (int(s) for s in image_size)
+        w, h = _image_size(image_size)
+        baseline = real_scalar("baseline", baseline, positive=True)
+        if baseline > MAX_COORD:
+            raise CalibrationError(f"baseline must be at most {MAX_COORD:g} m, got {baseline!r}")
+        hfov_deg = real_scalar("hfov_deg", hfov_deg)
+        if not 1e-6 <= hfov_deg <= 179.0:
+            raise CalibrationError(f"hfov_deg must lie in [1e-6, 179], got {hfov_deg!r}")
         f = (w / 2.0) / np.tan(np.radians(hfov_deg) / 2.0)
         K = np.array([[f, 0.0, w / 2.0], [0.0, f, h / 2.0], [0.0, 0.0, 1.0]])
         return cls(
@@ -203,6 +229,7 @@ class StereoRig:
         )
 
     @classmethod
+    @guard
     def from_file(cls, path: str | Path) -> StereoRig:
         """Read a rig from an OpenCV FileStorage file (YAML/XML/JSON) with keys
         ``K1, D1, K2, D2, R, T, image_size``.
@@ -212,7 +239,7 @@ class StereoRig:
         CalibrationFileError
             The file is missing, unreadable, or lacks a key or holds a non-matrix under it.
         """
-        path = Path(path)
+        path = _path(path)
         if not path.is_file():
             raise CalibrationFileError(f"calibration file {str(path)!r} does not exist")
         try:
@@ -253,18 +280,20 @@ class StereoRig:
                 values["D2"],
                 values["R"],
                 values["T"],
-                (int(size[0]), int(size[1])),
+                (_file_int(path, size[0]), _file_int(path, size[1])),
             )
         except CalibrationError:
             raise
-        except ValueError as exc:
+        except (ValueError, TypeError, OverflowError) as exc:
             raise CalibrationFileError(f"calibration file {str(path)!r} is invalid: {exc}") from exc
 
+    @guard
     def to_file(self, path: str | Path) -> None:
         """Write the rig to an OpenCV FileStorage file (format from the suffix, e.g. ``.yaml``).
 
         No distortion (an empty ``D``) is written as five zeros, which OpenCV treats alike.
         """
+        path = _path(path)
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
         if not fs.isOpened():
             raise CalibrationFileError(f"cannot write calibration file {str(path)!r}")
@@ -328,6 +357,7 @@ class StereoRig:
         return M
 
     # ------------------------------------------------------------------ geometry
+    @guard
     def project(self, points_left: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Project points given in the left camera frame into both images (``cv2.projectPoints``).
 
@@ -362,8 +392,18 @@ class StereoRig:
         uv1, _ = cv2.projectPoints(obj, np.zeros(3), np.zeros(3), self.K1, self.D1)
         rvec, _ = cv2.Rodrigues(self.R)
         uv2, _ = cv2.projectPoints(obj, rvec, self.T, self.K2, self.D2)
-        return uv1.reshape(-1, 2).astype(np.float64), uv2.reshape(-1, 2).astype(np.float64)
+        uv1 = uv1.reshape(-1, 2).astype(np.float64)
+        uv2 = uv2.reshape(-1, 2).astype(np.float64)
+        bad = ~(np.all(np.isfinite(uv1), axis=1) & np.all(np.isfinite(uv2), axis=1))
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise NonFiniteError(
+                f"points_left[{i}] = {X[i].tolist()} projects to non-finite pixels "
+                f"(left {uv1[i].tolist()}, right {uv2[i].tolist()}): too far from the optical axis"
+            )
+        return uv1, uv2
 
+    @guard
     def in_view(self, points_left: ArrayLike) -> NDArray[np.bool_]:
         """Which points lie in front of both cameras and project inside the left image.
 
@@ -385,6 +425,7 @@ class StereoRig:
             mask[front] = (uv[:, 0] >= 0) & (uv[:, 0] <= w) & (uv[:, 1] >= 0) & (uv[:, 1] <= h)
         return mask
 
+    @guard
     def normalized(
         self, uv_left: ArrayLike, uv_right: ArrayLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -413,6 +454,7 @@ class StereoRig:
             out = cv2.undistortPoints(src, K, D, criteria=_UNDISTORT_CRITERIA)
         return out.reshape(-1, 2).astype(np.float64)
 
+    @guard
     def triangulate(self, uv_left: ArrayLike, uv_right: ArrayLike) -> NDArray[np.float64]:
         """Triangulate matched pixels into the left camera frame.
 
@@ -456,8 +498,15 @@ class StereoRig:
             )
         return X
 
+    @guard
     def rectify(self, alpha: float = -1.0) -> Rectification:
-        """Rectifying transforms from ``cv2.stereoRectify`` (``CALIB_ZERO_DISPARITY``)."""
+        """Rectifying transforms from ``cv2.stereoRectify`` (``CALIB_ZERO_DISPARITY``).
+
+        ``alpha``: -1 (OpenCV's default scaling) or a free scaling parameter in [0, 1].
+        """
+        alpha = real_scalar("alpha", alpha)
+        if alpha != -1.0 and not 0.0 <= alpha <= 1.0:
+            raise PerceptionError(f"alpha must be -1 or lie in [0, 1], got {alpha!r}")
         R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(
             self.K1,
             self.D1,

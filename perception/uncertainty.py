@@ -14,33 +14,52 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import NonFiniteError, NonPositiveSigmaError, ShapeError
+from ._checks import guard, integer, real_array, real_scalar
+from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError
 
 if TYPE_CHECKING:
     from .stereo import StereoRig
 
 
 def _finite(name: str, value: ArrayLike) -> NDArray[np.float64]:
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be real numbers, got {value!r}") from exc
-    if not np.all(np.isfinite(arr)):
-        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()} (shape {arr.shape})")
-    return arr
+    return real_array(name, value)
 
 
 def _positive(name: str, value: ArrayLike) -> NDArray[np.float64]:
     arr = _finite(name, value)
-    if np.any(arr <= 0):
-        raise NonPositiveSigmaError(f"{name} must be > 0, got {arr.tolist()}")
+    if arr.ndim == 0:
+        if not arr > 0:
+            raise NonPositiveSigmaError(f"{name} must be > 0, got {float(arr)!r}")
+        return arr
+    bad = np.argwhere(~(arr > 0))
+    if bad.size:
+        idx = tuple(bad[0])
+        raise NonPositiveSigmaError(f"{name}[{', '.join(map(str, idx))}] must be > 0, got {arr[idx]!r}")
     return arr
+
+
+def _scalar_or_vector(name: str, arr: NDArray[np.float64]) -> NDArray[np.float64]:
+    if arr.ndim > 1:
+        raise ShapeError(f"{name} must be a scalar or shape (N,), got shape {arr.shape}")
+    return arr
+
+
+def _result(what: str, out: NDArray[np.float64], name: str, arg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``out`` if finite, else an error naming the first argument element whose result overflows."""
+    bad = ~np.isfinite(np.atleast_1d(out))
+    if np.any(bad):
+        idx = tuple(np.argwhere(bad)[0]) if np.ndim(out) else ()
+        j = idx[: arg.ndim] if arg.ndim else ()
+        where = "[" + ", ".join(map(str, j)) + "]" if j else ""
+        raise NonFiniteError(f"{what} overflows for {name}{where} = {arg[j]!r}")
+    return out
 
 
 def _out(x: NDArray[np.float64]) -> NDArray[np.float64] | float:
     return float(x) if x.ndim == 0 else x
 
 
+@guard
 def perception_depth(
     points: ArrayLike, camera_center: ArrayLike, viewing_direction: ArrayLike
 ) -> NDArray[np.float64] | float:
@@ -60,37 +79,39 @@ def perception_depth(
     float or (N,) float
     """
     X = _finite("points", points)
-    C = _finite("camera_center", camera_center)
-    e = _finite("viewing_direction", viewing_direction)
     if X.shape[-1:] != (3,) or X.ndim > 2:
         raise ShapeError(f"points must have shape (3,) or (N, 3), got shape {X.shape}")
-    if C.shape != (3,):
-        raise ShapeError(f"camera_center must have shape (3,), got shape {C.shape}")
-    if e.shape != (3,):
-        raise ShapeError(f"viewing_direction must have shape (3,), got shape {e.shape}")
-    n = np.linalg.norm(e)
-    if n == 0:
+    C = real_array("camera_center", camera_center, (3,))
+    e = real_array("viewing_direction", viewing_direction, (3,))
+    top = float(np.max(np.abs(e)))
+    if top == 0:
         raise NonPositiveSigmaError(f"viewing_direction must be non-zero, got {e.tolist()}")
-    return _out((X - C) @ (e / n))
+    u = e / top
+    u = u / np.linalg.norm(u)
+    with np.errstate(over="ignore", invalid="ignore"):
+        rho = (X - C) @ u
+    return _out(_result("the perception depth", rho, "points", X))
 
 
+@guard
 def depth_sigma(rho: ArrayLike, depth_factor: float) -> NDArray[np.float64] | float:
     """Standard deviation of a percept at perception depth ``rho``: ``rho^2 / depth_factor`` (eq. 6).
 
     Parameters
     ----------
     rho : float or (N,) float
-        Perception depth, metres (finite).
+        Perception depth, metres (finite, > 0).
     depth_factor : float
         The paper's empirical factor (its ζ), > 0, in 1/metres.
     """
-    r = _finite("rho", rho)
-    df = _positive("depth_factor", depth_factor)
-    if df.ndim != 0:
-        raise ShapeError(f"depth_factor must be a scalar, got shape {df.shape}")
-    return _out(r**2 / df)
+    r = _scalar_or_vector("rho", _positive("rho", rho))
+    df = real_scalar("depth_factor", depth_factor, positive=True)
+    with np.errstate(over="ignore"):
+        out = r**2 / df
+    return _out(_result("rho**2 / depth_factor", out, "rho", r))
 
 
+@guard
 def disparity(rho: ArrayLike, focal_px: float, baseline: float) -> NDArray[np.float64] | float:
     """Disparity ``d = f b / rho`` in pixels of a point at depth ``rho`` (eq. 8).
 
@@ -103,12 +124,17 @@ def disparity(rho: ArrayLike, focal_px: float, baseline: float) -> NDArray[np.fl
     baseline : float
         Baseline ``|C_L - C_R|``, metres (> 0).
     """
-    r = _positive("rho", rho)
-    f = _positive("focal_px", focal_px)
-    b = _positive("baseline", baseline)
-    return _out(f * b / r)
+    r = _scalar_or_vector("rho", _positive("rho", rho))
+    f = real_scalar("focal_px", focal_px, positive=True)
+    b = real_scalar("baseline", baseline, positive=True)
+    with np.errstate(over="ignore"):
+        out = (f * b) / r
+    if not np.isfinite(f * b):
+        raise NonFiniteError(f"focal_px * baseline overflows: focal_px = {f!r}, baseline = {b!r}")
+    return _out(_result("focal_px * baseline / rho", out, "rho", r))
 
 
+@guard
 def pixel_footprint(
     rho: ArrayLike, hfov: float, vfov: float, width: int, height: int
 ) -> NDArray[np.float64] | float:
@@ -116,14 +142,21 @@ def pixel_footprint(
 
     The ``A_i`` formula of section 3.1; angles in radians, image size in pixels.
     """
-    r = _finite("rho", rho)
-    h = _positive("hfov", hfov)
-    v = _positive("vfov", vfov)
-    w = _positive("width", width)
-    hh = _positive("height", height)
-    return _out(r**2 * np.tan(h / w) * np.tan(v / hh))
+    r = _scalar_or_vector("rho", _positive("rho", rho))
+    h = real_scalar("hfov", hfov, positive=True)
+    v = real_scalar("vfov", vfov, positive=True)
+    if h >= np.pi:
+        raise PerceptionError(f"hfov must lie in (0, pi) radians, got {h!r}")
+    if v >= np.pi:
+        raise PerceptionError(f"vfov must lie in (0, pi) radians, got {v!r}")
+    w = integer("width", width, minimum=1)
+    hh = integer("height", height, minimum=1)
+    with np.errstate(over="ignore"):
+        out = r**2 * (np.tan(h / w) * np.tan(v / hh))
+    return _out(_result("the pixel footprint", out, "rho", r))
 
 
+@guard
 def triangulation_jacobian(
     rig: StereoRig, uv_left: ArrayLike, uv_right: ArrayLike, step: float = 1e-3
 ) -> NDArray[np.float64]:
@@ -136,13 +169,17 @@ def triangulation_jacobian(
     -------
     (N, 3, 4) float
     """
-    from .stereo import _points
+    from .stereo import StereoRig, _points
 
+    if not isinstance(rig, StereoRig):
+        raise ShapeError(f"rig must be a StereoRig, got {type(rig).__name__}")
     u1 = _points("uv_left", uv_left, 2)
     u2 = _points("uv_right", uv_right, 2)
     if u1.shape != u2.shape:
         raise ShapeError(f"uv_left and uv_right must have the same shape, got {u1.shape} and {u2.shape}")
-    h = float(_positive("step", step))
+    h = real_scalar("step", step, positive=True)
+    if not 1e-9 <= h <= 10.0:
+        raise PerceptionError(f"step must lie in [1e-9, 10] pixels, got {h!r}")
     n = u1.shape[0]
     base = np.hstack([u1, u2])  # (N, 4)
     # 8 perturbed copies: +h and -h on each of the 4 coordinates
@@ -153,6 +190,7 @@ def triangulation_jacobian(
     return np.transpose(J, (1, 2, 0))
 
 
+@guard
 def triangulation_covariance(
     rig: StereoRig, uv_left: ArrayLike, uv_right: ArrayLike, pixel_sigma: float | ArrayLike = 0.5
 ) -> NDArray[np.float64]:
@@ -175,10 +213,19 @@ def triangulation_covariance(
     s = np.broadcast_to(s, (4,)) if s.ndim == 0 else s
     if s.shape != (4,):
         raise ShapeError(f"pixel_sigma must be a scalar or shape (4,), got shape {s.shape}")
+    if np.any(s > 1e100):
+        raise NonPositiveSigmaError(f"pixel_sigma must be at most 1e100 pixels, got {s.tolist()}")
     J = triangulation_jacobian(rig, uv_left, uv_right)
-    return np.einsum("nik,k,njk->nij", J, s**2, J)
+    with np.errstate(over="ignore", invalid="ignore"):
+        C = np.einsum("nik,k,njk->nij", J, s**2, J)
+    bad = ~np.all(np.isfinite(C), axis=(1, 2))
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        raise NonFiniteError(f"the covariance of pixel pair {i} overflows (pixel_sigma {s.tolist()})")
+    return C
 
 
+@guard
 def class_bandwidth(vertices: ArrayLike) -> NDArray[np.float64]:
     """Fusion bandwidth of a class: the covariance of its model's vertices (section 2.2).
 
@@ -192,8 +239,11 @@ def class_bandwidth(vertices: ArrayLike) -> NDArray[np.float64]:
     (3, 3) float
         ``(V - mean)^T (V - mean) / k``.
     """
-    V = _finite("vertices", vertices)
-    if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] < 2:
+    V = real_array("vertices", vertices, (-1, 3))
+    if V.shape[0] < 2:
         raise ShapeError(f"vertices must have shape (k, 3) with k >= 2, got shape {V.shape}")
+    big = np.flatnonzero(np.any(np.abs(V) > 1e150, axis=1))
+    if big.size:
+        raise NonFiniteError(f"vertices[{big[0]}] = {V[big[0]].tolist()} exceeds 1e150 in magnitude")
     D = V - V.mean(axis=0)
     return D.T @ D / V.shape[0]

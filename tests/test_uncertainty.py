@@ -43,9 +43,16 @@ def test_perception_depth_vectorised() -> None:
     np.testing.assert_allclose(out, [3.0, 5.0, 0.5])
 
 
-@given(rho=st.floats(-20, 20, allow_nan=False), df=st.floats(1.0, 1e5))
+@given(rho=st.floats(1e-3, 20), df=st.floats(1.0, 1e5))
 def test_depth_sigma_eq6(rho: float, df: float) -> None:
     assert depth_sigma(rho, df) == pytest.approx(rho * rho / df, rel=1e-12, abs=0)
+
+
+@pytest.mark.parametrize("rho", [-2.0, 0.0, -1e-300, [1.0, -0.5]])
+def test_depth_sigma_rejects_non_positive_depth(rho) -> None:
+    # issue 12: depth_sigma(-2.0, 1000) returned 0.004; a depth must be > 0
+    with pytest.raises(NonPositiveSigmaError, match="rho"):
+        depth_sigma(rho, 1000.0)
 
 
 @given(rho=st.floats(0.05, 50), f=st.floats(10, 5000), b=st.floats(0.01, 1))
