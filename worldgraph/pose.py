@@ -6,10 +6,13 @@ to frame ``a``.  :func:`pose_from_frames` returns ``world_from_ego``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from ._checks import positive_float, rigid_transform, strict_int
 from .errors import NonFiniteError, PoseError, ShapeError
 
 __all__ = [
@@ -283,25 +286,119 @@ def pose_information(world_from_ego: ArrayLike, ego_points: ArrayLike, covarianc
     return np.einsum("kai,kab,kbj->ij", H, W, H)
 
 
+#: Rotations screened by :func:`refine_pose` for its starts (fixed seed: deterministic).
+_GRID_SIZE = 2048
+_GRID: NDArray[np.float64] | None = None
+
+
+def _rotation_grid() -> NDArray[np.float64]:
+    """``(N, 10)`` liftings ``[vec(R^T) (column-major); 1]`` of a fixed set of rotations."""
+    global _GRID
+    if _GRID is None:
+        rots = Rotation.random(_GRID_SIZE, random_state=np.random.default_rng(20261130)).as_matrix()
+        lift = np.ones((_GRID_SIZE, 10))
+        lift[:, :9] = rots.reshape(_GRID_SIZE, 9)  # vec(R^T) column-major = the rows of R
+        _GRID = np.concatenate([lift, rots.reshape(_GRID_SIZE, 9)], axis=1)
+    return _GRID
+
+
+def _reduced_matrix(x: NDArray, y: NDArray, Cinv: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """``Q`` (10, 10) with ``min_t cost(R, t) = l^T Q l``, ``l = [vec(R^T); 1]`` (centred points),
+    and ``(W^-1 G, cx, cy)`` giving the optimal translation of a rotation (see
+    :mod:`worldgraph.pose_certificate` for the derivation)."""
+    cx, cy = x.mean(axis=0), y.mean(axis=0)
+    xc, yc = x - cx, y - cy
+    B = np.zeros((len(x), 3, 10))
+    for j in range(3):
+        B[:, :, 3 * j:3 * j + 3] = -yc[:, j, None, None] * np.eye(3)
+    B[:, :, 9] = xc
+    H = np.einsum("kai,kab,kbj->ij", B, Cinv, B)
+    G = np.einsum("kab,kbj->aj", Cinv, B)
+    WinvG = np.linalg.solve(Cinv.sum(axis=0), G)
+    Q = H - G.T @ WinvG
+    return 0.5 * (Q + Q.T), WinvG, cx, cy
+
+
+def _lift(R: NDArray) -> NDArray:
+    """``[vec(R^T) (column-major); 1]``."""
+    return np.concatenate([R.T.reshape(-1, order="F"), [1.0]])
+
+
+def _best_translation(R: NDArray, WinvG: NDArray, cx: NDArray, cy: NDArray) -> NDArray:
+    """The translation minimising the cost for the rotation ``R``."""
+    u = -WinvG @ _lift(R)
+    return cy + R @ (u - cx)
+
+
+def _reduced_descent(Q: NDArray, R: NDArray, max_iter: int) -> NDArray:
+    """Local minimum over SO(3) of ``l(R)^T Q l(R)`` by damped Gauss-Newton (``Q = L L^T``)."""
+    w, V = np.linalg.eigh(Q)
+    L = V * np.sqrt(np.clip(w, 0.0, None))          # Q ~ L L^T
+    f = float(_lift(R) @ Q @ _lift(R))
+    lam = 1e-6
+    for _ in range(max_iter):
+        M = R.T
+        # l(exp(w) R): M <- M (I - skew(w)); d vec(M)[3j:3j+3] / dw = M skew(e_j)
+        D = np.zeros((10, 3))
+        for j in range(3):
+            D[3 * j:3 * j + 3] = M @ _skew(np.eye(3)[j])
+        e = L.T @ _lift(R)
+        Jr = L.T @ D
+        A = Jr.T @ Jr
+        g = Jr.T @ e
+        improved = False
+        for _damp in range(30):
+            try:
+                step = -np.linalg.solve(A + lam * (np.diag(np.diag(A)) + 1e-12 * np.trace(A) * np.eye(3)), g)
+            except np.linalg.LinAlgError:
+                lam *= 10.0
+                continue
+            Rn = Rotation.from_rotvec(step).as_matrix() @ R
+            fn = float(_lift(Rn) @ Q @ _lift(Rn))
+            if fn <= f:
+                improved = True
+                break
+            lam *= 10.0
+        if not improved:
+            break
+        R, done = Rn, f - fn <= 1e-15 * max(f, 1e-300) or float(np.linalg.norm(step)) < 1e-12
+        f = fn
+        lam = max(lam / 10.0, 1e-12)
+        if done:
+            break
+    return R
+
+
 def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
-                world_from_ego: ArrayLike, max_iter: int = 20, tol: float = 1e-12
+                world_from_ego: ArrayLike, max_iter: int = 200, tol: float = 1e-12
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Maximum-likelihood pose from 3D correspondences with per-point covariances.
 
     Minimises ``sum_i r_i^T C_i^-1 r_i`` with the ego-frame residual ``r_i = x_i - R^T (X_i - t)``
-    (the negative log-likelihood of the measured ``x_i``) by Gauss-Newton on SE(3) from
-    ``world_from_ego``.  For isotropic ``C_i = s_i^2 I`` the
-    optimum is :func:`weighted_kabsch` with weights ``1 / s_i^2`` (closed form, returned
-    directly after the check that the start is no better); otherwise a few iterations
-    from the Kabsch start converge.
+    (the negative log-likelihood of the measured ``x_i``; metres, covariances in m^2).
+
+    The cost is not convex in the rotation: with elongated (needle-shaped) covariances a local
+    method started from a Kabsch pose can end far from the optimum.  So the translation is
+    eliminated in closed form (``min_t cost = l^T Q l`` with a 10x10 ``Q``,
+    :mod:`worldgraph.pose_certificate`), a fixed grid of 2048 rotations is screened on that
+    reduced cost, and damped Gauss-Newton on SO(3) runs from ``world_from_ego``, from the
+    weighted Kabsch pose (weights ``3 / trace C_i``) and from the best grid rotations; the best
+    is polished by Levenberg-Marquardt on the full residuals until the relative cost decrease
+    falls below ``tol`` and the step below 1e-10.  For isotropic ``C_i = s_i^2 I`` the optimum
+    is :func:`weighted_kabsch` with weights ``1 / s_i^2`` (closed form).
 
     Parameters
     ----------
     ego_points, world_points : (k, 3) float
+        Metres; at least 3 pairs.
     covariances : (k, 3, 3) float
-        Covariance of each ego point.
+        Covariance (m^2) of each ego point, symmetric positive definite.
     world_from_ego : (4, 4) float
-        Start.
+        A rigid start (its rotation is one of the starts).
+    max_iter : int
+        Iteration cap of the final Levenberg-Marquardt polish (>= 1).
+    tol : float
+        Relative cost decrease that counts as converged (> 0, < 1).
 
     Returns
     -------
@@ -309,53 +406,121 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
     information : (6, 6) float
         :func:`pose_information` at the result; its inverse's lower-right block is the
         Cramer-Rao bound of the position.
+
+    Raises
+    ------
+    PoseError
+        Degenerate correspondences (singular information), or no convergence within
+        ``max_iter`` iterations (never reported as converged at the cap).
     """
     x = _points("ego_points", ego_points)
     y = _points("world_points", world_points, len(x))
     C = _covariances(covariances, len(x))
-    T = np.array(world_from_ego, dtype=np.float64)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        raise ShapeError(f"world_from_ego must be a finite (4, 4) array, got shape {T.shape}")
-    R, t = T[:3, :3], T[:3, 3]
+    T0 = rigid_transform("world_from_ego", world_from_ego)
+    max_iter = strict_int("max_iter", max_iter, minimum=1)
+    tol = positive_float("tol", tol, maximum=0.5)
+    _finite_scale(x, y, C)
+    try:
+        return _refine(x, y, C, T0, max_iter, tol)
+    except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
+        if isinstance(exc, PoseError):
+            raise
+        raise PoseError(f"refine_pose failed numerically ({exc}); covariance scales "
+                        f"{np.trace(C, axis1=1, axis2=2).tolist()} m^2") from exc
 
+
+def _finite_scale(x: NDArray, y: NDArray, C: NDArray) -> None:
+    """Reject inputs whose whitened cost overflows or whose covariances underflow."""
     Cinv = np.linalg.inv(C)
+    with np.errstate(all="ignore"):
+        big = np.max(np.abs(Cinv), axis=(1, 2)) * (np.max(np.abs(x)) + np.max(np.abs(y)) + 1.0) ** 2
+    bad = ~np.isfinite(big) | ~np.all(np.isfinite(Cinv), axis=(1, 2)) | (big > 1e250)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise PoseError(f"covariances[{i}] (trace {float(np.trace(C[i])):.3g} m^2) is too small for "
+                        "points of this size: the whitened cost overflows")
+
+
+def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol: float
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    Cinv = np.linalg.inv(C)
+    Cinv = 0.5 * (Cinv + np.swapaxes(Cinv, 1, 2))
 
     def cost(R: NDArray, t: NDArray) -> float:
         r = x - (y - t) @ R  # ego-frame residual x_i - R^T (X_i - t), covariance C_i
         return float(np.einsum("ka,kab,kb->", r, Cinv, r))
 
     scale = np.trace(C, axis1=1, axis2=2) / 3.0
+    Rk, tk = weighted_kabsch(x, y, 1.0 / scale)
     if np.allclose(C, scale[:, None, None] * np.eye(3), rtol=1e-9, atol=0.0):
-        Rk, tk = weighted_kabsch(x, y, 1.0 / scale)
-        if cost(Rk, tk) <= cost(R, t):
-            R, t = Rk, tk
-    else:
-        current = cost(R, t)
-        for _ in range(int(max_iter)):
-            r = x - (y - t) @ R
-            # R <- exp(dtheta) R, t <- t + dt:  dr = -R^T skew(X - t) dtheta + R^T dt
-            H = np.concatenate([-np.einsum("ba,kbc->kac", R, _skew(y - t)),
-                                np.broadcast_to(R.T, (len(x), 3, 3))], axis=2)
-            J = np.einsum("kai,kab,kbj->ij", H, Cinv, H)
-            g = np.einsum("kai,kab,kb->i", H, Cinv, r)
+        R, t = (Rk, tk) if cost(Rk, tk) <= cost(T0[:3, :3], T0[:3, 3]) else (T0[:3, :3], T0[:3, 3])
+        out = transformation(R, t)
+        return out, pose_information(out, x, C)
+    Q, WinvG, cx, cy = _reduced_matrix(x, y, Cinv)
+    grid = _rotation_grid()
+    vals = np.einsum("ni,ij,nj->n", grid[:, :10], Q, grid[:, :10])
+    order = np.argsort(vals)
+    starts = [T0[:3, :3], Rk]
+    for i in order[:64]:
+        Rg = grid[i, 10:].reshape(3, 3)
+        if all(rotation_angle(Rg, s) > 0.5 for s in starts[2:]):
+            starts.append(Rg)
+        if len(starts) >= 6:
+            break
+    best_R, best_f = None, np.inf
+    for R in starts:
+        R = _reduced_descent(Q, R, 50)
+        t = _best_translation(R, WinvG, cx, cy)
+        f = cost(R, t)
+        if f < best_f:
+            best_R, best_f = R, f
+    R = best_R
+    t = _best_translation(R, WinvG, cx, cy)
+    current = cost(R, t)
+    start_cost = cost(T0[:3, :3], T0[:3, 3])
+    if start_cost < current:
+        R, t, current = T0[:3, :3], T0[:3, 3], start_cost
+    lam = 1e-9
+    converged = False
+    for _ in range(max_iter):
+        # R <- exp(dtheta) R, t <- t + dt:  dr = -R^T skew(X - t) dtheta + R^T dt
+        H = np.concatenate([-np.einsum("ba,kbc->kac", R, _skew(y - t)),
+                            np.broadcast_to(R.T, (len(x), 3, 3))], axis=2)
+        r = x - (y - t) @ R
+        J = np.einsum("kai,kab,kbj->ij", H, Cinv, H)
+        g = np.einsum("kai,kab,kb->i", H, Cinv, r)
+        dscale = np.sqrt(np.maximum(np.diag(J), 1e-300))
+        if float(np.linalg.norm(g / dscale)) <= 1e-9 * math.sqrt(max(current, 1e-300)) or current == 0.0:
+            converged = True
+            break
+        accepted = False
+        for _damp in range(40):
             try:
-                step = -np.linalg.solve(J, g)
+                step = -np.linalg.solve(J + lam * np.diag(np.diag(J)), g)
             except np.linalg.LinAlgError as exc:
                 raise PoseError("the correspondences do not fix a pose (singular information)") from exc
-            for _halving in range(30):  # backtracking keeps every accepted step a descent
-                Rn = Rotation.from_rotvec(step[:3]).as_matrix() @ R
-                tn = t + step[3:]
-                new = cost(Rn, tn)
-                if new <= current:
-                    break
-                step = step / 2.0
-            else:
-                break
+            Rn = Rotation.from_rotvec(step[:3]).as_matrix() @ R
             u, _, vt = np.linalg.svd(Rn)  # stay on SO(3)
-            R, t = u @ vt, tn
-            done = current - new <= tol * max(1.0, current)
-            current = new
-            if done:
+            Rn = u @ vt
+            tn = t + step[3:]
+            new = cost(Rn, tn)
+            if new <= current:
+                accepted = True
                 break
+            lam = lam * 10.0
+        if not accepted:  # no descent direction left at machine precision: a minimum
+            converged = True
+            break
+        small = float(np.linalg.norm(step * dscale)) <= 1e-10 * math.sqrt(max(current, 1.0))
+        R, t = Rn, tn
+        done = current - new <= tol * max(1.0, current) or small
+        current = new
+        lam = max(lam / 10.0, 1e-12)
+        if done:
+            converged = True
+            break
+    if not converged:
+        raise PoseError(f"refine_pose did not converge in max_iter={max_iter} iterations "
+                        f"(cost {current:.6g})")
     out = transformation(R, t)
     return out, pose_information(out, x, C)
