@@ -14,15 +14,26 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import InvalidPoseError, KinematicsError, NonFiniteError, NonPositiveSigmaError, ShapeError
+from ._checks import guard, real_array, real_scalar, vector3
+from .errors import (
+    InvalidPoseError,
+    KinematicsError,
+    NonFiniteError,
+    NonPositiveSigmaError,
+    PerceptionError,
+    ShapeError,
+)
 
 _AXES = {"x": 0, "y": 1, "z": 2}
+MAX_TRANSLATION = 1e150
+"""Largest translation (metres) of a rigid transform accepted."""
 # tip (x forward, y left, z up) from OpenCV camera (x right, y down, z forward)
 TIP_FROM_OPENCV = np.array(
     [[0.0, 0.0, 1.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
 )
 
 
+@guard
 def check_transform(name: str, value: ArrayLike, atol: float = 1e-6) -> NDArray[np.float64]:
     """Validate a 4x4 rigid transform and return it as float64.
 
@@ -31,14 +42,14 @@ def check_transform(name: str, value: ArrayLike, atol: float = 1e-6) -> NDArray[
     ShapeError, NonFiniteError, InvalidPoseError
         Wrong shape, non-finite entries, or not a rigid motion (rotation block, last row).
     """
-    try:
-        M = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a (4, 4) float array, got {value!r}") from exc
-    if M.shape != (4, 4):
-        raise ShapeError(f"{name} must have shape (4, 4), got shape {M.shape}")
-    if not np.all(np.isfinite(M)):
-        raise NonFiniteError(f"{name} must be finite, got {M.tolist()}")
+    if not isinstance(name, str):
+        raise ShapeError(f"name must be a str, got {type(name).__name__}")
+    atol = real_scalar("atol", atol, positive=True)
+    M = real_array(name, value, (4, 4))
+    if np.any(np.abs(M[:3, 3]) > MAX_TRANSLATION):
+        raise InvalidPoseError(
+            f"{name}: translation must be at most {MAX_TRANSLATION:g} m, got {M[:3, 3].tolist()}"
+        )
     if not np.allclose(M[3], [0.0, 0.0, 0.0, 1.0], atol=atol):
         raise InvalidPoseError(f"{name} must be a rigid transform with last row (0, 0, 0, 1), "
                                f"got {M[3].tolist()}")
@@ -87,18 +98,20 @@ class Joint:
     axis: str
     origin: NDArray[np.float64]
 
+    @guard
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
             raise KinematicsError(f"joint name must be a non-empty string, got {self.name!r}")
-        if self.axis not in _AXES:
+        if not isinstance(self.axis, str) or self.axis not in _AXES:
             raise KinematicsError(f"joint {self.name!r}: axis must be 'x', 'y' or 'z', got {self.axis!r}")
         M = check_transform(f"origin of joint {self.name!r}", self.origin)
         M.setflags(write=False)
         object.__setattr__(self, "origin", M)
 
+    @guard
     def transform(self, angle: float) -> NDArray[np.float64]:
         """``parent_from_joint`` at ``angle`` (radians)."""
-        return self.origin @ rotation(self.axis, angle)
+        return self.origin @ rotation(self.axis, real_scalar("angle", angle))
 
 
 @dataclass(frozen=True)
@@ -124,8 +137,13 @@ class KinematicChain:
     tip_from_camera: NDArray[np.float64]
     right_eye: Joint | None = None
 
+    @guard
     def __post_init__(self) -> None:
+        if self.joints is None or isinstance(self.joints, (str, bytes, Joint)):
+            raise KinematicsError(f"joints must be a non-empty sequence of Joint, got {self.joints!r}")
         joints = tuple(self.joints)
+        if self.right_eye is not None and not isinstance(self.right_eye, Joint):
+            raise KinematicsError(f"right_eye must be a Joint or None, got {type(self.right_eye).__name__}")
         if not joints or not all(isinstance(j, Joint) for j in joints):
             raise KinematicsError(f"joints must be a non-empty sequence of Joint, got {self.joints!r}")
         names = [j.name for j in joints] + ([self.right_eye.name] if self.right_eye is not None else [])
@@ -150,6 +168,7 @@ class KinematicChain:
         """Number of joints (including the right eye)."""
         return len(self.names)
 
+    @guard
     def angle_vector(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
         """Angles as a vector in the order of :attr:`names` (the right eye defaults to the left).
 
@@ -164,25 +183,27 @@ class KinematicChain:
             missing = [j.name for j in self.joints if j.name not in angles]
             if missing:
                 raise KinematicsError(f"angles lack joints {missing}")
-            q = [float(angles[j.name]) for j in self.joints]
+            q = [real_scalar(f"angles[{j.name!r}]", angles[j.name]) for j in self.joints]
             if self.right_eye is not None:
-                q.append(float(angles.get(self.right_eye.name, q[-1])))
+                eye = self.right_eye.name
+                q.append(real_scalar(f"angles[{eye!r}]", angles.get(eye, q[-1])))
             vec = np.array(q)
         else:
-            try:
-                vec = np.array(angles, dtype=np.float64)
-            except (TypeError, ValueError) as exc:
-                raise ShapeError(f"angles must be a dict or a float array, got {angles!r}") from exc
+            vec = real_array("angles", angles)
             if vec.ndim != 1 or vec.size not in (n, self.n_joints):
                 raise ShapeError(
                     f"angles must have shape ({n},) or ({self.n_joints},), got shape {vec.shape}"
                 )
             if vec.size < self.n_joints:
                 vec = np.append(vec, vec[-1])
-        if not np.all(np.isfinite(vec)):
-            raise NonFiniteError(f"joint angles must be finite, got {vec.tolist()}")
+        big = np.flatnonzero(np.abs(vec) > 1e6)
+        if big.size:
+            raise KinematicsError(
+                f"angles[{big[0]}] must be at most 1e6 rad in magnitude, got {vec[big[0]]!r}"
+            )
         return vec
 
+    @guard
     def joint_frames(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
         """``ego_from_joint_i`` (after the joint rotation) for every serial joint, shape (n, 4, 4)."""
         q = self.angle_vector(angles)
@@ -193,6 +214,7 @@ class KinematicChain:
             out[i] = M
         return out
 
+    @guard
     def ego_from_camera(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
         """Pose of the left camera in the ego frame: ``ego_from_base @ prod(joint_i(q_i)) @ tip_from_camera``.
 
@@ -202,6 +224,7 @@ class KinematicChain:
         """
         return self.joint_frames(angles)[-1] @ self.tip_from_camera
 
+    @guard
     def ego_from_right_camera(
         self, angles: Mapping[str, float] | ArrayLike, baseline: float | None = None
     ) -> NDArray[np.float64]:
@@ -212,13 +235,14 @@ class KinematicChain:
         the left camera's x axis.
         """
         if self.right_eye is None or baseline is not None:
-            b = 0.093 if baseline is None else float(baseline)
+            b = 0.093 if baseline is None else real_scalar("baseline", baseline, positive=True)
             return self.ego_from_camera(angles) @ translation(b, 0.0, 0.0)
         q = self.angle_vector(angles)
         frames = self.joint_frames(q)
         parent = frames[-2] if len(self.joints) > 1 else self.ego_from_base
         return parent @ self.right_eye.transform(q[-1]) @ self.tip_from_camera
 
+    @guard
     def point_jacobian(
         self, angles: Mapping[str, float] | ArrayLike, point_camera: ArrayLike
     ) -> NDArray[np.float64]:
@@ -242,17 +266,10 @@ class KinematicChain:
 
 
 def _vector3(name: str, value: ArrayLike) -> NDArray[np.float64]:
-    try:
-        v = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a (3,) float array, got {value!r}") from exc
-    if v.shape != (3,):
-        raise ShapeError(f"{name} must have shape (3,), got shape {v.shape}")
-    if not np.all(np.isfinite(v)):
-        raise NonFiniteError(f"{name} must be finite, got {v.tolist()}")
-    return v
+    return vector3(name, value)
 
 
+@guard
 def default_head(baseline: float = 0.093) -> KinematicChain:
     """A Karlsruhe-like 7-DoF humanoid head (ARMAR-III-like geometry, made-up offsets).
 
@@ -262,8 +279,12 @@ def default_head(baseline: float = 0.093) -> KinematicChain:
     chain tip; at zero angles both cameras look along ego +x and the right camera is
     ``baseline`` along the left camera's x axis.
     """
-    if not np.isfinite(baseline) or baseline <= 0:
-        raise KinematicsError(f"baseline must be finite and > 0, got {baseline!r}")
+    try:
+        baseline = real_scalar("baseline", baseline, positive=True)
+    except PerceptionError as exc:
+        raise KinematicsError(str(exc)) from exc
+    if baseline > MAX_TRANSLATION:
+        raise KinematicsError(f"baseline must be at most {MAX_TRANSLATION:g} m, got {baseline!r}")
     half = baseline / 2.0
     joints = (
         Joint("neck_pitch", "y", np.eye(4)),
@@ -277,6 +298,7 @@ def default_head(baseline: float = 0.093) -> KinematicChain:
     return KinematicChain(joints, np.eye(4), TIP_FROM_OPENCV.copy(), right_eye=right)
 
 
+@guard
 def percept_covariance(
     chain: KinematicChain,
     angles: Mapping[str, float] | ArrayLike,
@@ -305,12 +327,20 @@ def percept_covariance(
     -------
     (3, 3) float
     """
-    C = np.array(point_cov_camera, dtype=np.float64)
-    if C.shape != (3, 3):
-        raise ShapeError(f"point_cov_camera must have shape (3, 3), got shape {C.shape}")
-    if not np.all(np.isfinite(C)):
-        raise NonFiniteError(f"point_cov_camera must be finite, got {C.tolist()}")
-    s = np.array(encoder_sigma, dtype=np.float64)
+    if not isinstance(chain, KinematicChain):
+        raise KinematicsError(f"chain must be a KinematicChain, got {type(chain).__name__}")
+    C = real_array("point_cov_camera", point_cov_camera, (3, 3))
+    scale = float(np.max(np.abs(C)))
+    if float(np.max(np.abs(C - C.T))) > 1e-8 * scale:
+        raise NonPositiveSigmaError(f"point_cov_camera must be symmetric, got {C.tolist()}")
+    if scale > 0:
+        low = float(np.linalg.eigvalsh(0.5 * (C + C.T) / scale)[0])
+        if low < -1e-12:
+            raise NonPositiveSigmaError(
+                f"point_cov_camera must be positive semidefinite (smallest eigenvalue {low * scale:.3g}), "
+                f"got {C.tolist()}"
+            )
+    s = real_array("encoder_sigma", encoder_sigma)
     if s.ndim == 0:
         s = np.full(chain.n_joints, float(s))
     if s.shape != (chain.n_joints,):
@@ -321,7 +351,14 @@ def percept_covariance(
         raise NonPositiveSigmaError(f"encoder_sigma must be >= 0, got {s.tolist()}")
     R = chain.ego_from_camera(angles)[:3, :3]
     J = chain.point_jacobian(angles, point_camera)
-    return R @ C @ R.T + (J * s**2) @ J.T
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = R @ C @ R.T + (J * s**2) @ J.T
+    if not np.all(np.isfinite(out)):
+        raise NonFiniteError(
+            f"the covariance overflows for point_camera {np.asarray(point_camera).tolist()!r}, "
+            f"encoder_sigma {s.tolist()} and point_cov_camera scale {scale!r}"
+        )
+    return 0.5 * (out + out.T)
 
 
 __all__: Sequence[str] = [

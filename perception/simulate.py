@@ -11,68 +11,85 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._checks import boolean, guard, integer, name_str, real_array, real_scalar
+from ._checks import rng as check_rng
 from .chain import KinematicChain, check_transform, default_head
 from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
 from .percept import Percept
 from .stereo import StereoRig
 
+MAX_COORD = 1e150
+"""Largest world coordinate accepted, metres."""
+MAX_COUNT = 10_000_000
+"""Largest ``n_false`` accepted."""
+MAX_VIEWS = 100_000
+"""Largest ``n_views`` accepted."""
+
 
 def _types(types: Sequence[str], n: int) -> list[str]:
-    out = list(types)
+    if types is None or isinstance(types, (str, bytes)):
+        raise ShapeError(f"types must be a sequence of str, got {types!r}")
+    try:
+        out = list(types)
+    except TypeError as exc:
+        raise ShapeError(f"types must be a sequence of str, got {type(types).__name__}") from exc
     if len(out) != n:
         raise ShapeError(f"types must have one entry per world position ({n}), got {len(out)}")
     for i, t in enumerate(out):
-        if not isinstance(t, str) or not t:
-            raise UnknownClassError(f"types[{i}] must be a non-empty string, got {t!r}")
+        name_str(f"types[{i}]", t, UnknownClassError)
     return out
 
 
 def _positions(world_positions: ArrayLike) -> NDArray[np.float64]:
-    try:
-        X = np.array(world_positions, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(
-            f"world_positions must be a float array of shape (n, 3), got {world_positions!r}"
-        ) from exc
-    if X.ndim == 1 and X.size == 0:
-        X = X.reshape(0, 3)
-    if X.ndim != 2 or X.shape[1] != 3:
-        raise ShapeError(f"world_positions must have shape (n, 3), got shape {X.shape}")
-    if not np.all(np.isfinite(X)):
-        raise NonFiniteError(f"world_positions must be finite, got {X.tolist()}")
+    if isinstance(world_positions, (list, tuple)) and len(world_positions) == 0:
+        return np.zeros((0, 3))
+    X = real_array("world_positions", world_positions, (-1, 3))
+    big = np.flatnonzero(np.any(np.abs(X) > MAX_COORD, axis=1))
+    if big.size:
+        raise NonFiniteError(f"world_positions[{big[0]}] = {X[big[0]].tolist()} exceeds {MAX_COORD:g} m")
     return X
 
 
 def _positive(name: str, value: float) -> float:
-    v = float(value)
-    if not np.isfinite(v):
-        raise NonFiniteError(f"{name} must be finite, got {value!r}")
-    if v <= 0:
-        raise NonPositiveSigmaError(f"{name} must be > 0, got {value!r}")
+    v = real_scalar(name, value, positive=True)
+    if v > 1e150:
+        raise PerceptionError(f"{name} must be at most 1e150, got {v!r}")
     return v
 
 
 def _rate(name: str, value: float) -> float:
-    v = float(value)
-    if not np.isfinite(v) or not 0.0 <= v <= 1.0:
-        raise PerceptionError(f"{name} must lie in [0, 1], got {value!r}")
-    return v
+    return real_scalar(name, value, low=0.0, high=1.0)
 
 
 def _rng(rng: np.random.Generator) -> np.random.Generator:
-    if not isinstance(rng, np.random.Generator):
-        raise PerceptionError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    return rng
+    return check_rng("rng", rng)
+
+
+def _sigmas(sig: NDArray[np.float64]) -> None:
+    """Simulated sigmas must have representable variances (for the covariance ``sigma^2 I``)."""
+    bad = np.flatnonzero(~((sig >= 1e-150) & (sig <= 1e150)))
+    if bad.size:
+        raise NonPositiveSigmaError(
+            f"simulated sigma {sig[bad[0]]!r} (from depth_factor and min_sigma) lies outside "
+            "[1e-150, 1e150] m; choose depth_factor and min_sigma so that it does not"
+        )
 
 
 def _false_type_pool(false_types: Sequence[str] | None, present: Sequence[str]) -> list[str]:
-    pool = sorted(set(present)) if false_types is None else list(false_types)
+    if false_types is None:
+        return sorted(set(present))
+    if isinstance(false_types, (str, bytes)):
+        raise ShapeError(f"false_types must be a sequence of str, got {false_types!r}")
+    try:
+        pool = list(false_types)
+    except TypeError as exc:
+        raise ShapeError(f"false_types must be a sequence of str, got {type(false_types).__name__}") from exc
     for i, t in enumerate(pool):
-        if not isinstance(t, str) or not t:
-            raise UnknownClassError(f"false_types[{i}] must be a non-empty string, got {t!r}")
+        name_str(f"false_types[{i}]", t, UnknownClassError)
     return pool
 
 
+@guard
 def simulate_percepts(
     types: Sequence[str],
     world_positions: ArrayLike,
@@ -133,14 +150,10 @@ def simulate_percepts(
     max_range = _positive("max_range", max_range)
     min_sigma = _positive("min_sigma", min_sigma)
     miss_rate = _rate("miss_rate", miss_rate)
-    if int(n_false) != n_false or n_false < 0:
-        raise PerceptionError(f"n_false must be a non-negative integer, got {n_false!r}")
-    n_false = int(n_false)
+    n_false = integer("n_false", n_false, minimum=0, maximum=MAX_COUNT)
     half_fov = None
     if hfov_deg is not None:
-        h = float(hfov_deg)
-        if not np.isfinite(h) or not 0 < h <= 360:
-            raise PerceptionError(f"hfov_deg must lie in (0, 360], got {hfov_deg!r}")
+        h = real_scalar("hfov_deg", hfov_deg, positive=True, high=360.0)
         half_fov = np.radians(h) / 2.0
 
     R, t = M[:3, :3], M[:3, 3]
@@ -151,7 +164,9 @@ def simulate_percepts(
         visible &= np.abs(np.arctan2(P[:, 1], P[:, 0])) <= half_fov
     kept = visible & (rng.random(X.shape[0]) >= miss_rate)
     idx = np.flatnonzero(kept)
-    sig = np.maximum(min_sigma, rho[idx] ** 2 / depth_factor)
+    with np.errstate(over="ignore"):
+        sig = np.maximum(min_sigma, rho[idx] ** 2 / depth_factor)
+    _sigmas(sig)
     noisy = P[idx] + rng.standard_normal((idx.size, 3)) * sig[:, None]
 
     pool = _false_type_pool(false_types, tps)
@@ -159,7 +174,9 @@ def simulate_percepts(
         raise UnknownClassError("n_false > 0 needs false_types or at least one object type, got none")
     fpos = _uniform_visible(rng, n_false, max_range, half_fov)
     ftype = [pool[int(k)] for k in rng.integers(0, len(pool), n_false)] if n_false else []
-    fsig = np.maximum(min_sigma, np.linalg.norm(fpos, axis=1) ** 2 / depth_factor)
+    with np.errstate(over="ignore"):
+        fsig = np.maximum(min_sigma, np.linalg.norm(fpos, axis=1) ** 2 / depth_factor)
+    _sigmas(fsig)
 
     all_types = [tps[i] for i in idx] + ftype
     all_pos = np.vstack([noisy, fpos])
@@ -192,6 +209,14 @@ def _uniform_visible(
     return p
 
 
+def _range_pair(name: str, value: tuple[float, float]) -> tuple[float, float]:
+    arr = real_array(name, value, (2,))
+    if np.any(np.abs(arr) > 360.0):
+        raise PerceptionError(f"{name} must hold two angles in [-360, 360] degrees, got {arr.tolist()}")
+    return float(arr[0]), float(arr[1])
+
+
+@guard
 def scan_angles(
     chain: KinematicChain,
     n_views: int,
@@ -209,20 +234,23 @@ def scan_angles(
     (n_views, chain.n_joints) float
         Radians, in the order of ``chain.names``.
     """
+    if not isinstance(chain, KinematicChain):
+        raise PerceptionError(f"chain must be a KinematicChain, got {type(chain).__name__}")
     names = chain.names
     for need in ("neck_yaw", "neck_pitch"):
         if need not in names:
             raise UnknownClassError(f"scan_angles needs a joint named {need!r}; the chain has {list(names)}")
-    if int(n_views) != n_views or n_views < 1:
-        raise PerceptionError(f"n_views must be a positive integer, got {n_views!r}")
-    n_views = int(n_views)
+    n_views = integer("n_views", n_views, minimum=1, maximum=MAX_VIEWS)
+    yaw = _range_pair("yaw_deg", yaw_deg)
+    pitch = _range_pair("pitch_deg", pitch_deg)
     Q = np.zeros((n_views, chain.n_joints))
-    Q[:, names.index("neck_yaw")] = np.radians(np.linspace(yaw_deg[0], yaw_deg[1], n_views))
-    pitch = np.where(np.arange(n_views) % 2 == 0, pitch_deg[0], pitch_deg[1])
+    Q[:, names.index("neck_yaw")] = np.radians(np.linspace(yaw[0], yaw[1], n_views))
+    pitch = np.where(np.arange(n_views) % 2 == 0, pitch[0], pitch[1])
     Q[:, names.index("neck_pitch")] = np.radians(pitch)
     return Q
 
 
+@guard
 def simulate_scan(
     types: Sequence[str],
     world_positions: ArrayLike,
@@ -279,6 +307,12 @@ def simulate_scan(
     rng = _rng(rng)
     chain = default_head() if chain is None else chain
     rig = StereoRig.default() if rig is None else rig
+    if not isinstance(chain, KinematicChain):
+        raise PerceptionError(f"chain must be a KinematicChain, got {type(chain).__name__}")
+    if not isinstance(rig, StereoRig):
+        raise PerceptionError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    return_truth = boolean("return_truth", return_truth)
+    n_views = integer("n_views", n_views, minimum=1, maximum=MAX_VIEWS)
     depth_factor = _positive("depth_factor", depth_factor)
     max_range = _positive("max_range", max_range)
     min_sigma = _positive("min_sigma", min_sigma)
@@ -305,7 +339,9 @@ def simulate_scan(
         depth = rng.uniform(min(0.5, max_range), max_range, n_false)
         F = (uv @ Kinv.T) * depth[:, None]
         cam = np.vstack([P[detected], F])
-        sig = np.maximum(min_sigma, cam[:, 2] ** 2 / depth_factor)
+        with np.errstate(over="ignore"):
+            sig = np.maximum(min_sigma, cam[:, 2] ** 2 / depth_factor)
+        _sigmas(sig)
         noisy = cam + rng.standard_normal(cam.shape) * sig[:, None]
         ego = noisy @ ego_from_cam[:3, :3].T + ego_from_cam[:3, 3]
         out_types += [tps[i] for i in detected] + [pool[int(k)] for k in rng.integers(0, len(pool), n_false)]

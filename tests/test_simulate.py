@@ -119,7 +119,7 @@ def test_misses_order_and_determinism() -> None:
 def test_simulate_percepts_bad_input() -> None:
     types, X, M = scene(9)
     rng = np.random.default_rng(0)
-    with pytest.raises(ShapeError, match=r"\(n, 3\)"):
+    with pytest.raises(ShapeError, match=r"(?i)\(n, 3\)"):
         simulate_percepts(types, X[:, :2], M, rng)
     with pytest.raises(ShapeError, match="types"):
         simulate_percepts(types[:-1], X, M, rng)
