@@ -39,6 +39,8 @@ __all__ = [
     "finite_float",
     "float_array",
     "generator",
+    "int_array",
+    "real_float",
     "name_string",
     "positive_float",
     "rigid_transform",
@@ -133,6 +135,40 @@ def _real_scalar(name: str, value: Any) -> float:
         raise NonFiniteError(f"{name} = {_short(value)} does not fit a float64") from exc
 
 
+def int_array(name: str, value: Any, shape: tuple[int | None, ...] | None = None, *,
+              minimum: int | None = None) -> NDArray[np.intp]:
+    """``value`` as a new ``intp`` array of ``shape``: integer dtype only (bool, float, str,
+    None, complex rejected; an empty sequence is fine), elements ``>= minimum``."""
+    if value is None or isinstance(value, str | bytes):
+        raise ArgumentTypeError(f"{name} must be an array of integers, got {_short(value)}")
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ShapeError(f"{name} must be a rectangular array of integers, got {_short(value)}") from exc
+    if raw.size == 0 and raw.dtype.kind in "fO":
+        raw = raw.astype(np.intp)
+    if raw.dtype.kind not in "iu":
+        raise ArgumentTypeError(f"{name} must hold integers, got dtype {raw.dtype} {_short(value)}")
+    info = np.iinfo(np.intp)
+    if raw.size and (int(raw.max()) > info.max or int(raw.min()) < info.min):
+        raise OutOfRangeError(f"{name} holds integers beyond the index range, max {int(raw.max())}")
+    arr = np.array(raw, dtype=np.intp)
+    if shape is not None and not _shape_ok(arr.shape, shape):
+        raise ShapeError(f"{name} must have shape {_shape_text(shape)}, got shape {arr.shape}")
+    if minimum is not None and arr.size and (arr < minimum).any():
+        idx = tuple(np.argwhere(arr < minimum)[0])
+        raise OutOfRangeError(f"{name}{_index(idx)} must be >= {minimum}, got {int(arr[idx])}")
+    return arr
+
+
+def real_float(name: str, value: Any) -> float:
+    """A real scalar as ``float`` that may be infinite but not NaN (bool, complex, str, None rejected)."""
+    x = _real_scalar(name, value)
+    if math.isnan(x):
+        raise NonFiniteError(f"{name} must not be NaN, got {x!r}")
+    return x
+
+
 def finite_float(name: str, value: Any, *, max_abs: float | None = None) -> float:
     """A finite real scalar as ``float`` (bool, complex, str, None rejected)."""
     x = _real_scalar(name, value)
@@ -169,14 +205,14 @@ def rigid_transform(name: str, value: Any, *, tol: float = RIGID_TOLERANCE,
                     max_translation: float | None = None) -> NDArray[np.float64]:
     """A (4, 4) rigid transform as a new float64 array.
 
-    Finite, last row ``[0, 0, 0, 1]`` (within ``tol``), rotation block ``R`` with
+    Finite, last row ``[0, 0, 0, 1]`` (within ``tol``, else :class:`ShapeError`), rotation block ``R`` with
     ``max |R^T R - I| <= tol`` and ``|det R - 1| <= tol``: scaled, sheared and reflected
     transforms raise :class:`NonRigidError` naming the determinant and the orthogonality error.
     ``max_translation`` bounds ``|t_i|`` (:class:`OutOfRangeError`).
     """
     m = float_array(name, value, (4, 4))
     if np.abs(m[3] - _LAST_ROW).max() > tol:
-        raise NonRigidError(f"{name} last row must be [0, 0, 0, 1], got {m[3].tolist()}")
+        raise ShapeError(f"{name} last row must be [0, 0, 0, 1], got {m[3].tolist()}")
     rot = m[:3, :3]
     orth = float(np.abs(rot.T @ rot - np.eye(3)).max())
     det = float(np.linalg.det(rot))

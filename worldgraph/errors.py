@@ -51,7 +51,7 @@ class OutOfRangeError(WorldGraphError):
 
 
 class NonRigidError(WorldGraphError):
-    """A transform that must be rigid is scaled, sheared or reflected (or its last row is wrong)."""
+    """A transform that must be rigid is scaled, sheared or reflected."""
 
 
 class EmptyWorldError(WorldGraphError):

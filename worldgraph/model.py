@@ -53,12 +53,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from . import _checks
 from .errors import (
+    ArgumentTypeError,
     CoincidentObjectsError,
     EmptyWorldError,
     MalformedFileError,
     NonFiniteError,
     NonPositiveError,
+    OutOfRangeError,
     ShapeError,
     UnknownGeometryError,
     UnknownTypeError,
@@ -76,6 +79,8 @@ __all__ = [
     "FILE_FORMAT",
     "FILE_VERSION",
     "DEFAULT_ROOM_HEIGHT",
+    "MAX_COORDINATE",
+    "MAX_LINK_LENGTH",
     "LinkTable",
     "ObjectModel",
     "ROOM_TYPES",
@@ -90,14 +95,30 @@ FILE_VERSION = 1
 COINCIDENT_TOLERANCE = 1e-9
 #: Bounding-box extents (metres) given to objects built from bare positions.
 DEFAULT_SIZE = 0.05
+#: Largest allowed ``|coordinate|`` (metres) of an object position, a box size, a class-geometry
+#: vertex or a room corner: beyond it squared distances lose every digit (and overflow past 1e154).
+MAX_COORDINATE = 1e6
+#: Largest allowed ``max_link_length + link_margin`` (metres): above every distance in a world
+#: that respects :data:`MAX_COORDINATE`.
+MAX_LINK_LENGTH = 1e7
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 def box_vertices(size: ArrayLike) -> NDArray[np.float64]:
-    """The 8 corners ``(8, 3)`` of an axis-aligned box of extents ``size (3,)`` centred at 0."""
-    half = 0.5 * np.asarray(size, dtype=np.float64)
+    """The 8 corners ``(8, 3)`` of an axis-aligned box of extents ``size (3,)`` (metres, finite,
+    ``>= 0``, at most :data:`MAX_COORDINATE`) centred at 0."""
+    half = 0.5 * _check_size("size", size)
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64)
     return signs * half
+
+
+def _check_size(name: str, value: Any) -> NDArray[np.float64]:
+    """A box size ``(3,)`` in metres: finite, ``>= 0``, at most :data:`MAX_COORDINATE`."""
+    size = _checks.float_array(name, value, (3,), max_abs=MAX_COORDINATE)
+    if (size < 0).any():
+        k = int(np.argmax(size < 0))
+        raise NonPositiveError(f"{name}[{k}] must be >= 0, got {float(size[k])!r}")
+    return size
 
 
 def _check_room(room: Any, what: str = "room") -> radialopt.Region | None:
@@ -109,18 +130,20 @@ def _check_room(room: Any, what: str = "room") -> radialopt.Region | None:
     from radialopt import errors as ro_errors
 
     if isinstance(room, Region):  # checked when it was made (finite, lower <= upper)
+        lower, upper = room.lower, room.upper
+    elif isinstance(room, tuple | list) and len(room) == 2:
+        lower, upper = room
+    else:
+        raise ArgumentTypeError(f"{what} must be a radialopt.Region, a (lower, upper) pair or None, "
+                                f"got {_checks._short(room)}")
+    lower = _checks.float_array(f"{what} lower", lower, (3,), max_abs=MAX_COORDINATE)
+    upper = _checks.float_array(f"{what} upper", upper, (3,), max_abs=MAX_COORDINATE)
+    if isinstance(room, Region):
         return room
-    if not isinstance(room, tuple | list) or len(room) != 2:
-        raise WorldGraphError(f"{what} must be a radialopt.Region, a (lower, upper) pair or None, "
-                              f"got {room!r}")
     try:
-        return Region(*room)
+        return Region(lower, upper)
     except ro_errors.RadialError as exc:
-        error = {ro_errors.ShapeError: ShapeError, ro_errors.NonFiniteError: NonFiniteError}.get(
-            type(exc), WorldGraphError)
-        raise error(f"{what} = {room!r} is not a valid box: {exc}") from exc
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{what} corners must be arrays of 3 numbers, got {room!r}") from exc
+        raise WorldGraphError(f"{what} = {_checks._short(room)} is not a valid box: {exc}") from exc
 
 
 def _default_type(scene: trimesh.Scene, node: str, geometry: Any) -> Any:
@@ -190,10 +213,20 @@ def room_from_trimesh(scene: trimesh.Scene) -> radialopt.Region | None:
                        "room found in the scene")
 
 
+def _check_unique_ids(ids: list[str], what: str) -> None:
+    """Raise naming the first repeated id and both of its indices."""
+    first: dict[str, int] = {}
+    for k, x in enumerate(ids):
+        if x in first:
+            raise WorldGraphError(f"ids must be unique: {x!r} appears more than once, at {what}[{first[x]}] "
+                                  f"and {what}[{k}]")
+        first[x] = k
+
+
 def _check_type_name(value: Any, what: str) -> str:
-    if not isinstance(value, str) or not value:
-        raise UnknownTypeError(f"{what} must be a non-empty string, got {value!r}")
-    return value
+    """A type name: a non-empty ``str`` without NUL characters (numpy string arrays would drop
+    trailing NULs and merge types)."""
+    return _checks.name_string(what, value, UnknownTypeError)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -210,11 +243,17 @@ class ObjectModel:
     type : str
         Landmark class (``"door"``, ``"handle"``, ``"knob"``, ...); associations match types.
     pose : (4, 4) float
-        ``world_from_object``, rigid; its origin is the centre of the object's bounding box.
+        ``world_from_object``, rigid (rotation orthonormal with determinant +1 within 1e-6, last
+        row ``0 0 0 1``: scaled, sheared or reflected poses raise
+        :class:`~worldgraph.errors.NonRigidError`); its origin (metres, ``|x| <=``
+        :data:`MAX_COORDINATE`) is the centre of the object's bounding box.
     size : (3,) float
-        Extents (metres) of the bounding box along the object axes, ``>= 0``.
+        Extents (metres) of the bounding box along the object axes, ``>= 0``, at most
+        :data:`MAX_COORDINATE`.
     geometry : str
         Key of the class geometry in :attr:`WorldModel.class_vertices` (e.g. ``"box"``).
+
+    ``id``, ``type`` and ``geometry`` are non-empty strings without NUL characters.
     """
 
     id: str
@@ -224,27 +263,13 @@ class ObjectModel:
     geometry: str = "box"
 
     def __post_init__(self) -> None:
-        if not isinstance(self.id, str) or not self.id:
-            raise WorldGraphError(f"ObjectModel.id must be a non-empty string, got {self.id!r}")
+        _checks.name_string("ObjectModel.id", self.id)
         _check_type_name(self.type, f"ObjectModel {self.id!r} type")
-        if not isinstance(self.geometry, str) or not self.geometry:
-            raise UnknownGeometryError(f"ObjectModel {self.id!r} geometry must be a non-empty string, "
-                                       f"got {self.geometry!r}")
-        pose = np.array(self.pose, dtype=np.float64)
-        size = np.array(self.size, dtype=np.float64)
-        if pose.shape != (4, 4):
-            raise ShapeError(f"ObjectModel {self.id!r} pose must have shape (4, 4), got shape {pose.shape}")
-        if size.shape != (3,):
-            raise ShapeError(f"ObjectModel {self.id!r} size must have shape (3,), got shape {size.shape}")
-        if not np.isfinite(pose).all():
-            raise NonFiniteError(f"ObjectModel {self.id!r} pose must be finite, got {pose.tolist()}")
-        if not np.isfinite(size).all():
-            raise NonFiniteError(f"ObjectModel {self.id!r} size must be finite, got {size.tolist()}")
-        if (size < 0).any():
-            raise NonPositiveError(f"ObjectModel {self.id!r} size must be >= 0, got {size.tolist()}")
-        if np.abs(pose[3] - _LAST_ROW).max() > 1e-9:
-            raise ShapeError(f"ObjectModel {self.id!r} pose last row must be [0, 0, 0, 1], "
-                             f"got {pose[3].tolist()}")
+        _checks.name_string(f"ObjectModel {self.id!r} geometry", self.geometry, UnknownGeometryError)
+        pose = _checks.rigid_transform(f"ObjectModel {self.id!r} pose", self.pose,
+                                       max_translation=MAX_COORDINATE)
+        pose[3] = _LAST_ROW
+        size = _check_size(f"ObjectModel {self.id!r} size", self.size)
         pose.setflags(write=False)
         size.setflags(write=False)
         object.__setattr__(self, "pose", pose)
@@ -302,14 +327,19 @@ class LinkTable:
     length: NDArray[np.float64]
 
     def __post_init__(self) -> None:
-        i = np.array(self.i, dtype=np.intp).reshape(-1) if np.size(self.i) else np.zeros(0, np.intp)
-        j = np.array(self.j, dtype=np.intp).reshape(-1) if np.size(self.j) else np.zeros(0, np.intp)
-        length = np.array(self.length, dtype=np.float64).reshape(-1)
+        i = _checks.int_array("LinkTable i", self.i, (None,), minimum=0)
+        j = _checks.int_array("LinkTable j", self.j, (None,), minimum=0)
+        length = _checks.float_array("LinkTable length", self.length, (None,))
         if not (i.shape == j.shape == length.shape):
             raise ShapeError(f"LinkTable i, j, length must have one shape (k,), got {i.shape}, {j.shape}, "
                              f"{length.shape}")
-        if length.size and (not np.all(np.isfinite(length)) or np.any(np.diff(length) < 0)):
-            raise WorldGraphError("LinkTable lengths must be finite and sorted ascending")
+        if (length < 0).any():
+            k = int(np.argmax(length < 0))
+            raise NonPositiveError(f"LinkTable length[{k}] must be >= 0, got {float(length[k])!r}")
+        if length.size > 1 and (np.diff(length) < 0).any():
+            k = int(np.argmax(np.diff(length) < 0))
+            raise WorldGraphError(f"LinkTable length must be sorted ascending, but length[{k + 1}] = "
+                                  f"{float(length[k + 1])!r} < length[{k}] = {float(length[k])!r}")
         for a in (i, j, length):
             a.setflags(write=False)
         object.__setattr__(self, "i", i)
@@ -321,7 +351,10 @@ class LinkTable:
 
     def in_range(self, lo: float, hi: float,
                  ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
-        """Links with ``lo < length < hi`` by binary search, as ``(i, j, length)`` views."""
+        """Links with ``lo < length < hi`` (metres; infinite bounds allowed, NaN not) by binary
+        search, as ``(i, j, length)`` views."""
+        lo = _checks.real_float("lo", lo)
+        hi = _checks.real_float("hi", hi)
         start = int(np.searchsorted(self.length, lo, side="right"))
         stop = int(np.searchsorted(self.length, hi, side="left"))
         stop = max(stop, start)
@@ -330,6 +363,34 @@ class LinkTable:
 
 def _empty_table() -> LinkTable:
     return LinkTable(np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0))
+
+
+_EMPTY_TABLE = _empty_table()
+
+
+class _LinkTables(dict):  # type: ignore[type-arg]
+    """``(type_a, type_b) -> LinkTable`` holding only the type pairs with at least one link.
+
+    Looking up a sorted pair ``(a, b)``, ``a <= b``, of types of the model that has no links
+    returns an empty :class:`LinkTable` (not stored: memory stays linear in the number of
+    links, not quadratic in the number of types); any other missing key is a ``KeyError``.
+    """
+
+    def __init__(self, tables: dict[tuple[str, str], LinkTable], types: frozenset[str]) -> None:
+        super().__init__(tables)
+        self._types = types
+
+    def __missing__(self, key: Any) -> LinkTable:
+        if (isinstance(key, tuple) and len(key) == 2 and all(isinstance(t, str) for t in key)
+                and key[0] in self._types and key[1] in self._types and key[0] <= key[1]):
+            return _EMPTY_TABLE
+        raise KeyError(key)
+
+    def get(self, key: Any, default: Any = None) -> Any:
+        try:
+            return self[key]
+        except KeyError:
+            return default
 
 
 def _rotation_and_scale(matrix: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -359,7 +420,8 @@ class WorldModel:
     objects : sequence of ObjectModel
         Non-empty; ids unique; no two objects of one type at the same position.
     max_link_length : float
-        Pairs closer than this (metres) are graph edges (the paper's ζ for links), ``> 0``.
+        Pairs closer than this (metres) are graph edges (the paper's ζ for links), ``> 0``;
+        ``max_link_length + link_margin <=`` :data:`MAX_LINK_LENGTH`.
     class_vertices : mapping str -> (k, 3) float
         Vertices of each class geometry in the object frame; must hold every object's geometry.
     scene : trimesh.Scene or None
@@ -376,8 +438,9 @@ class WorldModel:
     ----------
     types : (n,) str ndarray
     positions : (n, 3) float ndarray, read-only
-    links : dict (str, str) -> LinkTable, keyed by the sorted type pair (every pair of types
-        present has a table, possibly empty)
+    links : dict (str, str) -> LinkTable, keyed by the sorted type pair; only pairs with at least
+        one link are stored (iteration), looking up another sorted pair of the model's types
+        returns an empty table
     type_index : dict str -> (k,) int, object indices of each type, ascending
     graph : networkx.Graph (lazy)
     """
@@ -391,36 +454,29 @@ class WorldModel:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "room", _check_room(self.room))
+        if isinstance(self.objects, str | bytes | Mapping) or not isinstance(self.objects, Iterable):
+            raise ArgumentTypeError(f"objects must be a sequence of ObjectModel, got {_checks._short(self.objects)}")
         objects = tuple(self.objects)
         if not objects:
             raise EmptyWorldError("a WorldModel needs at least one object, got 0")
         for k, obj in enumerate(objects):
             if not isinstance(obj, ObjectModel):
-                raise WorldGraphError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
-        ids = [o.id for o in objects]
-        if len(set(ids)) != len(ids):
-            seen: set[str] = set()
-            dup = next(x for x in ids if x in seen or seen.add(x))  # type: ignore[func-returns-value]
-            raise WorldGraphError(f"object ids must be unique, {dup!r} appears more than once")
-        mll = float(self.max_link_length)
-        margin = float(self.link_margin)
-        if not math.isfinite(mll) or not math.isfinite(margin):
-            raise NonFiniteError("max_link_length and link_margin must be finite, got "
-                                 f"{self.max_link_length!r} and {self.link_margin!r}")
-        if mll <= 0:
-            raise NonPositiveError(f"max_link_length must be > 0, got {self.max_link_length!r}")
-        if margin < 0:
-            raise NonPositiveError(f"link_margin must be >= 0, got {self.link_margin!r}")
+                raise ArgumentTypeError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
+        _check_unique_ids([o.id for o in objects], "objects")
+        mll = _checks.positive_float("max_link_length", self.max_link_length, maximum=MAX_LINK_LENGTH)
+        margin = _checks.positive_float("link_margin", self.link_margin, allow_zero=True, maximum=MAX_LINK_LENGTH)
+        if mll + margin > MAX_LINK_LENGTH:
+            raise OutOfRangeError(f"max_link_length + link_margin = {mll + margin!r} must be <= {MAX_LINK_LENGTH:g}")
+        if not isinstance(self.class_vertices, Mapping):
+            raise ArgumentTypeError("class_vertices must be a mapping geometry key -> (k, 3) vertices, got "
+                                    f"{_checks._short(self.class_vertices)}")
         cv: dict[str, NDArray[np.float64]] = {}
-        for key, verts in dict(self.class_vertices).items():
-            v = np.array(verts, dtype=np.float64)
-            if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] == 0:
-                raise ShapeError(f"class_vertices[{key!r}] must have shape (k, 3) with k >= 1, "
-                                 f"got shape {v.shape}")
-            if not np.all(np.isfinite(v)):
-                raise NonFiniteError(f"class_vertices[{key!r}] must be finite")
+        for key, verts in self.class_vertices.items():
+            _checks.name_string(f"class_vertices key {key!r}", key, UnknownGeometryError)
+            v = _checks.float_array(f"class_vertices[{key!r}]", verts, (None, 3), max_abs=MAX_COORDINATE,
+                                    min_size=1)
             v.setflags(write=False)
-            cv[str(key)] = v
+            cv[key] = v
         for obj in objects:
             if obj.geometry not in cv:
                 raise UnknownGeometryError(f"object {obj.id!r} has geometry {obj.geometry!r}, which is not "
@@ -439,25 +495,49 @@ class WorldModel:
         self._build_links()
 
     # -- construction helpers ------------------------------------------------------------------
+    def _coincident(self, a: int, b: int, distance: float) -> CoincidentObjectsError:
+        a, b = sorted((int(a), int(b)))
+        return CoincidentObjectsError(
+            f"objects[{a}] ({self.objects[a].id!r}) and objects[{b}] ({self.objects[b].id!r}) of type "
+            f"{self.objects[a].type!r} coincide at position {self._positions[a].tolist()} (distance "
+            f"{distance:.3g} m <= {COINCIDENT_TOLERANCE:g} m)")
+
+    def _check_coincident(self, codes: NDArray[np.intp]) -> None:
+        """Raise at the first pair of same-type objects closer than :data:`COINCIDENT_TOLERANCE`.
+
+        Memory O(n): exact duplicates by one lexicographic sort, then near duplicates by a
+        nearest-neighbour query in a 4D tree whose 4th axis separates the types by more than
+        any distance in the world.
+        """
+        pos = self._positions
+        n = len(pos)
+        if n < 2:
+            return
+        order = np.lexsort((pos[:, 2], pos[:, 1], pos[:, 0], codes))
+        same = (codes[order[1:]] == codes[order[:-1]]) & np.all(pos[order[1:]] == pos[order[:-1]], axis=1)
+        if same.any():
+            k = int(np.argmax(same))
+            raise self._coincident(order[k], order[k + 1], 0.0)
+        lifted = np.column_stack([pos, codes.astype(np.float64) * (4.0 * MAX_COORDINATE)])
+        dist, idx = cKDTree(lifted).query(lifted, k=2, distance_upper_bound=2 * COINCIDENT_TOLERANCE)
+        hit = dist[:, 1] <= COINCIDENT_TOLERANCE
+        if hit.any():
+            a = int(np.argmax(hit))
+            raise self._coincident(a, idx[a, 1], float(dist[a, 1]))
+
     def _build_links(self) -> None:
         types = self._types
         positions = self._positions
         names, codes = np.unique(types, return_inverse=True)
-        codes = codes.reshape(-1)
-        type_index = {str(t): np.flatnonzero(codes == c) for c, t in enumerate(names)}
+        codes = codes.reshape(-1).astype(np.intp)
+        by_type = np.argsort(codes, kind="stable")
+        starts = np.searchsorted(codes[by_type], np.arange(len(names) + 1))
+        type_index = {str(t): by_type[starts[c]:starts[c + 1]] for c, t in enumerate(names)}
         for v in type_index.values():
             v.setflags(write=False)
 
+        self._check_coincident(codes)
         tree = cKDTree(positions)
-        # coincident objects of one type
-        close = tree.query_pairs(COINCIDENT_TOLERANCE, output_type="ndarray")
-        if close.size:
-            same = codes[close[:, 0]] == codes[close[:, 1]]
-            if np.any(same):
-                a, b = close[np.flatnonzero(same)[0]]
-                raise CoincidentObjectsError(
-                    f"objects {self.objects[a].id!r} and {self.objects[b].id!r} of type {types[a]!r} "
-                    f"coincide at {positions[a].tolist()}")
 
         radius = self.max_link_length + self.link_margin
         # query slightly wide, then filter with the exact strict test below
@@ -477,13 +557,13 @@ class WorldModel:
         key = ci.astype(np.int64) * nt + cj
         order = np.lexsort((pj, pi, length, key))
         pi, pj, length, key = pi[order], pj[order], length[order], key[order]
-        bounds = np.searchsorted(key, np.arange(nt * nt + 1))
-        links: dict[tuple[str, str], LinkTable] = {}
-        for a in range(nt):
-            for b in range(a, nt):
-                k = a * nt + b
-                s, e = bounds[k], bounds[k + 1]
-                links[(str(names[a]), str(names[b]))] = LinkTable(pi[s:e], pj[s:e], length[s:e])
+        present, first = np.unique(key, return_index=True)
+        last = np.append(first[1:], len(key))[: len(first)]
+        tables: dict[tuple[str, str], LinkTable] = {}
+        for k, s, e in zip(present.tolist(), first.tolist(), last.tolist(), strict=True):
+            a, b = divmod(k, nt)
+            tables[(str(names[a]), str(names[b]))] = LinkTable(pi[s:e], pj[s:e], length[s:e])
+        links = _LinkTables(tables, frozenset(type_index))
         object.__setattr__(self, "_type_index", type_index)
         object.__setattr__(self, "_links", links)
         object.__setattr__(self, "_tree", tree)
