@@ -22,11 +22,25 @@ which is a least-distance problem.  Four methods, one entry point :func:`project
     Explicit vertex enumeration of the polyhedron and the projection solved in V-form
     (:mod:`radialopt.vertices`).
 ``"paper"``
-    Eq. 17 as written: project onto single hyperplanes in ``Sd^n`` and keep the closest
-    feasible point; when no single projection is feasible, continue to ridges (pairs, then
-    triples of hyperplanes), as the paper's words "the closest point ... on the cells or
-    ridges" suggest.  Not optimal when the answer lies on a ridge but a farther single-
-    hyperplane projection happens to be feasible; it is never better than the exact methods.
+    Eq. 17 restricted to the VIOLATED hyperplanes: project the measured configuration
+    perpendicularly onto each hyperplane of ``Sd^n`` that it violates and keep the closest
+    projection that satisfies every row (eq. 16); when none is feasible, continue to ridges
+    (flats of 2, 3, ... violated hyperplanes), as the paper's words "the closest point ... on
+    the cells or ridges" suggest; only when no flat of violated rows is feasible does it try
+    flats of any rows.  Why violated rows only: the optimum lies on a face of violated rows
+    in practice, while projecting onto a hyperplane the radii already satisfy can land on a
+    feasible but far point (issue 12, D2: centres (4,3,0), (2,1,0), (2,3,2), radii (2,5,5),
+    sigma 1 gave cost 25.7 against the optimum 0.0196).  A feasible single violated-
+    hyperplane projection is provably optimal (its distance is a lower bound on every
+    feasible point's); on a ridge the rule can lose, and then reports
+    ``"optimal_inaccurate"``: the status is ``"optimal"`` only when the answer's KKT
+    multipliers are >= 0, i.e. it IS the optimum.  The work is bounded by
+    :data:`PAPER_MAX_FLATS` flats (D1); beyond it :class:`~radialopt.errors.TooManySpheresError`.
+
+Every method's answer is checked against ``A r' <= b`` in metres: a violation above
+``tol.feasibility * scale`` turns ``"optimal"`` into ``"optimal_inaccurate"``, one above
+``tol.agreement * scale`` raises :class:`~radialopt.errors.SolverError` (``scale`` = the
+largest of the centre distances, the radii and 1 m).
 
 ``check=True`` verifies any method's answer against the vertex enumeration (V-form optimality
 certificate and the V-form optimum) and raises :class:`~radialopt.errors.VerificationError`
@@ -49,6 +63,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cached_property, lru_cache
 from itertools import combinations
+from math import comb
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -60,6 +75,7 @@ from .errors import (
     NonPositiveSigmaError,
     ShapeError,
     SolverError,
+    TooManySpheresError,
     UnknownMethodError,
     VerificationError,
 )
@@ -384,50 +400,79 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
 
 
 # --------------------------------------------------------------------------------- paper
+#: Most flats (intersections of k hyperplanes) the paper's rule projects onto before it gives
+#: up with :class:`~radialopt.errors.TooManySpheresError` (D1: all C(84, k) flats of n = 8
+#: took more than 30 s; the violated rows are few, so real instances stay far below this).
+PAPER_MAX_FLATS = 100_000
+
+
 def _solve_paper(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
-    """Eq. 17 in Sd^n: single-hyperplane projections, then ridges if none is feasible."""
-    Pd = p.polytope.normalized()
-    x0 = p.radii / p.sigmas
-    if Pd.contains(x0, tol.feasibility):
-        return np.zeros_like(x0), "optimal"
-    A, b = Pd.A, Pd.b
-    m, n = A.shape
-    feas_tol = tol.feasibility * max(1.0, float(np.max(np.abs(b))))
-    for k in range(1, n + 1):
-        best = _closest_feasible_on_flats(A, b, x0, k, feas_tol)
-        if best is not None:
-            return best - x0, "optimal"
-    raise SolverError("paper method found no feasible projection on any face")  # unreachable
+    """Eq. 17 restricted to the violated hyperplanes (see the module docstring).
+
+    Works in whitened coordinates ``z = H (r' - r)`` (the paper's ``Sd^n`` shifted to put the
+    measured configuration at the origin), with unit rows.  Stage 1: flats of k = 1, 2, ...
+    rows that the measured radii violate; the first k with a feasible projection wins (the
+    closest of them).  Stage 2, only when no flat of violated rows is feasible: flats of any
+    rows, the same way.  Feasibility is tested on the radii in metres (``A r' <= b + tol``).
+    The answer is ``"optimal"`` when its KKT multipliers are >= 0 (it is then the exact
+    optimum), ``"optimal_inaccurate"`` when it is feasible but not the minimum.
+    """
+    n = p.G.shape[1]
+    ftol = tol.feasibility * p.scale  # metres
+    if p.h.min() >= -ftol:
+        return np.zeros(n), "optimal"
+    norms = np.linalg.norm(p.G, axis=1)
+    Gn, hn = p.G / norms[:, None], p.h / norms
+    violated = np.flatnonzero(p.h < -ftol)
+    budget = [PAPER_MAX_FLATS]
+    for rows in (violated, np.arange(len(hn))):
+        for k in range(1, min(n, len(rows)) + 1):
+            count = comb(len(rows), k)
+            if count > budget[0]:
+                raise TooManySpheresError(
+                    f"method 'paper' with n = {n} spheres: {len(violated)} of {len(hn)} rows are "
+                    f"violated and no flat of fewer than {k} rows is feasible; the next stage has "
+                    f"{count} flats, beyond the budget PAPER_MAX_FLATS = {PAPER_MAX_FLATS}. Use "
+                    "method='active_set' (the exact optimum)")
+            budget[0] -= count
+            found = _closest_feasible_on_flats(p, Gn, hn, rows, k, ftol)
+            if found is not None:
+                return found
+    raise SolverError(f"method 'paper' found no feasible projection on any flat (n = {n})")
 
 
 def _closest_feasible_on_flats(
-    A: NDArray, b: NDArray, x0: NDArray, k: int, feas_tol: float, chunk: int = 20000
-) -> NDArray | None:
-    """Project x0 onto every intersection of k hyperplanes; return the closest feasible one."""
-    m = A.shape[0]
-    best, best_d = None, np.inf
-    subsets_iter = combinations(range(m), k)
+    p: _Problem, Gn: NDArray, hn: NDArray, rows: NDArray, k: int, ftol: float, chunk: int = 20000
+) -> tuple[NDArray, str] | None:
+    """Project ``z = 0`` onto every flat of k of ``rows`` (``Gn_T z = hn_T``) and return the
+    closest feasible point with its status, or None when no flat gives a feasible point."""
+    best, best_d, best_ok = None, np.inf, False
+    subsets_iter = combinations(rows.tolist(), k)
     while True:
         block = np.array([s for _, s in zip(range(chunk), subsets_iter, strict=False)], dtype=np.int64)
         if block.size == 0:
-            return best
-        As = A[block]  # (N, k, n)
-        viol = np.einsum("skn,n->sk", As, x0) - b[block]  # (N, k)
+            break
+        block = block.reshape(-1, k)
+        As = Gn[block]  # (N, k, n)
         gram = np.einsum("skn,sjn->skj", As, As)
-        det = np.linalg.det(gram)
-        ok = np.abs(det) > 1e-12
+        ok = np.abs(np.linalg.det(gram)) > 1e-12
         if np.any(ok):
-            y = np.linalg.solve(gram[ok], viol[ok][..., None])[..., 0]
-            pts = x0 - np.einsum("skn,sk->sn", As[ok], y)
-            feasible = np.all(pts @ A.T - b <= feas_tol, axis=1)
+            y = np.linalg.solve(gram[ok], hn[block[ok]][..., None])[..., 0]  # (N', k)
+            pts = np.einsum("skn,sk->sn", As[ok], y)
+            feasible = np.all(pts @ p.G.T - p.h <= ftol, axis=1)
             if np.any(feasible):
-                cand = pts[feasible]
-                d = np.linalg.norm(cand - x0, axis=1)
+                d = np.linalg.norm(pts[feasible], axis=1)
                 i = int(np.argmin(d))
                 if d[i] < best_d:
-                    best, best_d = cand[i], d[i]
+                    best, best_d = pts[feasible][i], d[i]
+                    # KKT: z = -Gn_T^T lam with lam = -y >= 0 (to rounding)
+                    ymax = float(np.max(y[feasible][i]))
+                    best_ok = ymax <= 1e-9 * max(float(np.abs(y[feasible][i]).max()), 1e-300)
         if block.shape[0] < chunk:
-            return best
+            break
+    if best is None:
+        return None
+    return best, "optimal" if best_ok else "optimal_inaccurate"
 
 
 # ------------------------------------------------------------------------------ vertices
@@ -500,6 +545,13 @@ def project_radii(
     if status == "infeasible" or not np.all(np.isfinite(z)):
         raise SolverError(f"method {method!r} found no feasible radii (status {status!r})")
     solver_name = (solver or "CLARABEL").upper() if method == "cvxpy" else None
+    violation = float(np.max(problem.G @ z - problem.h))  # max of A r' - b, metres
+    if violation > tol.agreement * problem.scale:
+        raise SolverError(
+            f"method {method!r}: the radii violate A r <= b by {violation:.3g} m (tolerance "
+            f"tol.agreement * scale = {tol.agreement * problem.scale:.3g} m); no answer can be trusted")
+    if status == "optimal" and violation > tol.feasibility * problem.scale:
+        status = "optimal_inaccurate"
     sol = problem.solution(z, status, method, solver_name, t0)
     if check == "exact":
         verify_solution_exact(spheres, sol, tol)
