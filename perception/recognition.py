@@ -38,13 +38,17 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
+from ._checks import boolean, guard, integer, name_str, real_array, real_scalar, spd
+from ._checks import rng as check_rng
 from .chain import check_transform
 from .errors import (
+    CalibrationError,
     ImageFormatError,
     InvalidPoseError,
     NonFiniteError,
     NonPositiveSigmaError,
     NotFittedError,
+    PerceptionError,
     ShapeError,
     UnknownClassError,
 )
@@ -138,18 +142,22 @@ class Box:
     color: NDArray[np.float64]
     type: str
 
+    @guard
     def __post_init__(self) -> None:
         center = _as_float_array("center", self.center, (3,))
         size = _as_float_array("size", self.size, (3,))
         if np.any(size <= 0):
             raise NonPositiveSigmaError(f"size must be > 0 along every axis, got {size.tolist()}")
+        if np.any(np.abs(center) > MAX_COORD) or np.any(size > MAX_COORD):
+            raise NonFiniteError(
+                f"center and size must be at most {MAX_COORD:g} m, got {center.tolist()} and {size.tolist()}"
+            )
         rot = _as_float_array("rotation", self.rotation, (3, 3))
         _check_rotation("rotation", rot)
         color = _as_float_array("color", self.color, (3,))
         if np.any(color < 0) or np.any(color > 255):
             raise ShapeError(f"color must be BGR values in [0, 255], got {color.tolist()}")
-        if not isinstance(self.type, str) or not self.type:
-            raise UnknownClassError(f"type must be a non-empty string, got {self.type!r}")
+        name_str("type", self.type, UnknownClassError)
         for name, arr in (("center", center), ("size", size), ("rotation", rot), ("color", color)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
@@ -159,6 +167,43 @@ class Box:
         return self.center + (_SIGNS * (0.5 * self.size)) @ self.rotation.T
 
 
+MAX_COORD = 1e150
+"""Largest box coordinate or size accepted, metres."""
+MAX_RENDER_PIXELS = 50_000_000
+"""Largest image (width * height) rendered or segmented."""
+
+
+def _str_list(name: str, value: Any) -> list[str]:
+    if value is None or isinstance(value, (str, bytes)):
+        raise ShapeError(f"{name} must be a sequence of str, got {value!r}")
+    try:
+        out = list(value)
+    except TypeError as exc:
+        raise ShapeError(f"{name} must be a sequence of str, got {type(value).__name__}") from exc
+    for i, t in enumerate(out):
+        name_str(f"{name}[{i}]", t, UnknownClassError)
+    return out
+
+
+def _int_range(name: str, value: Any, low: int, high: int) -> tuple[int, int]:
+    if value is None or isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
+        raise ShapeError(f"{name} must be a pair (low, high) of integers, got {value!r}")
+    a = integer(f"{name}[0]", value[0], minimum=low, maximum=high)
+    b = integer(f"{name}[1]", value[1], minimum=low, maximum=high)
+    if a > b:
+        raise PerceptionError(f"{name} must have {name}[0] <= {name}[1], got {value!r}")
+    return a, b
+
+
+def _rig(rig: Any) -> Any:
+    from .stereo import StereoRig
+
+    if not isinstance(rig, StereoRig):
+        raise CalibrationError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    return rig
+
+
+@guard
 def scene_boxes(
     types: Sequence[str],
     positions: ArrayLike,
@@ -183,7 +228,7 @@ def scene_boxes(
     -------
     list of Box
     """
-    types = list(types)
+    types = _str_list("types", types)
     n = len(types)
     pos = _as_float_array("positions", positions, (n, 3))
     rots = np.broadcast_to(np.eye(3), (n, 3, 3)) if rotations is None else rotations
@@ -230,6 +275,7 @@ _CLUTTER_PALETTE = np.array(
 )
 
 
+@guard
 def random_scene(
     rng: np.random.Generator,
     *,
@@ -262,6 +308,16 @@ def random_scene(
     camera_from_world : (4, 4) float
         Pose of the left camera.
     """
+    rng = check_rng("rng", rng)
+    n_doors = _int_range("n_doors", n_doors, 0, 100)
+    n_clutter = _int_range("n_clutter", n_clutter, 0, 100)
+    dist = real_array("distance", distance, (2,))
+    if not 0.0 < dist[0] <= dist[1] <= 1e4:
+        raise PerceptionError(
+            f"distance must satisfy 0 < distance[0] <= distance[1] <= 1e4 m, got {dist.tolist()}"
+        )
+    distance = (float(dist[0]), float(dist[1]))
+    max_door_yaw_deg = real_scalar("max_door_yaw_deg", max_door_yaw_deg, low=0.0, high=90.0)
     cam_pos = np.array([0.0, rng.uniform(-0.2, 0.2), rng.uniform(1.2, 1.6)])
     camera_from_world = _camera_from_world_look(
         cam_pos, np.deg2rad(rng.uniform(-8.0, 8.0)), np.deg2rad(rng.uniform(-4.0, 8.0))
@@ -329,7 +385,11 @@ def _rig_views(rig: Any, camera_from_world: NDArray[np.float64]) -> list[tuple[A
 
 
 def _image_size(rig: Any) -> tuple[int, int]:
-    width, height = (int(v) for v in rig.image_size)
+    width, height = (int(v) for v in _rig(rig).image_size)
+    if width * height > MAX_RENDER_PIXELS:
+        raise ImageFormatError(
+            f"rig.image_size {rig.image_size} has more than {MAX_RENDER_PIXELS} pixels; too large to render"
+        )
     return width, height
 
 
@@ -439,13 +499,19 @@ def _draw_view(
 
 
 def _check_boxes(boxes: Sequence[Box]) -> list[Box]:
-    boxes = list(boxes)
+    if boxes is None or isinstance(boxes, (str, bytes, Box)):
+        raise ShapeError(f"boxes must be a sequence of Box, got {type(boxes).__name__}")
+    try:
+        boxes = list(boxes)
+    except TypeError as exc:
+        raise ShapeError(f"boxes must be a sequence of Box, got {type(boxes).__name__}") from exc
     for i, b in enumerate(boxes):
         if not isinstance(b, Box):
             raise ShapeError(f"boxes[{i}] must be a Box, got {type(b).__name__}: {b!r}")
     return boxes
 
 
+@guard
 def render_stereo(
     rig: Any,
     camera_from_world: ArrayLike,
@@ -495,17 +561,21 @@ def render_stereo(
     pose = check_transform("camera_from_world", camera_from_world)
     boxes = _check_boxes(boxes)
     width, height = _image_size(rig)
-    for name, value in (("light_noise", light_noise), ("pixel_noise", pixel_noise)):
-        if not np.isfinite(value) or value < 0:
-            raise NonPositiveSigmaError(f"{name} must be finite and >= 0, got {value!r}")
-    if not 0.0 <= ambient <= 1.0:
-        raise ShapeError(f"ambient must lie in [0, 1], got {ambient!r}")
+    rng = check_rng("rng", rng)
+    light_noise = real_scalar("light_noise", light_noise, nonnegative=True, high=1e6)
+    pixel_noise = real_scalar("pixel_noise", pixel_noise, nonnegative=True, high=1e6)
+    ambient = real_scalar("ambient", ambient, low=0.0, high=1.0)
     light = _as_float_array("light_direction", light_direction, (3,))
     norm = np.linalg.norm(light)
     if norm == 0:
         raise ShapeError(f"light_direction must be non-zero, got {light.tolist()}")
     light = light / norm
-    bg = np.asarray(background)
+    if isinstance(background, np.ndarray) and background.dtype == np.uint8:
+        bg = background
+    else:
+        bg = real_array("background", background)
+    if bg.shape == (3,) and np.any((bg < 0) | (bg > 255)):
+        raise ImageFormatError(f"background colour must lie in [0, 255], got {bg.tolist()}")
     if bg.shape == (3,):
         canvas0 = np.empty((height, width, 3), dtype=np.float32)
         canvas0[:] = _as_float_array("background", bg, (3,))
@@ -533,6 +603,7 @@ def render_stereo(
     return images[0], images[1]
 
 
+@guard
 def render_labels(
     rig: Any, camera_from_world: ArrayLike, boxes: Sequence[Box]
 ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
@@ -555,6 +626,7 @@ def render_labels(
     return out[0], out[1]
 
 
+@guard
 def visible_mask(
     rig: Any,
     camera_from_world: ArrayLike,
@@ -574,6 +646,8 @@ def visible_mask(
     """
     pose = check_transform("camera_from_world", camera_from_world)
     boxes = _check_boxes(boxes)
+    min_area = real_scalar("min_area", min_area, nonnegative=True)
+    _image_size(rig)
     if not boxes:
         return np.zeros(0, dtype=bool)
     width, height = _image_size(rig)
@@ -607,11 +681,13 @@ class ColorRange:
     lower: tuple[int, int, int]
     upper: tuple[int, int, int]
 
+    @guard
     def __post_init__(self) -> None:
-        lo = np.asarray(self.lower)
-        hi = np.asarray(self.upper)
-        if lo.shape != (3,) or hi.shape != (3,):
-            raise ShapeError(f"lower and upper must have shape (3,), got {lo.shape} and {hi.shape}")
+        lo = real_array("lower", self.lower, (3,))
+        hi = real_array("upper", self.upper, (3,))
+        for name, arr in (("lower", lo), ("upper", hi)):
+            if np.any((arr < 0) | (arr > 255) | (arr != np.round(arr))):
+                raise ShapeError(f"{name} must hold integers in [0, 255], got {arr.tolist()}")
         if np.any(lo > hi):
             raise ShapeError(f"lower {lo.tolist()} must not exceed upper {hi.tolist()}")
 
@@ -667,26 +743,22 @@ class Detection:
     log_likelihood: float = float("nan")
     shape_covariance: NDArray[np.float64] | None = None
 
+    @guard
     def __post_init__(self) -> None:
-        if not isinstance(self.type, str) or not self.type:
-            raise UnknownClassError(f"type must be a non-empty string, got {self.type!r}")
+        name_str("type", self.type, UnknownClassError)
         uv = _as_float_array("centroid_uv", self.centroid_uv, (2,))
-        feats = np.array(self.features, dtype=np.float64)
-        if feats.ndim != 1:
-            raise ShapeError(f"features must have shape (d,), got shape {feats.shape}")
-        if not np.all(np.isfinite(feats)):
-            raise NonFiniteError(f"features must be finite, got {feats.tolist()}")
-        area = float(self.area)
-        if not np.isfinite(area) or area <= 0:
-            raise NonPositiveSigmaError(f"area must be finite and > 0, got {self.area!r}")
+        if np.any(np.abs(uv) > 1e9):
+            raise NonFiniteError(f"centroid_uv must be at most 1e9 px, got {uv.tolist()}")
+        feats = real_array("features", self.features, (-1,))
+        area = real_scalar("area", self.area, positive=True, high=1e12)
+        ll = self.log_likelihood
+        if not (isinstance(ll, float) and np.isnan(ll)):
+            ll = real_scalar("log_likelihood", ll)
         if self.shape_covariance is None:
             shape = np.eye(2) * (area / 12.0)
         else:
-            shape = _as_float_array("shape_covariance", self.shape_covariance, (2, 2))
-            if not np.allclose(shape, shape.T) or shape[0, 0] <= 0 or np.linalg.det(shape) <= 0:
-                raise NonPositiveSigmaError(
-                    f"shape_covariance must be symmetric positive definite, got {shape.tolist()}"
-                )
+            shape = spd("shape_covariance", self.shape_covariance, 2)
+        object.__setattr__(self, "log_likelihood", float(ll))
         for name, arr in (("centroid_uv", uv), ("features", feats), ("shape_covariance", shape)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
@@ -700,9 +772,14 @@ def _check_image(name: str, image: Any) -> NDArray[np.uint8]:
         raise ImageFormatError(f"{name} must have shape (height, width, 3) (BGR), got shape {image.shape}")
     if image.dtype != np.uint8:
         raise ImageFormatError(f"{name} must have dtype uint8, got {image.dtype} (shape {image.shape})")
+    if image.shape[0] * image.shape[1] > MAX_RENDER_PIXELS or 0 in image.shape:
+        raise ImageFormatError(
+            f"{name} must have between 1 and {MAX_RENDER_PIXELS} pixels, got shape {image.shape}"
+        )
     return image
 
 
+@guard
 def region_features(
     image: NDArray[np.uint8], *, color_ranges: Mapping[str, ColorRange] = COLOR_RANGES, min_area: int = 12
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
@@ -734,6 +811,11 @@ def _region_stats(
 ]:
     """:func:`region_features` plus each region's pixel covariance (r, 2, 2), px^2 (u, v)."""
     image = _check_image("image", image)
+    min_area = integer("min_area", min_area, minimum=1)
+    if not isinstance(color_ranges, Mapping) or not all(
+        isinstance(c, ColorRange) for c in color_ranges.values()
+    ):
+        raise ShapeError(f"color_ranges must map names to ColorRange, got {color_ranges!r}")
     hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
     # per-pixel chroma (S cos H, S sin H) and value, in [0, 1], through hue look-up tables
     sat = hsv[:, :, 1].astype(np.float32) * np.float32(1.0 / 255.0)
@@ -819,6 +901,23 @@ def _region_stats(
 # --------------------------------------------------------------------------------------------
 
 
+def _thresholds(value: Any, k: int) -> NDArray[np.float64]:
+    """(k,) real thresholds; -inf (never reject) is allowed, NaN and +inf are not."""
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"thresholds must have shape ({k},), got {value!r}") from exc
+    if value is None or raw.dtype.kind not in "fiu":
+        raise ShapeError(f"thresholds must be real numbers of shape ({k},), got {value!r}")
+    thr = np.array(raw, dtype=np.float64)
+    if thr.shape != (k,):
+        raise ShapeError(f"thresholds must have shape ({k},), got shape {thr.shape}")
+    bad = np.flatnonzero(np.isnan(thr) | (thr == np.inf))
+    if bad.size:
+        raise NonFiniteError(f"thresholds[{bad[0]}] must be a number or -inf, got {thr[bad[0]]!r}")
+    return thr
+
+
 @dataclass(frozen=True)
 class GaussianClassifier:
     """One multivariate Gaussian per class, with a log-likelihood rejection threshold.
@@ -845,23 +944,26 @@ class GaussianClassifier:
     _chol: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     _log_norm: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
+    @guard
     def __post_init__(self) -> None:
-        classes = tuple(self.classes)
+        classes = tuple(_str_list("classes", self.classes))
         k = len(classes)
-        if k == 0 or any(not isinstance(c, str) or not c for c in classes):
+        if k == 0:
             raise UnknownClassError(f"classes must be non-empty strings, got {classes!r}")
-        means = np.array(self.means, dtype=np.float64)
-        if means.ndim != 2 or means.shape[0] != k:
-            raise ShapeError(f"means must have shape ({k}, d), got shape {means.shape}")
+        if len(set(classes)) != k:
+            raise UnknownClassError(f"classes must be unique, got {classes!r}")
+        means = real_array("means", self.means, (k, -1))
         d = means.shape[1]
-        covs = _as_float_array("covariances", self.covariances, (k, d, d))
-        means = _as_float_array("means", means, (k, d))
+        if d < 1:
+            raise ShapeError(f"means must have shape ({k}, d) with d >= 1, got shape {means.shape}")
+        if np.any(np.abs(means) > 1e150):
+            raise NonFiniteError("means must be at most 1e150 in magnitude")
+        covs_in = real_array("covariances", self.covariances, (k, d, d))
+        covs = np.stack([spd(f"covariances[{i}]", covs_in[i], d) for i in range(k)])
+        if np.any(np.abs(covs) > 1e150) or np.any(np.abs(covs) < 1e-150 * (covs != 0)):
+            raise NonPositiveSigmaError("covariances entries must lie within [1e-150, 1e150] in magnitude")
         log_priors = _as_float_array("log_priors", self.log_priors, (k,))
-        thresholds = np.array(self.thresholds, dtype=np.float64)
-        if thresholds.shape != (k,) or np.any(np.isnan(thresholds)):
-            raise ShapeError(f"thresholds must have shape ({k},) without NaN, got {thresholds!r}")
-        if not np.allclose(covs, np.swapaxes(covs, 1, 2), rtol=1e-9, atol=1e-12):
-            raise ShapeError("covariances must be symmetric")
+        thresholds = _thresholds(self.thresholds, k)
         try:
             chol = np.linalg.cholesky(covs)
         except np.linalg.LinAlgError as exc:
@@ -881,6 +983,7 @@ class GaussianClassifier:
         return int(self.means.shape[1])
 
     @classmethod
+    @guard
     def fit(
         cls,
         features: ArrayLike,
@@ -909,16 +1012,21 @@ class GaussianClassifier:
         GaussianClassifier
             Priors are the class frequencies.
         """
-        x = np.array(features, dtype=np.float64)
-        if x.ndim != 2:
-            raise ShapeError(f"features must have shape (n, d), got shape {x.shape}")
-        if not np.all(np.isfinite(x)):
-            raise NonFiniteError("features must be finite")
-        y = np.asarray(list(labels), dtype=object)
+        x = real_array("features", features, (-1, -1))
+        if x.shape[1] < 1:
+            raise ShapeError(f"features must have shape (n, d) with d >= 1, got shape {x.shape}")
+        big = np.argwhere(np.abs(x) > 1e100)
+        if big.size:
+            i, j = big[0]
+            raise NonFiniteError(f"features[{i}, {j}] = {x[i, j]!r} exceeds 1e100 in magnitude")
+        y = np.asarray(_str_list("labels", labels) or [], dtype=object).reshape(-1)
         if y.shape != (x.shape[0],):
             raise ShapeError(f"labels must have shape ({x.shape[0]},), got shape {y.shape}")
-        if not np.isfinite(regularization) or regularization < 0:
-            raise NonPositiveSigmaError(f"regularization must be finite and >= 0, got {regularization!r}")
+        if x.shape[0] == 0:
+            raise NotFittedError("features must hold at least one sample per class, got none")
+        regularization = real_scalar("regularization", regularization, nonnegative=True, high=1e100)
+        reject_quantile = real_scalar("reject_quantile", reject_quantile, low=0.0, high=1.0)
+        threshold_margin = real_scalar("threshold_margin", threshold_margin, nonnegative=True, high=1e100)
         classes = tuple(sorted({str(v) for v in y}))
         d = x.shape[1]
         means, covs, counts = [], [], []
@@ -929,7 +1037,14 @@ class GaussianClassifier:
             mu = xc.mean(axis=0)
             diff = xc - mu
             means.append(mu)
-            covs.append(diff.T @ diff / len(xc) + regularization * np.eye(d))
+            cov = diff.T @ diff / len(xc) + regularization * np.eye(d)
+            try:
+                spd(f"covariance of class {c!r}", cov, d)
+            except PerceptionError as exc:
+                raise NotFittedError(
+                    f"class {c!r}: its features are degenerate (use regularization > 0): {exc}"
+                ) from exc
+            covs.append(cov)
             counts.append(len(xc))
         k = len(classes)
         prov = cls(
@@ -946,20 +1061,24 @@ class GaussianClassifier:
             thresholds[i] = np.quantile(own, reject_quantile) - threshold_margin
         return cls(classes, prov.means, prov.covariances, prov.log_priors, thresholds)
 
+    @guard
     def log_likelihood(self, features: ArrayLike) -> NDArray[np.float64]:
         """Class-conditional log densities ``log N(x; mu_c, Sigma_c)``, shape (n, k)."""
-        x = np.array(features, dtype=np.float64)
+        x = real_array("features", features)
         if x.ndim == 1:
             x = x[None, :]
         if x.ndim != 2 or x.shape[1] != self.n_features:
             raise ShapeError(f"features must have shape (n, {self.n_features}), got shape {x.shape}")
-        if not np.all(np.isfinite(x)):
-            raise NonFiniteError("features must be finite")
+        big = np.argwhere(np.abs(x) > 1e100)
+        if big.size:
+            i, j = big[0]
+            raise NonFiniteError(f"features[{i}, {j}] = {x[i, j]!r} exceeds 1e100 in magnitude")
         diff = x[None, :, :] - self.means[:, None, :]  # (k, n, d)
         z = np.linalg.solve(self._chol, np.swapaxes(diff, 1, 2))  # (k, d, n)
         maha = np.einsum("kdn,kdn->kn", z, z)
         return (self._log_norm[:, None] - 0.5 * maha).T
 
+    @guard
     def predict(self, features: ArrayLike) -> tuple[list[str | None], NDArray[np.float64]]:
         """Maximum a-posteriori class of each sample, ``None`` where rejected.
 
@@ -979,6 +1098,7 @@ class GaussianClassifier:
         return labels, score
 
 
+@guard
 def detect(
     image: NDArray[np.uint8],
     classifier: GaussianClassifier,
@@ -1009,6 +1129,7 @@ def detect(
     """
     if not isinstance(classifier, GaussianClassifier):
         raise ShapeError(f"classifier must be a GaussianClassifier, got {type(classifier).__name__}")
+    exclude_border = boolean("exclude_border", exclude_border)
     feats, cents, areas, border, moments = _region_stats(image, color_ranges, min_area)
     if exclude_border:
         feats, cents, areas, moments = feats[~border], cents[~border], areas[~border], moments[~border]
@@ -1041,6 +1162,7 @@ def _training_samples(
     return np.array(feats_all).reshape(-1, len(FEATURE_NAMES)), labels_all
 
 
+@guard
 def train_classifier(
     rig: Any, rng: np.random.Generator, n_scenes: int = 30, *, min_area: int = 12, **fit_kwargs: Any
 ) -> GaussianClassifier:
@@ -1062,9 +1184,11 @@ def train_classifier(
     **fit_kwargs
         Passed to :meth:`GaussianClassifier.fit`.
     """
-    if int(n_scenes) < 1:
-        raise ShapeError(f"n_scenes must be >= 1, got {n_scenes!r}")
-    feats, labels = _training_samples(rig, rng, int(n_scenes), min_area)
+    _image_size(rig)
+    rng = check_rng("rng", rng)
+    n_scenes = integer("n_scenes", n_scenes, minimum=1, maximum=100_000)
+    min_area = integer("min_area", min_area, minimum=1)
+    feats, labels = _training_samples(rig, rng, n_scenes, min_area)
     return GaussianClassifier.fit(feats, labels, **fit_kwargs)
 
 
@@ -1081,6 +1205,13 @@ class StereoMatch:
     right: int
     epipolar_px: float
 
+    @guard
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "left", integer("left", self.left, minimum=0))
+        object.__setattr__(self, "right", integer("right", self.right, minimum=0))
+        epi = real_scalar("epipolar_px", self.epipolar_px, nonnegative=True)
+        object.__setattr__(self, "epipolar_px", epi)
+
 
 def _skew(t: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.array([[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]])
@@ -1094,6 +1225,20 @@ def _undistort(
     return cv2.undistortPoints(uv.reshape(-1, 1, 2), K, D, P=K).reshape(-1, 2)
 
 
+def _detections(name: str, value: Any) -> list[Detection]:
+    if value is None or isinstance(value, (str, bytes, Detection)):
+        raise ShapeError(f"{name} must be a sequence of Detection, got {type(value).__name__}")
+    try:
+        out = list(value)
+    except TypeError as exc:
+        raise ShapeError(f"{name} must be a sequence of Detection, got {type(value).__name__}") from exc
+    for i, d in enumerate(out):
+        if not isinstance(d, Detection):
+            raise ShapeError(f"{name}[{i}] must be a Detection, got {type(d).__name__}")
+    return out
+
+
+@guard
 def match_stereo(
     rig: Any,
     left_dets: Sequence[Detection],
@@ -1115,8 +1260,11 @@ def match_stereo(
     -------
     list of StereoMatch
     """
-    if not np.isfinite(max_epipolar_px) or max_epipolar_px <= 0:
-        raise NonPositiveSigmaError(f"max_epipolar_px must be finite and > 0, got {max_epipolar_px!r}")
+    _rig(rig)
+    max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True)
+    max_log_area_ratio = real_scalar("max_log_area_ratio", max_log_area_ratio, nonnegative=True)
+    left_dets = _detections("left_dets", left_dets)
+    right_dets = _detections("right_dets", right_dets)
     if not left_dets or not right_dets:
         return []
     K1, D1 = np.asarray(rig.K1, np.float64), np.asarray(rig.D1, np.float64)
@@ -1218,6 +1366,7 @@ def _default_depth_factor(rig: Any, disparity_std_px: float) -> float:
     return focal * baseline / disparity_std_px
 
 
+@guard
 def recognize(
     rig: Any,
     left: NDArray[np.uint8],
@@ -1279,6 +1428,18 @@ def recognize(
         In the frame of ``ego_from_camera``, one per matched pair.
     """
     width, height = _image_size(rig)
+    if not isinstance(classifier, GaussianClassifier):
+        raise ShapeError(f"classifier must be a GaussianClassifier, got {type(classifier).__name__}")
+    min_area = integer("min_area", min_area, minimum=1)
+    max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True)
+    disparity_std_px = real_scalar("disparity_std_px", disparity_std_px, positive=True, high=1e6)
+    if depth_factor is not None:
+        depth_factor = real_scalar("depth_factor", depth_factor, positive=True, high=1e150)
+    if pixel_sigma is not None:
+        pixel_sigma = real_scalar("pixel_sigma", pixel_sigma, positive=True, high=1e6)
+    centroid_offset_scale = real_scalar(
+        "centroid_offset_scale", centroid_offset_scale, nonnegative=True, high=1e6
+    )
     for name, img in (("left", left), ("right", right)):
         _check_image(name, img)
         if img.shape[:2] != (height, width):
@@ -1321,7 +1482,10 @@ def recognize(
     for m, p, r, c in zip(matches, out_pts, rho, covs, strict=True):
         if not np.all(np.isfinite(p)) or r <= 0:
             continue
-        percepts.append(
-            Percept(type=dets_l[m.left].type, position=p, sigma=float(r**2 / depth_factor), covariance=c)
-        )
+        try:
+            percepts.append(
+                Percept(type=dets_l[m.left].type, position=p, sigma=float(r**2 / depth_factor), covariance=c)
+            )
+        except PerceptionError:  # degenerate geometry (e.g. a singular covariance): no percept
+            continue
     return percepts
