@@ -59,7 +59,6 @@ from .errors import (
     CoincidentObjectsError,
     EmptyWorldError,
     MalformedFileError,
-    NonFiniteError,
     NonPositiveError,
     OutOfRangeError,
     ShapeError,
@@ -174,6 +173,45 @@ def _world_bounds(matrix: NDArray[np.float64], bounds: NDArray[np.float64]) -> N
     return np.array([world.min(axis=0), world.max(axis=0)])
 
 
+def _check_scene(scene: Any) -> None:
+    try:
+        import trimesh as _trimesh
+    except ImportError as exc:  # pragma: no cover
+        from .errors import ImporterError
+        raise ImporterError("from_trimesh needs trimesh: pip install trimesh") from exc
+    if not isinstance(scene, _trimesh.Scene):
+        raise ArgumentTypeError(f"scene must be a trimesh.Scene, got {_checks._short(scene)}")
+
+
+def _geometry_nodes(scene: trimesh.Scene) -> Iterable[tuple[str, NDArray[np.float64], str, Any]]:
+    """``(node, world_from_node (4, 4), geometry name, geometry)`` of each geometry node, the
+    transform checked finite with ``|x| <=`` :data:`MAX_COORDINATE`."""
+    for node in scene.graph.nodes_geometry:
+        matrix, geom_name = scene.graph[node]
+        geometry = scene.geometry.get(geom_name)
+        if geometry is None:
+            raise WorldGraphError(f"scene node {node!r} refers to geometry {geom_name!r}, "
+                                  "which the scene lacks")
+        m = _checks.float_array(f"transform of scene node {node!r}", matrix, (4, 4), max_abs=MAX_COORDINATE)
+        yield node, m, geom_name, geometry
+
+
+def _vertex_bounds(name: str, geometry: Any) -> NDArray[np.float64] | None:
+    """``(2, 3)`` bounds of a geometry's vertices; ``None`` when it has none (empty Trimesh,
+    empty PointCloud, or a geometry without vertices)."""
+    verts = _vertices(name, geometry)
+    if verts is None:
+        return None
+    return np.array([verts.min(axis=0), verts.max(axis=0)])
+
+
+def _vertices(name: str, geometry: Any) -> NDArray[np.float64] | None:
+    raw = getattr(geometry, "vertices", None)
+    if raw is None or np.size(raw) == 0:
+        return None
+    return _checks.float_array(name, raw, (None, 3), max_abs=MAX_COORDINATE, min_size=1)
+
+
 def room_from_trimesh(scene: trimesh.Scene) -> radialopt.Region | None:
     """The room box of a scene, or ``None`` when it has no room nodes.
 
@@ -185,17 +223,17 @@ def room_from_trimesh(scene: trimesh.Scene) -> radialopt.Region | None:
     nodes; the upper z is the bottom of the ceiling (the lowest), else the top of the walls, else
     the lower z + :data:`DEFAULT_ROOM_HEIGHT`.
     """
+    _check_scene(scene)
     meta = getattr(scene, "metadata", None) or {}
-    if meta.get("room") is not None:
+    if isinstance(meta, Mapping) and meta.get("room") is not None:
         return _check_room(meta["room"], 'scene.metadata["room"]')
     found: dict[str, list[NDArray[np.float64]]] = {t: [] for t in ROOM_TYPES}
-    for node in scene.graph.nodes_geometry:
-        matrix, geom_name = scene.graph[node]
-        geometry = scene.geometry[geom_name]
+    for node, matrix, geom_name, geometry in _geometry_nodes(scene):
         typ = _default_type(scene, node, geometry)
-        if typ in found:
-            bounds = np.asarray(geometry.bounds, dtype=np.float64)
-            found[typ].append(_world_bounds(np.asarray(matrix, dtype=np.float64), bounds))
+        if isinstance(typ, str) and typ in found:
+            bounds = _vertex_bounds(f"vertices of geometry {geom_name!r}", geometry)
+            if bounds is not None:
+                found[typ].append(_world_bounds(matrix, bounds))
     floors, walls, ceilings = (np.array(found[t]).reshape(-1, 2, 3) for t in ROOM_TYPES)
     every = np.concatenate([floors, walls, ceilings])
     if not len(every):
@@ -221,6 +259,29 @@ def _check_unique_ids(ids: list[str], what: str) -> None:
             raise WorldGraphError(f"ids must be unique: {x!r} appears more than once, at {what}[{first[x]}] "
                                   f"and {what}[{k}]")
         first[x] = k
+
+
+def _name_list(name: str, value: Any, n: int, error: type[WorldGraphError]) -> list[str]:
+    """``n`` names (non-empty ``str`` without NUL) from a sequence or array; one ``str`` is a list of one."""
+    if isinstance(value, str):
+        value = [value]
+    if value is None or isinstance(value, bytes | Mapping) or not isinstance(value, Iterable):
+        raise ArgumentTypeError(f"{name} must be a sequence of {n} strings, got {_checks._short(value)}")
+    items = value.reshape(-1).tolist() if isinstance(value, np.ndarray) else list(value)
+    if len(items) != n:
+        raise ShapeError(f"{name} must have length {n} to match positions of shape ({n}, 3), "
+                         f"got length {len(items)}")
+    return [str(_checks.name_string(f"{name}[{k}]", x, error)) for k, x in enumerate(items)]
+
+
+def _check_path(path: Any) -> str:
+    """A file path as ``str``: ``str`` or ``os.PathLike`` of ``str``, non-empty, without NUL."""
+    if isinstance(path, bytes) or not isinstance(path, str | os.PathLike):
+        raise ArgumentTypeError(f"path must be a str or os.PathLike, got {_checks._short(path)}")
+    text = os.fspath(path)
+    if not isinstance(text, str):
+        raise ArgumentTypeError(f"path must be a str or os.PathLike of str, got {_checks._short(path)}")
+    return _checks.name_string("path", text)
 
 
 def _check_type_name(value: Any, what: str) -> str:
@@ -455,7 +516,8 @@ class WorldModel:
     def __post_init__(self) -> None:
         object.__setattr__(self, "room", _check_room(self.room))
         if isinstance(self.objects, str | bytes | Mapping) or not isinstance(self.objects, Iterable):
-            raise ArgumentTypeError(f"objects must be a sequence of ObjectModel, got {_checks._short(self.objects)}")
+            raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
+                                    f"{_checks._short(self.objects)}")
         objects = tuple(self.objects)
         if not objects:
             raise EmptyWorldError("a WorldModel needs at least one object, got 0")
@@ -464,9 +526,11 @@ class WorldModel:
                 raise ArgumentTypeError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
         _check_unique_ids([o.id for o in objects], "objects")
         mll = _checks.positive_float("max_link_length", self.max_link_length, maximum=MAX_LINK_LENGTH)
-        margin = _checks.positive_float("link_margin", self.link_margin, allow_zero=True, maximum=MAX_LINK_LENGTH)
+        margin = _checks.positive_float("link_margin", self.link_margin, allow_zero=True,
+                                        maximum=MAX_LINK_LENGTH)
         if mll + margin > MAX_LINK_LENGTH:
-            raise OutOfRangeError(f"max_link_length + link_margin = {mll + margin!r} must be <= {MAX_LINK_LENGTH:g}")
+            raise OutOfRangeError(f"max_link_length + link_margin = {mll + margin!r} must be "
+                                  f"<= {MAX_LINK_LENGTH:g}")
         if not isinstance(self.class_vertices, Mapping):
             raise ArgumentTypeError("class_vertices must be a mapping geometry key -> (k, 3) vertices, got "
                                     f"{_checks._short(self.class_vertices)}")
@@ -577,66 +641,61 @@ class WorldModel:
         Parameters
         ----------
         types : (n,) str
-            Non-empty strings.
+            Non-empty strings without NUL characters (kept as Python ``str``).
         positions : (n, 3) float
-            World positions (metres); poses get the identity rotation.
+            World positions (metres), finite, ``|x| <=`` :data:`MAX_COORDINATE`; poses get the
+            identity rotation.
         max_link_length, link_margin : float
             See :class:`WorldModel`.
         room : radialopt.Region or (lower, upper), optional
             See :class:`WorldModel`.
         ids : (n,) str, optional
-            Default ``f"{type}_{k}"`` with ``k`` the object index.
+            Unique non-empty strings without NUL characters; default ``f"{type}_{k}"`` with ``k``
+            the object index.
         sizes : (n, 3) or (3,) float, optional
-            Bounding-box extents; default :data:`DEFAULT_SIZE` in every axis.
+            Bounding-box extents (metres, ``>= 0``); default :data:`DEFAULT_SIZE` in every axis.
 
         Each type gets the class geometry of its own name: the corners of a box of the type's
         median size.
         """
-        pos = np.array(positions, dtype=np.float64)
-        type_list = [types] if isinstance(types, str) else list(np.asarray(types, dtype=object).reshape(-1))
-        if pos.ndim != 2 or pos.shape[1] != 3:
-            raise ShapeError(f"positions must have shape (n, 3), got shape {pos.shape}")
+        pos = _checks.float_array("positions", positions, (None, 3), max_abs=MAX_COORDINATE)
         n = pos.shape[0]
         if n == 0:
             raise EmptyWorldError("a WorldModel needs at least one object, got positions of shape (0, 3)")
-        if len(type_list) != n:
-            raise ShapeError(f"types must have shape ({n},) to match positions {pos.shape}, "
-                             f"got length {len(type_list)}")
-        for k, t in enumerate(type_list):
-            _check_type_name(t, f"types[{k}]")
-        if not np.all(np.isfinite(pos)):
-            bad = np.argwhere(~np.isfinite(pos))[0]
-            raise NonFiniteError(f"positions must be finite, positions[{bad[0]}] = {pos[bad[0]].tolist()}")
+        type_list = _name_list("types", types, n, UnknownTypeError)
         if sizes is None:
             sz = np.full((n, 3), DEFAULT_SIZE)
         else:
-            sz = np.array(sizes, dtype=np.float64)
+            sz = _checks.float_array("sizes", sizes, None, max_abs=MAX_COORDINATE)
             if sz.shape == (3,):
                 sz = np.broadcast_to(sz, (n, 3))
             if sz.shape != (n, 3):
                 raise ShapeError(f"sizes must have shape ({n}, 3) or (3,), got shape {sz.shape}")
-            if not np.all(np.isfinite(sz)):
-                bad_rows = sz[~np.isfinite(sz).all(axis=1)][:3].tolist()
-                raise NonFiniteError(f"sizes must be finite, got rows {bad_rows}")
             if np.any(sz < 0):
-                raise NonPositiveError(f"sizes must be >= 0, got {sz[(sz < 0).any(axis=1)][:3].tolist()}")
+                bad = np.argwhere(sz < 0)[0]
+                raise NonPositiveError(f"sizes[{bad[0]}, {bad[1]}] must be >= 0, "
+                                       f"got {float(sz[tuple(bad)])!r}")
         if ids is None:
             id_list = [f"{t}_{k}" for k, t in enumerate(type_list)]
         else:
-            id_list = [str(x) for x in ids]
-            if len(id_list) != n:
-                raise ShapeError(f"ids must have length {n}, got {len(id_list)}")
-        type_arr = np.array(type_list, dtype=str)
+            id_list = _name_list("ids", ids, n, WorldGraphError)
+        _check_unique_ids(id_list, "ids")
+        names, codes = np.unique(np.array(type_list, dtype=object), return_inverse=True)
+        codes = codes.reshape(-1)
+        by_type = np.argsort(codes, kind="stable")
+        starts = np.searchsorted(codes[by_type], np.arange(len(names) + 1))
         class_vertices = {}
-        for t in np.unique(type_arr):
-            class_vertices[str(t)] = box_vertices(np.median(sz[type_arr == t], axis=0))
+        for c, t in enumerate(names.tolist()):
+            rows = by_type[starts[c]:starts[c + 1]]
+            class_vertices[t] = box_vertices(DEFAULT_SIZE * np.ones(3) if sizes is None
+                                             else np.median(sz[rows], axis=0))
         poses = np.zeros((n, 4, 4))
         poses[:, [0, 1, 2, 3], [0, 1, 2, 3]] = 1.0
         poses[:, :3, 3] = pos
         sz = np.array(sz, dtype=np.float64)
         poses.setflags(write=False)
         sz.setflags(write=False)
-        objs = [ObjectModel._trusted(id_list[k], str(type_list[k]), poses[k], sz[k], str(type_list[k]))
+        objs = [ObjectModel._trusted(id_list[k], type_list[k], poses[k], sz[k], type_list[k])
                 for k in range(n)]
         return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices,
                    link_margin=link_margin, room=room)
@@ -662,30 +721,40 @@ class WorldModel:
         ``room="auto"`` sets :attr:`room` by :func:`room_from_trimesh` (from the floor, wall and
         ceiling nodes by the default typing rule, whether or not ``type_of`` skips them, or from
         ``scene.metadata["room"]``); ``None`` leaves it unset; a Region is used as is.
+
+        Geometry without vertices (an empty :class:`trimesh.Trimesh` or
+        :class:`trimesh.PointCloud`) is skipped; a point cloud with points is an object like a
+        mesh (its box is the points' bounds).  Node transforms and vertices must be finite with
+        ``|x| <=`` :data:`MAX_COORDINATE`.  An exception inside ``type_of`` is re-raised as a
+        :class:`~worldgraph.errors.WorldGraphError` naming the node.
         """
-        try:
-            import trimesh as _trimesh  # noqa: F401
-        except ImportError as exc:  # pragma: no cover
-            from .errors import ImporterError
-            raise ImporterError("from_trimesh needs trimesh: pip install trimesh") from exc
+        _check_scene(scene)
+        if type_of is not None and not callable(type_of):
+            raise ArgumentTypeError(f"type_of must be a callable or None, got {_checks._short(type_of)}")
         if isinstance(room, str):
             if room != "auto":
                 raise WorldGraphError(f"room must be 'auto', a radialopt.Region or None, got {room!r}")
             room = room_from_trimesh(scene)
         else:
             room = _check_room(room)
-        graph = scene.graph
         objs: list[ObjectModel] = []
         class_vertices: dict[str, NDArray[np.float64]] = {}
-        for node in graph.nodes_geometry:
-            matrix, geom_name = graph[node]
-            geometry = scene.geometry[geom_name]
-            typ = type_of(node, geometry) if type_of is not None else _default_type(scene, node, geometry)
+        for node, matrix, geom_name, geometry in _geometry_nodes(scene):
+            verts = _vertices(f"vertices of geometry {geom_name!r}", geometry)
+            if verts is None:  # an empty Trimesh or PointCloud: nothing to perceive
+                continue
+            if type_of is not None:
+                try:
+                    typ = type_of(node, geometry)
+                except Exception as exc:
+                    raise WorldGraphError(f"type_of({node!r}, geometry) raised "
+                                          f"{type(exc).__name__}: {exc}") from exc
+            else:
+                typ = _default_type(scene, node, geometry)
             if typ is None:
                 continue
             _check_type_name(typ, f"type of node {node!r}")
-            matrix = np.asarray(matrix, dtype=np.float64)
-            lo, hi = np.asarray(geometry.bounds, dtype=np.float64)
+            lo, hi = verts.min(axis=0), verts.max(axis=0)
             centre = 0.5 * (lo + hi)
             rot, scale = _rotation_and_scale(matrix)
             pose = np.eye(4)
@@ -694,10 +763,10 @@ class WorldModel:
             size = (hi - lo) * scale
             key = str(geom_name)
             if key not in class_vertices:
-                class_vertices[key] = (np.asarray(geometry.vertices, dtype=np.float64) - centre) * scale
-            objs.append(ObjectModel(str(node), str(typ), pose, size, key))
+                class_vertices[key] = (verts - centre) * scale
+            objs.append(ObjectModel(str(node), typ, pose, size, key))
         if not objs:
-            raise EmptyWorldError("the scene has no typed geometry nodes")
+            raise EmptyWorldError("the scene has no typed geometry nodes with vertices")
         return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
                    link_margin=link_margin, room=room)
 
@@ -769,7 +838,9 @@ class WorldModel:
         counts = ", ".join(f"{t}={len(v)}" for t, v in self.type_index.items())
         return f"WorldModel({len(self)} objects: {counts}; max_link_length={self.max_link_length})"
 
-    def _check_known_type(self, t: str) -> None:
+    def _check_known_type(self, t: str, what: str = "type") -> None:
+        if not isinstance(t, str):
+            raise UnknownTypeError(f"{what} must be a type name (str), got {_checks._short(t)}")
         if t not in self._type_index:  # type: ignore[attr-defined]
             raise UnknownTypeError(f"type {t!r} is not in the world model; "
                                    f"known types: {list(self.type_index)}")
@@ -784,8 +855,10 @@ class WorldModel:
         The defaults return every link (including zero-length ones between coincident objects
         of different types).
         """
-        self._check_known_type(type_a)
-        self._check_known_type(type_b)
+        self._check_known_type(type_a, "type_a")
+        self._check_known_type(type_b, "type_b")
+        lo = _checks.real_float("lo", lo)
+        hi = _checks.real_float("hi", hi)
         if type_a <= type_b:
             return self._links[(type_a, type_b)].in_range(lo, hi)  # type: ignore[attr-defined,no-any-return]
         i, j, length = self._links[(type_b, type_a)].in_range(lo, hi)  # type: ignore[attr-defined]
@@ -793,7 +866,7 @@ class WorldModel:
 
     def indices_of(self, type_name: str) -> NDArray[np.intp]:
         """Object indices of one type (``UnknownTypeError`` if absent)."""
-        self._check_known_type(type_name)
+        self._check_known_type(type_name, "type_name")
         return self._type_index[type_name]  # type: ignore[attr-defined,no-any-return]
 
     @property
@@ -810,19 +883,29 @@ class WorldModel:
         bottom stays at floor height.  A negative margin shrinks it.
         """
         from radialopt import Region
+        from radialopt import errors as ro_errors
 
-        if not math.isfinite(margin):
-            raise NonFiniteError(f"margin must be finite, got {margin!r}")
+        margin = _checks.finite_float("margin", margin, max_abs=MAX_LINK_LENGTH)
         lo, hi = self.bounds
         lower = np.array([lo[0] - margin, lo[1] - margin, lo[2]])
         upper = np.array([hi[0] + margin, hi[1] + margin, hi[2] + margin])
-        return Region(lower, upper)
+        try:
+            return Region(lower, upper)
+        except ro_errors.RadialError as exc:
+            raise WorldGraphError(f"margin = {margin!r} shrinks the model's box {lo.tolist()}..{hi.tolist()} "
+                                  f"to nothing: {exc}") from exc
 
     def subset(self, types: Iterable[str]) -> WorldModel:
-        """A world model holding only the objects of the given types (same link settings and room)."""
-        keep = set(types)
-        for t in keep:
-            self._check_known_type(t)
+        """A world model holding only the objects of the given types (same link settings and room);
+        a single string is one type."""
+        if isinstance(types, str):
+            types = [types]
+        if types is None or isinstance(types, bytes | Mapping) or not isinstance(types, Iterable):
+            raise ArgumentTypeError(f"types must be an iterable of type names, got {_checks._short(types)}")
+        keep = list(types)
+        for k, t in enumerate(keep):
+            self._check_known_type(t, f"types[{k}]")
+        keep = set(keep)
         objs = tuple(o for o in self.objects if o.type in keep)
         cv = {o.geometry: self.class_vertices[o.geometry] for o in objs}
         return WorldModel(objs, self.max_link_length, cv, scene=None, link_margin=self.link_margin,
@@ -844,21 +927,40 @@ class WorldModel:
         return out
 
     def save(self, path: str | os.PathLike[str]) -> None:
-        """Write the model as JSON (see the module docstring for the format)."""
-        with open(path, "w", encoding="utf-8") as fh:
-            json.dump(self.to_dict(), fh, indent=1, allow_nan=False)
+        """Write the model as JSON (see the module docstring for the format); a path that cannot be
+        written raises :class:`~worldgraph.errors.WorldGraphError` naming it."""
+        path = _check_path(path)
+        try:
+            with open(path, "w", encoding="utf-8") as fh:
+                json.dump(self.to_dict(), fh, indent=1, allow_nan=False)
+        except OSError as exc:
+            raise WorldGraphError(f"{path}: cannot write: {exc}") from exc
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> WorldModel:
-        """Read a model written by :meth:`save` (or by hand); ``MalformedFileError`` names the problem."""
+        """Read a model written by :meth:`save` (or by hand).
+
+        Every problem is a :class:`~worldgraph.errors.MalformedFileError` naming the path and the
+        problem: a path that is not a ``str``/``PathLike`` or holds a NUL character, a file that
+        cannot be read, is not UTF-8, not JSON, nested too deeply, or holds a bad value (numbers
+        beyond float64, non-rigid poses, coordinates above :data:`MAX_COORDINATE`, ...).
+        """
+        try:
+            path = _check_path(path)
+        except WorldGraphError as exc:
+            raise MalformedFileError(str(exc)) from exc
         try:
             with open(path, encoding="utf-8") as fh:
                 data = json.load(fh)
         except json.JSONDecodeError as exc:
-            raise MalformedFileError(f"{os.fspath(path)!s}: not valid JSON: {exc}") from exc
-        except OSError as exc:
-            raise MalformedFileError(f"{os.fspath(path)!s}: cannot read: {exc}") from exc
-        return cls.from_dict(data, source=os.fspath(path))
+            raise MalformedFileError(f"{path}: not valid JSON: {exc}") from exc
+        except UnicodeDecodeError as exc:
+            raise MalformedFileError(f"{path}: not UTF-8 text: {exc}") from exc
+        except RecursionError as exc:
+            raise MalformedFileError(f"{path}: JSON nested too deeply to read") from exc
+        except (OSError, ValueError) as exc:
+            raise MalformedFileError(f"{path}: cannot read: {exc}") from exc
+        return cls.from_dict(data, source=path)
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "<dict>") -> WorldModel:
@@ -866,39 +968,46 @@ class WorldModel:
         def bad(msg: str) -> MalformedFileError:
             return MalformedFileError(f"{source}: {msg}")
 
+        try:
+            return cls._from_dict(data, bad)
+        except MalformedFileError:
+            raise
+        except WorldGraphError as exc:
+            raise bad(str(exc)) from exc
+        except RecursionError as exc:
+            raise bad("nested too deeply") from exc
+
+    @classmethod
+    def _from_dict(cls, data: Any, bad: Callable[[str], MalformedFileError]) -> WorldModel:
+
         if not isinstance(data, dict):
             raise bad(f"top level must be a JSON object, got {type(data).__name__}")
         for key in ("version", "max_link_length", "objects", "class_vertices"):
             if key not in data:
                 raise bad(f"missing key {key!r}")
         if data.get("format", FILE_FORMAT) != FILE_FORMAT:
-            raise bad(f"format must be {FILE_FORMAT!r}, got {data['format']!r}")
-        if data["version"] != FILE_VERSION:
-            raise bad(f"unsupported version {data['version']!r}, this reader reads version {FILE_VERSION}")
+            raise bad(f"format must be {FILE_FORMAT!r}, got {_checks._short(data['format'])}")
+        if type(data["version"]) is not int or data["version"] != FILE_VERSION:
+            raise bad(f"unsupported version {_checks._short(data['version'])}, this reader reads version "
+                      f"{FILE_VERSION}")
 
         def number(value: Any, what: str) -> float:
-            if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-                raise bad(f"{what} must be a finite number, got {value!r}")
-            return float(value)
+            try:
+                return _checks.finite_float(what, value)
+            except WorldGraphError as exc:
+                raise bad(f"{exc} (a finite number is needed)") from exc
 
         def array(value: Any, shape: tuple[int | None, ...], what: str) -> NDArray[np.float64]:
             try:
-                arr = np.array(value, dtype=np.float64)
-            except (TypeError, ValueError) as exc:
-                raise bad(f"{what} must be an array of numbers of shape {shape}, got {value!r}") from exc
-            if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape,
-                                                                                    strict=True)):
-                raise bad(f"{what} must have shape {shape}, got shape {arr.shape}")
-            if not np.all(np.isfinite(arr)):
-                raise bad(f"{what} must be finite (no NaN/inf), got {arr.tolist()}")
-            return arr
+                return _checks.float_array(what, value, shape)
+            except WorldGraphError as exc:
+                raise bad(str(exc)) from exc
 
         mll = number(data["max_link_length"], "max_link_length")
         margin = number(data.get("link_margin", 0.0), "link_margin")
         if not isinstance(data["class_vertices"], dict):
             raise bad("class_vertices must be an object mapping geometry keys to vertex lists")
-        cv = {str(k): array(v, (None, 3), f"class_vertices[{k!r}]")
-              for k, v in data["class_vertices"].items()}
+        cv = {k: array(v, (None, 3), f"class_vertices[{k!r}]") for k, v in data["class_vertices"].items()}
         if not isinstance(data["objects"], list):
             raise bad("objects must be a list")
         objs = []
@@ -908,10 +1017,12 @@ class WorldModel:
             for key in ("id", "type", "pose", "size", "geometry"):
                 if key not in entry:
                     raise bad(f"objects[{k}] is missing key {key!r}")
-            name = f"objects[{k}] ({entry['id']!r})"
+            name = f"objects[{k}] ({_checks._short(entry['id'], 60)})"
             for key in ("id", "type", "geometry"):
-                if not isinstance(entry[key], str) or not entry[key]:
-                    raise bad(f"{name}.{key} must be a non-empty string, got {entry[key]!r}")
+                try:
+                    _checks.name_string(f"{name}.{key}", entry[key])
+                except WorldGraphError as exc:
+                    raise bad(str(exc)) from exc
             pose = array(entry["pose"], (4, 4), f"{name}.pose")
             size = array(entry["size"], (3,), f"{name}.size")
             try:
@@ -921,7 +1032,8 @@ class WorldModel:
         room = data.get("room")
         if room is not None:
             if not isinstance(room, dict) or set(room) != {"lower", "upper"}:
-                raise bad(f"room must be null or an object with keys 'lower' and 'upper', got {room!r}")
+                raise bad("room must be null or an object with keys 'lower' and 'upper', "
+                          f"got {_checks._short(room)}")
             room = (array(room["lower"], (3,), "room.lower"), array(room["upper"], (3,), "room.upper"))
         try:
             return cls(tuple(objs), max_link_length=mll, class_vertices=cv, link_margin=margin, room=room)
