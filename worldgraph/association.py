@@ -44,8 +44,12 @@ from scipy.spatial import cKDTree
 
 from perception import Percept
 
+from ._checks import positive_float, rigid_transform, strict_int
 from .errors import (
+    ArgumentTypeError,
     EmptyWorldError,
+    OutOfRangeError,
+    ShapeError,
     TooFewPerceptsError,
     UnknownTypeError,
     WorldGraphError,
@@ -155,28 +159,37 @@ class AssociationTolerances:
     max_search_percepts: int = 10
 
     def __post_init__(self) -> None:
-        for name in ("n_sigma", "pair_factor", "kappa_max", "cost_cap", "residual_factor",
-                     "distinct_translation", "distinct_angle"):
-            v = getattr(self, name)
-            if not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
-                raise WorldGraphError(f"AssociationTolerances.{name} must be finite and > 0, got {v!r}")
+        def put(name: str, value: object) -> None:
+            object.__setattr__(self, name, value)
+
+        for name in ("n_sigma", "pair_factor", "cost_cap", "residual_factor", "distinct_translation"):
+            put(name, positive_float(f"AssociationTolerances.{name}", getattr(self, name), maximum=1e12))
         for name in ("min_tolerance", "ambiguity_margin", "chirality_sigmas"):
-            v = getattr(self, name)
-            if not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
-                raise WorldGraphError(f"AssociationTolerances.{name} must be finite and >= 0, got {v!r}")
+            put(name, positive_float(f"AssociationTolerances.{name}", getattr(self, name), allow_zero=True,
+                                     maximum=1e12))
+        for name in ("kappa_max", "distinct_angle"):
+            v = positive_float(f"AssociationTolerances.{name}", getattr(self, name))
+            if v > math.pi:
+                raise OutOfRangeError(f"AssociationTolerances.{name} = {v!r} is an angle in radians and must "
+                                      f"be <= pi; degrees? use np.radians({v!r}) = {math.radians(v):.6g}")
+            put(name, v)
         for name in ("mu_max", "height_tolerance"):
             v = getattr(self, name)
-            if v is not None and (not isinstance(v, int | float) or not math.isfinite(v) or v <= 0):
-                raise WorldGraphError(f"AssociationTolerances.{name} must be None or finite > 0, got {v!r}")
-        if int(self.min_clique_size) < 2:
-            raise WorldGraphError(f"min_clique_size must be >= 2, got {self.min_clique_size!r}")
-        if int(self.max_search_percepts) < self.min_clique_size:
-            raise WorldGraphError(f"max_search_percepts must be >= min_clique_size, "
-                                  f"got {self.max_search_percepts!r}")
-        for name in ("near_maximum", "max_nodes", "max_cliques", "dense_pair_limit", "max_hypotheses"):
-            if int(getattr(self, name)) < 0:
-                raise WorldGraphError(f"AssociationTolerances.{name} must be >= 0, "
-                                      f"got {getattr(self, name)!r}")
+            if v is not None:
+                put(name, positive_float(f"AssociationTolerances.{name}", v, maximum=1e12))
+        if not isinstance(self.gravity_aligned, bool | np.bool_):
+            raise ArgumentTypeError(f"AssociationTolerances.gravity_aligned must be a bool, "
+                                    f"got {self.gravity_aligned!r}")
+        put("gravity_aligned", bool(self.gravity_aligned))
+        put("min_clique_size", strict_int("AssociationTolerances.min_clique_size", self.min_clique_size,
+                                          minimum=2, maximum=64))
+        put("max_search_percepts", strict_int("AssociationTolerances.max_search_percepts",
+                                              self.max_search_percepts, minimum=self.min_clique_size,
+                                              maximum=100_000))
+        for name, lo in (("near_maximum", 0), ("max_nodes", 1), ("max_cliques", 1), ("dense_pair_limit", 0),
+                         ("max_hypotheses", 1)):
+            put(name, strict_int(f"AssociationTolerances.{name}", getattr(self, name), minimum=lo,
+                                 maximum=10**9))
 
     def pair_tolerance(self, sigma_p: float | NDArray, sigma_q: float | NDArray) -> float | NDArray:
         """``tau_pq = n_sigma * pair_factor * sqrt(s_p^2 + s_q^2) + min_tolerance`` (metres)."""
@@ -304,6 +317,30 @@ def maximum_cliques(
     -------
     CliqueSearch
     """
+    if sizes is None or isinstance(sizes, str | bytes):
+        raise ArgumentTypeError(f"sizes must be a sequence of non-negative integers, got {sizes!r}")
+    sizes = [strict_int(f"sizes[{i}]", s, minimum=0, maximum=10**7) for i, s in enumerate(sizes)]
+    if not isinstance(adjacency, dict):
+        raise ArgumentTypeError(f"adjacency must be a dict (p, q) -> bool array or None, got "
+                                f"{type(adjacency).__name__}")
+    for key in adjacency:
+        if not (isinstance(key, tuple) and len(key) == 2 and all(isinstance(v, int | np.integer)
+                                                                  and not isinstance(v, bool) for v in key)
+                and 0 <= key[0] < key[1] < len(sizes)):
+            raise WorldGraphError(f"adjacency keys must be (p, q) with 0 <= p < q < {len(sizes)}, "
+                                  f"got {key!r}")
+    min_size = strict_int("min_size", min_size, minimum=0)
+    near_maximum = strict_int("near_maximum", near_maximum, minimum=0)
+    max_nodes = strict_int("max_nodes", max_nodes, minimum=1)
+    if max_cliques is not None:
+        max_cliques = strict_int("max_cliques", max_cliques, minimum=1)
+    if stop_at is not None:
+        stop_at = strict_int("stop_at", stop_at, minimum=1)
+    if allowed is not None:
+        allowed = [np.asarray(a) for a in allowed]
+        if len(allowed) != len(sizes) or any(a.dtype != np.bool_ or a.shape != (s,)
+                                             for a, s in zip(allowed, sizes, strict=False)):
+            raise ShapeError(f"allowed must hold one bool array of shape (sizes[p],) per part ({len(sizes)})")
     k = len(sizes)
     full = [(1 << int(s)) - 1 for s in sizes]
     start = list(full) if allowed is None else [_bits(np.flatnonzero(a)) & f for a, f in zip(allowed, full,
@@ -325,7 +362,9 @@ def maximum_cliques(
             if mat is None:
                 packed[d][e] = full[q]
                 continue
-            mat = np.asarray(mat, dtype=bool)
+            mat = np.asarray(mat)
+            if mat.dtype != np.bool_:
+                raise ArgumentTypeError(f"adjacency[{key}] must be a bool array, got dtype {mat.dtype}")
             if mat.shape != (sizes[key[0]], sizes[key[1]]):
                 raise WorldGraphError(f"adjacency[{key}] must have shape ({sizes[key[0]]}, {sizes[key[1]]}), "
                                       f"got shape {mat.shape}")
@@ -407,17 +446,56 @@ def maximum_cliques(
 # ----------------------------------------------------------------------------------------------
 # input checks and the consistency graph
 # ----------------------------------------------------------------------------------------------
+#: Percept standard deviations (m) outside this range are rejected: their squares and inverse
+#: squares (the weights of every fit) would under- or overflow together with the coordinates.
+SIGMA_RANGE = (1e-12, 1e9)
+#: Largest percept coordinate (m) the pose computations accept.
+MAX_COORDINATE = 1e9
+
+
 def check_world_and_percepts(world: WorldModel, percepts: Sequence[Percept]) -> list[Percept]:
-    """A non-empty WorldModel and a list of Percepts (which validate their own values)."""
+    """A non-empty WorldModel and a sequence of Percepts whose scales the fits can handle.
+
+    Raises :class:`~worldgraph.errors.WorldGraphError` naming ``world``, ``percepts`` or
+    ``percepts[i]`` (the index of a wrong element, its sigma or covariance scale).
+    """
     if not isinstance(world, WorldModel):
-        raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
+        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
     if len(world) == 0:
         raise EmptyWorldError("the world model has no objects")
-    percepts = list(percepts)
+    if percepts is None or isinstance(percepts, str | bytes | dict) or isinstance(percepts, Percept):
+        raise ArgumentTypeError("percepts must be a sequence of perception.Percept, "
+                                f"got {type(percepts).__name__}")
+    try:
+        percepts = list(percepts)
+    except TypeError as exc:
+        raise ArgumentTypeError(f"percepts must be a sequence of perception.Percept, "
+                                f"got {type(percepts).__name__}") from exc
+    lo, hi = SIGMA_RANGE
     for k, p in enumerate(percepts):
         if not isinstance(p, Percept):
-            raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
+            raise ArgumentTypeError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
+        s = float(p.sigma)
+        if not (lo <= s <= hi):
+            raise OutOfRangeError(f"percepts[{k}].sigma = {s:.3g} m is outside [{lo:g}, {hi:g}] m, the range "
+                                  "the association and pose fits can handle (covariance scale "
+                                  f"{s * s:.3g} m^2)")
+        pos = np.asarray(p.position, dtype=np.float64)
+        if not np.all(np.abs(pos) <= MAX_COORDINATE):
+            raise OutOfRangeError(f"percepts[{k}].position = {pos.tolist()} exceeds {MAX_COORDINATE:g} m")
+        if p.covariance is not None:
+            ev = np.linalg.eigvalsh(np.asarray(p.covariance, dtype=np.float64))
+            if not (ev[0] >= lo * lo and ev[-1] <= hi * hi):
+                raise OutOfRangeError(f"percepts[{k}].covariance has eigenvalues {ev[0]:.3g}..{ev[-1]:.3g} "
+                                      f"m^2, outside [{lo * lo:g}, {hi * hi:g}] m^2 (the range the fits "
+                                      "can handle)")
     return percepts
+
+
+def _check_tolerances(tolerances: object, name: str = "tolerances") -> AssociationTolerances:
+    if not isinstance(tolerances, AssociationTolerances):
+        raise ArgumentTypeError(f"{name} must be an AssociationTolerances, got {type(tolerances).__name__}")
+    return tolerances
 
 
 def _check_inputs(world: WorldModel, percepts: Sequence[Percept]) -> list[Percept]:
@@ -564,24 +642,61 @@ def _cross(a: NDArray, b: NDArray) -> NDArray:
                      a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
+#: Point sets with at most this many tetrahedra (C(11, 4)) have every one tested by the mirror
+#: check; larger sets test a bounded family of ``2 m - 3`` (see :func:`_tetrahedra`), so memory
+#: and time grow linearly with the clique size instead of as C(m, 4).
+MAX_ALL_TETRAHEDRA = 330
+
+
+def _tetrahedra(world: NDArray) -> NDArray[np.intp]:
+    """Index quadruples ``(h, q, 4)`` of the mirror check of point sets ``world (h, m, 3)``.
+
+    Small sets: all C(m, 4).  Larger: the widest triangle of each set (the point farthest from the
+    centroid, the point farthest from it, the point farthest from their line) with every other
+    point (m - 3 tetrahedra; a mirrored member shows against a well-spread base), plus the m
+    cyclic runs ``(i, i+1, i+2, i+3)``.
+    """
+    h, m, _ = world.shape
+    if math.comb(m, 4) <= MAX_ALL_TETRAHEDRA:
+        q = np.array(list(itertools.combinations(range(m), 4)), dtype=np.intp).reshape(-1, 4)
+        return np.broadcast_to(q, (h,) + q.shape)
+    rows = np.arange(h)
+    a = np.argmax(np.linalg.norm(world - world.mean(axis=1, keepdims=True), axis=2), axis=1)
+    b = np.argmax(np.linalg.norm(world - world[rows, a][:, None], axis=2), axis=1)
+    c = np.argmax(np.linalg.norm(_cross(world - world[rows, a][:, None],
+                                        (world[rows, b] - world[rows, a])[:, None]), axis=2), axis=1)
+    idx = np.arange(m)
+    base = (idx == a[:, None]) | (idx == b[:, None]) | (idx == c[:, None])
+    rest = np.argsort(base, axis=1, kind="stable")[:, : m - 3]
+    n = rest.shape[1]
+    fan = np.stack([np.broadcast_to(a[:, None], (h, n)), np.broadcast_to(b[:, None], (h, n)),
+                    np.broadcast_to(c[:, None], (h, n)), rest], axis=2)
+    runs = (idx[:, None] + np.arange(4)) % m
+    return np.concatenate([fan, np.broadcast_to(runs, (h, m, 4))], axis=1)
+
+
 def _chirality_ok(ego: NDArray, world: NDArray, sigmas: NDArray, tol: AssociationTolerances
                   ) -> NDArray[np.bool_]:
-    """Per point set: no tetrahedron of the members has a significant signed volume of opposite sign.
+    """Per point set: no tested tetrahedron of the members has a significant signed volume of
+    opposite sign (:func:`_tetrahedra`: all of them up to 11 members, a linear-size family above).
 
     ``ego, world (h, m, 3)``, ``sigmas (h, m)``.  With ``gravity_aligned`` triangles are tested
     too: the sign of the z component of their normal.
     """
     h, m, _ = ego.shape
     ok = np.ones(h, dtype=bool)
+    if m < 3 or h == 0:
+        return ok
+    hh = np.arange(h)[:, None, None]
+    quads = _tetrahedra(world) if m >= 4 else np.zeros((h, 0, 4), dtype=np.intp)
     if m >= 4:
-        quads = np.array(list(itertools.combinations(range(m), 4)))
-        e = ego[:, quads]      # (h, q, 4, 3)
-        w = world[:, quads]
+        e = ego[hh, quads]      # (h, q, 4, 3)
+        w = world[hh, quads]
         de, dw = e[:, :, 1:] - e[:, :, :1], w[:, :, 1:] - w[:, :, :1]
         ve = np.sum(de[:, :, 0] * _cross(de[:, :, 1], de[:, :, 2]), axis=-1)
         vw = np.sum(dw[:, :, 0] * _cross(dw[:, :, 1], dw[:, :, 2]), axis=-1)
         # std of 6V under isotropic point noise: |d(6V)/d point c| = twice the opposite face's area
-        s = sigmas[:, quads]
+        s = sigmas[hh, quads]
         var = np.zeros(ve.shape)
         for drop in range(4):
             i0, i1, i2 = (c for c in range(4) if c != drop)
@@ -590,13 +705,17 @@ def _chirality_ok(ego: NDArray, world: NDArray, sigmas: NDArray, tol: Associatio
         gate = tol.chirality_sigmas * tol.pair_factor * np.sqrt(var)
         bad = (np.abs(vw) > gate) & (np.abs(ve) > gate) & (np.sign(ve) != np.sign(vw))
         ok &= ~bad.any(axis=1)
-    if tol.gravity_aligned and m >= 3:
-        tri = np.array(list(itertools.combinations(range(m), 3)))
-        e = ego[:, tri]
-        w = world[:, tri]
+    if tol.gravity_aligned:
+        if math.comb(m, 3) <= MAX_ALL_TETRAHEDRA:
+            t3 = np.array(list(itertools.combinations(range(m), 3)), dtype=np.intp)
+            tri = np.broadcast_to(t3, (h,) + t3.shape)
+        else:
+            tri = np.concatenate([quads[:, :, [0, 1, 3]], quads[:, :, [0, 2, 3]], quads[:, :, :3]], axis=1)
+        e = ego[hh, tri]
+        w = world[hh, tri]
         ne = _cross(e[:, :, 1] - e[:, :, 0], e[:, :, 2] - e[:, :, 0])[..., 2]
         nw = _cross(w[:, :, 1] - w[:, :, 0], w[:, :, 2] - w[:, :, 0])[..., 2]
-        s = sigmas[:, tri].max(axis=2)
+        s = sigmas[hh, tri].max(axis=2)
         span = np.max(np.linalg.norm(w - w[:, :, :1], axis=-1), axis=-1)
         gate = tol.chirality_sigmas * tol.pair_factor * 2.0 * s * span
         bad = (np.abs(nw) > gate) & (np.abs(ne) > gate) & (np.sign(ne) != np.sign(nw))
@@ -747,6 +866,12 @@ def _fit_all(world: WorldModel, percepts: list[Percept], candidates: list[tuple[
 
 
 def same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
+    """Two ``world_from_ego`` (4, 4) poses closer than ``tol.distinct_translation`` (m) and
+    ``tol.distinct_angle`` (rad)."""
+    return _same_pose(rigid_transform("a", a), rigid_transform("b", b), _check_tolerances(tol, "tol"))
+
+
+def _same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
     return (float(np.linalg.norm(a[:3, 3] - b[:3, 3])) < tol.distinct_translation
             and rotation_angle(a, b) < tol.distinct_angle)
 
@@ -761,7 +886,7 @@ def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: 
     matched: list[dict[int, int]] = []
     for h in hyps:
         mine = dict(h.all_pairs)
-        if any(same_pose(h.world_from_ego, g.world_from_ego, tol)
+        if any(_same_pose(h.world_from_ego, g.world_from_ego, tol)
                and all(m.get(p, o) == o for p, o in mine.items())
                for g, m in zip(kept, matched, strict=True)):
             continue
@@ -775,11 +900,13 @@ def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: 
 def is_ambiguous(hypotheses: Sequence[AssociationHypothesis],
                  tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES) -> bool:
     """The best two hypotheses have costs within ``ambiguity_margin`` and poses that differ."""
+    hypotheses = _check_hypotheses(hypotheses)
+    _check_tolerances(tolerances)
     if len(hypotheses) < 2:
         return False
     a, b = hypotheses[0], hypotheses[1]
     return (b.cost - a.cost < tolerances.ambiguity_margin
-            and not same_pose(a.world_from_ego, b.world_from_ego, tolerances))
+            and not _same_pose(a.world_from_ego, b.world_from_ego, tolerances))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -805,6 +932,7 @@ def proximity_filter(world: WorldModel, percepts: Sequence[Percept],
         (:func:`filtered_graph_view`).
     """
     percepts = _check_inputs(world, percepts)
+    _check_tolerances(tolerances)
     objects = [world.type_index[p.type] for p in percepts]
     k = len(percepts)
     sig = np.array([p.sigma for p in percepts])
@@ -870,7 +998,8 @@ def consistency_graph(world: WorldModel, percepts: Sequence[Percept],
     search in :func:`maximum_cliques` finds the largest of them without building this graph).
     """
     percepts = _check_inputs(world, percepts)
-    need = tolerances.min_clique_size if min_size is None else int(min_size)
+    _check_tolerances(tolerances)
+    need = tolerances.min_clique_size if min_size is None else strict_int("min_size", min_size, minimum=1)
     graph = _consistency_graph(world, percepts, tolerances)
     alive = _prune(graph, need)
     g = nx.Graph()
@@ -903,6 +1032,36 @@ def _frames(a: NDArray, b: NDArray, c: NDArray) -> tuple[NDArray, NDArray]:
     return np.stack([d1, d2, d3], axis=2), ok
 
 
+def _check_proximity(world: WorldModel, percepts: list[Percept], proximity: object
+                     ) -> tuple[list[NDArray[np.intp]], dict[tuple[int, int], NDArray[np.bool_]]]:
+    """The ``"objects"`` and a copy of the ``"adjacency"`` of a :func:`proximity_filter` result for
+    these percepts, checked (shapes, keys, object types)."""
+    k = len(percepts)
+    if not isinstance(proximity, dict) or "objects" not in proximity or "adjacency" not in proximity:
+        raise ArgumentTypeError("proximity must be the dict returned by proximity_filter (with 'objects' and "
+                                f"'adjacency'), got {type(proximity).__name__}")
+    objects_in, adjacency = proximity["objects"], proximity["adjacency"]
+    if not isinstance(objects_in, list | tuple) or len(objects_in) != k or not isinstance(adjacency, dict):
+        raise ShapeError(f"proximity['objects'] must hold one object array per percept ({k}), and "
+                         "proximity['adjacency'] must be a dict")
+    objects = []
+    for p, o in enumerate(objects_in):
+        arr = np.asarray(o)
+        if arr.ndim != 1 or (arr.size and arr.dtype.kind not in "iu") or \
+                not np.all(np.isin(arr, world.type_index[percepts[p].type])):
+            raise WorldGraphError(f"proximity['objects'][{p}] must be indices of the objects of type "
+                                  f"{percepts[p].type!r}, got {arr.tolist()!r:.200}")
+        objects.append(arr.astype(np.intp))
+    adj = {}
+    for p, q in itertools.combinations(range(k), 2):
+        mat = np.asarray(adjacency.get((p, q)) if (p, q) in adjacency else np.zeros((0, 0)))
+        if mat.dtype != np.bool_ or mat.shape != (len(objects[p]), len(objects[q])):
+            raise ShapeError(f"proximity['adjacency'][({p}, {q})] must be a bool array of shape "
+                             f"({len(objects[p])}, {len(objects[q])}), got {mat.dtype} {mat.shape}")
+        adj[(p, q)] = mat.copy()
+    return objects, adj
+
+
 def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity: dict,
                        tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES) -> dict:
     """Orientation filtering (paper eqs. 2-3) of the output of :func:`proximity_filter`.
@@ -919,9 +1078,9 @@ def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity
         Same layout as :func:`proximity_filter`.
     """
     percepts = _check_inputs(world, percepts)
+    _check_tolerances(tolerances)
     k = len(percepts)
-    objects = proximity["objects"]
-    adj = {key: m.copy() for key, m in proximity["adjacency"].items()}
+    objects, adj = _check_proximity(world, percepts, proximity)
     x = np.array([p.position for p in percepts])
     sig = np.array([p.sigma for p in percepts])
     X = world.positions
@@ -1018,14 +1177,15 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     TooFewPerceptsError
         Fewer than ``min_clique_size`` percepts.
     """
-    if method not in ASSOCIATION_METHODS:
-        raise WorldGraphError(f"unknown association method {method!r}; choose one of {ASSOCIATION_METHODS}")
+    if not isinstance(method, str) or method not in ASSOCIATION_METHODS:
+        raise WorldGraphError(f"method must be one of {ASSOCIATION_METHODS}, got {method!r}")
     percepts = _check_inputs(world, percepts)
-    tol = tolerances
+    tol = _check_tolerances(tolerances)
     k = len(percepts)
     if k < tol.min_clique_size:
         raise TooFewPerceptsError(f"association needs at least {tol.min_clique_size} percepts, got {k}")
-    limit = tol.max_hypotheses if max_hypotheses is None else int(max_hypotheses)
+    limit = tol.max_hypotheses if max_hypotheses is None else strict_int("max_hypotheses", max_hypotheses,
+                                                                          minimum=1)
     searched = _search_subset(percepts, int(tol.max_search_percepts))
     sub = [percepts[i] for i in searched]
     k = len(sub)
@@ -1078,6 +1238,22 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     return ranked
 
 
+def _check_hypotheses(hypotheses: object) -> list[AssociationHypothesis]:
+    if hypotheses is None or isinstance(hypotheses, str | bytes | AssociationHypothesis):
+        raise ArgumentTypeError(f"hypotheses must be a sequence of AssociationHypothesis, "
+                                f"got {type(hypotheses).__name__}")
+    try:
+        hyps = list(hypotheses)  # type: ignore[call-overload]
+    except TypeError as exc:
+        raise ArgumentTypeError(f"hypotheses must be a sequence of AssociationHypothesis, "
+                                f"got {type(hypotheses).__name__}") from exc
+    for i, h in enumerate(hyps):
+        if not isinstance(h, AssociationHypothesis):
+            raise ArgumentTypeError(f"hypotheses[{i}] must be an AssociationHypothesis, "
+                                    f"got {type(h).__name__}")
+    return hyps
+
+
 def discriminator(world: WorldModel, hypotheses: Sequence[AssociationHypothesis],
                   max_range: float | None = None) -> int:
     """The model object whose predicted ego position differs most between the best two hypotheses.
@@ -1099,15 +1275,20 @@ def discriminator(world: WorldModel, hypotheses: Sequence[AssociationHypothesis]
     int
         Global object index.
     """
-    if len(hypotheses) < 2:
-        raise TooFewPerceptsError(f"the discriminator needs two hypotheses, got {len(hypotheses)}")
+    if not isinstance(world, WorldModel):
+        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+    hyps = _check_hypotheses(hypotheses)
+    if len(hyps) < 2:
+        raise TooFewPerceptsError(f"the discriminator needs two hypotheses, got {len(hyps)}")
+    if max_range is not None:
+        max_range = positive_float("max_range", max_range)
+    poses = [rigid_transform(f"hypotheses[{i}].world_from_ego", h.world_from_ego)
+             for i, h in enumerate(hyps[:2])]
     X = world.positions
-    ego_from_world = [invert_transformation(h.world_from_ego) for h in hypotheses[:2]]
+    ego_from_world = [invert_transformation(m) for m in poses]
     pred = [X @ m[:3, :3].T + m[:3, 3] for m in ego_from_world]
     diff = np.linalg.norm(pred[0] - pred[1], axis=1)
     if max_range is not None:
-        if not math.isfinite(max_range) or max_range <= 0:
-            raise WorldGraphError(f"max_range must be finite and > 0, got {max_range!r}")
         near = (np.linalg.norm(pred[0], axis=1) <= max_range) \
             & (np.linalg.norm(pred[1], axis=1) <= max_range)
         if near.any():
