@@ -32,14 +32,17 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
+from . import _checks
 from .errors import WorldGraphError
-from .model import WorldModel, _default_type
+from .model import MAX_COORDINATE, WorldModel, _check_scene, _default_type
 
 __all__ = [
     "KITCHEN_ROOM",
     "KITCHEN_TARGETS",
     "LAYOUT_KINDS",
     "LAYOUT_TYPES",
+    "MAX_CORRIDOR_DOORS",
+    "MAX_FLOOR_OBJECTS",
     "STRUCTURAL_TYPES",
     "corridor",
     "corridor_scene",
@@ -57,6 +60,23 @@ KITCHEN_ROOM = (10.0, 8.0, 3.0)
 KITCHEN_TARGETS = {"box": 611, "cylinder": 124, "polyhedron": 18, "vertices": 13853, "objects": 753}
 #: Types of the room structure (not landmarks a robot would pick).
 STRUCTURAL_TYPES = ("wall", "floor", "ceiling")
+
+#: Largest ``n_doors`` of :func:`corridor_scene` / :func:`corridor`.
+MAX_CORRIDOR_DOORS = 10_000
+#: Largest ``n_objects`` of :func:`floor`.
+MAX_FLOOR_OBJECTS = 1_000_000
+
+
+def _seed(seed: object) -> int:
+    """A scene seed: a non-negative integer (not bool, float, None, str or a Generator)."""
+    return _checks.strict_int("seed", seed, minimum=0)
+
+
+def _link_args(max_link_length: object, link_margin: object) -> None:
+    """Check the link settings before a scene is built (:class:`WorldModel` checks them again)."""
+    _checks.positive_float("max_link_length", max_link_length)
+    _checks.positive_float("link_margin", link_margin, allow_zero=True)
+
 
 _CYLINDER_SECTIONS = 32  # 2 * 32 + 2 = 66 vertices per cylinder
 _UP = np.array([0.0, 0.0, 1.0])
@@ -322,6 +342,7 @@ def kitchen_scene(seed: int = 0) -> trimesh.Scene:
         753 geometry nodes: 611 boxes, 124 cylinders, 18 general polyhedra; ``scene.metadata``
         holds ``"primitive_counts"`` and ``"seed"``.
     """
+    seed = _seed(seed)
     rng = np.random.default_rng(seed)
     b = _Builder()
     rx, ry, rz = KITCHEN_ROOM
@@ -529,6 +550,7 @@ def kitchen_scene(seed: int = 0) -> trimesh.Scene:
 
 def kitchen(seed: int = 0, max_link_length: float = 5.0, link_margin: float = 0.0) -> WorldModel:
     """The kitchen of :func:`kitchen_scene` as a :class:`WorldModel` (753 objects)."""
+    _link_args(max_link_length, link_margin)
     return WorldModel.from_trimesh(kitchen_scene(seed), max_link_length=max_link_length,
                                    link_margin=link_margin)
 
@@ -703,8 +725,9 @@ def kitchen_layout_scene(kind: str, seed: int = 0) -> trimesh.Scene:
         ``scene.metadata`` holds ``"kind"``, ``"seed"``, ``"room_size"`` ``(rx, ry, rz)`` and
         ``"primitive_counts"``.
     """
-    if kind not in LAYOUT_KINDS:
-        raise WorldGraphError(f"kind must be one of {LAYOUT_KINDS}, got {kind!r}")
+    if not isinstance(kind, str) or kind not in LAYOUT_KINDS:
+        raise WorldGraphError(f"kind must be one of {LAYOUT_KINDS}, got {_checks._short(kind)}")
+    seed = _seed(seed)
     rng = np.random.default_rng(seed)
     b = _Builder(types=dict(_LAYOUT_SCENE_TYPES))
     apps = _appliance_meshes()
@@ -775,6 +798,7 @@ def kitchen_layout(kind: str, seed: int = 0, max_link_length: float = 5.0,
     Its objects are the typed nodes without the room structure (:data:`STRUCTURAL_TYPES`); the
     room is :attr:`WorldModel.room` instead, found from the floor, wall and ceiling nodes.
     """
+    _link_args(max_link_length, link_margin)
     scene = kitchen_layout_scene(kind, seed)
 
     def type_of(node: str, geometry: object) -> str | None:
@@ -787,12 +811,15 @@ def kitchen_layout(kind: str, seed: int = 0, max_link_length: float = 5.0,
 
 def scene_statistics(scene: trimesh.Scene) -> dict[str, int]:
     """Geometry nodes per primitive kind, objects, and vertices counted per instance."""
+    _check_scene(scene)
     out = {"box": 0, "cylinder": 0, "polyhedron": 0, "other": 0, "vertices": 0, "objects": 0}
     for node in scene.graph.nodes_geometry:
         geom = scene.geometry[scene.graph[node][1]]
-        kind = geom.metadata.get("primitive", "other")
-        out[kind if kind in out else "other"] += 1
-        out["vertices"] += len(geom.vertices)
+        meta = getattr(geom, "metadata", None)
+        kind = meta.get("primitive", "other") if isinstance(meta, dict) else "other"
+        out[kind if isinstance(kind, str) and kind in out else "other"] += 1
+        verts = getattr(geom, "vertices", None)
+        out["vertices"] += 0 if verts is None else len(verts)
         out["objects"] += 1
     return out
 
@@ -812,19 +839,25 @@ def corridor_scene(n_doors: int = 40, length: float | None = None, seed: int = 0
     Parameters
     ----------
     n_doors : int
-        ``>= 1``.
+        ``1 <= n_doors <=`` :data:`MAX_CORRIDOR_DOORS`.
     length : float, optional
-        Corridor length (m); default ``1.8 * n_doors / 2 + 2``.  Must leave 1.5 m per door.
+        Corridor length (m); default ``1.8 * n_doors / 2 + 2``.  Must leave 1.5 m per door, at
+        most :data:`~worldgraph.model.MAX_COORDINATE`.
+    seed : int
+        Non-negative.
+    width, height : float
+        Corridor width and height (m), ``> 0`` and at most 100.
     """
-    if int(n_doors) < 1:
-        raise WorldGraphError(f"n_doors must be >= 1, got {n_doors!r}")
-    n_doors = int(n_doors)
+    n_doors = _checks.strict_int("n_doors", n_doors, minimum=1, maximum=MAX_CORRIDOR_DOORS)
     per_side = [(n_doors + 1) // 2, n_doors // 2]
     if length is None:
         length = 1.8 * per_side[0] + 2.0
-    length = float(length)
-    if not math.isfinite(length) or length < 1.5 * per_side[0] + 0.5:
+    length = _checks.positive_float("length", length, maximum=MAX_COORDINATE / 2)
+    if length < 1.5 * per_side[0] + 0.5:
         raise WorldGraphError(f"length {length!r} is too short for {per_side[0]} doors per side")
+    width = _checks.positive_float("width", width, maximum=100.0)
+    height = _checks.positive_float("height", height, maximum=100.0)
+    seed = _seed(seed)
     rng = np.random.default_rng(seed)
     b = _Builder()
     b.box("floor", (length, width, 0.05), _translate(length / 2, 0.0, -0.025))
@@ -860,6 +893,7 @@ def corridor_scene(n_doors: int = 40, length: float | None = None, seed: int = 0
 def corridor(n_doors: int = 40, length: float | None = None, seed: int = 0, max_link_length: float = 5.0,
              link_margin: float = 0.0) -> WorldModel:
     """The corridor of :func:`corridor_scene` as a :class:`WorldModel`."""
+    _link_args(max_link_length, link_margin)
     return WorldModel.from_trimesh(corridor_scene(n_doors, length, seed), max_link_length=max_link_length,
                                    link_margin=link_margin)
 
@@ -892,11 +926,12 @@ def floor(n_objects: int = 20000, seed: int = 0, max_link_length: float = 5.0,
     two to four chairs and sometimes a cabinet; fire extinguishers along the corridors.  Objects
     are generated corridor by corridor until ``n_objects`` are reached (the last corridor is cut).
 
-    Returns a :class:`WorldModel` with exactly ``n_objects`` objects (``>= 1``).
+    Returns a :class:`WorldModel` with exactly ``n_objects`` objects (``1 <= n_objects <=``
+    :data:`MAX_FLOOR_OBJECTS`); ``seed`` is a non-negative integer.
     """
-    if int(n_objects) < 1:
-        raise WorldGraphError(f"n_objects must be >= 1, got {n_objects!r}")
-    n_objects = int(n_objects)
+    n_objects = _checks.strict_int("n_objects", n_objects, minimum=1, maximum=MAX_FLOOR_OBJECTS)
+    _link_args(max_link_length, link_margin)
+    seed = _seed(seed)
     rng = np.random.default_rng(seed)
     col = _columns
     corridor_len, spacing, per_row = 60.0, 16.0, 5
