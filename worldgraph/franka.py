@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import os
 import pathlib
 import re
 import xml.etree.ElementTree as ET
@@ -61,7 +62,8 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from .errors import ImporterError, MalformedFileError
+from . import _checks
+from .errors import ArgumentTypeError, ImporterError, MalformedFileError, WorldGraphError
 from .model import WorldModel
 
 __all__ = ["FRANKA_TYPE_RULES", "ROOM_HEIGHT", "franka_kitchen_path", "franka_kitchen_scene",
@@ -423,11 +425,36 @@ def franka_kitchen_scene(path: str | pathlib.Path | None = None) -> tuple[trimes
     MJCF floor plane (``basic_scene.xml``'s ``floor``, 10 x 10 m about the origin): its x, y
     extent, from the floor up :data:`ROOM_HEIGHT` metres; absent when the model has no finite
     upright plane.
+
+    Every problem with the file (bad XML, missing includes or meshes, bad numbers, nesting too
+    deep) is a :class:`MalformedFileError` naming the file; a ``path`` that is not ``None``, a
+    ``str`` or an ``os.PathLike`` (or holds a NUL character) is an :class:`ArgumentTypeError`.
     """
-    directory = franka_kitchen_path() if path is None else pathlib.Path(path)
+    directory = franka_kitchen_path() if path is None else pathlib.Path(_check_path(path))
     main = directory / _MAIN_FILE if directory.is_dir() else directory
     if not main.is_file():
         raise ImporterError(f"Franka kitchen model {main} not found; install it with: {_PIP}")
+    try:
+        return _build_scene(main)
+    except WorldGraphError:
+        raise
+    except RecursionError as exc:
+        raise MalformedFileError(f"{main}: MJCF nested too deeply to read") from exc
+    except (OSError, ValueError, TypeError, KeyError, IndexError, AttributeError, ArithmeticError,
+            np.linalg.LinAlgError) as exc:
+        raise MalformedFileError(f"{main}: cannot build the kitchen: {type(exc).__name__}: {exc}") from exc
+
+
+def _check_path(path: object) -> str:
+    if isinstance(path, bytes) or not isinstance(path, str | pathlib.PurePath | os.PathLike):
+        raise ArgumentTypeError(f"path must be None, a str or an os.PathLike, got {_checks._short(path)}")
+    text = os.fspath(path)
+    if not isinstance(text, str):
+        raise ArgumentTypeError(f"path must be a str or os.PathLike of str, got {_checks._short(path)}")
+    return _checks.name_string("path", text, ArgumentTypeError)
+
+
+def _build_scene(main: pathlib.Path) -> tuple[trimesh.Scene, dict[str, str]]:
     model = _parse(main)
     scene = trimesh.Scene()
     cache: dict[str, trimesh.Trimesh] = {}
@@ -461,6 +488,8 @@ def load_franka_kitchen(path: str | pathlib.Path | None = None, max_link_length:
     The model's :attr:`~WorldModel.room` is the box over the MJCF floor plane (see
     :func:`franka_kitchen_scene`), ``None`` if the file has none.
     """
+    _checks.positive_float("max_link_length", max_link_length)
+    _checks.positive_float("link_margin", link_margin, allow_zero=True)
     scene, types = franka_kitchen_scene(path)
     return WorldModel.from_trimesh(scene, type_of=lambda node, _geom: types.get(node),
                                    max_link_length=max_link_length, link_margin=link_margin)
