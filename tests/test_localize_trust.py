@@ -110,8 +110,13 @@ def test_an_explicit_region_still_rejects_and_bad_regions_raise() -> None:
     far = ro.Region([50.0, 50.0, 0.0], [60.0, 60.0, 3.0])
     res = localize(world, percepts_of(world, pose, idx), region=far)
     assert res.status in ("outside_region", "ambiguous")
-    with pytest.raises(WorldGraphError, match="region"):
-        localize(world, percepts_of(world, pose, idx), region=(np.zeros(3), np.ones(3)))
+    # a (lower, upper) pair is the same box as a Region (issue 12: it raised AttributeError)
+    pair = localize(world, percepts_of(world, pose, idx), region=(far.lower, far.upper))
+    assert pair.status == res.status
+    for bad in ("box", (np.zeros(3),), (np.zeros(2), np.ones(2)), (np.ones(3), np.zeros(3)),
+                (np.zeros(3), [1.0, np.nan, 1.0])):
+        with pytest.raises(WorldGraphError, match="region"):
+            localize(world, percepts_of(world, pose, idx), region=bad)
 
 
 def test_an_implausible_room_is_not_the_default_region() -> None:

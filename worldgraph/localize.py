@@ -52,15 +52,17 @@ from scipy.stats import chi2
 import radialopt as ro
 from perception import Percept
 
+from ._checks import float_array, generator, positive_float
 from .association import (
     ASSOCIATION_TOLERANCES,
+    MAX_COORDINATE,
     AssociationHypothesis,
     AssociationTolerances,
     associate,
     check_world_and_percepts,
     is_ambiguous,
 )
-from .errors import UnknownTypeError, WorldGraphError
+from .errors import ArgumentTypeError, OutOfRangeError, UnknownTypeError, WorldGraphError
 from .model import WorldModel
 from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
 from .pose_certificate import certify_pose, solve_pose_sdp
@@ -241,13 +243,6 @@ def default_region(world: WorldModel, percepts: Sequence[Percept]) -> ro.Region:
     return ro.Region(lo - grow, hi + grow)
 
 
-def _check_bound(name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) \
-            or value <= 0:
-        raise WorldGraphError(f"{name} must be a finite number > 0, got {value!r}")
-    return float(value)
-
-
 def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml", *,
              tolerances: AssociationTolerances | None = None, region: ro.Region | None = None,
              rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
@@ -269,8 +264,9 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         its radial-projection position and eq. 5; ``"srls"``, ``"gradient"``: other range-only
         estimators, for comparison.
     tolerances : AssociationTolerances, optional
-    region : radialopt.Region, optional
-        Valid robot positions; poses outside it are rejected.  Default :func:`default_region`.
+    region : radialopt.Region or (lower, upper), optional
+        Valid robot positions (a box, metres; a pair of 3-vectors is turned into a Region);
+        poses outside it are rejected.  Default :func:`default_region`.
     rng : numpy.random.Generator, optional
         Passed to the position estimator (extra random seeds).
     max_position_3sigma : float
@@ -285,7 +281,8 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         name of an installed cvxpy solver (``"CLARABEL"``, ...), compiled once per sphere count.
     check : bool
         Verify every radial solution against explicit vertex enumeration (raises
-        ``radialopt.VerificationError`` on disagreement).
+        :class:`~worldgraph.errors.WorldGraphError` from ``radialopt.VerificationError`` on
+        disagreement).
     certify : bool
         Fill ``certificate``: the rotation SDP's proof (or not) that the returned pose is the
         global minimum of the ML cost of its matched percepts.  With 3 or 4 matches the SDP is
@@ -309,29 +306,84 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         Unknown method, something other than Percepts, a bad region or bound.
     """
     t_start = time.perf_counter()
-    if method not in LOCALIZE_METHODS:
-        raise WorldGraphError(f"unknown localize method {method!r}; choose one of {LOCALIZE_METHODS}")
+    if not isinstance(method, str) or method not in LOCALIZE_METHODS:
+        raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
     percepts = check_world_and_percepts(world, percepts)
     tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
     if not isinstance(tol, AssociationTolerances):
-        raise WorldGraphError(f"tolerances must be AssociationTolerances, got {type(tol).__name__}")
-    if region is not None and not isinstance(region, ro.Region):
-        raise WorldGraphError(f"region must be a radialopt.Region, got {type(region).__name__}")
-    if rng is not None and not isinstance(rng, np.random.Generator):
-        raise WorldGraphError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        raise ArgumentTypeError(f"tolerances must be AssociationTolerances, got {type(tol).__name__}")
+    region = _check_region(region)
+    if rng is not None:
+        rng = generator("rng", rng)
     if not isinstance(solver, str):
-        raise WorldGraphError(f"solver must be 'active_set' or a cvxpy solver name, got {solver!r}")
+        raise ArgumentTypeError(f"solver must be 'active_set' or a cvxpy solver name, got {solver!r}")
     solver_name = solver if solver == "active_set" else solver.upper()
     if solver_name != "active_set" and solver_name not in ro.installed_cvxpy_solvers():
         raise WorldGraphError(f"solver {solver!r} is neither 'active_set' nor an installed cvxpy solver "
                               f"({', '.join(ro.installed_cvxpy_solvers())})")
     if not isinstance(check, bool | np.bool_):
-        raise WorldGraphError(f"check must be a bool, got {check!r}")
+        raise ArgumentTypeError(f"check must be a bool, got {check!r}")
     if not isinstance(certify, bool | np.bool_):
-        raise WorldGraphError(f"certify must be a bool, got {certify!r}")
-    pos_tol = _check_bound("max_position_3sigma", max_position_3sigma)
-    rot_tol = _check_bound("max_rotation_3sigma", max_rotation_3sigma)
+        raise ArgumentTypeError(f"certify must be a bool, got {certify!r}")
+    pos_tol = positive_float("max_position_3sigma", max_position_3sigma)
+    rot_tol = positive_float("max_rotation_3sigma", max_rotation_3sigma)
+    big = float(np.max(np.abs(world.positions)))
+    if not big <= MAX_COORDINATE:
+        raise OutOfRangeError(f"world positions reach {big:.3g} m; localize handles coordinates up to "
+                              f"{MAX_COORDINATE:g} m (shift the world's origin)")
+    try:
+        result = _localize(world, percepts, method, tol, region, rng, pos_tol, rot_tol, solver_name,
+                           bool(check), bool(certify), t_start)
+    except WorldGraphError:
+        raise
+    except ro.VerificationError as exc:
+        raise WorldGraphError(f"check=True: a radial solution failed its verification: {exc}") from exc
+    except ro.RadialError as exc:
+        raise WorldGraphError(f"localize: the range-only position estimate rejected its input "
+                              f"(method={method!r}): {exc}") from exc
+    except (ArithmeticError, ValueError, TypeError, IndexError, np.linalg.LinAlgError) as exc:
+        raise WorldGraphError(f"localize failed numerically on these percepts (method={method!r}): "
+                              f"{type(exc).__name__}: {exc}") from exc
+    return _sane(result, len(percepts))
 
+
+def _check_region(region: object) -> ro.Region | None:
+    """None, a radialopt.Region, or a ``(lower, upper)`` pair of 3-vectors (metres)."""
+    if region is None or isinstance(region, ro.Region):
+        return region
+    if isinstance(region, tuple | list) and len(region) == 2:
+        lo = float_array("region[0]", region[0], (3,))
+        hi = float_array("region[1]", region[1], (3,))
+        try:
+            return ro.Region(lo, hi)
+        except ro.RadialError as exc:
+            raise WorldGraphError(f"region (lower, upper) is not a box: {exc}") from exc
+    raise ArgumentTypeError(f"region must be None, a radialopt.Region or a (lower, upper) pair of 3-vectors, "
+                            f"got {type(region).__name__}")
+
+
+def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
+    """A success status only with a finite rigid pose and covariance; a listed status."""
+    status = result.status
+    if status not in LOCALIZE_STATUSES:
+        return replace(result, status="degenerate", message=f"{result.message}; internal status {status!r} "
+                       "is not a localisation status".lstrip("; "))
+    if status in ("ok", "weak", "ambiguous"):
+        T = result.transformation
+        finite = bool(np.all(np.isfinite(T)) and np.all(np.isfinite(result.pose_covariance))
+                      and np.all(np.isfinite(result.covariance)))
+        rigid = finite and bool(np.allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=1e-6)
+                                and np.linalg.det(T[:3, :3]) > 0)
+        if not rigid:
+            why = "non-finite pose or covariance" if not finite else "a pose that is not rigid"
+            return replace(result, status="degenerate", ambiguous=False,
+                           message="; ".join(m for m in (result.message, f"numerical breakdown: {why}") if m))
+    return result
+
+
+def _localize(world: WorldModel, percepts: list[Percept], method: str, tol: AssociationTolerances,
+              region: ro.Region | None, rng: np.random.Generator | None, pos_tol: float, rot_tol: float,
+              solver_name: str, check: bool, certify: bool, t_start: float) -> LocalizationResult:
     n_all = len(percepts)
     known = np.array([p.type in world.type_index for p in percepts], dtype=bool)
     unknown = sorted({p.type for p, ok in zip(percepts, known, strict=True) if not ok})
@@ -363,7 +415,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     covs = percept_covariances(used)
     nearest = NearestObjects(world, [p.type for p in used])
     ctx = _Context(world, used, ego, covs, nearest, idx, n_all, reg, explicit, tol, pos_tol, rot_tol,
-                   notes, timings, t_start, solver_name, bool(check), bool(certify))
+                   notes, timings, t_start, solver_name, check, certify)
     if method == "paper":
         return _paper(ctx, hyps_local)
     return _validated(ctx, hyps_local, method, rng)
@@ -622,7 +674,8 @@ def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int,
         status = "inconsistent"
         ctx.notes.append(f"only {n_inl} percept(s) agree with the pose (3 needed)")
     if status == "ok" and status_hint not in ("ok", "ambiguous"):
-        status = status_hint
+        # a radialopt status that localize does not know is no success
+        status = status_hint if status_hint in LOCALIZE_STATUSES else "degenerate"
     if status == "ok" and ambiguous:
         status = "ambiguous"
     position = pose[:3, 3].copy()
