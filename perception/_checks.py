@@ -127,13 +127,13 @@ def spd(name: str, value: Any, size: int = 3) -> NDArray[np.float64]:
     scale = float(np.max(np.abs(C))) if C.size else 0.0
     if scale == 0.0:
         raise NonPositiveSigmaError(f"{name} must be symmetric positive definite, got the zero matrix")
-    asym = float(np.max(np.abs(C - C.T)))
-    if asym > SYM_RTOL * scale:
+    A = C / scale
+    asym = float(np.max(np.abs(A - A.T)))
+    if asym > SYM_RTOL:
         raise NonPositiveSigmaError(
-            f"{name} must be symmetric (max |C - C^T| = {asym:.3g} > {SYM_RTOL:g} * max|C| = {scale:.3g}), "
-            f"got {C.tolist()}"
+            f"{name} must be symmetric (max |C - C^T| / max|C| = {asym:.3g} > {SYM_RTOL:g}), got {C.tolist()}"
         )
-    S = 0.5 * (C + C.T)
+    S = 0.5 * C + 0.5 * C.T
     eig = np.linalg.eigvalsh(S / scale) * scale
     if not eig[0] > SPD_RTOL * eig[-1] or eig[-1] <= 0:
         raise NonPositiveSigmaError(

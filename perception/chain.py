@@ -54,7 +54,7 @@ def check_transform(name: str, value: ArrayLike, atol: float = 1e-6) -> NDArray[
         raise InvalidPoseError(f"{name} must be a rigid transform with last row (0, 0, 0, 1), "
                                f"got {M[3].tolist()}")
     R = M[:3, :3]
-    if not np.allclose(R @ R.T, np.eye(3), atol=atol) or np.linalg.det(R) <= 0:
+    if np.max(np.abs(R)) > 2.0 or not np.allclose(R @ R.T, np.eye(3), atol=atol) or np.linalg.det(R) <= 0:
         raise InvalidPoseError(f"{name} must be a rigid transform: its rotation block must be a proper "
                                f"rotation (R R^T = I, det R = +1), got {R.tolist()}")
     return M
@@ -141,7 +141,12 @@ class KinematicChain:
     def __post_init__(self) -> None:
         if self.joints is None or isinstance(self.joints, (str, bytes, Joint)):
             raise KinematicsError(f"joints must be a non-empty sequence of Joint, got {self.joints!r}")
-        joints = tuple(self.joints)
+        try:
+            joints = tuple(self.joints)
+        except TypeError as exc:
+            raise KinematicsError(
+                f"joints must be a non-empty sequence of Joint, got {self.joints!r}"
+            ) from exc
         if self.right_eye is not None and not isinstance(self.right_eye, Joint):
             raise KinematicsError(f"right_eye must be a Joint or None, got {type(self.right_eye).__name__}")
         if not joints or not all(isinstance(j, Joint) for j in joints):
@@ -331,10 +336,10 @@ def percept_covariance(
         raise KinematicsError(f"chain must be a KinematicChain, got {type(chain).__name__}")
     C = real_array("point_cov_camera", point_cov_camera, (3, 3))
     scale = float(np.max(np.abs(C)))
-    if float(np.max(np.abs(C - C.T))) > 1e-8 * scale:
+    if float(np.max(np.abs(C / max(scale, 1e-300) - C.T / max(scale, 1e-300)))) > 1e-8:
         raise NonPositiveSigmaError(f"point_cov_camera must be symmetric, got {C.tolist()}")
     if scale > 0:
-        low = float(np.linalg.eigvalsh(0.5 * (C + C.T) / scale)[0])
+        low = float(np.linalg.eigvalsh(0.5 * (C / scale) + 0.5 * (C.T / scale))[0])
         if low < -1e-12:
             raise NonPositiveSigmaError(
                 f"point_cov_camera must be positive semidefinite (smallest eigenvalue {low * scale:.3g}), "

@@ -112,7 +112,11 @@ _FACE_NORMALS = np.array(
 
 
 def _check_rotation(name: str, rot: NDArray[np.float64], atol: float = 1e-6) -> None:
-    if not np.allclose(rot @ rot.T, np.eye(3), atol=atol) or np.linalg.det(rot) <= 0:
+    if (
+        np.max(np.abs(rot)) > 2.0
+        or not np.allclose(rot @ rot.T, np.eye(3), atol=atol)
+        or np.linalg.det(rot) <= 0
+    ):
         raise InvalidPoseError(
             f"{name} must be a proper rotation (R R^T = I, det R = +1), got {rot.tolist()}"
         )
@@ -245,7 +249,10 @@ def scene_boxes(
             )
         size = sizes[i] if sizes is not None else BOX_DEFAULTS[kind][0]
         color = colors[i] if colors is not None else BOX_DEFAULTS[kind][1]
-        boxes.append(Box(center=pos[i], size=size, rotation=rots[i], color=color, type=kind))
+        try:
+            boxes.append(Box(center=pos[i], size=size, rotation=rots[i], color=color, type=kind))
+        except PerceptionError as exc:
+            raise type(exc)(f"box {i} from positions[{i}], rotations[{i}], sizes, colors: {exc}") from exc
     return boxes
 
 
@@ -811,7 +818,7 @@ def _region_stats(
 ]:
     """:func:`region_features` plus each region's pixel covariance (r, 2, 2), px^2 (u, v)."""
     image = _check_image("image", image)
-    min_area = integer("min_area", min_area, minimum=1)
+    min_area = integer("min_area", min_area, minimum=1, maximum=MAX_RENDER_PIXELS)
     if not isinstance(color_ranges, Mapping) or not all(
         isinstance(c, ColorRange) for c in color_ranges.values()
     ):
@@ -958,7 +965,12 @@ class GaussianClassifier:
             raise ShapeError(f"means must have shape ({k}, d) with d >= 1, got shape {means.shape}")
         if np.any(np.abs(means) > 1e150):
             raise NonFiniteError("means must be at most 1e150 in magnitude")
-        covs_in = real_array("covariances", self.covariances, (k, d, d))
+        covs_in = real_array("covariances", self.covariances)
+        if covs_in.shape != (k, d, d):
+            raise ShapeError(
+                f"covariances must have shape ({k}, {d}, {d}) (k = len(classes), d = means.shape[1]), "
+                f"got shape {covs_in.shape}"
+            )
         covs = np.stack([spd(f"covariances[{i}]", covs_in[i], d) for i in range(k)])
         if np.any(np.abs(covs) > 1e150) or np.any(np.abs(covs) < 1e-150 * (covs != 0)):
             raise NonPositiveSigmaError("covariances entries must lie within [1e-150, 1e150] in magnitude")
@@ -1187,9 +1199,14 @@ def train_classifier(
     _image_size(rig)
     rng = check_rng("rng", rng)
     n_scenes = integer("n_scenes", n_scenes, minimum=1, maximum=100_000)
-    min_area = integer("min_area", min_area, minimum=1)
+    min_area = integer("min_area", min_area, minimum=1, maximum=MAX_RENDER_PIXELS)
     feats, labels = _training_samples(rig, rng, n_scenes, min_area)
-    return GaussianClassifier.fit(feats, labels, **fit_kwargs)
+    try:
+        return GaussianClassifier.fit(feats, labels, **fit_kwargs)
+    except NotFittedError as exc:
+        raise NotFittedError(
+            f"training on n_scenes={n_scenes} scenes with min_area={min_area} px failed: {exc}"
+        ) from exc
 
 
 # --------------------------------------------------------------------------------------------

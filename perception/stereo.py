@@ -123,7 +123,7 @@ def _path(path: object) -> Path:
 def _file_int(path: Path, value: float) -> int:
     if not np.isfinite(value) or value != int(value):
         raise CalibrationFileError(
-            f"calibration file {str(path)!r}: image_size must hold integers, got {value!r}"
+            f"calibration file path={str(path)!r}: image_size must hold integers, got {value!r}"
         )
     return int(value)
 
@@ -241,28 +241,28 @@ class StereoRig:
         """
         path = _path(path)
         if not path.is_file():
-            raise CalibrationFileError(f"calibration file {str(path)!r} does not exist")
+            raise CalibrationFileError(f"calibration file path={str(path)!r} does not exist")
         try:
             fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
         except (cv2.error, SystemError) as exc:  # the binding raises SystemError on parse errors
-            raise CalibrationFileError(f"calibration file {str(path)!r} is malformed: {exc}") from exc
+            raise CalibrationFileError(f"calibration file path={str(path)!r} is malformed: {exc}") from exc
         if not fs.isOpened():
-            raise CalibrationFileError(f"calibration file {str(path)!r} cannot be opened")
+            raise CalibrationFileError(f"calibration file path={str(path)!r} cannot be opened")
         values: dict[str, NDArray[np.float64]] = {}
         try:
             for key in _FILE_KEYS:
                 node = fs.getNode(key)
                 if node.empty() or node.isNone():
-                    raise CalibrationFileError(f"calibration file {str(path)!r} lacks key {key!r}")
+                    raise CalibrationFileError(f"calibration file path={str(path)!r} lacks key {key!r}")
                 try:
                     mat = node.mat()
                 except (cv2.error, SystemError) as exc:
                     raise CalibrationFileError(
-                        f"calibration file {str(path)!r}: key {key!r} is not an OpenCV matrix"
+                        f"calibration file path={str(path)!r}: key {key!r} is not an OpenCV matrix"
                     ) from exc
                 if mat is None:
                     raise CalibrationFileError(
-                        f"calibration file {str(path)!r}: key {key!r} is not an OpenCV matrix"
+                        f"calibration file path={str(path)!r}: key {key!r} is not an OpenCV matrix"
                     )
                 values[key] = np.asarray(mat, dtype=np.float64)
         finally:
@@ -270,7 +270,7 @@ class StereoRig:
         size = values.pop("image_size").ravel()
         if size.size != 2:
             raise CalibrationFileError(
-                f"calibration file {str(path)!r}: image_size must hold 2 values, got {size.tolist()}"
+                f"calibration file path={str(path)!r}: image_size must hold 2 values, got {size.tolist()}"
             )
         try:
             return cls.from_opencv(
@@ -285,7 +285,7 @@ class StereoRig:
         except CalibrationError:
             raise
         except (ValueError, TypeError, OverflowError) as exc:
-            raise CalibrationFileError(f"calibration file {str(path)!r} is invalid: {exc}") from exc
+            raise CalibrationFileError(f"calibration file path={str(path)!r} is invalid: {exc}") from exc
 
     @guard
     def to_file(self, path: str | Path) -> None:
@@ -296,7 +296,7 @@ class StereoRig:
         path = _path(path)
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
         if not fs.isOpened():
-            raise CalibrationFileError(f"cannot write calibration file {str(path)!r}")
+            raise CalibrationFileError(f"cannot write calibration file path={str(path)!r}")
         try:
             fs.write("K1", self.K1)
             fs.write("D1", self.D1.reshape(1, -1) if self.D1.size else np.zeros((1, 5)))
