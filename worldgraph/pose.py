@@ -12,8 +12,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from ._checks import positive_float, rigid_transform, strict_int
-from .errors import NonFiniteError, PoseError, ShapeError
+from ._checks import float_array, positive_float, rigid_transform, strict_int
+from .errors import PoseError, ShapeError
 
 __all__ = [
     "invert_transformation",
@@ -33,30 +33,21 @@ __all__ = [
 COLLINEAR_TOL = 1e-9
 
 
+#: Largest coordinate (m) the pose functions accept: squares and weighted sums stay finite.
+MAX_POSE_COORDINATE = 1e12
+
+
 def _points(name: str, x: ArrayLike, n: int | None = None) -> NDArray[np.float64]:
-    arr = np.asarray(x, dtype=np.float64)
-    if arr.ndim != 2 or arr.shape[1] != 3 or (n is not None and arr.shape[0] != n):
-        want = f"({n}, 3)" if n is not None else "(k, 3)"
-        raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
-    return arr
+    return float_array(name, x, (n, 3), max_abs=MAX_POSE_COORDINATE)
 
 
 def _point(name: str, x: ArrayLike) -> NDArray[np.float64]:
-    arr = np.asarray(x, dtype=np.float64)
-    if arr.shape != (3,):
-        raise ShapeError(f"{name} must have shape (3,), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
-    return arr
+    return float_array(name, x, (3,), max_abs=MAX_POSE_COORDINATE)
 
 
 def transformation(rotation: ArrayLike, translation: ArrayLike) -> NDArray[np.float64]:
     """4x4 homogeneous matrix from ``rotation (3, 3)`` and ``translation (3,)``."""
-    rot = np.asarray(rotation, dtype=np.float64)
-    if rot.shape != (3, 3):
-        raise ShapeError(f"rotation must have shape (3, 3), got shape {rot.shape}")
+    rot = float_array("rotation", rotation, (3, 3))
     out = np.eye(4)
     out[:3, :3] = rot
     out[:3, 3] = _point("translation", translation)
@@ -65,19 +56,29 @@ def transformation(rotation: ArrayLike, translation: ArrayLike) -> NDArray[np.fl
 
 def invert_transformation(a_from_b: ArrayLike) -> NDArray[np.float64]:
     """Inverse ``b_from_a`` of a rigid 4x4 transform (rotation transposed)."""
-    m = np.asarray(a_from_b, dtype=np.float64)
-    if m.shape != (4, 4):
-        raise ShapeError(f"transform must have shape (4, 4), got shape {m.shape}")
+    m = rigid_transform("a_from_b", a_from_b)
     out = np.eye(4)
     out[:3, :3] = m[:3, :3].T
     out[:3, 3] = -m[:3, :3].T @ m[:3, 3]
     return out
 
 
+def _rotation_block(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    """The rotation of a (3, 3) rotation or a (4, 4) rigid transform."""
+    arr = float_array(name, value)
+    if arr.shape == (4, 4):
+        return rigid_transform(name, arr)[:3, :3]
+    if arr.shape != (3, 3):
+        raise ShapeError(f"{name} must have shape (3, 3) or (4, 4), got shape {arr.shape}")
+    padded = np.eye(4)
+    padded[:3, :3] = arr
+    return rigid_transform(name, padded)[:3, :3]
+
+
 def rotation_angle(rotation_a: ArrayLike, rotation_b: ArrayLike) -> float:
     """Angle (rad) of the relative rotation ``R_a^T R_b``."""
-    ra = np.asarray(rotation_a, dtype=np.float64)[:3, :3]
-    rb = np.asarray(rotation_b, dtype=np.float64)[:3, :3]
+    ra = _rotation_block("rotation_a", rotation_a)
+    rb = _rotation_block("rotation_b", rotation_b)
     c = (np.trace(ra.T @ rb) - 1.0) / 2.0
     return float(np.arccos(np.clip(c, -1.0, 1.0)))
 
@@ -133,18 +134,22 @@ def pose_from_frames(model_frame: ArrayLike, percept_frame_: ArrayLike) -> NDArr
     (4, 4) float
         ``world_from_ego``.
     """
-    m = np.asarray(model_frame, dtype=np.float64)
-    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
-        raise ShapeError(f"model_frame must be a finite (4, 4) array, got shape {m.shape}")
-    return m @ invert_transformation(percept_frame_)
+    m = rigid_transform("model_frame", model_frame, max_translation=MAX_POSE_COORDINATE)
+    s = rigid_transform("percept_frame_", percept_frame_, max_translation=MAX_POSE_COORDINATE)
+    return m @ invert_transformation(s)
 
 
 def _weights(weights: ArrayLike, k: int) -> NDArray[np.float64]:
-    w = np.asarray(weights, dtype=np.float64)
-    if w.shape != (k,):
-        raise ShapeError(f"weights must have shape ({k},), got shape {w.shape}")
-    if not np.all(np.isfinite(w)) or np.any(w < 0) or not np.any(w > 0):
-        raise PoseError(f"weights must be finite, >= 0 and not all 0, got {w.tolist()}")
+    w = float_array("weights", weights, (k,))
+    neg = w < 0
+    if neg.any():
+        i = int(np.argmax(neg))
+        raise PoseError(f"weights[{i}] must be >= 0, got {w[i]!r}")
+    if not np.any(w > 0):
+        raise PoseError(f"weights must not all be 0, got {w.tolist()!r:.200}")
+    top = float(w.max())
+    if top > 1e150 or top < 1e-150:
+        raise PoseError(f"weights must lie within [1e-150, 1e150] (largest {top:.3g}): rescale them")
     return w
 
 
@@ -224,16 +229,15 @@ def weighted_kabsch_batch(ego_points: ArrayLike, world_points: ArrayLike, weight
         Proper rotations.
     t : (h, 3) float
     """
-    x = np.asarray(ego_points, dtype=np.float64)
-    y = np.asarray(world_points, dtype=np.float64)
-    w = np.asarray(weights, dtype=np.float64)
-    if x.ndim != 3 or x.shape[2] != 3 or y.shape != x.shape or w.shape != x.shape[:2]:
-        raise ShapeError(f"ego_points and world_points must have one shape (h, k, 3) and weights (h, k), got "
-                         f"{x.shape}, {y.shape}, {w.shape}")
-    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y)) and np.all(np.isfinite(w))):
-        raise NonFiniteError("ego_points, world_points and weights must be finite")
-    if np.any(w < 0) or np.any(w.sum(axis=1) <= 0):
-        raise PoseError("weights must be >= 0 and not all 0 in any set")
+    x = float_array("ego_points", ego_points, (None, None, 3), max_abs=MAX_POSE_COORDINATE)
+    y = float_array("world_points", world_points, x.shape, max_abs=MAX_POSE_COORDINATE)
+    w = float_array("weights", weights, x.shape[:2])
+    neg = np.argwhere(w < 0)
+    if len(neg):
+        i, j = neg[0]
+        raise PoseError(f"weights[{i}, {j}] must be >= 0, got {w[i, j]!r}")
+    if w.size and (np.any(w.sum(axis=1) <= 0) or float(w.max()) > 1e150):
+        raise PoseError("weights must not all be 0 in any set and must be <= 1e150")
     wn = w / w.sum(axis=1, keepdims=True)
     cx = np.einsum("hk,hki->hi", wn, x)
     cy = np.einsum("hk,hki->hi", wn, y)
@@ -256,14 +260,23 @@ def _skew(v: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _covariances(covariances: ArrayLike, k: int) -> NDArray[np.float64]:
-    C = np.asarray(covariances, dtype=np.float64)
-    if C.shape != (k, 3, 3):
-        raise ShapeError(f"covariances must have shape ({k}, 3, 3), got shape {C.shape}")
-    if not np.all(np.isfinite(C)):
-        raise NonFiniteError("covariances must be finite")
-    symmetric = np.allclose(C, np.swapaxes(C, 1, 2), rtol=1e-9, atol=1e-15)
-    if not symmetric or np.any(np.linalg.eigvalsh(C)[:, 0] <= 0):
-        raise PoseError("covariances must be symmetric positive definite")
+    """(k, 3, 3) symmetric positive-definite covariances (m^2), named by index when one is not."""
+    C = float_array("covariances", covariances, (k, 3, 3))
+    asym = np.abs(C - np.swapaxes(C, 1, 2)).max(axis=(1, 2)) > 1e-9 * np.abs(C).max(axis=(1, 2)) + 1e-300
+    if asym.any():
+        i = int(np.argmax(asym))
+        raise PoseError(f"covariances[{i}] must be symmetric, got {C[i].tolist()}")
+    ev = np.linalg.eigvalsh(C) if k else np.zeros((0, 3))
+    bad = (ev[:, 0] <= 0) if k else np.zeros(0, bool)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise PoseError(f"covariances[{i}] must be symmetric positive definite (smallest eigenvalue "
+                        f"{ev[i, 0]:.3g})")
+    out = (ev[:, 0] < 1e-100) | (ev[:, -1] > 1e100) if k else np.zeros(0, bool)
+    if out.any():
+        i = int(np.argmax(out))
+        raise PoseError(f"covariances[{i}] has eigenvalues {ev[i, 0]:.3g}..{ev[i, -1]:.3g} m^2, outside "
+                        "[1e-100, 1e100]: its inverse (the weight) under- or overflows")
     return C
 
 
@@ -277,7 +290,7 @@ def pose_information(world_from_ego: ArrayLike, ego_points: ArrayLike, covarianc
     world residual ``e_i = R x_i + t - X_i`` (covariance ``R C_i R^T``) and its Jacobian
     ``H_i = [-skew(R x_i), I]``, ``J = sum_i H_i^T (R C_i R^T)^-1 H_i``.
     """
-    T = np.asarray(world_from_ego, dtype=np.float64)
+    T = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
     x = _points("ego_points", ego_points)
     C = _covariances(covariances, len(x))
     R = T[:3, :3]
@@ -416,7 +429,7 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
     x = _points("ego_points", ego_points)
     y = _points("world_points", world_points, len(x))
     C = _covariances(covariances, len(x))
-    T0 = rigid_transform("world_from_ego", world_from_ego)
+    T0 = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
     max_iter = strict_int("max_iter", max_iter, minimum=1)
     tol = positive_float("tol", tol, maximum=0.5)
     _finite_scale(x, y, C)
