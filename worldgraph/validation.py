@@ -43,9 +43,10 @@ from scipy.stats import chi2
 
 from perception import Percept
 
-from .errors import PoseError
+from ._checks import float_array, positive_float, rigid_transform, strict_int
+from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError
 from .model import WorldModel
-from .pose import _skew, refine_pose
+from .pose import MAX_POSE_COORDINATE, _covariances, _points, _skew, refine_pose
 
 __all__ = [
     "CHI2_3_GATE",
@@ -72,8 +73,37 @@ CHI2_6_GATE = float(chi2.ppf(0.9973002039, 6))
 _ROS = np.array([3, 4, 5, 0, 1, 2])
 
 
+def _inputs(world_from_ego: object, ego: object, covs: object, world_points: object = None
+            ) -> tuple[NDArray, NDArray, NDArray, NDArray | None]:
+    """Validated ``(world_from_ego (4, 4) rigid, ego (k, 3), covs (k, 3, 3) SPD, world_points (k, 3))``."""
+    T = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
+    x = _points("ego", ego)
+    C = _covariances(covs, len(x))
+    y = None if world_points is None else _points("world_points", world_points, len(x))
+    return T, x, C, y
+
+
+def _matrix_or_unknown(name: str, value: object, n: int) -> NDArray[np.float64]:
+    """A real (n, n) matrix; NaN/inf entries are allowed (they mean "unknown")."""
+    if value is None or isinstance(value, str | bytes):
+        raise ArgumentTypeError(f"{name} must be a ({n}, {n}) real array, got {value!r}")
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be a ({n}, {n}) real array") from exc
+    if arr.dtype.kind not in "fiu" or arr.shape != (n, n):
+        raise ShapeError(f"{name} must be a ({n}, {n}) real array, got dtype {arr.dtype} shape {arr.shape}")
+    return arr.astype(np.float64)
+
+
 def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
-    """``(k, 3, 3)`` ego-frame covariances: ``covariance`` when given, else ``sigma^2 I``."""
+    """``(k, 3, 3)`` ego-frame covariances (m^2): ``covariance`` when given, else ``sigma^2 I``."""
+    if percepts is None or isinstance(percepts, str | bytes):
+        raise ArgumentTypeError(f"percepts must be a sequence of perception.Percept, got {percepts!r}")
+    percepts = list(percepts)
+    for i, p in enumerate(percepts):
+        if not isinstance(p, Percept):
+            raise ArgumentTypeError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
     out = np.empty((len(percepts), 3, 3))
     for k, p in enumerate(percepts):
         out[k] = p.covariance if p.covariance is not None else p.sigma**2 * np.eye(3)
@@ -88,8 +118,10 @@ def ros_pose_covariance(information: NDArray[np.float64]) -> NDArray[np.float64]
     PoseError
         The information is singular (the landmarks do not fix a 6D pose).
     """
-    J = np.asarray(information, dtype=np.float64)
-    w, V = np.linalg.eigh(J)
+    J = float_array("information", information, (6, 6))
+    if np.abs(J - J.T).max() > 1e-8 * max(np.abs(J).max(), 1e-300):
+        raise PoseError(f"information must be symmetric, got {J.tolist()}")
+    w, V = np.linalg.eigh(0.5 * (J + J.T))
     if not np.all(np.isfinite(w)) or w[0] <= 1e-12 * max(w[-1], 1e-300):
         raise PoseError("the pose information is singular: the matched landmarks do not fix a 6D pose")
     cov = (V / w) @ V.T
@@ -109,19 +141,27 @@ def placed_mahalanobis(world_from_ego: NDArray, ego: NDArray, covs: NDArray, wor
 
     ``ego (k, 3)``, ``covs (k, 3, 3)`` (ego frame), ``world_points (k, 3)``; the residual
     covariance is ``R C R^T`` plus, when ``pose_covariance`` (ROS order) is given, the pose's
-    own uncertainty ``H Sigma H^T``.
+    own uncertainty ``H Sigma H^T`` (ignored when it is not finite).
     """
+    world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
+    if pose_covariance is not None:
+        pose_covariance = _matrix_or_unknown("pose_covariance", pose_covariance, 6)
     R = world_from_ego[:3, :3]
     r = ego @ R.T + world_from_ego[:3, 3] - world_points
     S = np.einsum("ij,kjl,ml->kim", R, covs, R)
     if pose_covariance is not None and np.all(np.isfinite(pose_covariance)):
         H = _placement_jacobian(world_from_ego, ego)
         S = S + np.einsum("kai,ij,kbj->kab", H, pose_covariance, H)
-    return np.einsum("ka,ka->k", r, np.linalg.solve(S, r[..., None])[..., 0])
+    try:
+        return np.einsum("ka,ka->k", r, np.linalg.solve(S, r[..., None])[..., 0])
+    except np.linalg.LinAlgError as exc:
+        raise PoseError("placed_mahalanobis: a residual covariance is singular (pose_covariance not "
+                        "positive semi-definite?)") from exc
 
 
 def pose_cost(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray) -> float:
     """ML cost ``sum_i r_i^T C_i^-1 r_i``, ego-frame residual ``r_i = x_i - R^T (X_i - t)``."""
+    world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
     R, t = world_from_ego[:3, :3], world_from_ego[:3, 3]
     r = ego - (world_points - t) @ R
     return float(np.einsum("ka,ka->", r, np.linalg.solve(covs, r[..., None])[..., 0]))
@@ -224,7 +264,21 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
 
     Returns None when fewer than three inliers remain or they fix no pose.
     """
-    T = np.asarray(start, dtype=np.float64)
+    if not isinstance(world, WorldModel):
+        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+    if not isinstance(nearest, NearestObjects):
+        raise ArgumentTypeError(f"nearest must be a NearestObjects, got {type(nearest).__name__}")
+    T, ego, covs, _ = _inputs(start, ego, covs)
+    max_rounds = strict_int("max_rounds", max_rounds, minimum=1, maximum=1000)
+    gate = positive_float("gate", gate)
+    try:
+        pairs = tuple((int(p), int(o)) for p, o in pairs)
+    except (TypeError, ValueError) as exc:
+        raise ArgumentTypeError(f"pairs must be (percept, object) index pairs, got {pairs!r:.200}") from exc
+    for i, (p, o) in enumerate(pairs):
+        if not (0 <= p < len(ego) and 0 <= o < len(world)):
+            raise OutOfRangeError(f"pairs[{i}] = {(p, o)} is out of range ({len(ego)} percepts, "
+                                       f"{len(world)} objects)")
     current = tuple(sorted(pairs))
     fit: PoseFit | None = None
     for _ in range(max_rounds):
@@ -259,7 +313,10 @@ def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_
     found by secant steps and the variance of ``f`` set to ``(f / n_sigma)^2`` by a rank-one
     update that keeps the correlations.  Never narrows.
     """
-    cov = np.array(pose_covariance, dtype=np.float64)
+    world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
+    n_sigma = positive_float("n_sigma", n_sigma, maximum=1e3)
+    rounds = strict_int("rounds", rounds, minimum=0, maximum=1000)
+    cov = _matrix_or_unknown("pose_covariance", pose_covariance, 6).copy()
     if not np.all(np.isfinite(cov)):
         return cov
     base = pose_cost(world_from_ego, ego, covs, world_points)
@@ -330,7 +387,8 @@ def curved_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
     at all (standard deviation above :data:`MAX_CURVED_ROTATION_SD`) the linear covariance is
     returned unchanged: no Gaussian describes such an error, and ``localize`` calls it weak.
     """
-    cov = np.asarray(pose_covariance, dtype=np.float64)
+    world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
+    cov = _matrix_or_unknown("pose_covariance", pose_covariance, 6)
     if not np.all(np.isfinite(cov)) or np.linalg.eigvalsh(cov[3:, 3:])[-1] > MAX_CURVED_ROTATION_SD**2:
         return cov
     # the centre about which rotation and position decouple: skew(v) = Sigma_t,theta Sigma_theta^-1
@@ -388,9 +446,14 @@ def rotation_only_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArra
     are uncorrelated for isotropic percepts and ``Cov(e_r) = M^-1 (sum w_i^2 A_i^T R C_i R^T A_i)
     M^-1 + M^-1 S^T Sigma_t S M^-1``, ``Cov(e_t, e_r) = Sigma_t S M^-1`` with ``S = sum w_i A_i``.
     """
+    world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
+    w = float_array("weights", weights, (len(ego),))
+    if np.any(w < 0):
+        i = int(np.argmax(w < 0))
+        raise PoseError(f"weights[{i}] must be >= 0, got {w[i]!r}")
+    position_covariance = _matrix_or_unknown("position_covariance", position_covariance, 3)
     R = world_from_ego[:3, :3]
     A = _skew(ego @ R.T)
-    w = np.asarray(weights, dtype=np.float64)
     M = np.einsum("k,kai,kaj->ij", w, A, A)
     S = np.einsum("k,kij->ij", w, A)
     RC = np.einsum("ij,kjl,ml->kim", R, covs, R)
@@ -426,6 +489,8 @@ def self_check(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_point
     message : str
         Empty when passed.
     """
+    alpha = positive_float("alpha", alpha, maximum=0.5)
+    world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
     k = len(ego)
     d2 = placed_mahalanobis(world_from_ego, ego, covs, world_points, pose_covariance)
     total, worst = float(d2.sum()), int(np.argmax(d2)) if k else -1
