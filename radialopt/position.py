@@ -44,7 +44,7 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import eigh
-from scipy.optimize import brentq
+from scipy.optimize import brentq, least_squares
 from scipy.spatial import cKDTree
 
 from .certificates import Certificate, certify_arrays
@@ -80,7 +80,13 @@ POSITION_STATUSES = (
     "degenerate_coplanar",   # coplanar centres and the estimate on their plane: J singular
     "degenerate_collinear",  # collinear centres: the position is only known up to a circle
     "too_few_spheres",       # fewer than three spheres
+    "degenerate",            # J singular at the estimate (e.g. on a centre), or the estimate lies
+                             # more than max_range_ratio spreads from the centres (range scale
+                             # inconsistent with the landmarks): no usable position
+    "not_converged",         # the ML refinement hit its evaluation cap: the best point found
 )
+#: Statuses whose position is a usable answer (finite, converged, near the landmarks).
+POSITION_SUCCESS = ("ok", "ambiguous", "outside_region")
 
 
 @dataclass(frozen=True)
@@ -133,6 +139,10 @@ class EstimatorOptions:
     random_seeds: int = 32
     region_tol: float = 1e-9
     max_generation_spheres: int = 6
+    polish_candidates: int = 4
+    polish_max_nfev: int = 400
+    polish_recentre: int = 4
+    max_range_ratio: float = 1e3
 
 
 ESTIMATOR_OPTIONS = EstimatorOptions()
@@ -584,8 +594,65 @@ def _method_ml(spheres: Sequence[GaussianSphere], d: _Data, region: Region | Non
                        _triple_points(d, limit), paper,
                        _random_seeds(d, rng, region, opts.random_seeds)])
     seeds = seeds[np.all(np.isfinite(seeds), axis=1)]
-    x, _ = _levenberg_marquardt(seeds, d.centers, d.radii, d.sigmas, d.frame.spread, opts)
-    return np.vstack([x, paper])
+    x, cost = _levenberg_marquardt(seeds, d.centers, d.radii, d.sigmas, d.frame.spread, opts)
+    top, _ = _distinct(x, cost, opts.distinct_tol * d.frame.spread)
+    polished, _ = _chart_polish(top[:opts.polish_candidates], d.centers, d.radii, d.sigmas, opts)
+    return np.vstack([polished, x, paper])
+
+
+def _chart_polish(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, opts: EstimatorOptions
+                  ) -> tuple[NDArray, NDArray[np.bool_]]:
+    """Trust-region polish of points ``(m, 3)`` in a chart that straightens the thin valley.
+
+    A sphere much more precise than the others confines the optimum to a thin curved shell
+    around its centre; in Cartesian coordinates every step along the shell leaves it by a
+    quadratic amount that the precise sphere's weight punishes, so LM crawls (issue 12, D3:
+    at a sigma ratio of 1e5 it stopped at its cap 6.5 cm off).  Here the position is
+    ``x = c_p + rho (e0 + a e1 + b e2) / |e0 + a e1 + b e2|`` about the centre ``c_p`` of the
+    most precise sphere (a gnomonic chart centred on the start direction ``e0``), in which the
+    precise sphere's residual ``(rho - r_p) / sigma_p`` is linear and the shell is flat;
+    :func:`scipy.optimize.least_squares` (``"trf"``, ``x_scale="jac"``) minimises the whitened
+    residuals.  The chart is re-centred when a solve leaves its middle.  Returns the points and
+    whether each solve converged (a tolerance met, not the evaluation cap).
+    """
+    p = int(np.argmin(s))
+    cp = c[p]
+    out = np.array(x0, dtype=np.float64, copy=True).reshape(-1, 3)
+    ok = np.zeros(len(out), dtype=bool)
+    for k in range(len(out)):
+        v = out[k] - cp
+        rho = float(np.linalg.norm(v))
+        if not np.isfinite(rho) or rho <= 0.0:
+            continue
+        for _ in range(opts.polish_recentre):
+            e0 = v / np.linalg.norm(v)
+            e1 = np.cross(e0, np.eye(3)[int(np.argmin(np.abs(e0)))])
+            e1 /= np.linalg.norm(e1)
+            basis = np.stack([e1, np.cross(e0, e1)])
+
+            def point(q: NDArray, e0: NDArray = e0, basis: NDArray = basis) -> NDArray:
+                w = e0 + q[:2] @ basis
+                return cp + q[2] * w / np.linalg.norm(w)
+
+            def fun(q: NDArray) -> NDArray:
+                return (np.linalg.norm(point(q) - c, axis=1) - r) / s
+
+            try:
+                sol = least_squares(fun, np.array([0.0, 0.0, rho]), method="trf", x_scale="jac",
+                                    xtol=1e-15, ftol=1e-15, gtol=1e-15,
+                                    max_nfev=opts.polish_max_nfev)
+            except (ValueError, np.linalg.LinAlgError):
+                break
+            if not np.all(np.isfinite(sol.x)):
+                break
+            xk = point(sol.x)
+            if np.sum(fun(sol.x) ** 2) <= np.sum(fun(np.array([0.0, 0.0, rho])) ** 2):
+                out[k] = xk
+            ok[k] = sol.status > 0
+            if np.max(np.abs(sol.x[:2])) < 0.5:
+                break
+            v, rho, ok[k] = out[k] - cp, float(np.linalg.norm(out[k] - cp)), False
+    return out, ok
 
 
 def _method_gradient(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None,
@@ -710,9 +777,18 @@ def estimate_position(
               else region.contains(cand, tol=options.region_tol))
     order = np.lexsort((cost, ~inside))
     cand, cost, inside = cand[order], cost[order], inside[order]
+    status, message = "ok", ""
+    if method == "ml":  # the chosen point must be a converged minimum, not a capped iterate
+        polished, conv = _chart_polish(cand[:1], centers, radii, sigmas, options)
+        pc = _costs(polished, centers, radii, sigmas)[0]
+        if pc < cost[0]:
+            cand[0], cost[0] = polished[0], pc
+        if not conv[0]:
+            status = "not_converged"
+            message = (f"the ML refinement stopped at its evaluation cap ({options.polish_max_nfev}) "
+                       "without meeting its tolerances; the best point found is returned")
     best = cand[0]
     density = np.exp(-0.5 * cost)
-    status, message = "ok", ""
     try:
         cov = crlb(centers, sigmas, best, rcond=options.fisher_rcond)
     except SingularFisherError as exc:
@@ -720,6 +796,12 @@ def estimate_position(
         status = "degenerate_coplanar" if coplanar else "degenerate"
         message = (f"{exc}; with coplanar centres and the position on their plane the height "
                    "above the plane is unobservable" if coplanar else str(exc))
+    far = float(np.linalg.norm(best - frame.origin))
+    if far > options.max_range_ratio * frame.spread and status in ("ok", "not_converged"):
+        status = "degenerate"
+        message = (f"the estimate lies {far:.3g} m from the centroid of landmarks spread over "
+                   f"{frame.spread:.3g} m (more than max_range_ratio = {options.max_range_ratio:g} "
+                   "spreads): the ranges do not fit the landmarks' scale")
     if status == "ok":
         status, message = _ambiguity(cand, cost, inside, region, coplanar, cov, frame, options)
     return PositionEstimate(best, cov, cand, float(density[0]), method, status, message, density,
