@@ -842,7 +842,7 @@ class WorldModel:
         if not isinstance(t, str):
             raise UnknownTypeError(f"{what} must be a type name (str), got {_checks._short(t)}")
         if t not in self._type_index:  # type: ignore[attr-defined]
-            raise UnknownTypeError(f"type {t!r} is not in the world model; "
+            raise UnknownTypeError(f"{what} = {t!r} is not in the world model; "
                                    f"known types: {list(self.type_index)}")
 
     def link_lengths(self, type_a: str, type_b: str, lo: float = -math.inf, hi: float = math.inf,
@@ -1028,7 +1028,7 @@ class WorldModel:
             try:
                 objs.append(ObjectModel(entry["id"], entry["type"], pose, size, entry["geometry"]))
             except WorldGraphError as exc:
-                raise bad(str(exc)) from exc
+                raise bad(f"{name}: {exc}") from exc
         room = data.get("room")
         if room is not None:
             if not isinstance(room, dict) or set(room) != {"lower", "upper"}:
