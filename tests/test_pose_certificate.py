@@ -17,6 +17,7 @@ from radialopt import Certificate
 from worldgraph.errors import (
     NonFiniteError,
     NonPositiveError,
+    NonRigidError,
     PoseError,
     ShapeError,
     TooFewPerceptsError,
@@ -179,8 +180,8 @@ def _good():
         (dict(C=np.full((5, 3, 3), np.nan)), NonFiniteError, "covariances"),
         (dict(pose=np.full((4, 4), np.nan)), NonFiniteError, "world_from_ego"),
         (dict(C=-np.broadcast_to(np.eye(3), (5, 3, 3))), PoseError, "covariances"),
-        (dict(pose=np.diag([1.0, 1.0, -1.0, 1.0])), PoseError, "world_from_ego"),
-        (dict(pose=np.diag([2.0, 1.0, 1.0, 1.0])), PoseError, "world_from_ego"),
+        (dict(pose=np.diag([1.0, 1.0, -1.0, 1.0])), NonRigidError, "world_from_ego"),
+        (dict(pose=np.diag([2.0, 1.0, 1.0, 1.0])), NonRigidError, "world_from_ego"),
         (dict(abs_gap=-1.0), NonPositiveError, "abs_gap"),
         (dict(rel_gap=np.nan), NonFiniteError, "rel_gap"),
         (dict(solver="NO_SUCH_SOLVER"), PoseError, "solver"),

@@ -343,6 +343,11 @@ def _best_translation(R: NDArray, WinvG: NDArray, cx: NDArray, cy: NDArray) -> N
     return cy + R @ (u - cx)
 
 
+_UNIT_SKEW = np.array([[[0.0, 0, 0], [0, 0, -1], [0, 1, 0]],
+                       [[0.0, 0, 1], [0, 0, 0], [-1, 0, 0]],
+                       [[0.0, -1, 0], [1, 0, 0], [0, 0, 0]]])  # skew(e_j)
+
+
 def _reduced_descent(Q: NDArray, R: NDArray, max_iter: int) -> NDArray:
     """Local minimum over SO(3) of ``l(R)^T Q l(R)`` by damped Gauss-Newton (``Q = L L^T``)."""
     w, V = np.linalg.eigh(Q)
@@ -353,8 +358,7 @@ def _reduced_descent(Q: NDArray, R: NDArray, max_iter: int) -> NDArray:
         M = R.T
         # l(exp(w) R): M <- M (I - skew(w)); d vec(M)[3j:3j+3] / dw = M skew(e_j)
         D = np.zeros((10, 3))
-        for j in range(3):
-            D[3 * j:3 * j + 3] = M @ _skew(np.eye(3)[j])
+        D[:9] = np.einsum("ab,jbc->jac", M, _UNIT_SKEW).reshape(9, 3)
         e = L.T @ _lift(R)
         Jr = L.T @ D
         A = Jr.T @ Jr
@@ -470,23 +474,28 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
         out = transformation(R, t)
         return out, pose_information(out, x, C)
     Q, WinvG, cx, cy = _reduced_matrix(x, y, Cinv)
-    grid = _rotation_grid()
-    vals = np.einsum("ni,ij,nj->n", grid[:, :10], Q, grid[:, :10])
-    order = np.argsort(vals)
-    starts = [T0[:3, :3], Rk]
-    for i in order[:64]:
-        Rg = grid[i, 10:].reshape(3, 3)
-        if all(rotation_angle(Rg, s) > 0.5 for s in starts[2:]):
-            starts.append(Rg)
-        if len(starts) >= 6:
-            break
-    best_R, best_f = None, np.inf
-    for R in starts:
+    best_R, best_f = T0[:3, :3], np.inf
+    for R in (T0[:3, :3], Rk):  # the local minima of the given and the Kabsch start ...
         R = _reduced_descent(Q, R, 50)
-        t = _best_translation(R, WinvG, cx, cy)
-        f = cost(R, t)
+        f = float(_lift(R) @ Q @ _lift(R))
         if f < best_f:
             best_R, best_f = R, f
+    # ... then every basin that a grid rotation shows to hold a lower reduced cost
+    grid = _rotation_grid()
+    vals = np.einsum("ni,ij,nj->n", grid[:, :10], Q, grid[:, :10])
+    lower = np.flatnonzero(vals < best_f - 1e-9 * max(best_f, 1.0))
+    tried: list[NDArray] = []
+    for i in lower[np.argsort(vals[lower])][:64]:
+        Rg = grid[i, 10:].reshape(3, 3)
+        if any(rotation_angle(Rg, s) < 0.5 for s in tried):
+            continue
+        tried.append(Rg)
+        R = _reduced_descent(Q, Rg, 50)
+        f = float(_lift(R) @ Q @ _lift(R))
+        if f < best_f:
+            best_R, best_f = R, f
+        if len(tried) >= 4:
+            break
     R = best_R
     t = _best_translation(R, WinvG, cx, cy)
     current = cost(R, t)

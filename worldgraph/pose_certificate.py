@@ -64,8 +64,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from radialopt.certificates import Certificate
 
-from .errors import NonFiniteError, NonPositiveError, PoseError, ShapeError, TooFewPerceptsError
-from .pose import _covariances, _points, refine_pose, transformation
+from ._checks import positive_float, rigid_transform
+from .errors import ArgumentTypeError, PoseError, TooFewPerceptsError, WorldGraphError
+from .pose import MAX_POSE_COORDINATE, _covariances, _points, refine_pose, transformation
 
 __all__ = ["certify_pose", "pose_cost", "reduced_cost_matrix", "solve_pose_sdp"]
 
@@ -142,25 +143,23 @@ def _check_inputs(ego_points: ArrayLike, world_points: ArrayLike, covariances: A
 
 
 def _check_pose(world_from_ego: ArrayLike) -> NDArray[np.float64]:
-    T = np.asarray(world_from_ego, dtype=np.float64)
-    if T.shape != (4, 4):
-        raise ShapeError(f"world_from_ego must have shape (4, 4), got shape {T.shape}")
-    if not np.all(np.isfinite(T)):
-        raise NonFiniteError(f"world_from_ego must be finite, got {T.tolist()}")
-    R = T[:3, :3]
-    if not np.allclose(R.T @ R, np.eye(3), atol=1e-8) or np.linalg.det(R) <= 0:
-        raise PoseError("world_from_ego must hold a proper rotation (R^T R = I, det +1), got "
-                        f"{R.tolist()}")
-    return T
+    return rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
+
+
+def _check_solver(solver: object) -> str:
+    """An installed cvxpy solver name."""
+    import cvxpy as cp
+
+    if not isinstance(solver, str):
+        raise ArgumentTypeError(f"solver must be the name of an installed cvxpy SDP solver, got {solver!r}")
+    if solver.upper() not in cp.installed_solvers():
+        raise PoseError(f"solver {solver!r} is not an installed cvxpy solver "
+                        f"({', '.join(cp.installed_solvers())})")
+    return solver.upper()
 
 
 def _gap_tol(name: str, v: float) -> float:
-    v = float(v)
-    if not np.isfinite(v):
-        raise NonFiniteError(f"{name} must be finite, got {v}")
-    if v < 0:
-        raise NonPositiveError(f"{name} must be >= 0, got {v}")
-    return v
+    return positive_float(name, v, allow_zero=True)
 
 
 def pose_cost(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
@@ -298,7 +297,13 @@ def certify_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Ar
     x, y, C = _check_inputs(ego_points, world_points, covariances)
     T = _check_pose(world_from_ego)
     abs_gap, rel_gap = _gap_tol("abs_gap", abs_gap), _gap_tol("rel_gap", rel_gap)
-    return _certify(x, y, C, T, str(solver), abs_gap, rel_gap, t0)
+    solver = _check_solver(solver)
+    try:
+        return _certify(x, y, C, T, solver, abs_gap, rel_gap, t0)
+    except (np.linalg.LinAlgError, ArithmeticError, ValueError) as exc:
+        if isinstance(exc, WorldGraphError):
+            raise
+        raise PoseError(f"certify_pose failed numerically: {type(exc).__name__}: {exc}") from exc
 
 
 def solve_pose_sdp(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike, *,
@@ -313,9 +318,19 @@ def solve_pose_sdp(ego_points: ArrayLike, world_points: ArrayLike, covariances: 
         bounds the sub-optimality (tiny when the relaxation is tight).
     """
     x, y, C = _check_inputs(ego_points, world_points, covariances)
+    solver = _check_solver(solver)
+    try:
+        return _solve_global(x, y, C, solver)
+    except (np.linalg.LinAlgError, ArithmeticError, ValueError) as exc:
+        if isinstance(exc, WorldGraphError):
+            raise
+        raise PoseError(f"solve_pose_sdp failed numerically: {type(exc).__name__}: {exc}") from exc
+
+
+def _solve_global(x: NDArray, y: NDArray, C: NDArray, solver: str) -> tuple[NDArray[np.float64], float]:
     Cinv = np.linalg.inv(C)
     Q, scale, WinvG, cx, cy = _reduced(x, y, Cinv)
-    Z, lam, status = _solve_sdp(Q, str(solver))
+    Z, lam, status = _solve_sdp(Q, solver)
     if Z is None:
         raise PoseError(f"the SDP relaxation failed with solver={solver!r}: {status}")
     starts = []
@@ -329,7 +344,10 @@ def solve_pose_sdp(ego_points: ArrayLike, world_points: ArrayLike, covariances: 
         yv = np.concatenate([M.reshape(-1, order="F"), [1.0]])
         u = -WinvG @ yv  # the optimal centred translation term for this rotation
         T0 = transformation(M.T, _translation(M.T, u, cx, cy))
-        T1, _ = refine_pose(x, y, C, T0)
+        try:
+            T1, _ = refine_pose(x, y, C, T0)
+        except PoseError:  # e.g. no convergence: the rounded SDP pose still counts
+            T1 = T0
         for T in (T0, T1):
             f = _cost(x, y, Cinv, T)
             if f < best_f:
