@@ -44,7 +44,7 @@ from scipy.spatial import cKDTree
 
 from perception import Percept
 
-from ._checks import positive_float, rigid_transform, strict_int
+from ._checks import finite_float, positive_float, rigid_transform, strict_int
 from .errors import (
     ArgumentTypeError,
     EmptyWorldError,
@@ -904,9 +904,11 @@ def is_ambiguous(hypotheses: Sequence[AssociationHypothesis],
     _check_tolerances(tolerances)
     if len(hypotheses) < 2:
         return False
-    a, b = hypotheses[0], hypotheses[1]
-    return (b.cost - a.cost < tolerances.ambiguity_margin
-            and not _same_pose(a.world_from_ego, b.world_from_ego, tolerances))
+    poses = [rigid_transform(f"hypotheses[{i}].world_from_ego", h.world_from_ego)
+             for i, h in enumerate(hypotheses[:2])]
+    costs = [finite_float(f"hypotheses[{i}].cost", h.cost) for i, h in enumerate(hypotheses[:2])]
+    return (costs[1] - costs[0] < tolerances.ambiguity_margin
+            and not _same_pose(poses[0], poses[1], tolerances))
 
 
 # ----------------------------------------------------------------------------------------------
