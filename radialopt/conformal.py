@@ -27,14 +27,16 @@ from enum import IntEnum
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._checks import MAX_LENGTH, dataclass_fields, instance, real_array
 from .errors import (
     NonFiniteError,
     NotASphereError,
+    OutOfRangeError,
     ShapeError,
     TooFewSpheresError,
     TooManySpheresError,
 )
-from .spheres import GaussianSphere
+from .spheres import CONFORMAL_MAX, GaussianSphere
 
 __all__ = [
     "Circle",
@@ -108,13 +110,18 @@ class MeetTolerances:
     collinear: float = 1e-9
     coplanar: float = 1e-9
 
+    def __post_init__(self) -> None:
+        dataclass_fields(self, {}, {k: (0.0, 1.0, False) for k in
+                                    ("tangent", "coincident", "collinear", "coplanar")})
+
 
 MEET_TOLERANCES = MeetTolerances()
 
 
 # --- input -------------------------------------------------------------------------------
 
-def as_conformal(sphere: GaussianSphere | ArrayLike) -> tuple[NDArray[np.float64], float]:
+def as_conformal(sphere: GaussianSphere | ArrayLike, name: str = "sphere"
+                 ) -> tuple[NDArray[np.float64], float]:
     """Centre and squared radius of a GaussianSphere or a conformal 5-vector.
 
     Parameters
@@ -138,18 +145,20 @@ def as_conformal(sphere: GaussianSphere | ArrayLike) -> tuple[NDArray[np.float64
     """
     if isinstance(sphere, GaussianSphere):
         return np.array(sphere.center, dtype=np.float64), sphere.radius**2
-    v = np.asarray(sphere, dtype=np.float64)
+    v = real_array(sphere, name, max_abs=CONFORMAL_MAX)
     if v.shape != (5,):
-        raise ShapeError(f"a sphere must be a GaussianSphere or a conformal 5-vector, got shape "
-                         f"{v.shape}: {v!r}")
-    if not np.all(np.isfinite(v)):
-        raise NonFiniteError(f"conformal vector must be finite, got {v.tolist()}")
+        raise ShapeError(f"{name} must be a GaussianSphere or a conformal 5-vector, got shape "
+                         f"{v.shape}: {v!r:.200}")
     w0 = v[3]
     if abs(w0) <= 1e-300 or abs(w0) <= 1e-14 * np.max(np.abs(v)):
-        raise NotASphereError(f"conformal vector {v.tolist()} has e0 coefficient {w0!r}: a plane "
+        raise NotASphereError(f"{name} = conformal vector {v.tolist()} has e0 coefficient {w0!r}: a plane "
                               "or the point at infinity, not a sphere")
     center = v[:3] / w0
-    return center, float(center @ center - 2.0 * v[4] / w0)
+    radius_sq = float(center @ center - 2.0 * v[4] / w0)
+    if not (np.all(np.abs(center) <= MAX_LENGTH) and abs(radius_sq) <= MAX_LENGTH**2):
+        raise OutOfRangeError(f"{name} = {v.tolist()} has centre {center.tolist()} and squared radius "
+                              f"{radius_sq:.3g} beyond the usable magnitude {MAX_LENGTH:g} m")
+    return center, radius_sq
 
 
 # --- primitives --------------------------------------------------------------------------
@@ -275,12 +284,8 @@ class PointBatch:
 # --- batched meets -----------------------------------------------------------------------
 
 def _check_batch(centers: ArrayLike, radii_sq: ArrayLike, m: int) -> tuple[NDArray, NDArray]:
-    c = np.asarray(centers, dtype=np.float64)
-    r2 = np.asarray(radii_sq, dtype=np.float64)
-    if c.ndim != 3 or c.shape[1:] != (m, 3):
-        raise ShapeError(f"centers must have shape (k, {m}, 3), got shape {c.shape}")
-    if r2.shape != c.shape[:2]:
-        raise ShapeError(f"radii_sq must have shape {c.shape[:2]}, got shape {r2.shape}")
+    c = real_array(centers, "centers", shape=("k", m, 3))
+    r2 = real_array(radii_sq, "radii_sq", shape=c.shape[:2], max_abs=MAX_LENGTH**2)
     for name, arr in (("centers", c), ("radii_sq", r2)):
         if not np.all(np.isfinite(arr)):
             raise NonFiniteError(f"{name} must be finite; first bad index "
@@ -322,6 +327,7 @@ def meet2_batch(centers: ArrayLike, radii_sq: ArrayLike,
     -------
     CircleBatch
     """
+    instance(tol, "tol", MeetTolerances)
     c, r2 = _check_batch(centers, radii_sq, 2)
     origin, cc, _, size = _centred(c, r2)
     d = cc[:, 1] - cc[:, 0]
@@ -365,6 +371,7 @@ def meet3_batch(centers: ArrayLike, radii_sq: ArrayLike,
     PointPairBatch
         ``points[:, 0]`` lies on the ``-axis`` side, ``points[:, 1]`` on the ``+axis`` side.
     """
+    instance(tol, "tol", MeetTolerances)
     c, r2 = _check_batch(centers, radii_sq, 3)
     origin, cc, power, size = _centred(c, r2)
     a = cc[:, 1] - cc[:, 0]
@@ -412,6 +419,7 @@ def meet4_batch(centers: ArrayLike, radii_sq: ArrayLike,
         ``residual`` is the common power rho^2 of the radical centre (zero iff the four
         spheres share it).
     """
+    instance(tol, "tol", MeetTolerances)
     c, r2 = _check_batch(centers, radii_sq, 4)
     origin, cc, power, size = _centred(c, r2)
     sv = np.linalg.svd(cc, compute_uv=False)  # (k, 3)
@@ -486,11 +494,12 @@ def meet(*spheres: GaussianSphere | ArrayLike,
     ShapeError, NonFiniteError, NotASphereError
         A sphere that is not a valid sphere.
     """
+    instance(tol, "tol", MeetTolerances)
     if len(spheres) < 2:
         raise TooFewSpheresError(f"the meet needs 2 to 4 spheres, got {len(spheres)}")
     if len(spheres) > 4:
         raise TooManySpheresError(f"the meet takes 2 to 4 spheres, got {len(spheres)}")
-    parts = [as_conformal(s) for s in spheres]
+    parts = [as_conformal(s, f"spheres[{i}]") for i, s in enumerate(spheres)]
     c = np.stack([p[0] for p in parts])[None]
     r2 = np.array([p[1] for p in parts])[None]
     if len(parts) == 2:

@@ -61,3 +61,8 @@ class InvalidRegionError(RadialError):
 
 class SingularFisherError(RadialError):
     """The Fisher information is singular: some direction of the position is unobservable."""
+
+
+class OutOfRangeError(RadialError):
+    """A finite number outside the range radialopt can compute with (e.g. ``sigma = 1e-300``
+    with centres metres apart, a coordinate of 1e300 m, a negative tolerance)."""

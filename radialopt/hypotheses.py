@@ -23,6 +23,7 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._checks import MAX_LENGTH, instance, point3, real_scalar
 from .conformal import (
     MEET_TOLERANCES,
     Circle,
@@ -34,7 +35,7 @@ from .conformal import (
     meet3_batch,
     meet4_batch,
 )
-from .errors import InvalidRegionError, NonFiniteError, ShapeError
+from .errors import InvalidRegionError, ShapeError
 from .spheres import GaussianSphere, as_points, sphere_arrays
 
 __all__ = ["Hypothesis", "LevelSets", "Region", "generate_hypotheses", "validate_positions"]
@@ -54,13 +55,8 @@ class Region:
     upper: NDArray[np.float64]
 
     def __post_init__(self) -> None:
-        lo = np.array(self.lower, dtype=np.float64)
-        hi = np.array(self.upper, dtype=np.float64)
-        for name, v in (("lower", lo), ("upper", hi)):
-            if v.shape != (3,):
-                raise ShapeError(f"Region.{name} must have shape (3,), got shape {v.shape}")
-            if not np.all(np.isfinite(v)):
-                raise NonFiniteError(f"Region.{name} must be finite, got {v.tolist()}")
+        lo = point3(self.lower, "Region.lower")
+        hi = point3(self.upper, "Region.upper")
         if np.any(lo > hi):
             raise InvalidRegionError(f"Region lower {lo.tolist()} must be <= upper {hi.tolist()} "
                                      "in every coordinate")
@@ -72,6 +68,7 @@ class Region:
     def contains(self, x: ArrayLike, tol: float = 1e-9) -> bool | NDArray[np.bool_]:
         """Whether points ``(3,)`` or ``(k, 3)`` lie in the box (``tol`` metres of slack)."""
         pts, single = as_points(x)
+        tol = real_scalar(tol, "tol", 0.0, MAX_LENGTH)
         inside = np.all((pts >= self.lower - tol) & (pts <= self.upper + tol), axis=1)
         return bool(inside[0]) if single else inside
 
@@ -203,6 +200,11 @@ def generate_hypotheses(
     CoincidentCentersError
         Two centres coincide.
     """
+    if region is not None:
+        instance(region, "region", Region)
+    if not isinstance(keep_imaginary, (bool, np.bool_)):
+        raise ShapeError(f"keep_imaginary must be a bool, got {keep_imaginary!r:.100}")
+    instance(tol, "tol", MeetTolerances)
     centers, radii, sigmas = sphere_arrays(spheres, min_count=1)
     n = len(centers)
     r2 = radii**2

@@ -28,7 +28,8 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import CoincidentCentersError, NonFiniteError, NonPositiveSigmaError, ShapeError
+from ._checks import instance, real_array, real_scalar, sigma_range
+from .errors import CoincidentCentersError, NonFiniteError, ShapeError
 from .spheres import TOLERANCES, GaussianSphere, Tolerances, sphere_arrays
 
 #: Row kinds, in the order they appear for each pair.
@@ -93,6 +94,7 @@ class RestrictionPolytope:
         cls, spheres: Sequence[GaussianSphere], tol: Tolerances = TOLERANCES
     ) -> RestrictionPolytope:
         """Build the polytope in raw radial space ``S^n`` from at least two spheres."""
+        instance(tol, "tol", Tolerances)
         centers, _, sigmas = sphere_arrays(spheres, min_count=2, tol=tol)
         return cls.from_centers(centers, sigmas, tol=tol)
 
@@ -104,19 +106,13 @@ class RestrictionPolytope:
         tol: Tolerances = TOLERANCES,
     ) -> RestrictionPolytope:
         """Build the polytope from sphere centres ``(n, 3)`` (the radii do not enter it)."""
-        c = np.asarray(centers, dtype=np.float64)
-        if c.ndim != 2 or c.shape[1] != 3 or c.shape[0] < 2:
+        instance(tol, "tol", Tolerances)
+        c = real_array(centers, "centers", shape=(None, 3))
+        if c.shape[0] < 2:
             raise ShapeError(f"centers must have shape (n, 3) with n >= 2, got shape {c.shape}")
-        if not np.all(np.isfinite(c)):
-            raise NonFiniteError(f"centers must be finite, got {c.tolist()}")
         n = c.shape[0]
-        s = np.ones(n) if sigmas is None else np.asarray(sigmas, dtype=np.float64)
-        if s.shape != (n,):
-            raise ShapeError(f"sigmas must have shape ({n},), got shape {s.shape}")
-        if not np.all(np.isfinite(s)):
-            raise NonFiniteError(f"sigmas must be finite, got {s.tolist()}")
-        if np.any(s <= 0):
-            raise NonPositiveSigmaError(f"sigmas must be > 0, got {s.tolist()}")
+        s = np.ones(n) if sigmas is None else real_array(sigmas, "sigmas", shape=(n,))
+        sigma_range(s, "sigmas", float(np.abs(c).max()))
         iu, ju, A, b_sign = pair_pattern(n)
         d = np.linalg.norm(c[iu] - c[ju], axis=1)
         _raise_if_coincident(c, iu, ju, d, tol)
@@ -232,6 +228,7 @@ def common_point_exists(
     ``tol`` is relative to the squared scale of the configuration.
     """
     centers, radii, _ = sphere_arrays(spheres, min_count=2)
+    tol = real_scalar(tol, "tol", 0.0, 1.0)
     n = len(centers)
     scale = max(float(np.max(radii)), float(np.ptp(centers, axis=0).max()), 1e-300)
     atol = tol * scale**2

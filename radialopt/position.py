@@ -47,6 +47,7 @@ from scipy.linalg import eigh
 from scipy.optimize import brentq, least_squares
 from scipy.spatial import cKDTree
 
+from ._checks import dataclass_fields
 from .certificates import Certificate, certify_arrays
 from .conformal import MeetStatus, meet3_batch
 from .errors import (
@@ -143,6 +144,18 @@ class EstimatorOptions:
     polish_max_nfev: int = 400
     polish_recentre: int = 4
     max_range_ratio: float = 1e3
+
+    def __post_init__(self) -> None:
+        dataclass_fields(
+            self,
+            {"lm_max_iter": (0, 10**6), "gradient_max_iter": (0, 10**7), "random_seeds": (0, 10**5),
+             "max_generation_spheres": (3, 12), "polish_candidates": (0, 1000),
+             "polish_max_nfev": (1, 10**6), "polish_recentre": (1, 100)},
+            {"rank_tol": (0.0, 1.0, False), "fisher_rcond": (0.0, 1.0, False),
+             "lm_step_tol": (0.0, 1.0, False), "gradient_step_tol": (0.0, 1.0, False),
+             "distinct_tol": (0.0, 1.0, False), "ambiguity_ratio": (0.0, 1.0, False),
+             "ambiguity_sigmas": (0.0, 1e6, False), "region_tol": (0.0, 1e6, False),
+             "max_range_ratio": (1.0, 1e12, False)})
 
 
 ESTIMATOR_OPTIONS = EstimatorOptions()

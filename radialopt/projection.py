@@ -69,9 +69,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import nnls
 
+from ._checks import instance, real_array, sigma_range
 from .errors import (
     NegativeRadiusError,
-    NonFiniteError,
     NonPositiveSigmaError,
     ShapeError,
     SolverError,
@@ -531,12 +531,15 @@ def project_radii(
     SolverError
         The backend failed and no answer can be trusted.
     """
-    if method not in _BACKENDS:
-        raise UnknownMethodError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if not isinstance(method, str) or method not in _BACKENDS:
+        raise UnknownMethodError(f"unknown method {method!r:.100}; choose one of {', '.join(METHODS)}")
+    if solver is not None and not isinstance(solver, str):
+        raise UnknownMethodError(f"solver must be a cvxpy solver name or None, got {solver!r:.100}")
     if solver is not None and method != "cvxpy":
         raise UnknownMethodError(f"solver={solver!r} only applies to method='cvxpy', not {method!r}")
-    if check not in (False, True, "exact"):
-        raise UnknownMethodError(f"check must be False, True or 'exact', got check={check!r}")
+    if not (check is False or check is True or (isinstance(check, str) and check == "exact")):
+        raise UnknownMethodError(f"check must be False, True or 'exact', got check={check!r:.100}")
+    instance(tol, "tol", Tolerances)
     if check == "exact":
         _cdd_gmp()  # fail before solving when the exact mode is missing
     problem = _Problem.build(spheres, tol)
@@ -584,24 +587,19 @@ def project_radii_batch(
     -------
     BatchSolution with ``radii (B, n)``, ``density (B,)``, ``normalized_displacement (B,)``.
     """
-    c = np.asarray(centers, dtype=np.float64)
-    r = np.asarray(radii, dtype=np.float64)
-    sg = np.asarray(sigmas, dtype=np.float64)
-    if c.ndim != 3 or c.shape[2] != 3 or c.shape[1] < 2:
+    instance(tol, "tol", Tolerances)
+    c = real_array(centers, "centers", shape=("B", "n", 3))
+    if c.shape[1] < 2:
         raise ShapeError(f"centers must have shape (B, n, 3) with n >= 2, got shape {c.shape}")
-    if r.shape != c.shape[:2] or sg.shape != c.shape[:2]:
-        raise ShapeError(f"radii and sigmas must have shape {c.shape[:2]}, got {r.shape} and "
-                         f"{sg.shape}")
-    for name, arr in (("centers", c), ("radii", r), ("sigmas", sg)):
-        if not np.all(np.isfinite(arr)):
-            raise NonFiniteError(f"{name} must be finite; first bad index "
-                                 f"{np.argwhere(~np.isfinite(arr))[0].tolist()}")
+    r = real_array(radii, "radii", shape=c.shape[:2])
+    sg = real_array(sigmas, "sigmas", shape=c.shape[:2])
     if np.any(sg <= 0):
-        raise NonPositiveSigmaError(f"sigmas must be > 0; got {sg[sg <= 0][0]!r} at "
-                                    f"{np.argwhere(sg <= 0)[0].tolist()}")
+        raise NonPositiveSigmaError(f"sigmas{np.argwhere(sg <= 0)[0].tolist()} = {sg[sg <= 0][0]!r} "
+                                    "must be > 0")
     if np.any(r < 0):
-        raise NegativeRadiusError(f"radii must be >= 0; got {r[r < 0][0]!r} at "
-                                  f"{np.argwhere(r < 0)[0].tolist()}")
+        raise NegativeRadiusError(f"radii{np.argwhere(r < 0)[0].tolist()} = {r[r < 0][0]!r} must be >= 0")
+    for b in range(c.shape[0]):
+        sigma_range(sg[b], f"sigmas[{b}]", max(float(np.abs(c[b]).max()), float(r[b].max())))
     t0 = time.perf_counter()
     iu, ju, A, b_sign = pair_pattern(c.shape[1])
     d = np.linalg.norm(c[:, iu] - c[:, ju], axis=2)  # (B, p)
@@ -614,8 +612,13 @@ def project_radii_batch(
     z = np.zeros_like(r)
     for k in np.flatnonzero(h.min(axis=1) < 0):
         zk, status = least_distance(G[k], h[k])
-        if status != "optimal":
+        if status != "optimal" or not np.all(np.isfinite(zk)):
             raise SolverError(f"instance {k}: no feasible radii (status {status!r})")
+        scale = max(float(d[k].max()), float(r[k].max()), 1.0)
+        violation = float(np.max(G[k] @ zk - h[k]))
+        if violation > tol.agreement * scale:
+            raise SolverError(f"instance {k}: the radii violate A r <= b by {violation:.3g} m "
+                              f"(tolerance {tol.agreement * scale:.3g} m; sigmas {sg[k].tolist()})")
         z[k] = zk
     zz = np.sum(z * z, axis=1)
     return BatchSolution(r + sg * z, np.exp(-0.5 * zz), np.sqrt(zz), time.perf_counter() - t0)

@@ -8,16 +8,17 @@ is the product (eq. 14), which in radial form is eq. 20.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 
+from ._checks import MAX_LENGTH, dataclass_fields, point3, real_array, real_scalar, sigma_range
 from .errors import (
     CoincidentCentersError,
     NegativeRadiusError,
-    NonFiniteError,
     NonPositiveSigmaError,
     ShapeError,
     TooFewSpheresError,
@@ -43,6 +44,10 @@ class Tolerances:
     feasibility: float = 1e-9
     agreement: float = 1e-6
 
+    def __post_init__(self) -> None:
+        dataclass_fields(self, {}, {"coincident": (0.0, 1.0, True), "feasibility": (0.0, 1.0, False),
+                                    "agreement": (0.0, 1.0, True)})
+
 
 TOLERANCES = Tolerances()
 
@@ -66,17 +71,15 @@ class GaussianSphere:
     sigma: float
 
     def __post_init__(self) -> None:
-        center = np.array(self.center, dtype=np.float64)
-        if center.shape != (3,):
-            raise ShapeError(f"center must have shape (3,), got shape {center.shape}: {center!r}")
-        if not np.all(np.isfinite(center)):
-            raise NonFiniteError(f"center must be finite, got {center.tolist()}")
-        radius = _finite_scalar("radius", self.radius)
-        sigma = _finite_scalar("sigma", self.sigma)
+        center = point3(self.center, "center")
+        radius = real_scalar(self.radius, "radius")
+        sigma = real_scalar(self.sigma, "sigma")
         if radius < 0:
-            raise NegativeRadiusError(f"radius must be >= 0, got {radius!r}")
+            raise NegativeRadiusError(f"radius = {radius!r} must be >= 0")
         if sigma <= 0:
-            raise NonPositiveSigmaError(f"sigma must be > 0, got {sigma!r}")
+            raise NonPositiveSigmaError(f"sigma = {sigma!r} must be > 0")
+        radius = real_scalar(radius, "radius", max_abs=MAX_LENGTH)
+        sigma = real_scalar(sigma, "sigma", max_abs=MAX_LENGTH)
         center.setflags(write=False)
         object.__setattr__(self, "center", center)
         object.__setattr__(self, "radius", radius)
@@ -107,25 +110,13 @@ class GaussianSphere:
         return conformal_sphere(self.center, self.radius)
 
 
-def _finite_scalar(name: str, value: object) -> float:
-    try:
-        out = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a real scalar, got {value!r}") from exc
-    if not np.isfinite(out):
-        raise NonFiniteError(f"{name} must be finite, got {out!r}")
-    return out
-
-
 def as_points(x: ArrayLike, name: str = "x") -> tuple[NDArray[np.float64], bool]:
     """Validate points of shape (3,) or (k, 3); return them as (k, 3) and a 'was single' flag."""
-    arr = np.asarray(x, dtype=np.float64)
+    arr = real_array(x, name, ndim=(1, 2))
     single = arr.ndim == 1
     pts = arr.reshape(1, -1) if single else arr
-    if pts.ndim != 2 or pts.shape[1] != 3:
-        raise ShapeError(f"{name} must have shape (3,) or (k, 3), got shape {arr.shape}")
-    if not np.all(np.isfinite(pts)):
-        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
+    if pts.shape[1] != 3 or pts.shape[0] == 0:
+        raise ShapeError(f"{name} must have shape (3,) or (k, 3) with k >= 1, got shape {arr.shape}")
     return pts, single
 
 
@@ -145,6 +136,8 @@ def sphere_arrays(
         Two centres closer than ``tol.coincident`` (when ``check_centers``; callers that
         compute the pair distances anyway check them there).
     """
+    if isinstance(spheres, (str, bytes, GaussianSphere)) or not isinstance(spheres, Iterable):
+        raise ShapeError(f"spheres must be a sequence of GaussianSphere, got {type(spheres).__name__}")
     spheres = list(spheres)
     for i, s in enumerate(spheres):
         if not isinstance(s, GaussianSphere):
@@ -154,6 +147,8 @@ def sphere_arrays(
     centers = np.array([s.center for s in spheres], dtype=np.float64).reshape(-1, 3)
     radii = np.array([s.radius for s in spheres], dtype=np.float64)
     sigmas = np.array([s.sigma for s in spheres], dtype=np.float64)
+    if len(spheres):
+        sigma_range(sigmas, "sigmas", max(float(np.abs(centers).max()), float(radii.max())))
     if check_centers:
         check_distinct_centers(centers, tol)
     return centers, radii, sigmas
@@ -164,14 +159,14 @@ def check_distinct_centers(centers: NDArray[np.float64], tol: Tolerances = TOLER
     n = len(centers)
     if n < 2:
         return
-    d = np.linalg.norm(centers[:, None, :] - centers[None, :, :], axis=-1)
-    iu, ju = np.triu_indices(n, k=1)
-    bad = np.flatnonzero(d[iu, ju] <= tol.coincident)
-    if bad.size:
-        i, j = int(iu[bad[0]]), int(ju[bad[0]])
+    # neighbour query, not an (n, n) distance matrix: memory linear in n
+    pairs = cKDTree(centers).query_pairs(r=tol.coincident, output_type="ndarray")
+    if len(pairs):
+        i, j = (int(v) for v in pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))][0])
+        dist = float(np.linalg.norm(centers[i] - centers[j]))
         raise CoincidentCentersError(
             f"centres {i} and {j} coincide ({centers[i].tolist()}, distance "
-            f"{d[i, j]:.3g} <= {tol.coincident:g})"
+            f"{dist:.3g} <= {tol.coincident:g})"
         )
 
 
@@ -179,16 +174,18 @@ def make_spheres(
     centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike
 ) -> list[GaussianSphere]:
     """Build spheres from ``centers (n, 3)``, ``radii (n,)``, ``sigmas (n,)`` (a scalar broadcasts)."""
-    c = np.asarray(centers, dtype=np.float64)
-    if c.ndim != 2 or c.shape[1] != 3:
-        raise ShapeError(f"centers must have shape (n, 3), got shape {c.shape}")
-    r = np.asarray(radii, dtype=np.float64)
-    if r.shape != (len(c),):
-        raise ShapeError(f"radii must have shape ({len(c)},), got shape {r.shape}")
-    s = np.broadcast_to(np.asarray(sigmas, dtype=np.float64), r.shape) if np.ndim(sigmas) == 0 \
-        else np.asarray(sigmas, dtype=np.float64)
+    c = real_array(centers, "centers", shape=(None, 3))
+    r = real_array(radii, "radii", shape=(len(c),))
+    s = real_array(sigmas, "sigmas", ndim=(0, 1))
+    s = np.broadcast_to(s, r.shape) if s.ndim == 0 else s
     if s.shape != r.shape:
-        raise ShapeError(f"sigmas must have shape ({len(c)},), got shape {s.shape}")
+        raise ShapeError(f"sigmas must be a scalar or have shape ({len(c)},), got shape {s.shape}")
+    bad = np.flatnonzero(r < 0)
+    if bad.size:
+        raise NegativeRadiusError(f"radii[{bad[0]}] = {r[bad[0]]!r} must be >= 0")
+    bad = np.flatnonzero(s <= 0)
+    if bad.size:
+        raise NonPositiveSigmaError(f"sigmas[{bad[0]}] = {s[bad[0]]!r} must be > 0")
     return [GaussianSphere(ci, float(ri), float(si)) for ci, ri, si in zip(c, r, s, strict=True)]
 
 
@@ -214,13 +211,20 @@ def total_density(spheres: Sequence[GaussianSphere], x: ArrayLike) -> NDArray[np
 
 def radial_density(radii: ArrayLike, measured: ArrayLike, sigmas: ArrayLike) -> float:
     """Eq. 18/20 in radial space: ``exp(-1/2 |H (radii - measured)|^2)``, H = diag(1/sigma)."""
-    z = (np.asarray(radii, float) - np.asarray(measured, float)) / np.asarray(sigmas, float)
+    x = real_array(radii, "radii", ndim=(1,))
+    m = real_array(measured, "measured", shape=x.shape)
+    s = real_array(sigmas, "sigmas", shape=x.shape)
+    sigma_range(s, "sigmas", max(float(np.abs(np.r_[x, m]).max(initial=0.0)), 1.0))
+    z = (x - m) / s
     return float(np.exp(-0.5 * float(z @ z)))
 
 
 # --- conformal model (DESIGN.md item 1) ---------------------------------------------------
 # A conformal vector is stored as the 5 coefficients (e1, e2, e3, e0, e_inf) with the metric
 # e_i . e_i = 1, e0 . e0 = e_inf . e_inf = 0, e0 . e_inf = -1.
+#: Largest magnitude of a conformal coordinate accepted (|X|^2 / 2 of a MAX_LENGTH point is 5e17).
+CONFORMAL_MAX = 1e100
+
 CONFORMAL_METRIC = np.array(
     [
         [1.0, 0, 0, 0, 0],
@@ -239,8 +243,9 @@ def conformal_sphere(center: ArrayLike, radius: float) -> NDArray[np.float64]:
     where d is the distance between the centres.  ``radius**2`` may be negative for an
     imaginary sphere; pass ``radius = 1j * rho`` semantics through :func:`conformal_sphere_sq`.
     """
-    x = np.asarray(center, dtype=np.float64)
-    return conformal_sphere_sq(x, float(radius) ** 2)
+    x = point3(center, "center")
+    rad = real_scalar(radius, "radius", max_abs=MAX_LENGTH)
+    return conformal_sphere_sq(x, rad**2)
 
 
 def conformal_sphere_sq(center: ArrayLike, radius_sq: float) -> NDArray[np.float64]:
@@ -251,6 +256,14 @@ def conformal_sphere_sq(center: ArrayLike, radius_sq: float) -> NDArray[np.float
 
 def conformal_inner(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64] | float:
     """Inner product of conformal vectors (last axis of length 5)."""
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
-    return np.einsum("...i,ij,...j->...", a, CONFORMAL_METRIC, b)
+    a = real_array(a, "a", max_abs=CONFORMAL_MAX)
+    b = real_array(b, "b", max_abs=CONFORMAL_MAX)
+    for name, arr in (("a", a), ("b", b)):
+        if arr.ndim == 0 or arr.shape[-1] != 5:
+            raise ShapeError(f"{name} must have a last axis of length 5, got shape {arr.shape}")
+    try:
+        np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
+    except ValueError as exc:
+        raise ShapeError(f"a and b do not broadcast: shapes {a.shape} and {b.shape}") from exc
+    out = np.einsum("...i,ij,...j->...", a, CONFORMAL_METRIC, b)
+    return float(out) if np.ndim(out) == 0 else out

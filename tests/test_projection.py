@@ -243,7 +243,7 @@ def test_batch_matches_single_calls():
         single = ro.project_radii(b)
         np.testing.assert_allclose(out.radii[k], single.radii, atol=1e-12)
         assert out.density[k] == pytest.approx(single.density, rel=1e-12, abs=1e-300)
-    with pytest.raises(ro.NonPositiveSigmaError, match="at"):
+    with pytest.raises(ro.NonPositiveSigmaError, match=r"sigmas\[0, 0\] = -"):
         ro.project_radii_batch(C, R, -S)
     with pytest.raises(ro.ShapeError, match="shape"):
         ro.project_radii_batch(C[:, :, :2], R, S)
