@@ -133,7 +133,7 @@ def sigma_range(sigmas: NDArray[np.float64], name: str, length_scale: float) -> 
     if bad.size:
         from .errors import NonPositiveSigmaError
 
-        raise NonPositiveSigmaError(f"{name}[{bad[0]}] = {s[bad[0]]!r} must be > 0")
+        raise NonPositiveSigmaError(f"{name}[{bad[0]}] = {float(s[bad[0]])!r} must be > 0")
     floor = MIN_SIGMA_RELATIVE * max(float(length_scale), 1.0)
     bad = np.flatnonzero((s < floor) | (s > MAX_LENGTH))
     if bad.size:

@@ -594,10 +594,10 @@ def project_radii_batch(
     r = real_array(radii, "radii", shape=c.shape[:2])
     sg = real_array(sigmas, "sigmas", shape=c.shape[:2])
     if np.any(sg <= 0):
-        raise NonPositiveSigmaError(f"sigmas{np.argwhere(sg <= 0)[0].tolist()} = {sg[sg <= 0][0]!r} "
+        raise NonPositiveSigmaError(f"sigmas{np.argwhere(sg <= 0)[0].tolist()} = {float(sg[sg <= 0][0])!r} "
                                     "must be > 0")
     if np.any(r < 0):
-        raise NegativeRadiusError(f"radii{np.argwhere(r < 0)[0].tolist()} = {r[r < 0][0]!r} must be >= 0")
+        raise NegativeRadiusError(f"radii{np.argwhere(r < 0)[0].tolist()} = {float(r[r < 0][0])!r} must be >= 0")
     for b in range(c.shape[0]):
         sigma_range(sg[b], f"sigmas[{b}]", max(float(np.abs(c[b]).max()), float(r[b].max())))
     t0 = time.perf_counter()

@@ -182,10 +182,10 @@ def make_spheres(
         raise ShapeError(f"sigmas must be a scalar or have shape ({len(c)},), got shape {s.shape}")
     bad = np.flatnonzero(r < 0)
     if bad.size:
-        raise NegativeRadiusError(f"radii[{bad[0]}] = {r[bad[0]]!r} must be >= 0")
+        raise NegativeRadiusError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
     bad = np.flatnonzero(s <= 0)
     if bad.size:
-        raise NonPositiveSigmaError(f"sigmas[{bad[0]}] = {s[bad[0]]!r} must be > 0")
+        raise NonPositiveSigmaError(f"sigmas[{bad[0]}] = {float(s[bad[0]])!r} must be > 0")
     return [GaussianSphere(ci, float(ri), float(si)) for ci, ri, si in zip(c, r, s, strict=True)]
 
 
