@@ -777,7 +777,12 @@ def _fit_group(world: WorldModel, ego_all: NDArray, sig_all: NDArray, group: lis
     centred = wpts - wpts.mean(axis=1, keepdims=True)
     sv = np.linalg.svd(centred, compute_uv=False)
     good = sv[:, 1] > 1e-6 * np.maximum(sv[:, 0], 1e-300)
-    mirror = ~_chirality_ok(ego, wpts, sig, tol) if chirality else np.zeros(len(group), dtype=bool)
+    mirror = np.zeros(len(group), dtype=bool)
+    if chirality:  # in blocks: at most ~2e5 tetrahedra in memory at once
+        per_set = len(_tetrahedra(wpts[:1])[0]) if m >= 4 and len(group) else 1
+        step = max(1, 200_000 // max(per_set, 1))
+        for s in range(0, len(group), step):
+            mirror[s:s + step] = ~_chirality_ok(ego[s:s + step], wpts[s:s + step], sig[s:s + step], tol)
     children: list[tuple[tuple[int, int], ...]] = []
     if m > 3:
         for h in np.flatnonzero(good & mirror):
