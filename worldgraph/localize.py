@@ -46,6 +46,7 @@ from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
@@ -452,13 +453,17 @@ class _Context:
 
 
 def _distinct_centres(world: WorldModel, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
-    """One pair per distinct model position (a sphere per centre)."""
-    out: list[tuple[int, int]] = []
-    for p, o in pairs:
-        x = world.positions[o]
-        if all(np.linalg.norm(world.positions[q] - x) > 1e-9 for _, q in out):
-            out.append((p, o))
-    return tuple(sorted(out))
+    """One pair per distinct model position (a sphere per centre): the first of the pairs whose
+    objects lie within 1e-9 m of each other (a k-d tree, not all pairs)."""
+    pairs = list(pairs)
+    if len(pairs) < 2:
+        return tuple(sorted(pairs))
+    pos = world.positions[np.array([o for _, o in pairs], dtype=np.intp)]
+    keep = np.ones(len(pairs), dtype=bool)
+    for i, j in sorted(cKDTree(pos).query_pairs(1e-9)):
+        if keep[i]:
+            keep[j] = False
+    return tuple(sorted(p for p, k in zip(pairs, keep, strict=True) if k))
 
 
 def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: str,
