@@ -43,7 +43,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -410,6 +410,15 @@ class LinkTable:
     def __len__(self) -> int:
         return int(self.length.size)
 
+    @classmethod
+    def _trusted(cls, i: NDArray[np.intp], j: NDArray[np.intp], length: NDArray[np.float64]) -> LinkTable:
+        """Build without validation from read-only arrays the caller has checked."""
+        table = object.__new__(cls)
+        object.__setattr__(table, "i", i)
+        object.__setattr__(table, "j", j)
+        object.__setattr__(table, "length", length)
+        return table
+
     def in_range(self, lo: float, hi: float,
                  ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
         """Links with ``lo < length < hi`` (metres; infinite bounds allowed, NaN not) by binary
@@ -429,29 +438,68 @@ def _empty_table() -> LinkTable:
 _EMPTY_TABLE = _empty_table()
 
 
-class _LinkTables(dict):  # type: ignore[type-arg]
-    """``(type_a, type_b) -> LinkTable`` holding only the type pairs with at least one link.
+class _LinkTables(Mapping[tuple[str, str], LinkTable]):
+    """``(type_a, type_b) -> LinkTable`` over the type pairs with at least one link.
 
-    Looking up a sorted pair ``(a, b)``, ``a <= b``, of types of the model that has no links
-    returns an empty :class:`LinkTable` (not stored: memory stays linear in the number of
-    links, not quadratic in the number of types); any other missing key is a ``KeyError``.
+    All links live in three arrays sorted by type pair, then length; a table is a view of its
+    slice, made on access.  Memory is linear in the number of links, whatever the number of
+    types (no table per pair of types, no Python object per stored pair).  Iteration yields the
+    linked pairs only; looking up a sorted pair ``(a, b)``, ``a <= b``, of types of the model
+    that has no links returns an empty :class:`LinkTable`; any other key is a ``KeyError``.
     """
 
-    def __init__(self, tables: dict[tuple[str, str], LinkTable], types: frozenset[str]) -> None:
-        super().__init__(tables)
-        self._types = types
+    def __init__(self, names: list[str], pi: NDArray[np.intp], pj: NDArray[np.intp],
+                 length: NDArray[np.float64], present: NDArray[np.int64], first: NDArray[np.intp],
+                 last: NDArray[np.intp]) -> None:
+        self._names = names
+        self._code = {t: c for c, t in enumerate(names)}
+        self._pi, self._pj, self._length = pi, pj, length
+        self._present, self._first, self._last = present, first, last
+        for a in (pi, pj, length, present, first, last):
+            a.setflags(write=False)
 
-    def __missing__(self, key: Any) -> LinkTable:
-        if (isinstance(key, tuple) and len(key) == 2 and all(isinstance(t, str) for t in key)
-                and key[0] in self._types and key[1] in self._types and key[0] <= key[1]):
+    def _slot(self, key: Any) -> int | None:
+        """Index into ``present`` of a linked pair; ``None`` for a sorted pair of known types
+        without links; ``KeyError`` otherwise."""
+        if not (isinstance(key, tuple) and len(key) == 2 and all(isinstance(t, str) for t in key)):
+            raise KeyError(key)
+        ca, cb = self._code.get(key[0]), self._code.get(key[1])
+        if ca is None or cb is None or ca > cb:
+            raise KeyError(key)
+        k = ca * len(self._names) + cb
+        pos = int(np.searchsorted(self._present, k))
+        return pos if pos < len(self._present) and self._present[pos] == k else None
+
+    def __getitem__(self, key: Any) -> LinkTable:
+        pos = self._slot(key)
+        if pos is None:
             return _EMPTY_TABLE
-        raise KeyError(key)
+        s, e = int(self._first[pos]), int(self._last[pos])
+        return LinkTable._trusted(self._pi[s:e], self._pj[s:e], self._length[s:e])
+
+    def __contains__(self, key: object) -> bool:
+        try:
+            return self._slot(key) is not None
+        except KeyError:
+            return False
 
     def get(self, key: Any, default: Any = None) -> Any:
         try:
             return self[key]
         except KeyError:
             return default
+
+    def __iter__(self) -> Iterator[tuple[str, str]]:
+        nt = len(self._names)
+        for k in self._present.tolist():
+            a, b = divmod(k, nt)
+            yield (self._names[a], self._names[b])
+
+    def __len__(self) -> int:
+        return len(self._present)
+
+    def __repr__(self) -> str:
+        return f"<link tables: {len(self)} linked type pairs, {len(self._length)} links>"
 
 
 def _rotation_and_scale(matrix: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -623,11 +671,8 @@ class WorldModel:
         pi, pj, length, key = pi[order], pj[order], length[order], key[order]
         present, first = np.unique(key, return_index=True)
         last = np.append(first[1:], len(key))[: len(first)]
-        tables: dict[tuple[str, str], LinkTable] = {}
-        for k, s, e in zip(present.tolist(), first.tolist(), last.tolist(), strict=True):
-            a, b = divmod(k, nt)
-            tables[(str(names[a]), str(names[b]))] = LinkTable(pi[s:e], pj[s:e], length[s:e])
-        links = _LinkTables(tables, frozenset(type_index))
+        links = _LinkTables([str(t) for t in names], pi, pj, length, present.astype(np.int64),
+                            first.astype(np.intp), last.astype(np.intp))
         object.__setattr__(self, "_type_index", type_index)
         object.__setattr__(self, "_links", links)
         object.__setattr__(self, "_tree", tree)
@@ -782,8 +827,9 @@ class WorldModel:
         return self._positions  # type: ignore[attr-defined,no-any-return]
 
     @property
-    def links(self) -> dict[tuple[str, str], LinkTable]:
-        """Link tables keyed by the sorted type pair."""
+    def links(self) -> Mapping[tuple[str, str], LinkTable]:
+        """Link tables keyed by the sorted type pair: a read-only mapping over the linked pairs;
+        another sorted pair of the model's types reads as an empty table."""
         return self._links  # type: ignore[attr-defined,no-any-return]
 
     @property
@@ -976,6 +1022,9 @@ class WorldModel:
             raise bad(str(exc)) from exc
         except RecursionError as exc:
             raise bad("nested too deeply") from exc
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError, OverflowError) as exc:
+            # only reachable from hand-made dictionaries holding non-JSON objects
+            raise bad(f"unreadable value ({type(exc).__name__}: {exc})") from exc
 
     @classmethod
     def _from_dict(cls, data: Any, bad: Callable[[str], MalformedFileError]) -> WorldModel:
