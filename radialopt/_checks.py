@@ -19,6 +19,9 @@ from .errors import NonFiniteError, OutOfRangeError, RadialError, ShapeError
 #: Largest magnitude (metres) of a coordinate, radius or sigma radialopt accepts: beyond it
 #: squared distances lose every significant digit of the ranges (and overflow near 1e154).
 MAX_LENGTH = 1e9
+#: Largest sigma (metres) a single GaussianSphere accepts; sets of spheres are held to the
+#: relative range below.
+MAX_SIGMA = 1e100
 #: Smallest sigma relative to the length scale of the input (the largest coordinate or radius,
 #: at least 1 m): a range known to 1e-12 of its size is at the resolution of float64.
 MIN_SIGMA_RELATIVE = 1e-12
@@ -33,7 +36,8 @@ def real_array(value: Any, name: str, shape: tuple[int | str | None, ...] | None
                ) -> NDArray[np.float64]:
     """``value`` as a float64 array of real, finite numbers.
 
-    ``shape`` may hold None (shown as ``n``) or a label such as ``"k"`` for any length; ``ndim`` lists accepted dimension counts.  Bools,
+    ``shape`` may hold None (shown as ``n``) or a label such as ``"k"`` for any length;
+    ``ndim`` lists accepted dimension counts.  Bools,
     complex numbers, strings, None and ragged sequences are rejected (:class:`ShapeError`),
     NaN and infinities too (:class:`NonFiniteError`), magnitudes above ``max_abs``
     (:class:`OutOfRangeError`).
@@ -127,21 +131,23 @@ def point3(value: Any, name: str) -> NDArray[np.float64]:
 
 
 def sigma_range(sigmas: NDArray[np.float64], name: str, length_scale: float) -> None:
-    """Every sigma > 0, >= MIN_SIGMA_RELATIVE * length scale and <= MAX_LENGTH."""
+    """Every sigma > 0 and within ``[MIN_SIGMA_RELATIVE, 1 / MIN_SIGMA_RELATIVE]`` times the length
+    scale (the largest coordinate or radius, at least 1 m)."""
     s = np.asarray(sigmas, dtype=np.float64).reshape(-1)
     bad = np.flatnonzero(~(s > 0))
     if bad.size:
         from .errors import NonPositiveSigmaError
 
         raise NonPositiveSigmaError(f"{name}[{bad[0]}] = {float(s[bad[0]])!r} must be > 0")
-    floor = MIN_SIGMA_RELATIVE * max(float(length_scale), 1.0)
-    bad = np.flatnonzero((s < floor) | (s > MAX_LENGTH))
+    scale = max(float(length_scale), 1.0)
+    floor, ceiling = MIN_SIGMA_RELATIVE * scale, scale / MIN_SIGMA_RELATIVE
+    bad = np.flatnonzero((s < floor) | (s > ceiling))
     if bad.size:
         k = int(bad[0])
         raise OutOfRangeError(
-            f"{name}[{k}] = {s[k]:.6g} is outside the usable range [{floor:.3g}, {MAX_LENGTH:g}] m "
-            f"(at least {MIN_SIGMA_RELATIVE:g} times the length scale {max(float(length_scale), 1.0):.3g} "
-            "m of the centres and radii)")
+            f"{name}[{k}] = {s[k]:.6g} is outside the usable range [{floor:.3g}, {ceiling:.3g}] m "
+            f"({MIN_SIGMA_RELATIVE:g} to {1 / MIN_SIGMA_RELATIVE:g} times the length scale {scale:.3g} m "
+            "of the centres and radii)")
 
 
 def instance(value: Any, name: str, cls: type | tuple[type, ...]) -> Any:

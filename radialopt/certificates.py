@@ -66,7 +66,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import NonFiniteError, RadialError, ShapeError
+from ._checks import integer, point3, real_scalar
 from .spheres import GaussianSphere, sphere_arrays
 
 __all__ = ["CERTIFICATE_METHODS", "Certificate", "certify_position", "closed_form_multiplier"]
@@ -271,13 +271,11 @@ def _branch_and_bound(c: NDArray, r: NDArray, s: NDArray, w: NDArray, x: NDArray
     return True, lb, nodes, f"every box of the search closed after {nodes} boxes{extra}"
 
 
-def _check_params(budget_s: float, max_nodes: int, rel_gap: float, abs_gap: float, batch: int) -> None:
-    for name, val in (("budget_s", budget_s), ("rel_gap", rel_gap), ("abs_gap", abs_gap)):
-        if not isinstance(val, (int, float, np.floating, np.integer)) or not np.isfinite(val) or val < 0:
-            raise RadialError(f"{name} must be a finite number >= 0, got {val!r}")
-    for name, val in (("max_nodes", max_nodes), ("batch", batch)):
-        if not isinstance(val, (int, np.integer)) or isinstance(val, bool) or val < 1:
-            raise RadialError(f"{name} must be an integer >= 1, got {val!r}")
+def _check_params(budget_s: float, max_nodes: int, rel_gap: float, abs_gap: float, batch: int
+                  ) -> tuple[float, int, float, float, int]:
+    return (real_scalar(budget_s, "budget_s", 0.0, 3600.0), integer(max_nodes, "max_nodes", 1, 10**8),
+            real_scalar(rel_gap, "rel_gap", 0.0, 1.0), real_scalar(abs_gap, "abs_gap", 0.0, 1e300),
+            integer(batch, "batch", 1, 10**6))
 
 
 def certify_arrays(centers: NDArray, radii: NDArray, sigmas: NDArray, position: NDArray, *,
@@ -346,15 +344,9 @@ def certify_position(spheres: Sequence[GaussianSphere], position: ArrayLike, *,
     RadialError
         A budget or tolerance out of range, fewer than one sphere, coincident centres.
     """
-    c, r, s = sphere_arrays(list(spheres), min_count=1)
-    try:
-        x = np.asarray(position, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"position must be a (3,) array of numbers, got {position!r}") from exc
-    if x.shape != (3,):
-        raise ShapeError(f"position must have shape (3,), got shape {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise NonFiniteError(f"position must be finite, got {x.tolist()}")
-    _check_params(budget_s, max_nodes, rel_gap, abs_gap, batch)
+    c, r, s = sphere_arrays(spheres, min_count=1)
+    x = point3(position, "position")
+    budget_s, max_nodes, rel_gap, abs_gap, batch = _check_params(budget_s, max_nodes, rel_gap, abs_gap,
+                                                                 batch)
     return certify_arrays(c, r, s, x, budget_s=budget_s, max_nodes=max_nodes, rel_gap=rel_gap,
                           abs_gap=abs_gap, batch=batch)

@@ -32,12 +32,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ._checks import MAX_LENGTH, instance, integer, real_scalar
 from .errors import (
     NonFiniteError,
     RadialError,
     ShapeError,
     SolverError,
     TooFewSpheresError,
+    TooManySpheresError,
     UnknownMethodError,
 )
 from .polytope import pair_pattern
@@ -52,6 +54,8 @@ from .spheres import TOLERANCES, GaussianSphere, Tolerances
 
 #: Objectives accepted by :class:`RadialProblem`.
 OBJECTIVES = ("l2", "l1", "huber")
+#: Most spheres a RadialProblem accepts (3 C(64, 2) = 6048 rows).
+MAX_SPHERES = 64
 
 
 class RadialProblem:
@@ -84,19 +88,16 @@ class RadialProblem:
     def __init__(self, n: int, objective: str = "l2", huber_delta: float = 1.0) -> None:
         import cvxpy as cp
 
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
-            raise ShapeError(f"n must be an integer number of spheres, got {n!r}")
+        n = integer(n, "n")
         if n < 2:
             raise TooFewSpheresError(f"n must be >= 2 spheres, got n={n}")
-        if objective not in OBJECTIVES:
+        if n > MAX_SPHERES:
+            raise TooManySpheresError(f"n = {n} spheres: the formulation has 3 C(n, 2) rows; at most "
+                                      f"{MAX_SPHERES} spheres are accepted")
+        if not isinstance(objective, str) or objective not in OBJECTIVES:
             raise UnknownMethodError(
-                f"unknown objective={objective!r}; choose one of {', '.join(OBJECTIVES)}")
-        try:
-            delta = float(huber_delta)
-        except (TypeError, ValueError) as exc:
-            raise RadialError(f"huber_delta must be a number, got {huber_delta!r}") from exc
-        if not math.isfinite(delta) or delta <= 0:
-            raise RadialError(f"huber_delta must be finite and > 0, got {huber_delta!r}")
+                f"unknown objective={objective!r:.100}; choose one of {', '.join(OBJECTIVES)}")
+        delta = real_scalar(huber_delta, "huber_delta", 0.0, MAX_LENGTH, lo_open=True)
         self.n = int(n)
         self.objective = objective
         self.huber_delta = delta
@@ -237,7 +238,10 @@ class RadialProblem:
         """
         import cvxpy as cp
 
-        name = str(solver).upper()
+        if not isinstance(solver, str):
+            raise UnknownMethodError(f"solver must be a cvxpy solver name, got {solver!r:.100}")
+        instance(tol, "tol", Tolerances)
+        name = solver.upper()
         if name not in installed_cvxpy_solvers():
             raise UnknownMethodError(
                 f"solver={solver!r} is not an installed cvxpy solver; installed: "
@@ -260,6 +264,7 @@ class RadialProblem:
                 f"RadialProblem(objective={self.objective!r}) with solver {name}: status "
                 f"{self.problem.status!r}, no answer (infeasible added constraints?)")
         z = (np.asarray(x, dtype=np.float64) - inst.radii) / inst.sigmas
+        status = inst.checked_status(z, status, f"formulation:{self.objective}", tol)
         return inst.solution(z, status, f"formulation:{self.objective}", name, t0)
 
     def __repr__(self) -> str:

@@ -28,7 +28,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import instance, real_array, real_scalar, sigma_range
+from ._checks import MAX_SIGMA, instance, real_array, real_scalar, sigma_range
 from .errors import CoincidentCentersError, NonFiniteError, ShapeError
 from .spheres import TOLERANCES, GaussianSphere, Tolerances, sphere_arrays
 
@@ -111,7 +111,7 @@ class RestrictionPolytope:
         if c.shape[0] < 2:
             raise ShapeError(f"centers must have shape (n, 3) with n >= 2, got shape {c.shape}")
         n = c.shape[0]
-        s = np.ones(n) if sigmas is None else real_array(sigmas, "sigmas", shape=(n,))
+        s = np.ones(n) if sigmas is None else real_array(sigmas, "sigmas", shape=(n,), max_abs=MAX_SIGMA)
         sigma_range(s, "sigmas", float(np.abs(c).max()))
         iu, ju, A, b_sign = pair_pattern(n)
         d = np.linalg.norm(c[iu] - c[ju], axis=1)

@@ -47,12 +47,11 @@ from scipy.linalg import eigh
 from scipy.optimize import brentq, least_squares
 from scipy.spatial import cKDTree
 
-from ._checks import dataclass_fields
+from ._checks import MAX_SIGMA, dataclass_fields, instance, point3, real_array, real_scalar, sigma_range
 from .certificates import Certificate, certify_arrays
 from .conformal import MeetStatus, meet3_batch
 from .errors import (
-    NonFiniteError,
-    NonPositiveSigmaError,
+    NegativeRadiusError,
     ShapeError,
     SingularFisherError,
     SolverError,
@@ -207,20 +206,12 @@ class PositionEstimate:
 
 def _check_crlb_input(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike
                       ) -> tuple[NDArray, NDArray, NDArray]:
-    c = np.asarray(centers, dtype=np.float64)
-    s = np.asarray(sigmas, dtype=np.float64)
-    x = np.asarray(position, dtype=np.float64)
-    if c.ndim != 2 or c.shape[1] != 3:
-        raise ShapeError(f"centers must have shape (n, 3), got shape {c.shape}")
-    if s.shape != (len(c),):
-        raise ShapeError(f"sigmas must have shape ({len(c)},), got shape {s.shape}")
-    if x.shape != (3,):
-        raise ShapeError(f"position must have shape (3,), got shape {x.shape}")
-    for name, arr in (("centers", c), ("sigmas", s), ("position", x)):
-        if not np.all(np.isfinite(arr)):
-            raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
-    if np.any(s <= 0):
-        raise NonPositiveSigmaError(f"sigmas must be > 0, got {s.tolist()}")
+    c = real_array(centers, "centers", shape=(None, 3))
+    if len(c) == 0:
+        raise ShapeError("centers must hold at least one centre, got shape (0, 3)")
+    s = real_array(sigmas, "sigmas", shape=(len(c),), max_abs=MAX_SIGMA)
+    x = point3(position, "position")
+    sigma_range(s, "sigmas", max(float(np.abs(c).max()), float(np.abs(x).max())))
     return c, s, x
 
 
@@ -287,6 +278,7 @@ def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
         ``u_i`` in a plane (the position on the plane of coplanar centres) or on a line.
     """
     c, s, x = _check_crlb_input(centers, sigmas, position)
+    rcond = real_scalar(rcond, "rcond", 0.0, 1.0)
     u = _unit_directions(c, x)
     J = np.einsum("ni,nj->ij", u / s[:, None] ** 2, u)
     geometric = np.linalg.eigvalsh(u.T @ u / len(u))
@@ -478,9 +470,15 @@ def srls(centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike,
         across their plane (one point when the solution lies on the plane); an empty
         ``(0, 3)`` array when the centres are collinear or fewer than three.
     """
-    c = np.asarray(centers, dtype=np.float64)
-    r = np.asarray(radii, dtype=np.float64)
-    s = np.asarray(sigmas, dtype=np.float64)
+    c = real_array(centers, "centers", shape=(None, 3))
+    r = real_array(radii, "radii", shape=(len(c),))
+    s = real_array(sigmas, "sigmas", shape=(len(c),), max_abs=MAX_SIGMA)
+    rank_tol = real_scalar(rank_tol, "rank_tol", 0.0, 1.0)
+    bad = np.flatnonzero(r < 0)
+    if bad.size:
+        raise NegativeRadiusError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
+    if len(c):
+        sigma_range(s, "sigmas", max(float(np.abs(c).max()), float(r.max())))
     if len(c) < 3:
         return np.zeros((0, 3))
     frame = _Frame.of(c)
@@ -749,6 +747,17 @@ def estimate_position(
     RadialError
         Invalid spheres (e.g. :class:`~radialopt.errors.CoincidentCentersError`).
     """
+    if not isinstance(method, str) or method not in _METHODS:
+        raise UnknownMethodError(f"unknown position method {method!r:.100}; choose one of "
+                                 f"{', '.join(POSITION_METHODS)}")
+    if region is not None and not isinstance(region, Region):
+        raise ShapeError(f"region must be a radialopt Region or None, got {type(region).__name__}")
+    if rng is not None and not isinstance(rng, np.random.Generator):
+        raise ShapeError(f"rng must be a numpy.random.Generator or None, got {type(rng).__name__} "
+                         f"({rng!r:.100})")
+    instance(options, "options", EstimatorOptions)
+    if not isinstance(certify, (bool, np.bool_)):
+        raise ShapeError(f"certify must be a bool, got {certify!r:.100}")
     if certify:
         est = estimate_position(spheres, method, region, rng, options, certify=False)
         c, r, s = sphere_arrays(list(spheres), min_count=0, check_centers=False)
@@ -758,13 +767,8 @@ def estimate_position(
             cert = Certificate(False, "none", 0.0, float("inf"), 0.0, f"no position: {est.message}")
         return replace(est, certificate=cert, solve_time=est.solve_time + cert.solve_time)
     t0 = time.perf_counter()
-    if method not in _METHODS:
-        raise UnknownMethodError(f"unknown position method {method!r}; choose one of "
-                                 f"{', '.join(POSITION_METHODS)}")
-    if region is not None and not isinstance(region, Region):
-        raise ShapeError(f"region must be a radialopt Region or None, got {type(region).__name__}")
-    spheres = list(spheres)
     centers, radii, sigmas = sphere_arrays(spheres, min_count=0)
+    spheres = list(spheres)
     n = len(centers)
     if n < 3:
         return _nan_estimate(method, "too_few_spheres",
@@ -776,7 +780,12 @@ def estimate_position(
                              f"the {n} sphere centres are collinear: the position is only known "
                              "up to a rotation about their line", t0)
     data = _Data(centers, radii, sigmas, frame, rank)
-    raw = _METHODS[method](spheres, data, region, rng, options)
+    try:
+        with np.errstate(all="ignore"):
+            raw = _METHODS[method](spheres, data, region, rng, options)
+    except (np.linalg.LinAlgError, ZeroDivisionError, OverflowError, FloatingPointError) as exc:
+        raise SolverError(f"estimate_position(method={method!r}): numerical failure with sigmas "
+                          f"{sigmas.tolist()} ({type(exc).__name__}: {exc})") from exc
     raw = raw[np.all(np.isfinite(raw), axis=1)]
     if len(raw) == 0:
         return _nan_estimate(method, "degenerate_collinear",

@@ -69,7 +69,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import nnls
 
-from ._checks import instance, real_array, sigma_range
+from ._checks import MAX_SIGMA, instance, real_array, sigma_range
 from .errors import (
     NegativeRadiusError,
     NonPositiveSigmaError,
@@ -161,6 +161,22 @@ class _Problem:
         b = b_sign * np.repeat(d, 3)
         scale = max(float(d.max()), float(radii.max()), 1.0)  # typical length, for tolerances
         return cls(centers, radii, sigmas, A * sigmas, b - A @ radii, b, scale)
+
+    def checked_status(self, z: NDArray[np.float64], status: str, method: str, tol: Tolerances) -> str:
+        """The status an answer ``z`` may claim: its radii must satisfy ``A r <= b`` in metres.
+
+        A violation above ``tol.feasibility * scale`` turns ``"optimal"`` into
+        ``"optimal_inaccurate"``; one above ``tol.agreement * scale`` (or a non-finite answer)
+        raises :class:`SolverError`.
+        """
+        violation = float(np.max(self.G @ z - self.h)) if np.all(np.isfinite(z)) else np.inf
+        if not violation <= tol.agreement * self.scale:
+            raise SolverError(
+                f"method {method!r}: the radii violate A r <= b by {violation:.3g} m (tolerance "
+                f"tol.agreement * scale = {tol.agreement * self.scale:.3g} m); no answer can be trusted")
+        if status == "optimal" and violation > tol.feasibility * self.scale:
+            return "optimal_inaccurate"
+        return status
 
     @cached_property
     def polytope(self) -> RestrictionPolytope:
@@ -548,13 +564,7 @@ def project_radii(
     if status == "infeasible" or not np.all(np.isfinite(z)):
         raise SolverError(f"method {method!r} found no feasible radii (status {status!r})")
     solver_name = (solver or "CLARABEL").upper() if method == "cvxpy" else None
-    violation = float(np.max(problem.G @ z - problem.h))  # max of A r' - b, metres
-    if violation > tol.agreement * problem.scale:
-        raise SolverError(
-            f"method {method!r}: the radii violate A r <= b by {violation:.3g} m (tolerance "
-            f"tol.agreement * scale = {tol.agreement * problem.scale:.3g} m); no answer can be trusted")
-    if status == "optimal" and violation > tol.feasibility * problem.scale:
-        status = "optimal_inaccurate"
+    status = problem.checked_status(z, status, method, tol)
     sol = problem.solution(z, status, method, solver_name, t0)
     if check == "exact":
         verify_solution_exact(spheres, sol, tol)
@@ -592,12 +602,13 @@ def project_radii_batch(
     if c.shape[1] < 2:
         raise ShapeError(f"centers must have shape (B, n, 3) with n >= 2, got shape {c.shape}")
     r = real_array(radii, "radii", shape=c.shape[:2])
-    sg = real_array(sigmas, "sigmas", shape=c.shape[:2])
+    sg = real_array(sigmas, "sigmas", shape=c.shape[:2], max_abs=MAX_SIGMA)
     if np.any(sg <= 0):
         raise NonPositiveSigmaError(f"sigmas{np.argwhere(sg <= 0)[0].tolist()} = {float(sg[sg <= 0][0])!r} "
                                     "must be > 0")
     if np.any(r < 0):
-        raise NegativeRadiusError(f"radii{np.argwhere(r < 0)[0].tolist()} = {float(r[r < 0][0])!r} must be >= 0")
+        raise NegativeRadiusError(
+            f"radii{np.argwhere(r < 0)[0].tolist()} = {float(r[r < 0][0])!r} must be >= 0")
     for b in range(c.shape[0]):
         sigma_range(sg[b], f"sigmas[{b}]", max(float(np.abs(c[b]).max()), float(r[b].max())))
     t0 = time.perf_counter()

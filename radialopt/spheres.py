@@ -15,7 +15,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from ._checks import MAX_LENGTH, dataclass_fields, point3, real_array, real_scalar, sigma_range
+from ._checks import (
+    MAX_LENGTH,
+    MAX_SIGMA,
+    dataclass_fields,
+    instance,
+    point3,
+    real_array,
+    real_scalar,
+    sigma_range,
+)
 from .errors import (
     CoincidentCentersError,
     NegativeRadiusError,
@@ -79,7 +88,7 @@ class GaussianSphere:
         if sigma <= 0:
             raise NonPositiveSigmaError(f"sigma = {sigma!r} must be > 0")
         radius = real_scalar(radius, "radius", max_abs=MAX_LENGTH)
-        sigma = real_scalar(sigma, "sigma", max_abs=MAX_LENGTH)
+        sigma = real_scalar(sigma, "sigma", max_abs=MAX_SIGMA)
         center.setflags(write=False)
         object.__setattr__(self, "center", center)
         object.__setattr__(self, "radius", radius)
@@ -176,7 +185,7 @@ def make_spheres(
     """Build spheres from ``centers (n, 3)``, ``radii (n,)``, ``sigmas (n,)`` (a scalar broadcasts)."""
     c = real_array(centers, "centers", shape=(None, 3))
     r = real_array(radii, "radii", shape=(len(c),))
-    s = real_array(sigmas, "sigmas", ndim=(0, 1))
+    s = real_array(sigmas, "sigmas", ndim=(0, 1), max_abs=MAX_SIGMA)
     s = np.broadcast_to(s, r.shape) if s.ndim == 0 else s
     if s.shape != r.shape:
         raise ShapeError(f"sigmas must be a scalar or have shape ({len(c)},), got shape {s.shape}")
@@ -194,6 +203,7 @@ def density(sphere: GaussianSphere, x: ArrayLike) -> NDArray[np.float64] | float
 
     ``x`` is a point (3,) -> float, or points (k, 3) -> (k,).
     """
+    instance(sphere, "sphere", GaussianSphere)
     pts, single = as_points(x)
     dev = np.linalg.norm(pts - sphere.center, axis=1) - sphere.radius
     out = np.exp(-0.5 * (dev / sphere.sigma) ** 2)
@@ -213,7 +223,7 @@ def radial_density(radii: ArrayLike, measured: ArrayLike, sigmas: ArrayLike) -> 
     """Eq. 18/20 in radial space: ``exp(-1/2 |H (radii - measured)|^2)``, H = diag(1/sigma)."""
     x = real_array(radii, "radii", ndim=(1,))
     m = real_array(measured, "measured", shape=x.shape)
-    s = real_array(sigmas, "sigmas", shape=x.shape)
+    s = real_array(sigmas, "sigmas", shape=x.shape, max_abs=MAX_SIGMA)
     sigma_range(s, "sigmas", max(float(np.abs(np.r_[x, m]).max(initial=0.0)), 1.0))
     z = (x - m) / s
     return float(np.exp(-0.5 * float(z @ z)))

@@ -32,9 +32,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from ._checks import MAX_SIGMA, dataclass_fields, instance, integer, real_array, real_scalar, sigma_range
 from .errors import (
-    NonFiniteError,
-    NonPositiveSigmaError,
     RadialError,
     ShapeError,
     SolverError,
@@ -60,6 +59,8 @@ ENUMERATION_METHODS = ("auto", "bruteforce", "double_description")
 #: ``method="auto"`` uses brute force while ``C(m, n)`` is at most this (measured crossover:
 #: brute force wins for the n = 3, 4 restriction polytopes, double description from n = 5 on).
 AUTO_BRUTEFORCE_MAX_SUBSETS = 4000
+#: Largest magnitude of an entry of A or b accepted (normalised rows scale with sigma).
+POLYTOPE_MAX = 1e150
 
 #: ``method="bruteforce"`` refuses more subsets than this (memory and time).
 BRUTEFORCE_MAX_SUBSETS = 1_000_000
@@ -107,6 +108,10 @@ class VertexTolerances:
     zero: float = 1e-10
     singular: float = 1e-10
     merge: float = 1e-10
+
+    def __post_init__(self) -> None:
+        dataclass_fields(self, {}, {k: (0.0, 1.0, False) for k in
+                                    ("feasibility", "active", "zero", "singular", "merge")})
 
 
 VERTEX_TOLERANCES = VertexTolerances()
@@ -161,25 +166,21 @@ class VertexEnumeration:
 
 def _read_inequalities(polytope: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(A, b)`` from a RestrictionPolytope-like object (``.A``, ``.b``) or a pair ``(A, b)``."""
+    if isinstance(polytope, (str, bytes)) or polytope is None:
+        raise ShapeError(f"polytope must be a RestrictionPolytope or a pair (A, b), got {polytope!r:.100}")
     if hasattr(polytope, "A") and hasattr(polytope, "b"):
         A_in, b_in = polytope.A, polytope.b
     elif isinstance(polytope, tuple) and len(polytope) == 2:
         A_in, b_in = polytope
     else:
         raise ShapeError(
-            f"expected a RestrictionPolytope or a pair (A (m, n), b (m,)), got {type(polytope).__name__}"
+            f"polytope must be a RestrictionPolytope or a pair (A (m, n), b (m,)), got "
+            f"{type(polytope).__name__}"
         )
-    try:
-        A = np.array(A_in, dtype=np.float64)
-        b = np.array(b_in, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"A and b must be numeric arrays: {exc}") from exc
-    if A.ndim != 2 or A.shape[0] < 1 or A.shape[1] < 1:
-        raise ShapeError(f"A must have shape (m, n) with m, n >= 1, got shape {A.shape}")
-    if b.shape != (A.shape[0],):
-        raise ShapeError(f"b must have shape ({A.shape[0]},) to match A {A.shape}, got shape {b.shape}")
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
-        raise NonFiniteError("A and b must be finite, got NaN or infinity")
+    A = real_array(A_in, "polytope.A", shape=("m", "n"), max_abs=POLYTOPE_MAX)
+    if A.shape[0] < 1 or A.shape[1] < 1:
+        raise ShapeError(f"polytope.A must have shape (m, n) with m, n >= 1, got shape {A.shape}")
+    b = real_array(b_in, "polytope.b", shape=(A.shape[0],), max_abs=POLYTOPE_MAX)
     return A, b
 
 
@@ -247,8 +248,9 @@ def enumerate_vertices(
     UnknownMethodError
         ``method`` is not one of ``ENUMERATION_METHODS``.
     """
-    if method not in ENUMERATION_METHODS:
-        raise UnknownMethodError(f"unknown method {method!r}; choose one of {ENUMERATION_METHODS}")
+    if not isinstance(method, str) or method not in ENUMERATION_METHODS:
+        raise UnknownMethodError(f"unknown method {method!r:.100}; choose one of {ENUMERATION_METHODS}")
+    instance(tol, "tol", VertexTolerances)
     A, b = _read_inequalities(polytope)
     m, n = A.shape
     norm = _normalize(A, b, tol)
@@ -628,18 +630,12 @@ def _merge_representatives(points: NDArray[np.float64], radius: float) -> NDArra
 def _check_target(enumeration: VertexEnumeration, target: ArrayLike, sigmas: ArrayLike
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     if not isinstance(enumeration, VertexEnumeration):
-        raise ShapeError(f"expected a VertexEnumeration, got {type(enumeration).__name__}")
+        raise ShapeError(f"enumeration must be a VertexEnumeration, got {type(enumeration).__name__}")
     n = enumeration.dim
-    t = np.asarray(target, dtype=np.float64)
-    s = np.asarray(sigmas, dtype=np.float64)
-    if t.shape != (n,):
-        raise ShapeError(f"target must have shape ({n},), got shape {t.shape}")
-    if s.shape != (n,):
-        raise ShapeError(f"sigmas must have shape ({n},), got shape {s.shape}")
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
-        raise NonFiniteError(f"target and sigmas must be finite, got {t.tolist()} and {s.tolist()}")
-    if np.any(s <= 0):
-        raise NonPositiveSigmaError(f"sigmas must be > 0, got {s.tolist()}")
+    t = real_array(target, "target", shape=(n,))
+    s = real_array(sigmas, "sigmas", shape=(n,), max_abs=MAX_SIGMA)
+    scale = max(float(np.abs(t).max(initial=0.0)), float(np.abs(enumeration.vertices).max(initial=0.0)))
+    sigma_range(s, "sigmas", scale)
     if enumeration.vertices.shape[0] == 0:
         raise EmptyPolyhedronError("the polyhedron is empty: there is nothing to project onto")
     return t, s
@@ -689,6 +685,8 @@ def project_vform(
         No convergence within ``max_iter`` cycles.
     """
     t, s = _check_target(enumeration, target, sigmas)
+    tol = real_scalar(tol, "tol", 0.0, 1.0)
+    max_iter = integer(max_iter, "max_iter", 1, 10**7)
     V, R = enumeration.vertices, enumeration.rays
     k, n = V.shape
     W = (V - t) / s
@@ -818,11 +816,8 @@ def certify_projection(
     n = enumeration.dim
     if A.shape[1] != n:
         raise ShapeError(f"polytope has dimension {A.shape[1]}, enumeration has {n}")
-    x = np.asarray(point, dtype=np.float64)
-    if x.shape != (n,):
-        raise ShapeError(f"point must have shape ({n},), got shape {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise NonFiniteError(f"point must be finite, got {x.tolist()}")
+    x = real_array(point, "point", shape=(n,))
+    tol = real_scalar(tol, "tol", 0.0, 1.0)
     row_norm = np.linalg.norm(A, axis=1)
     viol = (A @ x - b) / np.where(row_norm > 0, row_norm, 1.0)
     feas = float(max(0.0, viol.max()))
