@@ -348,39 +348,51 @@ _UNIT_SKEW = np.array([[[0.0, 0, 0], [0, 0, -1], [0, 1, 0]],
                        [[0.0, -1, 0], [1, 0, 0], [0, 0, 0]]])  # skew(e_j)
 
 
+def _expm(w: NDArray) -> NDArray:
+    """Rotation matrix of the rotation vector ``w`` (Rodrigues; no scipy overhead)."""
+    theta = math.sqrt(float(w @ w))
+    if theta < 1e-12:
+        return np.eye(3) + _skew(w)
+    K = _skew(w / theta)
+    return np.eye(3) + math.sin(theta) * K + (1.0 - math.cos(theta)) * (K @ K)
+
+
 def _reduced_descent(Q: NDArray, R: NDArray, max_iter: int) -> NDArray:
-    """Local minimum over SO(3) of ``l(R)^T Q l(R)`` by damped Gauss-Newton (``Q = L L^T``)."""
-    w, V = np.linalg.eigh(Q)
-    L = V * np.sqrt(np.clip(w, 0.0, None))          # Q ~ L L^T
+    """Local minimum over SO(3) of ``l(R)^T Q l(R)`` by damped Newton (exact Hessian).
+
+    With ``R <- exp(w) R``, ``M = R^T`` moves to ``M (I - skew(w) + skew(w)^2 / 2)``, so the
+    cost is ``f + 2 b^T w + w^T (D^T Q D + sym(P) - tr(P) I) w`` to second order, with
+    ``D[3j:3j+3] = M skew(e_j)``, ``b = D^T Q l``, ``P = G^T M`` and ``G`` the 3x3 of ``(Q l)[:9]``.
+    """
     f = float(_lift(R) @ Q @ _lift(R))
-    lam = 1e-6
     for _ in range(max_iter):
         M = R.T
-        # l(exp(w) R): M <- M (I - skew(w)); d vec(M)[3j:3j+3] / dw = M skew(e_j)
+        lr = _lift(R)
         D = np.zeros((10, 3))
         D[:9] = np.einsum("ab,jbc->jac", M, _UNIT_SKEW).reshape(9, 3)
-        e = L.T @ _lift(R)
-        Jr = L.T @ D
-        A = Jr.T @ Jr
-        g = Jr.T @ e
+        Ql = Q @ lr
+        b = D.T @ Ql
+        P = Ql[:9].reshape(3, 3, order="F").T @ M
+        H = D.T @ Q @ D + 0.5 * (P + P.T) - np.trace(P) * np.eye(3)
+        lo = float(np.linalg.eigvalsh(H)[0])
+        scale = max(float(np.abs(H).max()), 1e-300)
+        mu = 0.0 if lo > 1e-12 * scale else -lo + 1e-6 * scale
         improved = False
-        for _damp in range(30):
-            try:
-                step = -np.linalg.solve(A + lam * (np.diag(np.diag(A)) + 1e-12 * np.trace(A) * np.eye(3)), g)
-            except np.linalg.LinAlgError:
-                lam *= 10.0
-                continue
-            Rn = Rotation.from_rotvec(step).as_matrix() @ R
+        for _damp in range(40):
+            step = -np.linalg.solve(H + mu * np.eye(3), b)
+            norm = float(np.linalg.norm(step))
+            if norm > 1.0:  # a trust region of 1 rad
+                step = step / norm
+            Rn = _expm(step) @ R
             fn = float(_lift(Rn) @ Q @ _lift(Rn))
             if fn <= f:
                 improved = True
                 break
-            lam *= 10.0
+            mu = max(10.0 * mu, 1e-6 * scale)
         if not improved:
             break
-        R, done = Rn, f - fn <= 1e-15 * max(f, 1e-300) or float(np.linalg.norm(step)) < 1e-12
-        f = fn
-        lam = max(lam / 10.0, 1e-12)
+        done = f - fn <= 1e-14 * max(f, 1e-300) or float(np.linalg.norm(step)) < 1e-10
+        R, f = Rn, fn
         if done:
             break
     return R
@@ -482,7 +494,7 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
             best_R, best_f = R, f
     # ... then every basin that a grid rotation shows to hold a lower reduced cost
     grid = _rotation_grid()
-    vals = np.einsum("ni,ij,nj->n", grid[:, :10], Q, grid[:, :10])
+    vals = np.sum((grid[:, :10] @ Q) * grid[:, :10], axis=1)
     lower = np.flatnonzero(vals < best_f - 1e-9 * max(best_f, 1.0))
     tried: list[NDArray] = []
     for i in lower[np.argsort(vals[lower])][:64]:
@@ -521,7 +533,7 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
                 step = -np.linalg.solve(J + lam * np.diag(np.diag(J)), g)
             except np.linalg.LinAlgError as exc:
                 raise PoseError("the correspondences do not fix a pose (singular information)") from exc
-            Rn = Rotation.from_rotvec(step[:3]).as_matrix() @ R
+            Rn = _expm(step[:3]) @ R
             u, _, vt = np.linalg.svd(Rn)  # stay on SO(3)
             Rn = u @ vt
             tn = t + step[3:]
