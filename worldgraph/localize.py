@@ -340,7 +340,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     except ro.VerificationError as exc:
         raise WorldGraphError(f"check=True: a radial solution failed its verification: {exc}") from exc
     except ro.RadialError as exc:
-        raise WorldGraphError(f"localize: the range-only position estimate rejected its input "
+        raise WorldGraphError(f"localize: radialopt rejected the Gaussian spheres built from the percepts "
                               f"(method={method!r}): {exc}") from exc
     except (ArithmeticError, ValueError, TypeError, IndexError, np.linalg.LinAlgError) as exc:
         raise WorldGraphError(f"localize failed numerically on these percepts (method={method!r}): "
