@@ -399,3 +399,22 @@ def test_validation_helpers(x, cov, pose, pcov, alpha) -> None:
 def test_percept_covariances_of_percepts() -> None:
     covs = val.percept_covariances(CLEAN)
     assert np.allclose(covs, 0.02**2 * np.eye(3))
+
+
+@given(candidates=st.sampled_from([[np.array([0, 1])], [np.array([-1])], [np.array([99])], None, "ab",
+                                   [np.array(["x"])], [[0, [1, 2]]], [np.array([0.5])]]),
+       links=st.sampled_from([{}, {(0, 1): np.array([[0, 1]])}, {(0, 1): np.array([[0, 100]])},
+                              {(0, 1): np.array([1, 2, 3])}, None, {(0, 1): "x"}]))
+def test_filtered_graph_view(candidates, links) -> None:
+    from worldgraph.association import filtered_graph_view
+
+    g = _call(filtered_graph_view, ("candidates", "links"), WORLD, candidates, links)
+    if g is not None:
+        assert all(0 <= n < len(WORLD) for n in g.nodes)
+
+
+@given(min_size=nasty_scalar)
+def test_consistency_graph_min_size(min_size) -> None:
+    g = _call(consistency_graph, ("min_size",), WORLD, CLEAN, min_size=min_size)
+    if g is not None:
+        assert all(d["type"] == CLEAN[d["percept"]].type for _, d in g.nodes(data=True))

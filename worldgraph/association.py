@@ -983,9 +983,38 @@ def filtered_graph_view(world: WorldModel, candidates: Sequence[NDArray[np.intp]
     farther apart than that have no edge there and so do not show in the view (they are in
     the filter's ``"links"``).
     """
-    nodes = {int(o) for c in candidates for o in c}
+    if not isinstance(world, WorldModel):
+        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+    if candidates is None or isinstance(candidates, str | bytes) or not isinstance(links, dict):
+        raise ArgumentTypeError("candidates must be a sequence of object-index arrays and links a dict, got "
+                                f"{type(candidates).__name__} and {type(links).__name__}")
+    cand_arrays = []
+    for i, c in enumerate(candidates):
+        try:
+            arr = np.asarray(c)
+        except (TypeError, ValueError) as exc:
+            raise WorldGraphError(f"candidates[{i}] must be an array of object indices") from exc
+        if arr.ndim != 1 or (arr.size and (arr.dtype.kind not in "iu" or arr.min() < 0
+                                           or arr.max() >= len(world))):
+            raise WorldGraphError(f"candidates[{i}] must be object indices in [0, {len(world)}), "
+                                  f"got {arr.tolist()!r:.200}")
+        cand_arrays.append(arr)
+    link_arrays = []
+    for key, pairs in links.items():
+        try:
+            arr = np.asarray(pairs)
+        except (TypeError, ValueError) as exc:
+            raise WorldGraphError(f"links[{key!r}] must be a (n, 2) array of object indices") from exc
+        if arr.size == 0:
+            continue
+        if arr.ndim != 2 or arr.shape[1] != 2 or arr.dtype.kind not in "iu" or arr.min() < 0 \
+                or arr.max() >= len(world):
+            raise WorldGraphError(f"links[{key!r}] must be a (n, 2) array of object indices, "
+                                  f"got {arr.tolist()!r:.200}")
+        link_arrays.append(arr)
+    nodes = {int(o) for c in cand_arrays for o in c}
     edges: set[tuple[int, int]] = set()
-    for pairs in links.values():
+    for pairs in link_arrays:
         for a, b in pairs.tolist():
             edges.add((a, b) if a <= b else (b, a))
     return nx.subgraph_view(world.graph, filter_node=nodes.__contains__,
