@@ -40,6 +40,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from itertools import combinations
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -64,6 +65,8 @@ __all__ = [
     "ESTIMATOR_OPTIONS",
     "POSITION_METHODS",
     "POSITION_STATUSES",
+    "POSITION_SUCCESS",
+    "PositionStatus",
     "EstimatorOptions",
     "PositionEstimate",
     "crlb",
@@ -73,7 +76,7 @@ __all__ = [
 ]
 
 #: Statuses of :class:`PositionEstimate`.
-POSITION_STATUSES = (
+PositionStatus = Literal[
     "ok",                    # a unique estimate
     "ambiguous",             # another candidate is about as likely (mirror image, ...)
     "outside_region",        # no candidate inside the region; the best one is returned
@@ -84,7 +87,8 @@ POSITION_STATUSES = (
                              # more than max_range_ratio spreads from the centres (range scale
                              # inconsistent with the landmarks): no usable position
     "not_converged",         # the ML refinement hit its evaluation cap: the best point found
-)
+]
+POSITION_STATUSES: tuple[str, ...] = get_args(PositionStatus)
 #: Statuses whose position is a usable answer (finite, converged, near the landmarks).
 POSITION_SUCCESS = ("ok", "ambiguous", "outside_region")
 

@@ -64,6 +64,7 @@ from fractions import Fraction
 from functools import cached_property, lru_cache
 from itertools import combinations
 from math import comb
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -89,7 +90,8 @@ from .spheres import (
 )
 
 #: The shared status set every backend maps its native status onto.
-STATUSES = ("optimal", "optimal_inaccurate", "infeasible", "error")
+RadialStatus = Literal["optimal", "optimal_inaccurate", "infeasible", "error"]
+STATUSES: tuple[str, ...] = get_args(RadialStatus)
 
 #: Clarabel settings that make the QP agree with the exact answer (DESIGN practical notes).
 CLARABEL_TIGHT = {
@@ -165,16 +167,24 @@ class _Problem:
     def checked_status(self, z: NDArray[np.float64], status: str, method: str, tol: Tolerances) -> str:
         """The status an answer ``z`` may claim: its radii must satisfy ``A r <= b`` in metres.
 
-        A violation above ``tol.feasibility * scale`` turns ``"optimal"`` into
-        ``"optimal_inaccurate"``; one above ``tol.agreement * scale`` (or a non-finite answer)
-        raises :class:`SolverError`.
+        The stated tolerance is ``tol.feasibility * L + 1e-15 * max(r)`` with ``L`` the largest
+        of the centre distances, the adjusted radii and 1 m (the second term is the rounding of
+        ``r' = r + sigma z`` from measured radii ``r``).  A larger violation turns
+        ``"optimal"`` into ``"optimal_inaccurate"``; one above ``tol.agreement * L + 1e-15 *
+        max(r)`` (or a non-finite answer) raises :class:`SolverError`.
         """
-        violation = float(np.max(self.G @ z - self.h)) if np.all(np.isfinite(z)) else np.inf
-        if not violation <= tol.agreement * self.scale:
+        radii = self.radii + self.sigmas * z
+        if not np.all(np.isfinite(radii)):
+            raise SolverError(f"method {method!r}: non-finite radii {radii.tolist()}")
+        A = pair_pattern(len(radii))[2]
+        violation = float(np.max(A @ radii - self.b))
+        L = max(float(np.max(self.b)) * np.sqrt(2.0), float(np.abs(radii).max()), 1.0)
+        rounding = 1e-15 * float(np.abs(self.radii).max())
+        if not violation <= tol.agreement * L + rounding:
             raise SolverError(
                 f"method {method!r}: the radii violate A r <= b by {violation:.3g} m (tolerance "
-                f"tol.agreement * scale = {tol.agreement * self.scale:.3g} m); no answer can be trusted")
-        if status == "optimal" and violation > tol.feasibility * self.scale:
+                f"{tol.agreement * L + rounding:.3g} m); no answer can be trusted")
+        if status == "optimal" and violation > tol.feasibility * L + rounding:
             return "optimal_inaccurate"
         return status
 

@@ -57,7 +57,8 @@ def check_projection(sol, spheres) -> None:
         P = ro.RestrictionPolytope.from_centers(c)
         scale = max(1.0, float(np.abs(P.b).max()), float(np.abs(sol.radii).max()))
         assert finite(sol.radii) and finite(sol.density)
-        tol = (1e-9 if sol.status == "optimal" else 1e-6) * scale
+        rounding = 1e-15 * max(s.radius for s in spheres)
+        tol = (1e-9 if sol.status == "optimal" else 1e-6) * scale + rounding
         assert P.contains(sol.radii, tol=tol)
 
 
@@ -332,3 +333,85 @@ def test_extreme_sigmas_and_coordinates(sig, shift):
         assert any(w in str(exc) for w in SPHERE_WORDS), str(exc)
         return
     check_position(est, spheres)
+
+
+@st.composite
+def nasty_sphere_sets(draw):
+    """Valid GaussianSphere lists with extreme but constructible values: tiny/huge sigmas, far,
+    coincident, collinear or coplanar centres, zero radii, 0 to 7 spheres."""
+    n = draw(st.integers(0, 7))
+    layout = draw(st.sampled_from(["random", "collinear", "coplanar", "coincident", "far"]))
+    rng = np.random.default_rng(draw(st.integers(0, 2**16)))
+    c = rng.uniform(-3, 3, (n, 3))
+    if layout == "collinear":
+        c[:, 1:] = 0.0
+    elif layout == "coplanar":
+        c[:, 2] = 0.5
+    elif layout == "coincident" and n >= 2:
+        c[1] = c[0]
+    elif layout == "far":
+        c += draw(st.sampled_from([1e6, 1e8, -1e9 + 3.0, 1e9]))
+    value = st.sampled_from([0.0, 1e-300, 1e-12, 1e-6, 0.1, 1.0, 7.0, 1e6, 1e9])
+    r = np.array([draw(value) for _ in range(n)])
+    s = np.array([draw(st.sampled_from([1e-300, 1e-15, 1e-9, 1e-6, 0.1, 1.0, 1e6, 1e12, 1e50]))
+                  for _ in range(n)])
+    return c, r, s
+
+
+SPHERE_CALLS = {
+    "project_radii": lambda sp: (ro.project_radii(sp), "proj"),
+    "project_radii_paper": lambda sp: (ro.project_radii(sp, method="paper"), "proj"),
+    "project_radii_vertices": lambda sp: (ro.project_radii(sp[:5], method="vertices"), "proj5"),
+    "estimate_position": lambda sp: (ro.estimate_position(sp), "pos"),
+    "estimate_position_paper": lambda sp: (ro.estimate_position(sp, method="paper"), "pos"),
+    "generate_hypotheses": lambda sp: (ro.generate_hypotheses(sp), "hyp"),
+    "common_point_exists": lambda sp: (ro.common_point_exists(sp), "bool"),
+    "total_density": lambda sp: (ro.total_density(sp, TRUTH), "density"),
+    "from_spheres": lambda sp: (ro.RestrictionPolytope.from_spheres(sp), "poly"),
+    "certify_position": lambda sp: (ro.certify_position(sp, TRUTH, budget_s=0.02, max_nodes=500), "cert"),
+}
+
+
+@pytest.mark.parametrize("call", sorted(SPHERE_CALLS))
+@settings(max_examples=25)
+@given(arrays=nasty_sphere_sets())
+def test_fuzz_extreme_sphere_sets(call, arrays):
+    try:
+        spheres = spheres_of(*arrays)
+    except ro.RadialError as exc:  # a sphere beyond the usable range: named
+        assert any(w in str(exc) for w in SPHERE_WORDS), str(exc)
+        return
+    try:
+        out, kind = SPHERE_CALLS[call](spheres)
+    except ro.RadialError as exc:
+        assert any(w in str(exc) for w in SPHERE_WORDS + ("centres", "method", "n = ")), str(exc)
+        return
+    check_result("proj" if kind == "proj5" else kind, out,
+                 {"spheres": spheres[:5] if kind == "proj5" else spheres})
+
+
+def test_tiny_sigma_error_names_the_index_and_value():
+    s = SIGMAS.copy()
+    s[2] = 1e-300
+    with pytest.raises(ro.RadialError, match=r"sigmas\[2\] = 1e-300"):
+        ro.estimate_position(spheres_of(CENTERS, RADII, s))
+    with pytest.raises(ro.RadialError, match=r"sigmas\[2\] = 1e-300"):
+        ro.make_spheres(CENTERS, RADII, s) and ro.project_radii(ro.make_spheres(CENTERS, RADII, s))
+
+
+def test_ranges_shifted_by_1e6_never_give_a_success_far_away():
+    """Percepts shifted by 1e6 m (the audit's localize case): ranges of ~1e6 m to landmarks a few
+    metres apart.  The estimate must not be a success status 1e6 m from the landmarks."""
+    far_point = TRUTH + np.array([1e6, 0.0, 0.0])
+    r = np.linalg.norm(CENTERS - far_point, axis=1)
+    est = ro.estimate_position(spheres_of(CENTERS, r, SIGMAS))
+    assert est.status in ro.POSITION_STATUSES
+    assert est.status not in ("ok", "ambiguous", "outside_region")
+
+
+def test_every_status_is_listed():
+    import typing
+
+    assert "degenerate" in ro.POSITION_STATUSES and "not_converged" in ro.POSITION_STATUSES
+    assert set(ro.STATUSES) == {"optimal", "optimal_inaccurate", "infeasible", "error"}
+    assert typing.get_args(ro.PositionStatus) == ro.POSITION_STATUSES
