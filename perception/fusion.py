@@ -44,6 +44,7 @@ MAX_ITER_LIMIT = 1_000_000
 """Largest ``max_iter`` accepted."""
 
 _PAIR_BUDGET = 2_000_000  # neighbour pairs held at once per chunk of mean-shift queries
+_CROWDED = 256  # rows with more neighbours than this are summed in dense blocks per grid cell
 _SLACK = 1e-9  # the tree is queried slightly beyond the support; the exact test follows
 
 
@@ -73,18 +74,13 @@ def _whiten(X: NDArray[np.float64], L: NDArray[np.float64] | float) -> NDArray[n
         return np.linalg.solve(L, X.T).T
 
 
-def _neighbour_means(
+def _sparse_sums(
     tree: cKDTree, Z: NDArray[np.float64], w: NDArray[np.float64], Y: NDArray[np.float64], radius: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Weighted sums ``sum w_j Z_j`` and ``sum w_j`` over ``|Z_j - Y_i| < radius``, per row of ``Y``.
-
-    Processed in chunks so that at most about ``_PAIR_BUDGET`` neighbour pairs are held at once.
-    """
+    """Kernel sums for rows with few neighbours: per-row neighbour lists, chunked by pair count."""
     m, d = Y.shape
     num = np.zeros((m, d))
     den = np.zeros(m)
-    if m == 0:
-        return num, den
     counts = np.asarray(tree.query_ball_point(Y, radius * (1.0 + _SLACK), return_length=True))
     csum = np.cumsum(counts)
     start = 0
@@ -103,6 +99,61 @@ def _neighbour_means(
             for k in range(d):
                 num[start:stop, k] = np.bincount(owner, wk * Z[flat, k], minlength=stop - start)
         start = stop
+    return num, den
+
+
+def _dense_sums(
+    tree: cKDTree, Z: NDArray[np.float64], w: NDArray[np.float64], Y: NDArray[np.float64], radius: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Kernel sums for rows in crowded regions: rows grouped by grid cell (side ``radius``); one
+    candidate query per cell, then blocks of at most ``_PAIR_BUDGET`` row-candidate pairs."""
+    m, d = Y.shape
+    num = np.zeros((m, d))
+    den = np.zeros(m)
+    cells, inv = np.unique(np.floor(Y / radius), axis=0, return_inverse=True)
+    inv = np.asarray(inv).reshape(-1)
+    order = np.argsort(inv, kind="stable")
+    bounds = np.searchsorted(inv[order], np.arange(len(cells) + 1))
+    reach = radius * (0.5 * np.sqrt(d) + 1.0) * (1.0 + _SLACK)
+    for g, cell in enumerate(cells):
+        rows = order[bounds[g] : bounds[g + 1]]
+        cand = np.asarray(tree.query_ball_point((cell + 0.5) * radius, reach), dtype=np.int64)
+        if cand.size == 0:
+            continue
+        Zc, wc = Z[cand], w[cand]
+        step = max(1, _PAIR_BUDGET // cand.size)
+        for s in range(0, rows.size, step):
+            r = rows[s : s + step]
+            Yr = Y[r]
+            d2 = (Yr[:, 0, None] - Zc[None, :, 0]) ** 2
+            for k in range(1, d):
+                d2 += (Yr[:, k, None] - Zc[None, :, k]) ** 2
+            W = np.where(d2 < radius**2, wc[None, :], 0.0)
+            num[r] = W @ Zc
+            den[r] = W.sum(axis=1)
+    return num, den
+
+
+def _neighbour_means(
+    tree: cKDTree, Z: NDArray[np.float64], w: NDArray[np.float64], Y: NDArray[np.float64], radius: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Weighted sums ``sum w_j Z_j`` and ``sum w_j`` over ``|Z_j - Y_i| < radius``, per row of ``Y``.
+
+    Rows with few neighbours use per-row neighbour lists; rows with many (crowded regions, where
+    Python lists would dominate) are grouped by grid cell and summed in numpy blocks. Either
+    way at most about ``_PAIR_BUDGET`` pairs are held at once.
+    """
+    m, d = Y.shape
+    num = np.zeros((m, d))
+    den = np.zeros(m)
+    if m == 0:
+        return num, den
+    counts = np.asarray(tree.query_ball_point(Y, radius * (1.0 + _SLACK), return_length=True))
+    crowded = (counts > _CROWDED) & np.all(np.abs(Y) < 1e12 * radius, axis=1)
+    for mask, fn in ((~crowded, _sparse_sums), (crowded, _dense_sums)):
+        idx = np.flatnonzero(mask)
+        if idx.size:
+            num[idx], den[idx] = fn(tree, Z, w, Y[idx], radius)
     return num, den
 
 
@@ -198,7 +249,11 @@ def mean_shift_modes(
         idx = np.flatnonzero(active)
         if idx.size == 0:
             break
-        num, den = _neighbour_means(tree, Z, w, Y[idx], 1.0)
+        # Coincident positions (common once a cluster has collapsed) share one query.
+        uniq, inv = np.unique(Y[idx], axis=0, return_inverse=True)
+        inv = np.asarray(inv).reshape(-1)
+        num, den = _neighbour_means(tree, Z, w, uniq, 1.0)
+        num, den = num[inv], den[inv]
         empty = den <= 0  # no point strictly inside the kernel: y is a fixed point
         with np.errstate(invalid="ignore", divide="ignore"):
             new = np.where(empty[:, None], Y[idx], num / np.where(empty, 1.0, den)[:, None])

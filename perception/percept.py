@@ -25,10 +25,17 @@ class Percept:
         Per-axis standard deviation (m) of an isotropic position error; the range
         ``|position|`` then has standard deviation ``sigma`` (the Gaussian-sphere sigma, eq. 6).
     covariance : (3, 3) float, optional
-        Full position covariance in the ego frame, when known (triangulation Jacobian,
-        joint-encoder noise, fusion).
+        Full position covariance in the ego frame (m^2), when known (triangulation Jacobian,
+        joint-encoder noise, fusion). Must be real, finite, symmetric (to a relative 1e-8) and
+        positive definite (smallest eigenvalue > 1e-14 times the largest); stored symmetrised.
     views : int
-        Number of raw percepts fused into this one (1 for a raw percept).
+        Number of raw percepts fused into this one (>= 1; a Python or numpy integer, not a
+        float or bool).
+
+    Raises
+    ------
+    PerceptionError
+        (a subclass) naming the field and the bad value.
     """
 
     type: str

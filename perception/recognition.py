@@ -959,7 +959,11 @@ class GaussianClassifier:
             raise UnknownClassError(f"classes must be non-empty strings, got {classes!r}")
         if len(set(classes)) != k:
             raise UnknownClassError(f"classes must be unique, got {classes!r}")
-        means = real_array("means", self.means, (k, -1))
+        means = real_array("means", self.means)
+        if means.ndim != 2 or means.shape[0] != k:
+            raise ShapeError(
+                f"means must have shape (k, d) with k = len(classes) = {k}, got shape {means.shape}"
+            )
         d = means.shape[1]
         if d < 1:
             raise ShapeError(f"means must have shape ({k}, d) with d >= 1, got shape {means.shape}")
