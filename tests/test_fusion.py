@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+import perception.fusion as fusion_module
 from perception import (
     NonPositiveSigmaError,
     Percept,
@@ -261,10 +262,17 @@ def small_percepts(draw: st.DrawFn) -> list[Percept]:
 
 
 @given(X=st.integers(0, 100_000).map(lambda s: np.random.default_rng(s).normal(0, 0.3, (30, 3))),
-       h=st.sampled_from([0.05, 0.1, 0.3, 1.0]))
-def test_tree_mean_shift_equals_dense_reference(X: np.ndarray, h: float) -> None:
+       h=st.sampled_from([0.05, 0.1, 0.3, 1.0]), crowded=st.sampled_from([0, 3, 256]))
+def test_tree_mean_shift_equals_dense_reference(X: np.ndarray, h: float, crowded: int) -> None:
+    """Both neighbour paths (per-row lists, and per-cell dense blocks for rows with more than
+    ``_CROWDED`` neighbours) against the all-pairs reference."""
     w = np.random.default_rng(len(X)).uniform(0.2, 3.0, len(X))
-    modes, labels = mean_shift_modes(X, h, w)
+    old = fusion_module._CROWDED
+    fusion_module._CROWDED = crowded
+    try:
+        modes, labels = mean_shift_modes(X, h, w)
+    finally:
+        fusion_module._CROWDED = old
     ref_modes, ref_labels = dense_mean_shift(X, h**2 * np.eye(3), w)
     np.testing.assert_array_equal(labels, ref_labels)
     np.testing.assert_allclose(modes, ref_modes, rtol=0, atol=1e-9)
@@ -280,6 +288,17 @@ def test_tree_fusion_equals_dense_reference(ps: list[Percept], h: float, min_vie
         np.testing.assert_allclose(f.position, m, rtol=0, atol=1e-9)
         np.testing.assert_allclose(f.covariance, S, rtol=1e-9, atol=1e-15)
         np.testing.assert_allclose(f.sigma, np.sqrt(m @ S @ m) / np.linalg.norm(m), rtol=1e-9)
+
+
+def test_crowded_cluster_equals_dense_reference() -> None:
+    """600 points in one kernel (the dense-block path at its default threshold) and 200 spread."""
+    rng = np.random.default_rng(5)
+    X = np.vstack([rng.normal(0, 0.02, (600, 3)), rng.uniform(-3, 3, (200, 3))])
+    w = rng.uniform(0.5, 2.0, len(X))
+    modes, labels = mean_shift_modes(X, 0.1, w)
+    ref_modes, ref_labels = dense_mean_shift(X, 0.01 * np.eye(3), w)
+    np.testing.assert_array_equal(labels, ref_labels)
+    np.testing.assert_allclose(modes, ref_modes, rtol=0, atol=1e-9)
 
 
 def test_fusion_extreme_sigmas_raise_named_or_fuse() -> None:
