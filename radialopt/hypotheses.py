@@ -35,8 +35,11 @@ from .conformal import (
     meet3_batch,
     meet4_batch,
 )
-from .errors import InvalidRegionError, ShapeError
+from .errors import InvalidRegionError, ShapeError, TooManySpheresError
 from .spheres import GaussianSphere, as_points, sphere_arrays
+
+#: Most spheres :func:`generate_hypotheses` accepts (C(12, 4) = 495 four-sphere meets).
+MAX_HYPOTHESIS_SPHERES = 12
 
 __all__ = ["Hypothesis", "LevelSets", "Region", "generate_hypotheses", "validate_positions"]
 
@@ -206,6 +209,10 @@ def generate_hypotheses(
         raise ShapeError(f"keep_imaginary must be a bool, got {keep_imaginary!r:.100}")
     instance(tol, "tol", MeetTolerances)
     centers, radii, sigmas = sphere_arrays(spheres, min_count=1)
+    if len(centers) > MAX_HYPOTHESIS_SPHERES:
+        raise TooManySpheresError(
+            f"spheres: n = {len(centers)} spheres; the level sets grow as C(n, 4) meets, at most "
+            f"MAX_HYPOTHESIS_SPHERES = {MAX_HYPOTHESIS_SPHERES} are accepted (the paper uses <= 6)")
     n = len(centers)
     r2 = radii**2
     kept = (*_KEEP_REAL, MeetStatus.IMAGINARY) if keep_imaginary else _KEEP_REAL

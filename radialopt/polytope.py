@@ -29,8 +29,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._checks import MAX_SIGMA, instance, real_array, real_scalar, sigma_range
-from .errors import CoincidentCentersError, NonFiniteError, ShapeError
+from .errors import CoincidentCentersError, NonFiniteError, ShapeError, TooManySpheresError
 from .spheres import TOLERANCES, GaussianSphere, Tolerances, sphere_arrays
+
+#: Most spheres a restriction polytope is built for: it has 3 C(n, 2) dense rows of length n
+#: (n = 128: 24,384 x 128, 25 MB); beyond it :class:`TooManySpheresError` names n.
+MAX_POLYTOPE_SPHERES = 128
 
 #: Row kinds, in the order they appear for each pair.
 ROW_KINDS = ("chi", "alpha", "beta")
@@ -182,7 +186,13 @@ class RestrictionPolytope:
 def pair_pattern(n: int) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64],
                                   NDArray[np.float64]]:
     """Row structure for n spheres: pair indices ``iu, ju`` (C(n,2),), the Hesse-normalised
-    ``A (3 C(n,2), n)`` and ``b_sign`` such that ``b = b_sign * repeat(d, 3)``.  Read-only."""
+    ``A (3 C(n,2), n)`` and ``b_sign`` such that ``b = b_sign * repeat(d, 3)``.  Read-only.
+
+    Raises :class:`TooManySpheresError` beyond :data:`MAX_POLYTOPE_SPHERES` spheres."""
+    if n > MAX_POLYTOPE_SPHERES:
+        raise TooManySpheresError(
+            f"n = {n} spheres: the restriction polytope has 3 C(n, 2) = {3 * n * (n - 1) // 2} dense "
+            f"rows; at most MAX_POLYTOPE_SPHERES = {MAX_POLYTOPE_SPHERES} spheres are accepted")
     iu, ju = np.triu_indices(n, k=1)
     p = len(iu)
     A = np.zeros((3 * p, n))
