@@ -46,7 +46,7 @@ from perception import Percept
 from ._checks import float_array, positive_float, rigid_transform, strict_int
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError
 from .model import WorldModel
-from .pose import MAX_POSE_COORDINATE, _covariances, _points, _skew, refine_pose
+from .pose import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, refine_pose
 
 __all__ = [
     "CHI2_3_GATE",
@@ -162,6 +162,10 @@ def placed_mahalanobis(world_from_ego: NDArray, ego: NDArray, covs: NDArray, wor
 def pose_cost(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray) -> float:
     """ML cost ``sum_i r_i^T C_i^-1 r_i``, ego-frame residual ``r_i = x_i - R^T (X_i - t)``."""
     world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
+    return _pose_cost(world_from_ego, ego, covs, world_points)
+
+
+def _pose_cost(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray) -> float:
     R, t = world_from_ego[:3, :3], world_from_ego[:3, 3]
     r = ego - (world_points - t) @ R
     return float(np.einsum("ka,ka->", r, np.linalg.solve(covs, r[..., None])[..., 0]))
@@ -317,15 +321,20 @@ def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_
     n_sigma = positive_float("n_sigma", n_sigma, maximum=1e3)
     rounds = strict_int("rounds", rounds, minimum=0, maximum=1000)
     cov = _matrix_or_unknown("pose_covariance", pose_covariance, 6).copy()
+    return _laplace_inflate(world_from_ego, ego, covs, world_points, cov, n_sigma, rounds)
+
+
+def _laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
+                     cov: NDArray, n_sigma: float, rounds: int) -> NDArray[np.float64]:
     if not np.all(np.isfinite(cov)):
         return cov
-    base = pose_cost(world_from_ego, ego, covs, world_points)
+    base = _pose_cost(world_from_ego, ego, covs, world_points)
     target = n_sigma**2
 
     def moved(delta: NDArray) -> NDArray:
         # delta in ROS order is the error (true - est); the true pose is est moved by it
         out = np.eye(4)
-        out[:3, :3] = Rotation.from_rotvec(delta[3:]).as_matrix() @ world_from_ego[:3, :3]
+        out[:3, :3] = _expm(delta[3:]) @ world_from_ego[:3, :3]
         out[:3, 3] = world_from_ego[:3, 3] + delta[:3]
         return out
 
@@ -340,7 +349,7 @@ def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_
         s = n_sigma * math.sqrt(var_f)
         rises = []
         for sign in (1.0, -1.0):
-            rise = pose_cost(moved(sign * s * line), ego, covs, world_points) - base
+            rise = _pose_cost(moved(sign * s * line), ego, covs, world_points) - base
             rises.append((rise, sign))
         rise, sign = min(rises)
         if rise >= 0.8 * target:
@@ -349,7 +358,7 @@ def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_
         for _ in range(rounds):  # secant in f^2 (rise ~ c f^2 locally)
             f = f * math.sqrt(target / max(rise, 1e-3 * target))
             f = min(f, 100.0 * s)
-            rise = pose_cost(moved(sign * f * line), ego, covs, world_points) - base
+            rise = _pose_cost(moved(sign * f * line), ego, covs, world_points) - base
             if abs(rise - target) < 0.1 * target:
                 break
         new_var = max((f / n_sigma) ** 2, var_f)
@@ -388,7 +397,10 @@ def curved_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
     returned unchanged: no Gaussian describes such an error, and ``localize`` calls it weak.
     """
     world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
-    cov = _matrix_or_unknown("pose_covariance", pose_covariance, 6)
+    return _curved(world_from_ego, ego, covs, _matrix_or_unknown("pose_covariance", pose_covariance, 6))
+
+
+def _curved(world_from_ego: NDArray, ego: NDArray, covs: NDArray, cov: NDArray) -> NDArray[np.float64]:
     if not np.all(np.isfinite(cov)) or np.linalg.eigvalsh(cov[3:, 3:])[-1] > MAX_CURVED_ROTATION_SD**2:
         return cov
     # the centre about which rotation and position decouple: skew(v) = Sigma_t,theta Sigma_theta^-1
@@ -430,8 +442,10 @@ def calibrated_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDAr
     """:func:`laplace_inflate` (a cost flatter than its quadratic model), then
     :func:`curved_pose_covariance` (the circle a weak rotation drives the robot along): the 6x6
     covariance ``localize`` returns for its ML pose."""
-    widened = laplace_inflate(world_from_ego, ego, covs, world_points, pose_covariance)
-    return curved_pose_covariance(world_from_ego, ego, covs, widened)
+    world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
+    cov = _matrix_or_unknown("pose_covariance", pose_covariance, 6).copy()
+    widened = _laplace_inflate(world_from_ego, ego, covs, world_points, cov, 3.0, 4)
+    return _curved(world_from_ego, ego, covs, widened)
 
 
 def rotation_only_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray, weights: NDArray,
