@@ -100,8 +100,10 @@ def percept_frame(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> NDArray[np.float6
 
     Raises
     ------
+    ShapeError, NonFiniteError, OutOfRangeError
+        A wrongly shaped, non-finite or too large (> 1e12 m) point.
     PoseError
-        Non-finite or wrongly shaped input, or collinear (or coincident) points.
+        Collinear (or coincident) points.
     """
     pa, pb, pc = _point("a", a), _point("b", b), _point("c", c)
     ab = pb - pa
@@ -236,7 +238,7 @@ def weighted_kabsch_batch(ego_points: ArrayLike, world_points: ArrayLike, weight
     if len(neg):
         i, j = neg[0]
         raise PoseError(f"weights[{i}, {j}] must be >= 0, got {w[i, j]!r}")
-    if w.size and (np.any(w.sum(axis=1) <= 0) or float(w.max()) > 1e150):
+    if len(w) and (w.shape[1] == 0 or np.any(w.sum(axis=1) <= 0) or float(w.max()) > 1e150):
         raise PoseError("weights must not all be 0 in any set and must be <= 1e150")
     wn = w / w.sum(axis=1, keepdims=True)
     cx = np.einsum("hk,hki->hi", wn, x)
@@ -419,7 +421,7 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
     Parameters
     ----------
     ego_points, world_points : (k, 3) float
-        Metres; at least 3 pairs.
+        Metres; at least 3 pairs (fewer raise PoseError).
     covariances : (k, 3, 3) float
         Covariance (m^2) of each ego point, symmetric positive definite.
     world_from_ego : (4, 4) float
@@ -444,6 +446,8 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
     """
     x = _points("ego_points", ego_points)
     y = _points("world_points", world_points, len(x))
+    if len(x) < 3:
+        raise PoseError(f"ego_points must hold at least 3 correspondences for a pose, got {len(x)}")
     C = _covariances(covariances, len(x))
     T0 = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
     max_iter = strict_int("max_iter", max_iter, minimum=1)
