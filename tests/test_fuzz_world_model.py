@@ -650,6 +650,11 @@ def test_near_coincident_same_type_objects_found():
     pos = np.array([[0.0, 0.0, 0.0], [5.0, 5.0, 5.0], [5.0, 5.0, 5.0 + 0.5e-9]])
     with pytest.raises(wg.CoincidentObjectsError, match=r"objects\[1\] \('cup_1'\) and objects\[2\]"):
         WorldModel.from_arrays(["cup"] * 3, pos)
+    # 1e-300 apart: the squared distance underflows to 0, the message still names two objects
+    with pytest.raises(wg.CoincidentObjectsError, match=r"objects\[0\] \('cup_0'\) and objects\[1\]"):
+        WorldModel.from_arrays(["cup"] * 2, [[0, 0, 0], [1e-300, 0, 0]])
+    with pytest.raises(wg.CoincidentObjectsError, match=r"objects\[0\] \('cup_0'\) and objects\[1\]"):
+        WorldModel.from_arrays(["cup"] * 2, [[1e-300, 0, 0], [0, 0, 0]])
     # different types may coincide, and 2e-9 apart is not coincident
     w = WorldModel.from_arrays(["cup", "cup", "jar"], [[0, 0, 0], [0, 0, 2e-9], [0, 0, 0]])
     assert w.links[("cup", "jar")].length.tolist() == [0.0, 2e-9]

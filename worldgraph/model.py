@@ -635,7 +635,9 @@ class WorldModel:
         hit = dist[:, 1] <= COINCIDENT_TOLERANCE
         if hit.any():
             a = int(np.argmax(hit))
-            raise self._coincident(a, idx[a, 1], float(dist[a, 1]))
+            # both neighbours may be at distance 0 (underflow), so the first is not always ``a``
+            b = int(idx[a, 0]) if int(idx[a, 1]) == a else int(idx[a, 1])
+            raise self._coincident(a, b, float(dist[a, 1]))
 
     def _build_links(self) -> None:
         types = self._types
