@@ -491,7 +491,8 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
         return out, pose_information(out, x, C)
     Q, WinvG, cx, cy = _reduced_matrix(x, y, Cinv)
     best_R, best_f = T0[:3, :3], np.inf
-    for R in (T0[:3, :3], Rk):  # the local minima of the given and the Kabsch start ...
+    starts = [T0[:3, :3]] if np.abs(T0[:3, :3] - Rk).max() < 1e-9 else [T0[:3, :3], Rk]
+    for R in starts:  # the local minima of the given and the Kabsch start ...
         R = _reduced_descent(Q, R, 50)
         f = float(_lift(R) @ Q @ _lift(R))
         if f < best_f:
