@@ -568,7 +568,7 @@ class WorldModel:
                                     f"{_checks._short(self.objects)}")
         objects = tuple(self.objects)
         if not objects:
-            raise EmptyWorldError("a WorldModel needs at least one object, got 0")
+            raise EmptyWorldError("objects must hold at least one object (an ObjectModel), got 0")
         for k, obj in enumerate(objects):
             if not isinstance(obj, ObjectModel):
                 raise ArgumentTypeError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
@@ -708,7 +708,7 @@ class WorldModel:
         pos = _checks.float_array("positions", positions, (None, 3), max_abs=MAX_COORDINATE)
         n = pos.shape[0]
         if n == 0:
-            raise EmptyWorldError("a WorldModel needs at least one object, got positions of shape (0, 3)")
+            raise EmptyWorldError("positions must hold at least one object, got shape (0, 3)")
         type_list = _name_list("types", types, n, UnknownTypeError)
         if sizes is None:
             sz = np.full((n, 3), DEFAULT_SIZE)
@@ -813,7 +813,7 @@ class WorldModel:
                 class_vertices[key] = (verts - centre) * scale
             objs.append(ObjectModel(str(node), typ, pose, size, key))
         if not objs:
-            raise EmptyWorldError("the scene has no typed geometry nodes with vertices")
+            raise EmptyWorldError("scene has no typed geometry nodes with vertices (a WorldModel needs one)")
         return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
                    link_margin=link_margin, room=room)
 
