@@ -4,13 +4,22 @@ A :class:`WorldModel` holds the landmarks the robot can perceive (doors, handles
 each an :class:`ObjectModel` with a type, a pose ``world_from_object`` and the extents of its
 bounding box.  From the object positions it builds
 
-* ``links``: for every (sorted) pair of types a :class:`LinkTable` of the object pairs closer
-  than ``max_link_length + link_margin``, sorted by length -- the paper's distance look-up
-  table (section 2.2, "Fast performance was achieved by using a distance lookup table"),
-  queried with :meth:`LinkTable.in_range` by binary search;
+* ``links``: for every (sorted) pair of types with at least one link a :class:`LinkTable` of
+  the object pairs closer than ``max_link_length + link_margin``, sorted by length -- the
+  paper's distance look-up table (section 2.2, "Fast performance was achieved by using a
+  distance lookup table"), queried with :meth:`LinkTable.in_range` by binary search; a sorted
+  pair of types without links reads as an empty table (memory linear in the links, not
+  quadratic in the number of types);
 * ``graph``: a :mod:`networkx` graph, one node per object, one edge per pair closer than
   ``max_link_length`` (built lazily on first access);
 * ``type_index``: the object indices of each type.
+
+Limits (checked, :class:`~worldgraph.errors.WorldGraphError` subclasses naming the argument, the
+index and the value): poses rigid; coordinates, sizes and vertices at most
+:data:`MAX_COORDINATE` = 1e6 m in absolute value; ``max_link_length + link_margin`` at most
+:data:`MAX_LINK_LENGTH` = 1e7 m; ids, types and geometry keys non-empty strings without NUL.
+Two objects of one type closer than :data:`COINCIDENT_TOLERANCE` raise
+:class:`~worldgraph.errors.CoincidentObjectsError` at the first such pair found (memory O(n)).
 
 Object frame: the origin is the centre of the object's bounding box, so
 ``ObjectModel.position == pose[:3, 3]``; ``size`` is the box extents along the object axes.
