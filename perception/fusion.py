@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from ._checks import integer, real_array, real_scalar, spd
+from ._checks import guard, integer, real_array, real_scalar, spd
 from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
 from .percept import Percept
 
@@ -181,6 +181,7 @@ def _first_rep_labels(Y: NDArray[np.float64], radius: float) -> NDArray[np.int64
     return labels
 
 
+@guard
 def mean_shift_modes(
     points: ArrayLike,
     bandwidth: float | ArrayLike,
@@ -358,6 +359,7 @@ def _check_percepts(percepts: Any) -> list[Percept]:
     return ps
 
 
+@guard
 def fuse_percepts(
     percepts: Sequence[Percept],
     *,

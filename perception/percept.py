@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import integer, name_str, real_scalar, spd, vector3
+from ._checks import guard, integer, name_str, real_scalar, spd, vector3
 from .errors import UnknownClassError
 
 
@@ -44,6 +44,7 @@ class Percept:
     covariance: NDArray[np.float64] | None = None
     views: int = 1
 
+    @guard
     def __post_init__(self) -> None:
         name_str("type", self.type, UnknownClassError)
         pos = vector3("position", self.position)

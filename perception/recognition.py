@@ -1037,7 +1037,9 @@ class GaussianClassifier:
             raise NonFiniteError(f"features[{i}, {j}] = {x[i, j]!r} exceeds 1e100 in magnitude")
         y = np.asarray(_str_list("labels", labels) or [], dtype=object).reshape(-1)
         if y.shape != (x.shape[0],):
-            raise ShapeError(f"labels must have shape ({x.shape[0]},), got shape {y.shape}")
+            raise ShapeError(
+                f"labels must have one entry per row of features (shape ({x.shape[0]},)), got shape {y.shape}"
+            )
         if x.shape[0] == 0:
             raise NotFittedError("features must hold at least one sample per class, got none")
         regularization = real_scalar("regularization", regularization, nonnegative=True, high=1e100)
