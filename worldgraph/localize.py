@@ -569,10 +569,32 @@ def match_spheres(world: WorldModel, percepts: Sequence[Percept], pairs: Sequenc
     return p_i, o_i, spheres
 
 
+#: Most spheres radialopt's restriction polytope (active set, range-only estimators) and its
+#: cvxpy formulation accept; localize keeps the most certain ones beyond that.
+MAX_RADIAL_SPHERES = int(getattr(getattr(ro, "polytope", None), "MAX_POLYTOPE_SPHERES", 128))
+MAX_CVXPY_SPHERES = int(getattr(getattr(ro, "formulation", None), "MAX_SPHERES", 64))
+
+
+def _most_certain(ctx: _Context, p_i: NDArray[np.intp], o_i: NDArray[np.intp], spheres: list, limit: int
+                  ) -> tuple[NDArray[np.intp], NDArray[np.intp], list]:
+    """At most ``limit`` spheres: the smallest sigmas (ties by percept index), in percept order."""
+    if len(spheres) <= limit:
+        return p_i, o_i, spheres
+    sig = np.array([ctx.used[p].sigma for p in p_i])
+    keep = np.sort(np.lexsort((p_i, sig))[:limit])
+    note = (f"{len(spheres)} matched spheres: the {limit} most certain are used for the range-only "
+            "computations (radialopt's limit)")
+    if note not in ctx.notes:
+        ctx.notes.append(note)
+    return p_i[keep], o_i[keep], [spheres[i] for i in keep]
+
+
 def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]]) -> ro.RadialSolution | None:
     """:func:`radialopt.project_radii` of the spheres of ``pairs`` (:func:`match_spheres`) with
     the solver asked for; None with fewer than two spheres."""
-    _, _, spheres = match_spheres(ctx.world, ctx.used, pairs)
+    p_i, o_i, spheres = match_spheres(ctx.world, ctx.used, pairs)
+    limit = MAX_RADIAL_SPHERES if ctx.solver == "active_set" else MAX_CVXPY_SPHERES
+    _, _, spheres = _most_certain(ctx, p_i, o_i, spheres, limit)
     if len(spheres) < 2:
         return None
     if ctx.solver == "active_set":
@@ -610,6 +632,7 @@ def _sphere_position(ctx: _Context, pairs: tuple[tuple[int, int], ...], estimato
     """
     t0 = time.perf_counter()
     sp, o_i, spheres = match_spheres(ctx.world, ctx.used, pairs)
+    sp, o_i, spheres = _most_certain(ctx, sp, o_i, spheres, MAX_RADIAL_SPHERES)
     centers = ctx.world.positions[o_i]
     sig = np.array([ctx.used[p].sigma for p in sp])
     est = ro.estimate_position(spheres, method=estimator, region=ctx.region, rng=rng)
