@@ -418,3 +418,17 @@ def test_consistency_graph_min_size(min_size) -> None:
     g = _call(consistency_graph, ("min_size",), WORLD, CLEAN, min_size=min_size)
     if g is not None:
         assert all(d["type"] == CLEAN[d["percept"]].type for _, d in g.nodes(data=True))
+
+
+@given(pairs=st.sampled_from([[(0, 0), (1, 1), (2, 2)], [(0, 99)], [(-1, 0)], [(0.5, 1)], [(True, 1)], None,
+                              "ab", [(0,)], [[0, 1, 2]], []]))
+def test_match_spheres_and_default_region(pairs) -> None:
+    from worldgraph.localize import default_region, match_spheres
+
+    out = _call(match_spheres, ("pairs",), WORLD, CLEAN, pairs)
+    if out is not None:
+        p_i, o_i, spheres = out
+        assert len(p_i) == len(o_i) == len(spheres)
+    region = default_region(WORLD, CLEAN)
+    assert np.all(np.isfinite(region.lower)) and np.all(region.lower <= region.upper)
+    _call(default_region, ("percepts",), WORLD, pairs)

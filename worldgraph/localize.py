@@ -53,7 +53,7 @@ from scipy.stats import chi2
 import radialopt as ro
 from perception import Percept
 
-from ._checks import float_array, generator, positive_float
+from ._checks import float_array, generator, positive_float, strict_int
 from .association import (
     ASSOCIATION_TOLERANCES,
     MAX_COORDINATE,
@@ -232,6 +232,7 @@ def default_region(world: WorldModel, percepts: Sequence[Percept]) -> ro.Region:
     within :data:`REGION_MARGIN`; a scene whose only "wall" node is one wall is not), else the
     objects' bounds grown sideways by the largest percept range and by :data:`REGION_MARGIN` up
     and down."""
+    percepts = check_world_and_percepts(world, percepts)
     room = getattr(world, "room", None)
     if room is not None:
         size = room.upper - room.lower
@@ -561,6 +562,12 @@ def match_spheres(world: WorldModel, percepts: Sequence[Percept], pairs: Sequenc
     """The Gaussian spheres of matched pairs ``(percept index, object index)``: one per distinct
     model position (centre = object, radius = percept range, sigma = percept sigma), sorted by
     percept; with the percept and object index of each."""
+    percepts = check_world_and_percepts(world, percepts)
+    return _match_spheres(world, percepts, _check_pairs(pairs, len(percepts), len(world)))
+
+
+def _match_spheres(world: WorldModel, percepts: Sequence[Percept], pairs: Sequence[tuple[int, int]]
+                   ) -> tuple[NDArray[np.intp], NDArray[np.intp], list[ro.GaussianSphere]]:
     sph = _distinct_centres(world, pairs)
     p_i = np.array([p for p, _ in sph], dtype=np.intp)
     o_i = np.array([o for _, o in sph], dtype=np.intp)
@@ -589,10 +596,32 @@ def _most_certain(ctx: _Context, p_i: NDArray[np.intp], o_i: NDArray[np.intp], s
     return p_i[keep], o_i[keep], [spheres[i] for i in keep]
 
 
+def _check_pairs(pairs: object, n_percepts: int, n_objects: int) -> list[tuple[int, int]]:
+    """``(percept, object)`` index pairs in range."""
+    if pairs is None or isinstance(pairs, str | bytes):
+        raise ArgumentTypeError(f"pairs must be a sequence of (percept, object) index pairs, got {pairs!r}")
+    out = []
+    try:
+        items = list(pairs)  # type: ignore[call-overload]
+    except TypeError as exc:
+        raise ArgumentTypeError("pairs must be a sequence of (percept, object) index pairs, "
+                                f"got {pairs!r}") from exc
+    for i, pair in enumerate(items):
+        try:
+            p, o = pair
+        except (TypeError, ValueError) as exc:
+            raise ArgumentTypeError(f"pairs[{i}] must be a (percept, object) index pair, "
+                                    f"got {pair!r}") from exc
+        p = strict_int(f"pairs[{i}][0]", p, minimum=0, maximum=n_percepts - 1)
+        o = strict_int(f"pairs[{i}][1]", o, minimum=0, maximum=n_objects - 1)
+        out.append((p, o))
+    return out
+
+
 def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]]) -> ro.RadialSolution | None:
     """:func:`radialopt.project_radii` of the spheres of ``pairs`` (:func:`match_spheres`) with
     the solver asked for; None with fewer than two spheres."""
-    p_i, o_i, spheres = match_spheres(ctx.world, ctx.used, pairs)
+    p_i, o_i, spheres = _match_spheres(ctx.world, ctx.used, pairs)
     limit = MAX_RADIAL_SPHERES if ctx.solver == "active_set" else MAX_CVXPY_SPHERES
     _, _, spheres = _most_certain(ctx, p_i, o_i, spheres, limit)
     if len(spheres) < 2:
@@ -631,7 +660,7 @@ def _sphere_position(ctx: _Context, pairs: tuple[tuple[int, int], ...], estimato
     candidates told apart by ``t_ref``), its status and its CRLB.
     """
     t0 = time.perf_counter()
-    sp, o_i, spheres = match_spheres(ctx.world, ctx.used, pairs)
+    sp, o_i, spheres = _match_spheres(ctx.world, ctx.used, pairs)
     sp, o_i, spheres = _most_certain(ctx, sp, o_i, spheres, MAX_RADIAL_SPHERES)
     centers = ctx.world.positions[o_i]
     sig = np.array([ctx.used[p].sigma for p in sp])
