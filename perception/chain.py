@@ -153,7 +153,7 @@ class KinematicChain:
             raise KinematicsError(f"joints must be a non-empty sequence of Joint, got {self.joints!r}")
         names = [j.name for j in joints] + ([self.right_eye.name] if self.right_eye is not None else [])
         if len(set(names)) != len(names):
-            raise KinematicsError(f"joint names must be unique, got {names}")
+            raise KinematicsError(f"joints (and right_eye): joint names must be unique, got {names}")
         E = check_transform("ego_from_base", self.ego_from_base)
         C = check_transform("tip_from_camera", self.tip_from_camera)
         E.setflags(write=False)
@@ -358,12 +358,13 @@ def percept_covariance(
     J = chain.point_jacobian(angles, point_camera)
     with np.errstate(over="ignore", invalid="ignore"):
         out = R @ C @ R.T + (J * s**2) @ J.T
+        out = 0.5 * out + 0.5 * out.T
     if not np.all(np.isfinite(out)):
         raise NonFiniteError(
             f"the covariance overflows for point_camera {np.asarray(point_camera).tolist()!r}, "
             f"encoder_sigma {s.tolist()} and point_cov_camera scale {scale!r}"
         )
-    return 0.5 * (out + out.T)
+    return out
 
 
 __all__: Sequence[str] = [

@@ -226,7 +226,11 @@ def mean_shift_modes(
     if weights is None:
         w = np.ones(n)
     else:
-        w = real_array("weights", weights, (n,))
+        w = real_array("weights", weights)
+        if w.shape != (n,):
+            raise ShapeError(
+                f"weights must have one entry per row of points, shape ({n},), got shape {w.shape}"
+            )
         bad = np.flatnonzero(w <= 0)
         if bad.size:
             raise NonPositiveSigmaError(f"weights[{bad[0]}] must be > 0, got {w[bad[0]]!r}")

@@ -234,7 +234,11 @@ def scene_boxes(
     """
     types = _str_list("types", types)
     n = len(types)
-    pos = _as_float_array("positions", positions, (n, 3))
+    pos = _as_float_array("positions", positions)
+    if pos.shape != (n, 3):
+        raise ShapeError(
+            f"positions must have one row per entry of types, shape ({n}, 3), got shape {pos.shape}"
+        )
     rots = np.broadcast_to(np.eye(3), (n, 3, 3)) if rotations is None else rotations
     rots = _as_float_array("rotations", rots, (n, 3, 3))
     if sizes is not None:
@@ -324,7 +328,7 @@ def random_scene(
             f"distance must satisfy 0 < distance[0] <= distance[1] <= 1e4 m, got {dist.tolist()}"
         )
     distance = (float(dist[0]), float(dist[1]))
-    max_door_yaw_deg = real_scalar("max_door_yaw_deg", max_door_yaw_deg, low=0.0, high=90.0)
+    max_door_yaw_deg = real_scalar("max_door_yaw_deg", max_door_yaw_deg, low=0.0, high=90.0) + 0.0  # not -0.0
     cam_pos = np.array([0.0, rng.uniform(-0.2, 0.2), rng.uniform(1.2, 1.6)])
     camera_from_world = _camera_from_world_look(
         cam_pos, np.deg2rad(rng.uniform(-8.0, 8.0)), np.deg2rad(rng.uniform(-4.0, 8.0))
@@ -1474,6 +1478,11 @@ def recognize(
         if not np.isfinite(disparity_std_px) or disparity_std_px <= 0:
             raise NonPositiveSigmaError(f"disparity_std_px must be finite and > 0, got {disparity_std_px!r}")
         depth_factor = _default_depth_factor(rig, disparity_std_px)
+        if not np.isfinite(depth_factor) or depth_factor > 1e150:
+            raise NonPositiveSigmaError(
+                f"the default depth_factor f b / disparity_std_px = {depth_factor!r} is too large; "
+                f"disparity_std_px = {disparity_std_px!r} is too small"
+            )
     if not np.isfinite(depth_factor) or depth_factor <= 0:
         raise NonPositiveSigmaError(f"depth_factor must be finite and > 0, got {depth_factor!r}")
     if pixel_sigma is None:

@@ -34,7 +34,7 @@ def _types(types: Sequence[str], n: int) -> list[str]:
     except TypeError as exc:
         raise ShapeError(f"types must be a sequence of str, got {type(types).__name__}") from exc
     if len(out) != n:
-        raise ShapeError(f"types must have one entry per world position ({n}), got {len(out)}")
+        raise ShapeError(f"types must have one entry per row of world_positions ({n} rows), got {len(out)}")
     for i, t in enumerate(out):
         name_str(f"types[{i}]", t, UnknownClassError)
     return out
