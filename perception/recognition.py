@@ -234,7 +234,7 @@ def scene_boxes(
     """
     types = _str_list("types", types)
     n = len(types)
-    pos = _as_float_array("positions", positions)
+    pos = real_array("positions", positions)
     if pos.shape != (n, 3):
         raise ShapeError(
             f"positions must have one row per entry of types, shape ({n}, 3), got shape {pos.shape}"
