@@ -291,6 +291,10 @@ def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
             f"Fisher information at {x.tolist()} is singular: the directions to the {len(c)} "
             f"centres span too few dimensions (smallest eigenvalue {geometric[0]:.3g} <= {rcond:g})")
     w, V = np.linalg.eigh(J)
+    if not (np.all(np.isfinite(w)) and w[0] > 1e-13 * w[-1]):
+        raise SingularFisherError(
+            f"Fisher information at {x.tolist()} is numerically singular: eigenvalues {w.tolist()} "
+            f"(condition beyond 1e13; sigmas span {float(s.min()):.3g} to {float(s.max()):.3g} m)")
     return (V / w) @ V.T
 
 
