@@ -10,6 +10,11 @@ point, :func:`estimate_position`:
     landmark triples and the best-fit plane of the landmarks, from the points of every
     sphere triple (the paper's ``Phi_2``) and from the paper's estimate; the best is kept.
     Its density is never below the paper's (the paper's estimate is one of the candidates).
+    The best few LM results are then polished by a trust-region least-squares solve
+    (:func:`scipy.optimize.least_squares`, ``"trf"``, ``x_scale="jac"``) in a chart about the
+    centre of the most precise sphere, where its thin curved valley is straight (issue 12, D3);
+    the chosen point is polished once more and the status is ``"not_converged"`` when that
+    solve stops at its evaluation cap instead of a tolerance.
 ``"srls"``
     Weighted squared-range least squares alone (Beck, Stoica, Li 2008): minimise
     ``sum_i w_i (|x - X_i|^2 - r_i^2)^2`` with ``w_i = 1 / (4 sigma_i^2 (r_i^2 + sigma_i^2))``
@@ -129,6 +134,19 @@ class EstimatorOptions:
         and mirror planes of sphere triples) come from at most this many spheres, the most
         certain ones (smallest sigma); every sphere scores every candidate.  The paper: "the
         amount of spheres n is never greater than 6 while generating candidates".
+    polish_candidates : int
+        "ml": how many of the best distinct LM results get the trust-region polish.
+    polish_max_nfev : int
+        Evaluation cap of one trust-region polish; reaching it on the chosen point gives the
+        status ``"not_converged"``.
+    polish_recentre : int
+        How many times a polish may re-centre its chart when it walks off its middle.
+    max_range_ratio : float
+        An estimate farther than this many landmark spreads from their centroid is
+        ``"degenerate"`` (ranges that do not fit the landmarks' scale, e.g. shifted by 1e6 m).
+
+    Every field is validated (integers must be ints, not bools or floats; floats finite and in
+    range): a bad value raises :class:`~radialopt.errors.RadialError` naming the field.
     """
 
     rank_tol: float = 1e-9
