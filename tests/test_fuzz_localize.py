@@ -432,3 +432,20 @@ def test_match_spheres_and_default_region(pairs) -> None:
     region = default_region(WORLD, CLEAN)
     assert np.all(np.isfinite(region.lower)) and np.all(region.lower <= region.upper)
     _call(default_region, ("percepts",), WORLD, pairs)
+
+
+@given(pcov=st.sampled_from([np.eye(6) * 1e-4, -np.eye(6), np.diag([1e-4] * 5 + [0.0]),
+                             np.full((6, 6), np.inf), np.eye(3), None, "x", np.triu(np.ones((6, 6)))]),
+       types=st.sampled_from([["t0"] * 5, ["zz"], None, "t0", [3], []]))
+def test_covariance_helpers_and_nearest(pcov, types) -> None:
+    x = np.random.default_rng(7).uniform(-3, 3, (5, 3))
+    C = COV_CASES["good"]
+    for fn in (val.curved_pose_covariance, val.laplace_inflate, val.calibrated_pose_covariance):
+        args = (POSE, x, C, pcov) if fn is val.curved_pose_covariance else (POSE, x, C, x, pcov)
+        out = _call(fn, ("pose_covariance",), *args)
+        if out is not None and np.all(np.isfinite(np.asarray(pcov, dtype=float))):
+            assert out.shape == (6, 6) and np.all(np.isfinite(out))
+    near = _call(val.NearestObjects, ("types", "world"), WORLD, types)
+    if near is not None:
+        d2, obj, _ = near.query(POSE, x[: len(types)], C[: len(types)], None)
+        assert np.all(obj >= 0)

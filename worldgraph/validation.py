@@ -44,7 +44,7 @@ from scipy.stats import chi2
 from perception import Percept
 
 from ._checks import float_array, positive_float, rigid_transform, strict_int
-from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError
+from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
 from .model import WorldModel
 from .pose import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, refine_pose
 
@@ -94,6 +94,20 @@ def _matrix_or_unknown(name: str, value: object, n: int) -> NDArray[np.float64]:
     if arr.dtype.kind not in "fiu" or arr.shape != (n, n):
         raise ShapeError(f"{name} must be a ({n}, {n}) real array, got dtype {arr.dtype} shape {arr.shape}")
     return arr.astype(np.float64)
+
+
+def _covariance_or_unknown(name: str, value: object, n: int) -> NDArray[np.float64]:
+    """A real (n, n) covariance: symmetric positive semi-definite when finite (non-finite entries
+    mean "unknown" and are passed through)."""
+    arr = _matrix_or_unknown(name, value, n)
+    if np.all(np.isfinite(arr)):
+        scale = max(float(np.abs(arr).max()), 1e-300)
+        if np.abs(arr - arr.T).max() > 1e-8 * scale:
+            raise PoseError(f"{name} must be symmetric, got {arr.tolist()}")
+        low = float(np.linalg.eigvalsh(0.5 * (arr + arr.T))[0])
+        if low < -1e-9 * scale:
+            raise PoseError(f"{name} must be positive semi-definite (smallest eigenvalue {low:.3g})")
+    return arr
 
 
 def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
@@ -210,6 +224,15 @@ class NearestObjects:
     """Nearest same-type model objects by Mahalanobis distance (k-d tree per type, ``k`` candidates)."""
 
     def __init__(self, world: WorldModel, types: list[str], k: int = 4) -> None:
+        if not isinstance(world, WorldModel):
+            raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+        if types is None or isinstance(types, str | bytes):
+            raise ArgumentTypeError(f"types must be a sequence of type names, got {types!r}")
+        types = list(types)
+        for i, t in enumerate(types):
+            if not isinstance(t, str) or t not in world.type_index:
+                raise UnknownTypeError(f"types[{i}] = {t!r} is not a type of the world model")
+        k = strict_int("k", k, minimum=1, maximum=1000)
         self.world = world
         self.k = k
         self.groups = {t: np.array([i for i, s in enumerate(types) if s == t]) for t in sorted(set(types))}
@@ -320,7 +343,7 @@ def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_
     world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
     n_sigma = positive_float("n_sigma", n_sigma, maximum=1e3)
     rounds = strict_int("rounds", rounds, minimum=0, maximum=1000)
-    cov = _matrix_or_unknown("pose_covariance", pose_covariance, 6).copy()
+    cov = _covariance_or_unknown("pose_covariance", pose_covariance, 6).copy()
     return _laplace_inflate(world_from_ego, ego, covs, world_points, cov, n_sigma, rounds)
 
 
@@ -397,7 +420,11 @@ def curved_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
     returned unchanged: no Gaussian describes such an error, and ``localize`` calls it weak.
     """
     world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
-    return _curved(world_from_ego, ego, covs, _matrix_or_unknown("pose_covariance", pose_covariance, 6))
+    cov = _covariance_or_unknown("pose_covariance", pose_covariance, 6)
+    try:
+        return _curved(world_from_ego, ego, covs, cov)
+    except np.linalg.LinAlgError as exc:
+        raise PoseError("pose_covariance is singular: the curved covariance is not defined") from exc
 
 
 def _curved(world_from_ego: NDArray, ego: NDArray, covs: NDArray, cov: NDArray) -> NDArray[np.float64]:
@@ -424,7 +451,10 @@ def _curved(world_from_ego: NDArray, ego: NDArray, covs: NDArray, cov: NDArray) 
     second = 0.5 * (second + second.T)
     # a curved error is not elliptical: where the curvature matters, widen the ellipsoid until its
     # 3-sigma gate holds the 3-sigma share of the propagated distribution (a fixed normal sample)
-    L = np.linalg.cholesky(cov + 1e-300 * np.eye(6))
+    try:
+        L = np.linalg.cholesky(cov + 1e-300 * np.eye(6))
+    except np.linalg.LinAlgError as exc:
+        raise PoseError("pose_covariance must be positive definite for the curved covariance") from exc
     ratio = np.linalg.eigvalsh(np.linalg.solve(L, np.linalg.solve(L, second).T))  # of L^-1 S L^-T
     if np.max(np.abs(ratio - 1.0)) > 0.01:
         pts = _TAIL_SAMPLE @ root.T
@@ -443,9 +473,12 @@ def calibrated_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDAr
     :func:`curved_pose_covariance` (the circle a weak rotation drives the robot along): the 6x6
     covariance ``localize`` returns for its ML pose."""
     world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
-    cov = _matrix_or_unknown("pose_covariance", pose_covariance, 6).copy()
+    cov = _covariance_or_unknown("pose_covariance", pose_covariance, 6).copy()
     widened = _laplace_inflate(world_from_ego, ego, covs, world_points, cov, 3.0, 4)
-    return _curved(world_from_ego, ego, covs, widened)
+    try:
+        return _curved(world_from_ego, ego, covs, widened)
+    except np.linalg.LinAlgError as exc:
+        raise PoseError("pose_covariance is singular: the curved covariance is not defined") from exc
 
 
 def rotation_only_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray, weights: NDArray,
