@@ -132,6 +132,7 @@ LocalizeStatus = Literal[
     "outside_region",        # the pose lies outside the region the caller gave
     "degenerate_coplanar",   # range-only methods: coplanar landmarks, position on their plane
     "degenerate_collinear",  # range-only methods: collinear landmarks
+    "not_converged",         # range-only methods: the position estimator stopped at its iteration cap
 ]
 #: Statuses of :class:`LocalizationResult`; only ``"ok"`` and ``"weak"`` are unique answers.
 LOCALIZE_STATUSES: tuple[str, ...] = get_args(LocalizeStatus)
