@@ -28,8 +28,8 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import MAX_SIGMA, instance, real_array, real_scalar, sigma_range
-from .errors import CoincidentCentersError, NonFiniteError, ShapeError, TooManySpheresError
+from ._checks import MAX_SIGMA, instance, integer, real_array, real_scalar, sigma_range
+from .errors import CoincidentCentersError, ShapeError, TooManySpheresError
 from .spheres import TOLERANCES, GaussianSphere, Tolerances, sphere_arrays
 
 #: Most spheres a restriction polytope is built for: it has 3 C(n, 2) dense rows of length n
@@ -154,11 +154,9 @@ class RestrictionPolytope:
 
     def slack(self, x: ArrayLike) -> NDArray[np.float64]:
         """``b - A x`` for a point (n,) or points (k, n) in this polytope's space."""
-        arr = np.asarray(x, dtype=np.float64)
-        if arr.shape[-1:] != (self.dim,) or arr.ndim > 2:
+        arr = real_array(x, "x", ndim=(1, 2), max_abs=None)
+        if arr.shape[-1:] != (self.dim,):
             raise ShapeError(f"x must have shape ({self.dim},) or (k, {self.dim}), got {arr.shape}")
-        if not np.all(np.isfinite(arr)):
-            raise NonFiniteError(f"x must be finite, got {arr.tolist()}")
         return self.b - arr @ self.A.T
 
     def contains(self, x: ArrayLike, tol: float = TOLERANCES.feasibility) -> bool | NDArray[np.bool_]:
@@ -168,16 +166,19 @@ class RestrictionPolytope:
         ``r / sigma`` for ``space == "Sd"``.
         """
         s = self.slack(x)
+        tol = real_scalar(tol, "tol", 0.0)
         ok = np.all(s >= -tol, axis=-1)
         return bool(ok) if np.ndim(ok) == 0 else ok
 
     def violated_rows(self, x: ArrayLike, tol: float = TOLERANCES.feasibility) -> list[str]:
         """Human-readable names of the rows that ``x`` violates, e.g. ``"chi(0,2)"``."""
         s = self.slack(x)
+        tol = real_scalar(tol, "tol", 0.0)
         return [self.row_name(k) for k in np.flatnonzero(s < -tol)]
 
     def row_name(self, k: int) -> str:
         """Name of row ``k``: kind and sphere pair, e.g. ``"beta(1,3)"``."""
+        k = integer(k, "k", -len(self.kinds), len(self.kinds) - 1)
         i, j = self.pairs[k]
         return f"{self.kinds[k]}({i},{j})"
 

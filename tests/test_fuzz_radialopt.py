@@ -149,6 +149,18 @@ def _meet(spheres, tol):
     return ro.meet(spheres, tol=tol)
 
 
+def _contains(x, tol):
+    return polytope().contains(x, tol)
+
+
+def _region_contains(x, tol):
+    return ro.Region([-1.0, -1, -1], [1.0, 2, 3]).contains(x, tol)
+
+
+def _row_name(k):
+    return polytope().row_name(k)
+
+
 def _check_polytope(P) -> None:
     assert finite(P.A) and finite(P.b)
 
@@ -202,6 +214,9 @@ ENTRIES = {
                                                                      tol=ro.TOLERANCES), "poly"),
     "RestrictionPolytope.from_spheres": (_from_spheres, lambda: dict(spheres=spheres_of(),
                                                                      tol=ro.TOLERANCES), "poly"),
+    "RestrictionPolytope.contains": (_contains, lambda: dict(x=RADII[:3], tol=1e-9), "boolish"),
+    "RestrictionPolytope.row_name": (_row_name, lambda: dict(k=4), "str"),
+    "Region.contains": (_region_contains, lambda: dict(x=CENTERS, tol=1e-9), "boolish"),
     "Tolerances": (ro.Tolerances, lambda: dict(coincident=1e-9, feasibility=1e-9, agreement=1e-6), "opts"),
     "EstimatorOptions": (ro.EstimatorOptions, lambda: dict(lm_max_iter=100, rank_tol=1e-9, random_seeds=4,
                                                            distinct_tol=1e-6, max_generation_spheres=6,
@@ -222,6 +237,10 @@ def check_result(kind: str, out, kwargs) -> None:
             assert P.contains(out.radii[b], tol=1e-9 * max(1.0, np.abs(P.b).max()))
     elif kind == "bool":
         assert isinstance(out, bool)
+    elif kind == "boolish":
+        assert isinstance(out, bool) or np.asarray(out).dtype == bool
+    elif kind == "str":
+        assert isinstance(out, str)
     elif kind == "spheres":
         assert all(isinstance(s, ro.GaussianSphere) for s in out)
     elif kind == "sphere":
@@ -292,7 +311,6 @@ SPHERE_WORDS = ("spheres", "sigma", "radius", "radii", "center", "centre")
 
 
 @pytest.mark.parametrize("entry", sorted(ENTRIES))
-@settings(max_examples=30)
 @given(data=st.data())
 def test_fuzz_entry_point(entry, data):
     fn, base, kind = ENTRIES[entry]
