@@ -835,6 +835,14 @@ def estimate_position(
             status = "not_converged"
             message = (f"the ML refinement stopped at its evaluation cap ({options.polish_max_nfev}) "
                        "without meeting its tolerances; the best point found is returned")
+    if method == "gradient" and inside[0]:  # the same stopping rule as the ascent itself
+        _, jac, _ = _residuals(cand[:1], centers, radii, sigmas)
+        res = (np.linalg.norm(cand[0] - centers, axis=1) - radii) / sigmas
+        step = np.linalg.norm(np.einsum("ni,n->i", jac[0], res)) / np.sum(1.0 / sigmas**2)
+        if min(step, 0.1 * frame.spread) > options.gradient_step_tol * frame.spread * 10:
+            status = "not_converged"
+            message = (f"gradient ascent stopped at its cap ({options.gradient_max_iter} iterations) "
+                       f"with a last step of {step:.3g} m; the best point found is returned")
     best = cand[0]
     density = np.exp(-0.5 * cost)
     try:

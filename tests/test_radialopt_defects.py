@@ -202,3 +202,11 @@ def test_ml_at_its_cap_does_not_say_ok():
     est = ro.estimate_position(ro.make_spheres(c, r, s), options=opts)
     assert est.status == "not_converged"
     assert est.status in ro.POSITION_STATUSES
+
+
+def test_gradient_at_its_cap_does_not_say_ok():
+    rng = np.random.default_rng(7)
+    c, r, s = _d3_scene(rng)
+    opts = ro.EstimatorOptions(gradient_max_iter=3)
+    est = ro.estimate_position(ro.make_spheres(c, r, s), method="gradient", options=opts)
+    assert est.status == "not_converged"
