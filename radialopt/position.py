@@ -91,7 +91,7 @@ PositionStatus = Literal[
     "degenerate",            # J singular at the estimate (e.g. on a centre), or the estimate lies
                              # more than max_range_ratio spreads from the centres (range scale
                              # inconsistent with the landmarks): no usable position
-    "not_converged",         # the ML refinement hit its evaluation cap: the best point found
+    "not_converged",         # "ml" polish or "gradient" ascent hit its cap: best point found
 ]
 POSITION_STATUSES: tuple[str, ...] = get_args(PositionStatus)
 #: Statuses whose position is a usable answer (finite, converged, near the landmarks).
