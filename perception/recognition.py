@@ -190,8 +190,13 @@ def _str_list(name: str, value: Any) -> list[str]:
 
 
 def _int_range(name: str, value: Any, low: int, high: int) -> tuple[int, int]:
-    if value is None or isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
+    try:
+        pair = list(value)
+    except TypeError as exc:
+        raise ShapeError(f"{name} must be a pair (low, high) of integers, got {value!r}") from exc
+    if isinstance(value, (str, bytes)) or len(pair) != 2:
         raise ShapeError(f"{name} must be a pair (low, high) of integers, got {value!r}")
+    value = pair
     a = integer(f"{name}[0]", value[0], minimum=low, maximum=high)
     b = integer(f"{name}[1]", value[1], minimum=low, maximum=high)
     if a > b:

@@ -70,8 +70,8 @@ def _sigmas(sig: NDArray[np.float64]) -> None:
     bad = np.flatnonzero(~((sig >= 1e-150) & (sig <= 1e150)))
     if bad.size:
         raise NonPositiveSigmaError(
-            f"simulated sigma {sig[bad[0]]!r} (from depth_factor and min_sigma) lies outside "
-            "[1e-150, 1e150] m; choose depth_factor and min_sigma so that it does not"
+            f"simulated sigma {sig[bad[0]]!r} (from depth_factor, min_sigma and max_range) lies outside "
+            "[1e-150, 1e150] m; choose depth_factor, min_sigma and max_range so that it does not"
         )
 
 
