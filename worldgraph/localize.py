@@ -503,12 +503,17 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     if not distinct:
         return ctx.failed("degenerate", "no hypothesis has 3 inliers that fix a 6D pose (collinear "
                           "landmarks)", hyps, incomplete)
-    inside = [f for f in distinct if ctx.region.contains(f[0].world_from_ego[:3, 3], tol=1e-6)]
+    inside = [f for f in distinct if _in_region(ctx.region, f[0].world_from_ego, f[0].pose_covariance)]
     if inside and len(inside) < len(distinct):
-        if not ctx.region.contains(distinct[0][0].world_from_ego[:3, 3], tol=1e-6):
-            ctx.notes.append(f"{len(distinct) - len(inside)} better-fitting pose(s) outside the region "
-                             "were set aside")
-        distinct = inside
+        worse_by = inside[0][0].cost - distinct[0][0].cost
+        if ctx.explicit_region or worse_by < ctx.tol.ambiguity_margin:
+            if inside[0] is not distinct[0]:
+                ctx.notes.append(f"{len(distinct) - len(inside)} better-fitting pose(s) outside the region "
+                                 "were set aside")
+            distinct = inside
+        else:  # the default region chooses between comparable fits, never for a far worse one
+            ctx.notes.append(f"the best fit lies outside the default region; the best pose inside it fits "
+                             f"worse by a robust cost of {worse_by:.3g}, so it was not preferred")
     best = distinct[0][0]
     runners = [f for f, _ in distinct[1:] if f.cost - best.cost < ctx.tol.ambiguity_margin
                and _pose_nees(best, f.world_from_ego) > CHI2_6_GATE]
@@ -707,6 +712,16 @@ def _choose_candidate(ctx: _Context, est: ro.PositionEstimate, t_ref: NDArray) -
     return position, status
 
 
+def _in_region(region: ro.Region, pose: NDArray, cov6: NDArray) -> bool:
+    """Whether the pose's position lies in ``region`` up to its own 3-sigma uncertainty: a robot
+    standing at the region's edge is not turned away because noise put its estimate just outside."""
+    block = cov6[:3, :3]
+    slack = 0.0
+    if np.all(np.isfinite(block)):
+        slack = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(block)[-1]), 0.0))
+    return bool(region.contains(pose[:3, 3], tol=1e-6 + slack))
+
+
 def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int, int], ...], hyps: tuple,
             ambiguous: bool, alternatives: tuple, llr: float, est: ro.PositionEstimate | None, check: bool,
             status_hint: str = "ok") -> LocalizationResult:
@@ -737,10 +752,11 @@ def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int,
     if status == "ok" and ambiguous:
         status = "ambiguous"
     position = pose[:3, 3].copy()
-    if status == "ok" and ctx.explicit_region and not ctx.region.contains(position, tol=1e-6):
+    in_region = _in_region(ctx.region, pose, cov6)
+    if status == "ok" and ctx.explicit_region and not in_region:
         status = "outside_region"
         ctx.notes.append(f"the pose {position.tolist()} lies outside the valid region")
-    elif not ctx.region.contains(position, tol=1e-6):
+    elif not in_region:
         ctx.notes.append(f"the pose {position.tolist()} lies outside the default region")
     if status == "ok":
         if not finite_cov:
