@@ -11,12 +11,15 @@ from .association import (
     proximity_filter,
 )
 from .errors import (
+    ArgumentTypeError,
     CoincidentObjectsError,
     EmptyWorldError,
     ImporterError,
     MalformedFileError,
     NonFiniteError,
     NonPositiveError,
+    NonRigidError,
+    OutOfRangeError,
     PoseError,
     ShapeError,
     TooFewPerceptsError,
@@ -30,6 +33,7 @@ from .model import LinkTable, ObjectModel, WorldModel, box_vertices
 from .pose import percept_frame, pose_from_frames, weighted_kabsch
 
 __all__ = [
+    "ArgumentTypeError",
     "CoincidentObjectsError",
     "EmptyWorldError",
     "ImporterError",
@@ -37,6 +41,8 @@ __all__ = [
     "MalformedFileError",
     "NonFiniteError",
     "NonPositiveError",
+    "NonRigidError",
+    "OutOfRangeError",
     "PoseError",
     "ObjectModel",
     "ShapeError",
