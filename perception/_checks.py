@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError
+from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
 
 #: Relative floor of the smallest eigenvalue of a covariance (numerical positive definiteness).
 SPD_RTOL = 1e-14
@@ -158,6 +158,26 @@ def name_str(name: str, value: Any, error: type[PerceptionError] = PerceptionErr
     if not isinstance(value, str) or not value or "\0" in value:
         raise error(f"{name} must be a non-empty string without NUL characters, got {_short(value)}")
     return value
+
+
+def sequence(name: str, value: Any, kind: type | None = None, error: type[PerceptionError] = ShapeError
+             ) -> list[Any]:
+    """A sequence (not a string or a lone ``kind``) as a list; every element an instance of
+    ``kind``, or, when ``kind`` is None, a non-empty string without NUL characters."""
+    what = "str" if kind is None else kind.__name__
+    lone = (str, bytes) if kind is None else (str, bytes, kind)
+    if value is None or isinstance(value, lone):
+        raise error(f"{name} must be a sequence of {what}, got {type(value).__name__} {_short(value)}")
+    try:
+        out = list(value)
+    except TypeError as exc:
+        raise error(f"{name} must be a sequence of {what}, got {type(value).__name__}") from exc
+    for i, item in enumerate(out):
+        if kind is None:
+            name_str(f"{name}[{i}]", item, UnknownClassError)
+        elif not isinstance(item, kind):
+            raise error(f"{name}[{i}] must be a {what}, got {type(item).__name__}: {_short(item)}")
+    return out
 
 
 _UNEXPECTED: tuple[type[BaseException], ...] = (

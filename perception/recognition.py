@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from ._checks import boolean, guard, integer, name_str, real_array, real_scalar, spd
+from ._checks import boolean, guard, integer, name_str, real_array, real_scalar, sequence, spd
 from ._checks import rng as check_rng
 from .chain import check_transform
 from .errors import (
@@ -177,18 +177,6 @@ MAX_RENDER_PIXELS = 50_000_000
 """Largest image (width * height) rendered or segmented."""
 
 
-def _str_list(name: str, value: Any) -> list[str]:
-    if value is None or isinstance(value, (str, bytes)):
-        raise ShapeError(f"{name} must be a sequence of str, got {value!r}")
-    try:
-        out = list(value)
-    except TypeError as exc:
-        raise ShapeError(f"{name} must be a sequence of str, got {type(value).__name__}") from exc
-    for i, t in enumerate(out):
-        name_str(f"{name}[{i}]", t, UnknownClassError)
-    return out
-
-
 def _int_range(name: str, value: Any, low: int, high: int) -> tuple[int, int]:
     try:
         pair = list(value)
@@ -237,7 +225,7 @@ def scene_boxes(
     -------
     list of Box
     """
-    types = _str_list("types", types)
+    types = sequence("types", types)
     n = len(types)
     pos = real_array("positions", positions)
     if pos.shape != (n, 3):
@@ -514,19 +502,6 @@ def _draw_view(
     return canvas
 
 
-def _check_boxes(boxes: Sequence[Box]) -> list[Box]:
-    if boxes is None or isinstance(boxes, (str, bytes, Box)):
-        raise ShapeError(f"boxes must be a sequence of Box, got {type(boxes).__name__}")
-    try:
-        boxes = list(boxes)
-    except TypeError as exc:
-        raise ShapeError(f"boxes must be a sequence of Box, got {type(boxes).__name__}") from exc
-    for i, b in enumerate(boxes):
-        if not isinstance(b, Box):
-            raise ShapeError(f"boxes[{i}] must be a Box, got {type(b).__name__}: {b!r}")
-    return boxes
-
-
 @guard
 def render_stereo(
     rig: Any,
@@ -575,7 +550,7 @@ def render_stereo(
         BGR images.
     """
     pose = check_transform("camera_from_world", camera_from_world)
-    boxes = _check_boxes(boxes)
+    boxes = sequence("boxes", boxes, Box)
     width, height = _image_size(rig)
     rng = check_rng("rng", rng)
     light_noise = real_scalar("light_noise", light_noise, nonnegative=True, high=1e6)
@@ -633,7 +608,7 @@ def render_labels(
     left, right : (height, width) int32
     """
     pose = check_transform("camera_from_world", camera_from_world)
-    boxes = _check_boxes(boxes)
+    boxes = sequence("boxes", boxes, Box)
     width, height = _image_size(rig)
     out = []
     for view_pose, K, D in _rig_views(rig, pose):
@@ -661,7 +636,7 @@ def visible_mask(
     (m,) bool
     """
     pose = check_transform("camera_from_world", camera_from_world)
-    boxes = _check_boxes(boxes)
+    boxes = sequence("boxes", boxes, Box)
     min_area = real_scalar("min_area", min_area, nonnegative=True)
     _image_size(rig)
     if not boxes:
@@ -962,7 +937,7 @@ class GaussianClassifier:
 
     @guard
     def __post_init__(self) -> None:
-        classes = tuple(_str_list("classes", self.classes))
+        classes = tuple(sequence("classes", self.classes))
         k = len(classes)
         if k == 0:
             raise UnknownClassError(f"classes must be non-empty strings, got {classes!r}")
@@ -1044,7 +1019,7 @@ class GaussianClassifier:
         if big.size:
             i, j = big[0]
             raise NonFiniteError(f"features[{i}, {j}] = {x[i, j]!r} exceeds 1e100 in magnitude")
-        y = np.asarray(_str_list("labels", labels) or [], dtype=object).reshape(-1)
+        y = np.asarray(sequence("labels", labels) or [], dtype=object).reshape(-1)
         if y.shape != (x.shape[0],):
             raise ShapeError(
                 f"labels must have one entry per row of features (shape ({x.shape[0]},)), got shape {y.shape}"
@@ -1257,19 +1232,6 @@ def _undistort(
     return cv2.undistortPoints(uv.reshape(-1, 1, 2), K, D, P=K).reshape(-1, 2)
 
 
-def _detections(name: str, value: Any) -> list[Detection]:
-    if value is None or isinstance(value, (str, bytes, Detection)):
-        raise ShapeError(f"{name} must be a sequence of Detection, got {type(value).__name__}")
-    try:
-        out = list(value)
-    except TypeError as exc:
-        raise ShapeError(f"{name} must be a sequence of Detection, got {type(value).__name__}") from exc
-    for i, d in enumerate(out):
-        if not isinstance(d, Detection):
-            raise ShapeError(f"{name}[{i}] must be a Detection, got {type(d).__name__}")
-    return out
-
-
 @guard
 def match_stereo(
     rig: Any,
@@ -1295,8 +1257,8 @@ def match_stereo(
     _rig(rig)
     max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True)
     max_log_area_ratio = real_scalar("max_log_area_ratio", max_log_area_ratio, nonnegative=True)
-    left_dets = _detections("left_dets", left_dets)
-    right_dets = _detections("right_dets", right_dets)
+    left_dets = sequence("left_dets", left_dets, Detection)
+    right_dets = sequence("right_dets", right_dets, Detection)
     if not left_dets or not right_dets:
         return []
     K1, D1 = np.asarray(rig.K1, np.float64), np.asarray(rig.D1, np.float64)

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import boolean, guard, integer, name_str, real_array, real_scalar
+from ._checks import boolean, guard, integer, name_str, real_array, real_scalar, sequence
 from ._checks import rng as check_rng
 from .chain import KinematicChain, check_transform, default_head
 from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
@@ -78,15 +78,7 @@ def _sigmas(sig: NDArray[np.float64]) -> None:
 def _false_type_pool(false_types: Sequence[str] | None, present: Sequence[str]) -> list[str]:
     if false_types is None:
         return sorted(set(present))
-    if isinstance(false_types, (str, bytes)):
-        raise ShapeError(f"false_types must be a sequence of str, got {false_types!r}")
-    try:
-        pool = list(false_types)
-    except TypeError as exc:
-        raise ShapeError(f"false_types must be a sequence of str, got {type(false_types).__name__}") from exc
-    for i, t in enumerate(pool):
-        name_str(f"false_types[{i}]", t, UnknownClassError)
-    return pool
+    return sequence("false_types", false_types)
 
 
 @guard
