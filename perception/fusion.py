@@ -281,6 +281,26 @@ def _canonical_order(percepts: Sequence[Percept]) -> NDArray[np.int64]:
     return np.lexsort((views, sig, pos[:, 2], pos[:, 1], pos[:, 0]))
 
 
+def _shared_loadings(members: Sequence[Percept], S: NDArray[np.float64], info: NDArray[np.float64],
+                     q0: float) -> tuple[tuple[tuple[int, NDArray[np.float64]], ...], NDArray[np.float64]]:
+    """The fused percept's shared loadings ``L_v = sum over members of view v of W_i S_iv``
+    (``W_i = (sum C^-1)^-1 C_i^-1`` the fusion weights) and, in units of ``q0``, the covariance
+    that members sharing a view add to ``(sum C^-1)^-1``: ``sum_v (L_v L_v^T - sum_i w w^T)``."""
+    if not any(p.shared for p in members):
+        return (), np.zeros((3, 3))
+    loads: dict[int, NDArray[np.float64]] = {}
+    own = np.zeros((3, 3))
+    for i, p in enumerate(members):
+        W = S @ info[i]  # dimensionless: S and info are in units of q0 and 1 / q0
+        for view, Si in p.shared:
+            w = W @ Si
+            loads[view] = loads[view] + w if view in loads else w
+            own += w @ w.T
+    shared = tuple(sorted(loads.items(), key=lambda kv: kv[0]))
+    cross = sum((L @ L.T for _, L in shared), np.zeros((3, 3))) - own
+    return shared, 0.5 * (cross + cross.T) / q0
+
+
 def _melt(members: Sequence[Percept]) -> Percept:
     """One fused percept from a delineation set (inverse-information combination).
 
@@ -306,13 +326,15 @@ def _melt(members: Sequence[Percept]) -> Percept:
     x0 = X[int(np.argmin(q))]
     m = x0 + S @ np.einsum("kij,kj->i", info, X - x0)
     k = len(members)
+    shared, cross = _shared_loadings(members, S, info, q0)
     factor = 1.0
     with np.errstate(over="ignore", invalid="ignore"):
         if k > 1:
             r = X - m
             chi2 = float(np.einsum("ki,kij,kj->", r, info, r)) / q0
             factor = max(1.0, chi2 / (3.0 * (k - 1)))
-        S = 0.5 * (S + S.T) * (q0 * factor)
+        S = (0.5 * (S + S.T) + cross) * (q0 * factor)
+    shared = tuple((v, L * np.sqrt(factor)) for v, L in shared)
     scale = float(np.max(np.abs(m)))
     if scale > 0:
         u = m / scale
@@ -328,7 +350,7 @@ def _melt(members: Sequence[Percept]) -> Percept:
         )
     views = int(sum(p.views for p in members))
     try:
-        return Percept(members[0].type, m, float(np.sqrt(var)), covariance=S, views=views)
+        return Percept(members[0].type, m, float(np.sqrt(var)), covariance=S, views=views, shared=shared)
     except PerceptionError as exc:
         raise PerceptionError(
             f"fusing {k} percepts of type {members[0].type!r} near {X[0].tolist()} gives an invalid "
@@ -384,7 +406,10 @@ def fuse_percepts(
       than its covariances explain (the Birge ratio), so inconsistent sets are not overconfident;
     - sigma: the standard deviation of the range, ``sqrt(u^T C u)`` with ``u`` the unit
       position vector;
-    - views: the number of raw views in the set.
+    - views: the number of raw views in the set;
+    - shared: per view, the fusion-weighted sum of the members' shared loadings (errors common to
+      all percepts of one view, e.g. head encoders; see :class:`Percept`), so fused percepts that
+      drew on one view stay correlated; members sharing a view add their cross-covariance.
 
     The percepts are sorted canonically first, so the result does not depend on their order.
     Memory grows linearly with the number of percepts (k-d tree neighbour queries).

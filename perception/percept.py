@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import guard, integer, name_str, real_scalar, spd, vector3
-from .errors import UnknownClassError
+from ._checks import guard, integer, name_str, real_array, real_scalar, spd, vector3
+from .errors import ShapeError, UnknownClassError
 
 
 @dataclass(frozen=True)
@@ -31,6 +31,14 @@ class Percept:
     views : int
         Number of raw percepts fused into this one (>= 1; a Python or numpy integer, not a
         float or bool).
+    shared : tuple of (int, (3, k) float), optional
+        The part of the position error this percept shares with other percepts: pairs
+        ``(view, S)`` meaning an error ``S e_view`` with ``e_view ~ N(0, I_k)`` common to every
+        percept carrying the same ``view`` id, e.g. the head's joint-encoder errors of one look,
+        ``S = J diag(encoder_sigma)`` (:func:`perception.simulate_scan`); fusion sums the
+        weighted loadings of its raw percepts.  Two percepts are then correlated,
+        ``Cov(p_i, p_j) = sum over common views of S_i S_j^T``.  ``covariance`` is the total and
+        must include ``sum S S^T`` (checked); view ids are distinct non-negative integers.
 
     Raises
     ------
@@ -43,6 +51,7 @@ class Percept:
     sigma: float
     covariance: NDArray[np.float64] | None = None
     views: int = 1
+    shared: tuple[tuple[int, NDArray[np.float64]], ...] = ()
 
     @guard
     def __post_init__(self) -> None:
@@ -58,6 +67,7 @@ class Percept:
             cov.setflags(write=False)
             object.__setattr__(self, "covariance", cov)
         object.__setattr__(self, "views", views)
+        object.__setattr__(self, "shared", _shared(self.shared, self.covariance, sigma))
 
     @property
     def range(self) -> float:
@@ -76,3 +86,39 @@ class Percept:
 
     def __hash__(self) -> int:
         return hash((self.type, tuple(self.position.tolist()), self.sigma, self.views))
+
+
+#: Largest number of shared error components (columns of one loading).
+MAX_SHARED_COLUMNS = 64
+
+
+def _shared(value: object, covariance: NDArray[np.float64] | None, sigma: float
+            ) -> tuple[tuple[int, NDArray[np.float64]], ...]:
+    """Validated ``shared`` loadings: distinct views, finite (3, k) blocks inside the total."""
+    if value is None or (isinstance(value, tuple | list) and len(value) == 0):
+        return ()
+    if isinstance(value, str | bytes) or not isinstance(value, tuple | list):
+        raise ShapeError(f"shared must be a sequence of (view, (3, k) loading) pairs, got "
+                         f"{type(value).__name__}")
+    out = []
+    seen: set[int] = set()
+    for i, item in enumerate(value):
+        if not isinstance(item, tuple | list) or len(item) != 2:
+            raise ShapeError(f"shared[{i}] must be a (view, loading) pair, got {item!r:.80}")
+        view = integer(f"shared[{i}] view", item[0], minimum=0)
+        if view in seen:
+            raise ShapeError(f"shared[{i}] repeats view {view}")
+        seen.add(view)
+        S = real_array(f"shared[{i}] loading", item[1])
+        if S.ndim != 2 or S.shape[0] != 3 or not 1 <= S.shape[1] <= MAX_SHARED_COLUMNS:
+            raise ShapeError(f"shared[{i}] loading must have shape (3, k) with 1 <= k <= "
+                             f"{MAX_SHARED_COLUMNS}, got shape {S.shape}")
+        S.setflags(write=False)
+        out.append((view, S))
+    total = np.eye(3) * sigma**2 if covariance is None else covariance
+    part = sum(S @ S.T for _, S in out)
+    gap = float(np.linalg.eigvalsh(total - part)[0])
+    if gap < -1e-9 * float(np.linalg.eigvalsh(total)[-1]):
+        raise ShapeError(f"shared loadings exceed the covariance: covariance - sum S S^T has the "
+                         f"eigenvalue {gap:.3g} (the covariance is the total error)")
+    return tuple(out)

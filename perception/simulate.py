@@ -260,6 +260,7 @@ def simulate_scan(
     min_sigma: float = 1e-4,
     yaw_deg: tuple[float, float] = (-70.0, 70.0),
     pitch_deg: tuple[float, float] = (-10.0, 10.0),
+    encoder_sigma: float | ArrayLike = 0.0,
 ) -> list[Percept] | tuple[list[Percept], NDArray[np.int64]]:
     """Raw percepts of a scanning head (one :class:`Percept` per detection per view).
 
@@ -288,6 +289,13 @@ def simulate_scan(
         In [0, 1].
     return_truth : bool
         Also return the index of the object behind each percept (-1: false percept).
+    encoder_sigma : float or (n_joints,) float
+        Standard deviation of each joint encoder (radians, >= 0; default 0: exact encoders).
+        Per view the head really stands at the read angles plus ``N(0, encoder_sigma^2)``, one
+        draw shared by every percept of the view; each percept then carries that shared part
+        as ``shared=((view, J diag(encoder_sigma)),)`` (``J`` the chain's
+        :meth:`~perception.KinematicChain.point_jacobian`) and its covariance is
+        ``sigma^2 I + J diag(encoder_sigma^2) J^T``.
 
     Returns
     -------
@@ -310,6 +318,14 @@ def simulate_scan(
     min_sigma = _positive("min_sigma", min_sigma)
     miss_rate = _rate("miss_rate", miss_rate)
     false_rate = _rate("false_rate", false_rate)
+    enc = real_array("encoder_sigma", encoder_sigma)
+    enc = np.full(chain.n_joints, float(enc)) if enc.ndim == 0 else enc
+    if enc.shape != (chain.n_joints,):
+        raise ShapeError(f"encoder_sigma must be a scalar or shape ({chain.n_joints},), "
+                         f"got shape {enc.shape}")
+    if np.any(enc < 0) or np.any(enc > 0.5):
+        i = int(np.flatnonzero((enc < 0) | (enc > 0.5))[0])
+        raise NonPositiveSigmaError(f"encoder_sigma[{i}] = {float(enc[i])!r} must lie in [0, 0.5] rad")
     pool = sorted(set(tps))
     Kinv = np.linalg.inv(rig.K1)
     w, h = rig.image_size
@@ -319,9 +335,11 @@ def simulate_scan(
     out_pos: list[NDArray[np.float64]] = []
     out_sig: list[NDArray[np.float64]] = []
     out_truth: list[NDArray[np.int64]] = []
-    for q in scan_angles(chain, n_views, yaw_deg, pitch_deg):
+    out_shared: list[list[tuple[tuple[int, NDArray[np.float64]], ...]]] = []
+    for view, q in enumerate(scan_angles(chain, n_views, yaw_deg, pitch_deg)):
         ego_from_cam = chain.ego_from_camera(q)
-        cam_from_world = np.linalg.inv(M @ ego_from_cam)
+        q_true = q + rng.standard_normal(q.shape) * enc if np.any(enc > 0) else q
+        cam_from_world = np.linalg.inv(M @ chain.ego_from_camera(q_true))
         P = (Xh @ cam_from_world.T)[:, :3]
         vis = (np.linalg.norm(P, axis=1) <= max_range) & rig.in_view(P)
         n_vis = int(vis.sum())
@@ -340,13 +358,18 @@ def simulate_scan(
         out_pos.append(ego)
         out_sig.append(sig)
         out_truth.append(np.concatenate([detected, -np.ones(n_false, dtype=np.int64)]).astype(np.int64))
+        out_shared.append([((view, chain.point_jacobian(q, c) * enc),) if np.any(enc > 0) else ()
+                           for c in cam])
     pos = np.vstack(out_pos) if out_pos else np.zeros((0, 3))
     sigs = np.concatenate(out_sig) if out_sig else np.zeros(0)
     truth = np.concatenate(out_truth) if out_truth else np.zeros(0, dtype=np.int64)
-    percepts = [
-        Percept(t, p, float(s), covariance=s**2 * np.eye(3))
-        for t, p, s in zip(out_types, pos, sigs, strict=True)
-    ]
+    shared = [sh for view in out_shared for sh in view]
+    percepts = []
+    for t, p, s, sh in zip(out_types, pos, sigs, shared, strict=True):
+        cov = s**2 * np.eye(3) + sum((S @ S.T for _, S in sh), np.zeros((3, 3)))
+        u = p / max(float(np.linalg.norm(p)), 1e-300)
+        range_sigma = float(np.sqrt(u @ cov @ u)) if sh else float(s)  # std of the range |p|
+        percepts.append(Percept(t, p, range_sigma, covariance=cov, shared=sh))
     if return_truth:
         return percepts, truth
     return percepts

@@ -78,6 +78,7 @@ from .validation import (
     pose_cost,
     rotation_only_covariance,
     self_check,
+    shared_view_covariance,
 )
 
 __all__ = [
@@ -542,6 +543,9 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
                 pose = sdp_pose
                 ctx.notes.append("the rotation SDP found a better pose than the local fit")
         cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
+        shared = [ctx.used[i].shared for i in p_i]
+        if any(shared):  # errors common to the percepts of one view (head encoders)
+            cov6 = cov6 + shared_view_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], shared)
         ctx.timings["position"] = time.perf_counter() - t0
         return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, None, check=False)
 

@@ -33,6 +33,7 @@ to it and asking every percept whether it agrees.  This module holds the pieces 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,6 +63,7 @@ __all__ = [
     "rotation_only_covariance",
     "ros_pose_covariance",
     "self_check",
+    "shared_view_covariance",
 ]
 
 #: 3-sigma gate (probability 0.9973) of the squared Mahalanobis distance of one 3D percept.
@@ -479,6 +481,54 @@ def calibrated_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDAr
         return _curved(world_from_ego, ego, covs, widened)
     except np.linalg.LinAlgError as exc:
         raise PoseError("pose_covariance is singular: the curved covariance is not defined") from exc
+
+
+def shared_view_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
+                           shared: Sequence[Sequence[tuple[int, NDArray]]]) -> NDArray[np.float64]:
+    """The 6x6 pose covariance (ROS order) that errors shared between percepts add to the
+    inverse Fisher information of the ML pose, which treats the percepts as independent.
+
+    Percept ``i`` carries loadings ``S_iv`` (``shared[i]``, pairs ``(view, S)`` as in
+    :class:`perception.Percept`): errors ``S_iv e_v`` with one ``e_v ~ N(0, I)`` per view.  The
+    ML pose weighs percept ``i`` by ``W_i = (R C_i R^T)^-1`` (``C_i`` its total covariance), so
+    to first order its error is ``H^-1 sum_i J_i^T W_i R eps_i`` with ``J_i`` the placement
+    Jacobian and ``H = sum J_i^T W_i J_i``.  The covariance of that sum is ``H`` plus the
+    cross terms of percepts sharing a view (the sandwich):
+
+        ``H^-1 (sum_v G_v G_v^T - sum_{i,v} g_iv g_iv^T) H^-1``,
+        ``g_iv = J_i^T W_i R S_iv``, ``G_v = sum_i g_iv``,
+
+    which is what this returns (zero when no two percepts share a view); add it to the pose
+    covariance.  When one view's encoder error dominates, every percept of that view moves
+    together and the independent bound is overconfident by the factor this corrects.
+    """
+    world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
+    if shared is None or isinstance(shared, str | bytes) or len(shared) != len(ego):
+        raise ShapeError(f"shared must hold one sequence of (view, loading) pairs per percept "
+                         f"({len(ego)}), got {shared!r:.80}")
+    R = world_from_ego[:3, :3]
+    J = _placement_jacobian(world_from_ego, ego)
+    W = np.linalg.inv(np.einsum("ij,kjl,ml->kim", R, covs, R))
+    JW = np.einsum("kai,kab->kib", J, W)  # (k, 6, 3)
+    H = np.einsum("kib,kbj->ij", JW, J)
+    G: dict[int, NDArray[np.float64]] = {}
+    own = np.zeros((6, 6))
+    for i, pairs in enumerate(shared):
+        for j, (view, S) in enumerate(pairs):
+            S = float_array(f"shared[{i}][{j}] loading", S, (3, None))
+            g = JW[i] @ R @ S
+            G[int(view)] = G[int(view)] + g if int(view) in G else g
+            own += g @ g.T
+    if not G:
+        return np.zeros((6, 6))
+    M = sum((g @ g.T for g in G.values()), np.zeros((6, 6))) - own
+    try:
+        Hinv = np.linalg.inv(H)
+    except np.linalg.LinAlgError as exc:
+        raise PoseError("the pose information is singular: the matched landmarks do not fix a "
+                        "6D pose") from exc
+    out = Hinv @ M @ Hinv
+    return 0.5 * (out + out.T)
 
 
 def rotation_only_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray, weights: NDArray,
