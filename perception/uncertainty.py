@@ -149,8 +149,8 @@ def pixel_footprint(
         raise PerceptionError(f"hfov must lie in (0, pi) radians, got {h!r}")
     if v >= np.pi:
         raise PerceptionError(f"vfov must lie in (0, pi) radians, got {v!r}")
-    w = integer("width", width, minimum=1)
-    hh = integer("height", height, minimum=1)
+    w = integer("width", width, minimum=1, maximum=10**9)
+    hh = integer("height", height, minimum=1, maximum=10**9)
     with np.errstate(over="ignore"):
         out = r**2 * (np.tan(h / w) * np.tan(v / hh))
     return _out(_result("the pixel footprint", out, "rho", r))

@@ -316,3 +316,11 @@ def test_project_far_point_names_index() -> None:
 def test_rng_seed_string_is_a_clear_error() -> None:
     with pytest.raises(PerceptionError, match="rng must be a numpy.random.Generator"):
         pc.simulate_percepts(["door"], WORLD[:1], I4, "seed")
+
+
+@pytest.mark.parametrize("arg", ["width", "height"])
+def test_pixel_footprint_huge_image_size_is_named(arg: str) -> None:
+    """Audit: an image size of 10**400 pixels overflowed float conversion; the message named no argument."""
+    kwargs = {"rho": 2.0, "hfov": 1.0, "vfov": 1.0, "width": 640, "height": 480, arg: 10**400}
+    with pytest.raises(PerceptionError, match=arg):
+        pc.pixel_footprint(**kwargs)
