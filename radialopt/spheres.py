@@ -145,7 +145,8 @@ def sphere_arrays(
         Two centres closer than ``tol.coincident`` (when ``check_centers``; callers that
         compute the pair distances anyway check them there).
     """
-    if isinstance(spheres, (str, bytes, GaussianSphere)) or not isinstance(spheres, Iterable):
+    if (isinstance(spheres, (str, bytes, GaussianSphere)) or not isinstance(spheres, Iterable)
+            or (isinstance(spheres, np.ndarray) and spheres.ndim == 0)):
         raise ShapeError(f"spheres must be a sequence of GaussianSphere, got {type(spheres).__name__}")
     spheres = list(spheres)
     for i, s in enumerate(spheres):

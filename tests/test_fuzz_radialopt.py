@@ -433,3 +433,15 @@ def test_every_status_is_listed():
     assert "degenerate" in ro.POSITION_STATUSES and "not_converged" in ro.POSITION_STATUSES
     assert set(ro.STATUSES) == {"optimal", "optimal_inaccurate", "infeasible", "error"}
     assert typing.get_args(ro.PositionStatus) == ro.POSITION_STATUSES
+
+
+@pytest.mark.parametrize("call", [
+    lambda s: ro.project_radii(s), lambda s: ro.project_radii(s, method="paper"),
+    lambda s: ro.common_point_exists(s), lambda s: ro.total_density(s, np.zeros(3)),
+    lambda s: ro.generate_hypotheses(s), lambda s: ro.estimate_position(s),
+    lambda s: ro.estimate_position(s, method="srls"), lambda s: ro.certify_position(s, np.zeros(3)),
+])
+def test_zero_d_array_as_spheres_is_a_named_error(call):
+    """Audit: a numpy 0-d array passed as ``spheres`` escaped as TypeError (iteration over a 0-d array)."""
+    with pytest.raises(ro.RadialError, match="spheres"):
+        call(np.array(2.0))
