@@ -20,22 +20,17 @@ Prints Markdown tables.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 
-# benchmarks/perception.py would shadow the perception package when this script runs directly
-_HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:] = [p for p in sys.path if os.path.abspath(p or ".") != _HERE]
+import numpy as np
+from scipy.spatial.transform import Rotation
 
-import numpy as np  # noqa: E402
-from scipy.spatial.transform import Rotation  # noqa: E402
-
-from perception.simulate import simulate_percepts  # noqa: E402
-from worldgraph import scenes  # noqa: E402
-from worldgraph.association import AssociationTolerances, associate  # noqa: E402
-from worldgraph.localize import localize  # noqa: E402
-from worldgraph.model import WorldModel  # noqa: E402
+from perception.simulate import simulate_percepts
+from worldgraph import scenes
+from worldgraph.association import AssociationTolerances, associate
+from worldgraph.localize import localize
+from worldgraph.model import WorldModel
 
 CHI2_6_3SIGMA = 20.06
 PERCEPT_TYPES = ("door", "handle", "drawer", "knob")

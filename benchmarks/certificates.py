@@ -101,8 +101,6 @@ def minima_rows(scenes: int, seed: int) -> list[str]:
 
 
 def pose_rows(trials: int, seed: int) -> list[str]:
-    here = os.path.dirname(os.path.abspath(__file__))  # benchmarks/perception.py shadows the package
-    sys.path[:] = [p for p in sys.path if os.path.abspath(p or ".") != here]
     from scipy.spatial.transform import Rotation
     from test_pose_certificate import best_translation, brute_force, scene
 

@@ -26,22 +26,17 @@ Prints a Markdown table (and progress on stderr).
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 
-# benchmarks/perception.py would shadow the perception package when this script runs directly
-_HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:] = [p for p in sys.path if os.path.abspath(p or ".") != _HERE]
+import numpy as np
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
 
-import numpy as np  # noqa: E402
-from scipy.spatial import cKDTree  # noqa: E402
-from scipy.spatial.transform import Rotation  # noqa: E402
-
-from perception import Percept  # noqa: E402
-from worldgraph import scenes  # noqa: E402
-from worldgraph.localize import localize  # noqa: E402
-from worldgraph.model import WorldModel  # noqa: E402
+from perception import Percept
+from worldgraph import scenes
+from worldgraph.localize import localize
+from worldgraph.model import WorldModel
 
 CHI2_6_3SIGMA = 20.06
 HEAD = 1.5

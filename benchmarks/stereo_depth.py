@@ -1,6 +1,6 @@
 """Time the perception layer and measure the depth-error model on real pixels.
 
-    python benchmarks/perception.py [--repeat 7]
+    python benchmarks/stereo_depth.py [--repeat 7]
 
 Prints Markdown tables: (a) mean-shift fusion of 200 raw percepts, (b) the SGBM depth-error
 table of the Middlebury motorcycle pair with the fitted depth factor of eq. 6, (c)
