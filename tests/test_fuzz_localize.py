@@ -449,3 +449,28 @@ def test_covariance_helpers_and_nearest(pcov, types) -> None:
     if near is not None:
         d2, obj, _ = near.query(POSE, x[: len(types)], C[: len(types)], None)
         assert np.all(obj >= 0)
+
+
+_EGO5 = np.random.default_rng(8).uniform(-3, 3, (5, 3))
+_COV5 = np.broadcast_to(0.01 * np.eye(3), (5, 3, 3)).copy()
+
+
+@pytest.mark.parametrize(("call", "name"), [
+    # world_points=None escaped as TypeError (None meant "not given" inside the shared check)
+    (lambda: val.pose_cost(POSE, _EGO5, _COV5, None), "world_points"),
+    (lambda: val.placed_mahalanobis(POSE, _EGO5, _COV5, None), "world_points"),
+    (lambda: val.self_check(POSE, _EGO5, _COV5, None, np.eye(6) * 1e-4), "world_points"),
+    # a non-iterable percepts escaped as TypeError
+    (lambda: val.percept_covariances(2.5), "percepts"),
+    (lambda: val.percept_covariances(np.array(2.0)), "percepts"),
+    (lambda: val.percept_covariances(None), "percepts"),
+    # the covariance argument is called covs here; messages said "covariances"
+    (lambda: val.pose_cost(POSE, _EGO5, math.nan, _EGO5), "covs"),
+    (lambda: val.rotation_only_covariance(POSE, _EGO5, np.zeros((2, 2)), np.ones(5), np.eye(3)), "covs"),
+    (lambda: val.self_check(POSE, _EGO5, -_COV5, _EGO5, np.eye(6) * 1e-4), "covs[0]"),
+])
+def test_validation_audit_cases_are_named_errors(call, name) -> None:
+    """Cases found by the independent audit: each must be a WorldGraphError naming the argument."""
+    with pytest.raises(wg.WorldGraphError) as info:
+        call()
+    assert name in str(info.value), str(info.value)

@@ -261,23 +261,25 @@ def _skew(v: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def _covariances(covariances: ArrayLike, k: int) -> NDArray[np.float64]:
-    """(k, 3, 3) symmetric positive-definite covariances (m^2), named by index when one is not."""
-    C = float_array("covariances", covariances, (k, 3, 3))
+def _covariances(covariances: ArrayLike, k: int, name: str = "covariances") -> NDArray[np.float64]:
+    """(k, 3, 3) symmetric positive-definite covariances (m^2), named by index when one is not.
+
+    ``name`` is the caller's argument name, used in the messages."""
+    C = float_array(name, covariances, (k, 3, 3))
     asym = np.abs(C - np.swapaxes(C, 1, 2)).max(axis=(1, 2)) > 1e-9 * np.abs(C).max(axis=(1, 2)) + 1e-300
     if asym.any():
         i = int(np.argmax(asym))
-        raise PoseError(f"covariances[{i}] must be symmetric, got {C[i].tolist()}")
+        raise PoseError(f"{name}[{i}] must be symmetric, got {C[i].tolist()}")
     ev = np.linalg.eigvalsh(C) if k else np.zeros((0, 3))
     bad = (ev[:, 0] <= 0) if k else np.zeros(0, bool)
     if bad.any():
         i = int(np.argmax(bad))
-        raise PoseError(f"covariances[{i}] must be symmetric positive definite (smallest eigenvalue "
+        raise PoseError(f"{name}[{i}] must be symmetric positive definite (smallest eigenvalue "
                         f"{ev[i, 0]:.3g})")
     out = (ev[:, 0] < 1e-100) | (ev[:, -1] > 1e100) if k else np.zeros(0, bool)
     if out.any():
         i = int(np.argmax(out))
-        raise PoseError(f"covariances[{i}] has eigenvalues {ev[i, 0]:.3g}..{ev[i, -1]:.3g} m^2, outside "
+        raise PoseError(f"{name}[{i}] has eigenvalues {ev[i, 0]:.3g}..{ev[i, -1]:.3g} m^2, outside "
                         "[1e-100, 1e100]: its inverse (the weight) under- or overflows")
     return C
 

@@ -75,13 +75,16 @@ CHI2_6_GATE = float(chi2.ppf(0.9973002039, 6))
 _ROS = np.array([3, 4, 5, 0, 1, 2])
 
 
-def _inputs(world_from_ego: object, ego: object, covs: object, world_points: object = None
-            ) -> tuple[NDArray, NDArray, NDArray, NDArray | None]:
+_ABSENT = object()  # world_points not taken by the caller (None is an invalid value, not "absent")
+
+
+def _inputs(world_from_ego: object, ego: object, covs: object, world_points: object = _ABSENT,
+            pose_name: str = "world_from_ego") -> tuple[NDArray, NDArray, NDArray, NDArray | None]:
     """Validated ``(world_from_ego (4, 4) rigid, ego (k, 3), covs (k, 3, 3) SPD, world_points (k, 3))``."""
-    T = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
+    T = rigid_transform(pose_name, world_from_ego, max_translation=MAX_POSE_COORDINATE)
     x = _points("ego", ego)
-    C = _covariances(covs, len(x))
-    y = None if world_points is None else _points("world_points", world_points, len(x))
+    C = _covariances(covs, len(x), "covs")
+    y = None if world_points is _ABSENT else _points("world_points", world_points, len(x))
     return T, x, C, y
 
 
@@ -116,7 +119,11 @@ def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
     """``(k, 3, 3)`` ego-frame covariances (m^2): ``covariance`` when given, else ``sigma^2 I``."""
     if percepts is None or isinstance(percepts, str | bytes):
         raise ArgumentTypeError(f"percepts must be a sequence of perception.Percept, got {percepts!r}")
-    percepts = list(percepts)
+    try:
+        percepts = list(percepts)
+    except TypeError as exc:
+        raise ArgumentTypeError(f"percepts must be a sequence of perception.Percept, got "
+                                f"{type(percepts).__name__} {percepts!r:.100}") from exc
     for i, p in enumerate(percepts):
         if not isinstance(p, Percept):
             raise ArgumentTypeError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
@@ -297,7 +304,7 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
         raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
     if not isinstance(nearest, NearestObjects):
         raise ArgumentTypeError(f"nearest must be a NearestObjects, got {type(nearest).__name__}")
-    T, ego, covs, _ = _inputs(start, ego, covs)
+    T, ego, covs, _ = _inputs(start, ego, covs, pose_name="start")
     max_rounds = strict_int("max_rounds", max_rounds, minimum=1, maximum=1000)
     gate = positive_float("gate", gate)
     try:
