@@ -216,7 +216,38 @@ def least_distance(G: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[NDAr
     """Solve ``min |z|^2 s.t. G z <= h`` exactly (Lawson-Hanson LDP via NNLS, then polish).
 
     Returns ``(z, status)`` with status ``"optimal"`` or ``"infeasible"``.
+
+    With many more rows than :data:`CONSTRAINT_GENERATION_ROWS` (every pair of many spheres) the
+    rows are generated: solve on the rows violated so far, add every row the answer violates,
+    repeat.  The answer of a subset that violates no row of the whole is the whole's optimum
+    (its feasible set contains the whole's), so this is exact; an infeasible subset means an
+    infeasible whole.
     """
+    n = G.shape[1]
+    if h.min() >= 0:
+        return np.zeros(n), "optimal"
+    if G.shape[0] > CONSTRAINT_GENERATION_ROWS:
+        tol = 1e-12 * max(float(np.abs(h).max()), 1.0)
+        rows = np.flatnonzero(h < 0)
+        for _ in range(G.shape[0]):
+            z, status = _least_distance_dense(G[rows], h[rows])
+            if status != "optimal":
+                return z, status
+            viol = np.flatnonzero(G @ z - h > tol)
+            new = np.setdiff1d(viol, rows, assume_unique=True)
+            if new.size == 0:
+                return z, status
+            rows = np.union1d(rows, new)
+        return _least_distance_dense(G, h)
+    return _least_distance_dense(G, h)
+
+
+#: Row count above which :func:`least_distance` generates its rows instead of passing all.
+CONSTRAINT_GENERATION_ROWS = 200
+
+
+def _least_distance_dense(G: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[NDArray[np.float64], str]:
+    """:func:`least_distance` on every row at once (NNLS, then the exact polish)."""
     n = G.shape[1]
     if h.min() >= 0:
         return np.zeros(n), "optimal"

@@ -401,3 +401,33 @@ def test_check_argument_is_validated():
 def test_exact_check_with_gmp_on_a_hard_instance(exact_mode):
     spheres = hard_spheres(HARD_SEEDS[0], n=5)
     assert ro.project_radii(spheres, method="cvxpy", check="exact").status == "optimal"
+
+
+# ------------------------------------------------------------- row generation (many spheres)
+@pytest.mark.parametrize("n", [25, 40, 70])
+def test_row_generation_equals_the_all_rows_solve(n):
+    """Above CONSTRAINT_GENERATION_ROWS rows the active set generates its rows; the answer
+    equals the solve on all rows at once and Clarabel's through cvxpy (independent)."""
+    from radialopt.projection import CONSTRAINT_GENERATION_ROWS, _least_distance_dense, least_distance
+    from radialopt.spheres import make_spheres
+
+    rng = np.random.default_rng(500 + n)
+    for trial in range(4):
+        c = rng.uniform(0, 10, (n, 3))
+        x = rng.uniform(2, 8, 3)
+        noise = [0.01, 0.05, 0.5, 2.0][trial]
+        r = np.abs(np.linalg.norm(c - x, axis=1) + rng.normal(0, noise, n))
+        s = rng.uniform(0.005, 0.2, n)
+        sol = ro.project_radii(make_spheres(c, r, s))
+        ref = ro.project_radii(make_spheres(c, r, s), method="cvxpy")
+        assert sol.status == ref.status == "optimal"
+        np.testing.assert_allclose(sol.radii, ref.radii, atol=1e-9)
+        # the same least-distance problem, whitened: generated rows against all rows
+        P = ro.RestrictionPolytope.from_spheres(make_spheres(c, r, s))
+        G = P.A * s[None, :]
+        h = P.b - P.A @ r
+        assert len(h) > CONSTRAINT_GENERATION_ROWS
+        z_gen, st_gen = least_distance(G, h)
+        z_all, st_all = _least_distance_dense(G, h)
+        assert st_gen == st_all == "optimal"
+        np.testing.assert_allclose(z_gen, z_all, atol=1e-10)
