@@ -187,7 +187,7 @@ class RadialProblem:
             raise ShapeError(f"i must be a sphere index in [0, {self.n}), got {i!r}")
         try:
             v = float(value)
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             raise RadialError(f"value must be a number, got {value!r}") from exc
         if not math.isfinite(v):
             raise NonFiniteError(f"value must be finite, got {value!r}")
@@ -199,7 +199,7 @@ class RadialProblem:
     def _vector(self, v: ArrayLike, name: str) -> np.ndarray:
         try:
             a = np.broadcast_to(np.asarray(v, dtype=np.float64), (self.n,)).copy()
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             raise ShapeError(f"{name} must be a scalar or shape ({self.n},), got {v!r}") from exc
         return a
 

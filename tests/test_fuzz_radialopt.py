@@ -445,3 +445,14 @@ def test_zero_d_array_as_spheres_is_a_named_error(call):
     """Audit: a numpy 0-d array passed as ``spheres`` escaped as TypeError (iteration over a 0-d array)."""
     with pytest.raises(ro.RadialError, match="spheres"):
         call(np.array(2.0))
+
+
+@pytest.mark.parametrize("call", [
+    lambda: ro.RadialProblem(4).fix_radius(1, 10**400),
+    lambda: ro.RadialProblem(4).bound_radii(lo=10**400),
+    lambda: ro.RadialProblem(4).bound_radii(hi=10**400),
+])
+def test_radial_problem_huge_int_is_a_package_error(call):
+    """Audit: an int of 10**400 escaped from float() as OverflowError."""
+    with pytest.raises(ro.RadialError, match="value|lo|hi"):
+        call()
