@@ -474,3 +474,15 @@ def test_validation_audit_cases_are_named_errors(call, name) -> None:
     with pytest.raises(wg.WorldGraphError) as info:
         call()
     assert name in str(info.value), str(info.value)
+
+
+@pytest.mark.parametrize(("call", "name"), [
+    (lambda: val.NearestObjects(WORLD, 2.5), "types"),
+    (lambda: val.NearestObjects(WORLD, np.array(2.0)), "types"),
+    (lambda: val.shared_view_covariance(POSE, _EGO5, _COV5, 2.5), "shared"),
+    (lambda: val.shared_view_covariance(POSE, _EGO5, _COV5, np.array(2.0)), "shared"),
+])
+def test_validation_non_sequence_arguments_are_named(call, name) -> None:
+    """Audit: non-iterable ``types``/``shared`` escaped as TypeError."""
+    with pytest.raises(wg.WorldGraphError, match=name):
+        call()

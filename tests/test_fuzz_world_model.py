@@ -873,3 +873,19 @@ def test_franka_bad_paths(tmp_path):
     bad.write_bytes(b"<mujoco>" + b"<worldbody><body>" * 3000 + b"</body></worldbody>" * 3000 + b"</mujoco>")
     with pytest.raises(wg.MalformedFileError, match="kitchen_env_model.xml"):
         franka.franka_kitchen_scene(tmp_path)
+
+
+_AUDIT_WORLD = WorldModel.from_arrays(["a", "b", "a"], np.eye(3))
+
+
+@pytest.mark.parametrize(("call", "name"), [
+    # a 0-d array escaped as TypeError (iteration over a 0-d array)
+    (lambda: _AUDIT_WORLD.subset(np.array(2.0)), "types"),
+    # from_dict named neither the argument nor the value ("<dict>: top level ...")
+    (lambda: WorldModel.from_dict(2.5), "data"),
+    (lambda: WorldModel.from_dict(None), "data"),
+])
+def test_audit_cases_are_named_errors(call, name):
+    """Cases found by the independent audit: a WorldGraphError whose message names the argument."""
+    with pytest.raises(wg.WorldGraphError, match=name):
+        call()

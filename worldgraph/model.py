@@ -957,7 +957,8 @@ class WorldModel:
         a single string is one type."""
         if isinstance(types, str):
             types = [types]
-        if types is None or isinstance(types, bytes | Mapping) or not isinstance(types, Iterable):
+        if (types is None or isinstance(types, bytes | Mapping) or not isinstance(types, Iterable)
+                or (isinstance(types, np.ndarray) and types.ndim == 0)):
             raise ArgumentTypeError(f"types must be an iterable of type names, got {_checks._short(types)}")
         keep = list(types)
         for k, t in enumerate(keep):
@@ -1020,7 +1021,7 @@ class WorldModel:
         return cls.from_dict(data, source=path)
 
     @classmethod
-    def from_dict(cls, data: Any, source: str = "<dict>") -> WorldModel:
+    def from_dict(cls, data: Any, source: str = "data") -> WorldModel:
         """Build from the dictionary of the file format, validating every entry."""
         def bad(msg: str) -> MalformedFileError:
             return MalformedFileError(f"{source}: {msg}")

@@ -237,7 +237,11 @@ class NearestObjects:
             raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
         if types is None or isinstance(types, str | bytes):
             raise ArgumentTypeError(f"types must be a sequence of type names, got {types!r}")
-        types = list(types)
+        try:
+            types = list(types)
+        except TypeError as exc:
+            raise ArgumentTypeError(f"types must be a sequence of type names, got "
+                                    f"{type(types).__name__} {types!r:.80}") from exc
         for i, t in enumerate(types):
             if not isinstance(t, str) or t not in world.type_index:
                 raise UnknownTypeError(f"types[{i}] = {t!r} is not a type of the world model")
@@ -510,7 +514,8 @@ def shared_view_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
     together and the independent bound is overconfident by the factor this corrects.
     """
     world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
-    if shared is None or isinstance(shared, str | bytes) or len(shared) != len(ego):
+    if (shared is None or isinstance(shared, str | bytes) or not isinstance(shared, Sequence | np.ndarray)
+            or (isinstance(shared, np.ndarray) and shared.ndim == 0) or len(shared) != len(ego)):
         raise ShapeError(f"shared must hold one sequence of (view, loading) pairs per percept "
                          f"({len(ego)}), got {shared!r:.80}")
     R = world_from_ego[:3, :3]
