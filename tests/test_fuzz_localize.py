@@ -486,3 +486,9 @@ def test_validation_non_sequence_arguments_are_named(call, name) -> None:
     """Audit: non-iterable ``types``/``shared`` escaped as TypeError."""
     with pytest.raises(wg.WorldGraphError, match=name):
         call()
+
+
+def test_percept_covariances_overflowing_sigma_is_named() -> None:
+    """Audit: a percept sigma of 1e300 m escaped as OverflowError from sigma**2."""
+    with pytest.raises(wg.WorldGraphError, match=r"percepts\[1\]\.sigma"):
+        val.percept_covariances([CLEAN[0], Percept(CLEAN[1].type, CLEAN[1].position, 1e300)])

@@ -129,6 +129,8 @@ def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
             raise ArgumentTypeError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
     out = np.empty((len(percepts), 3, 3))
     for k, p in enumerate(percepts):
+        if p.covariance is None and not p.sigma < 1e150:
+            raise OutOfRangeError(f"percepts[{k}].sigma = {p.sigma!r} m: its variance sigma^2 overflows")
         out[k] = p.covariance if p.covariance is not None else p.sigma**2 * np.eye(3)
     return out
 
