@@ -475,20 +475,30 @@ def check_world_and_percepts(world: WorldModel, percepts: Sequence[Percept]) -> 
     for k, p in enumerate(percepts):
         if not isinstance(p, Percept):
             raise ArgumentTypeError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
-        s = float(p.sigma)
-        if not (lo <= s <= hi):
-            raise OutOfRangeError(f"percepts[{k}].sigma = {s:.3g} m is outside [{lo:g}, {hi:g}] m, the range "
-                                  "the association and pose fits can handle (covariance scale "
-                                  f"{s * s:.3g} m^2)")
-        pos = np.asarray(p.position, dtype=np.float64)
-        if not np.all(np.abs(pos) <= MAX_COORDINATE):
-            raise OutOfRangeError(f"percepts[{k}].position = {pos.tolist()} exceeds {MAX_COORDINATE:g} m")
-        if p.covariance is not None:
-            ev = np.linalg.eigvalsh(np.asarray(p.covariance, dtype=np.float64))
-            if not (ev[0] >= lo * lo and ev[-1] <= hi * hi):
-                raise OutOfRangeError(f"percepts[{k}].covariance has eigenvalues {ev[0]:.3g}..{ev[-1]:.3g} "
-                                      f"m^2, outside [{lo * lo:g}, {hi * hi:g}] m^2 (the range the fits "
-                                      "can handle)")
+    if not percepts:
+        return percepts
+    # one vectorised pass (a Percept is already validated: finite, SPD); loops only to name
+    sig = np.array([float(p.sigma) for p in percepts])
+    bad = np.flatnonzero(~((sig >= lo) & (sig <= hi)))
+    if bad.size:
+        k = int(bad[0])
+        raise OutOfRangeError(f"percepts[{k}].sigma = {sig[k]:.3g} m is outside [{lo:g}, {hi:g}] m, the "
+                              "range the association and pose fits can handle (covariance scale "
+                              f"{sig[k] ** 2:.3g} m^2)")
+    pos = np.array([p.position for p in percepts], dtype=np.float64)
+    bad = np.flatnonzero(~np.all(np.abs(pos) <= MAX_COORDINATE, axis=1))
+    if bad.size:
+        k = int(bad[0])
+        raise OutOfRangeError(f"percepts[{k}].position = {pos[k].tolist()} exceeds {MAX_COORDINATE:g} m")
+    with_cov = [k for k, p in enumerate(percepts) if p.covariance is not None]
+    if with_cov:
+        ev = np.linalg.eigvalsh(np.array([percepts[k].covariance for k in with_cov], dtype=np.float64))
+        bad = np.flatnonzero(~((ev[:, 0] >= lo * lo) & (ev[:, -1] <= hi * hi)))
+        if bad.size:
+            k, e = with_cov[int(bad[0])], ev[int(bad[0])]
+            raise OutOfRangeError(f"percepts[{k}].covariance has eigenvalues {e[0]:.3g}..{e[-1]:.3g} "
+                                  f"m^2, outside [{lo * lo:g}, {hi * hi:g}] m^2 (the range the fits "
+                                  "can handle)")
     return percepts
 
 
