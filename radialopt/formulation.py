@@ -145,7 +145,13 @@ class RadialProblem:
         problem once.  Returns self, so calls chain."""
         if not callable(fn):
             raise RadialError(f"fn must be a callable of the radius variable, got {type(fn).__name__}")
-        cons = _as_constraints(fn(self.variables["radii"]))
+        try:
+            out = fn(self.variables["radii"])
+        except RadialError:
+            raise
+        except Exception as exc:  # the caller's callable: its failure is a bad fn argument
+            raise RadialError(f"fn raised {type(exc).__name__} on the radius variable: {exc}") from exc
+        cons = _as_constraints(out)
         if not cons:
             raise RadialError("fn returned no cvxpy constraint")
         self._extra.append(fn)

@@ -456,3 +456,9 @@ def test_radial_problem_huge_int_is_a_package_error(call):
     """Audit: an int of 10**400 escaped from float() as OverflowError."""
     with pytest.raises(ro.RadialError, match="value|lo|hi"):
         call()
+
+
+def test_add_constraint_callable_that_raises_is_a_named_error():
+    """Audit: a constraint callable raising ZeroDivisionError escaped from add_constraint."""
+    with pytest.raises(ro.RadialError, match="fn raised ZeroDivisionError"):
+        ro.RadialProblem(3).add_constraint(lambda x: 1 / 0)
