@@ -492,3 +492,17 @@ def test_percept_covariances_overflowing_sigma_is_named() -> None:
     """Audit: a percept sigma of 1e300 m escaped as OverflowError from sigma**2."""
     with pytest.raises(wg.WorldGraphError, match=r"percepts\[1\]\.sigma"):
         val.percept_covariances([CLEAN[0], Percept(CLEAN[1].type, CLEAN[1].position, 1e300)])
+
+
+@pytest.mark.parametrize("call", [
+    lambda e: wg.weighted_kabsch(e, _EGO5, np.ones(5)),
+    lambda e: refine_pose(e, _EGO5, _COV5, POSE),
+    lambda e: pose_information(POSE, e, _COV5),
+    lambda e: val.pose_cost(POSE, e, _COV5, _EGO5),
+    lambda e: val.curved_pose_covariance(POSE, e, _COV5, np.eye(6) * 1e-4),
+])
+def test_length_mismatch_names_the_reference_argument(call) -> None:
+    """Audit: an empty ego array gave "world_points must have shape (0, 3)", naming only the other
+    argument; the message now names the argument the length comes from as well."""
+    with pytest.raises(wg.WorldGraphError, match=r"like ego(_points)?\b"):
+        call(np.zeros((0, 3)))

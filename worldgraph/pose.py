@@ -37,8 +37,13 @@ COLLINEAR_TOL = 1e-9
 MAX_POSE_COORDINATE = 1e12
 
 
-def _points(name: str, x: ArrayLike, n: int | None = None) -> NDArray[np.float64]:
-    return float_array(name, x, (n, 3), max_abs=MAX_POSE_COORDINATE)
+def _points(name: str, x: ArrayLike, n: int | None = None, like: str = "") -> NDArray[np.float64]:
+    """(n, 3) points; ``like`` names the argument whose length ``n`` is (for the mismatch message)."""
+    out = float_array(name, x, (None, 3), max_abs=MAX_POSE_COORDINATE)
+    if n is not None and len(out) != n:
+        raise ShapeError(f"{name} must have shape ({n}, 3){f' like {like}' if like else ''}, "
+                         f"got shape {out.shape}")
+    return out
 
 
 def _point(name: str, x: ArrayLike) -> NDArray[np.float64]:
@@ -181,7 +186,7 @@ def weighted_rotation(ego_vectors: ArrayLike, world_vectors: ArrayLike, weights:
         flipping the least significant singular direction (Umeyama 1991).
     """
     x = _points("ego_vectors", ego_vectors)
-    y = _points("world_vectors", world_vectors, len(x))
+    y = _points("world_vectors", world_vectors, len(x), "ego_vectors")
     w = _weights(weights, len(x))
     return _proper_rotation((y * w[:, None]).T @ x)
 
@@ -207,7 +212,7 @@ def weighted_kabsch(ego_points: ArrayLike, world_points: ArrayLike, weights: Arr
         Translation, so that ``X ~ R x + t``.
     """
     x = _points("ego_points", ego_points)
-    y = _points("world_points", world_points, len(x))
+    y = _points("world_points", world_points, len(x), "ego_points")
     w = _weights(weights, len(x))
     wn = w / w.sum()
     cx = wn @ x
@@ -261,11 +266,15 @@ def _skew(v: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def _covariances(covariances: ArrayLike, k: int, name: str = "covariances") -> NDArray[np.float64]:
+def _covariances(covariances: ArrayLike, k: int, name: str = "covariances", like: str = ""
+                 ) -> NDArray[np.float64]:
     """(k, 3, 3) symmetric positive-definite covariances (m^2), named by index when one is not.
 
     ``name`` is the caller's argument name, used in the messages."""
-    C = float_array(name, covariances, (k, 3, 3))
+    C = float_array(name, covariances, (None, 3, 3))
+    if len(C) != k:
+        raise ShapeError(f"{name} must have shape ({k}, 3, 3){f' like {like}' if like else ''}, "
+                         f"got shape {C.shape}")
     asym = np.abs(C - np.swapaxes(C, 1, 2)).max(axis=(1, 2)) > 1e-9 * np.abs(C).max(axis=(1, 2)) + 1e-300
     if asym.any():
         i = int(np.argmax(asym))
@@ -296,7 +305,7 @@ def pose_information(world_from_ego: ArrayLike, ego_points: ArrayLike, covarianc
     """
     T = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
     x = _points("ego_points", ego_points)
-    C = _covariances(covariances, len(x))
+    C = _covariances(covariances, len(x), like="ego_points")
     R = T[:3, :3]
     W = np.linalg.inv(R @ C @ R.T)  # (k, 3, 3)
     H = np.concatenate([-_skew(x @ R.T), np.broadcast_to(np.eye(3), (len(x), 3, 3))], axis=2)
@@ -447,10 +456,10 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
         ``max_iter`` iterations (never reported as converged at the cap).
     """
     x = _points("ego_points", ego_points)
-    y = _points("world_points", world_points, len(x))
+    y = _points("world_points", world_points, len(x), "ego_points")
     if len(x) < 3:
         raise PoseError(f"ego_points must hold at least 3 correspondences for a pose, got {len(x)}")
-    C = _covariances(covariances, len(x))
+    C = _covariances(covariances, len(x), like="ego_points")
     T0 = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
     max_iter = strict_int("max_iter", max_iter, minimum=1)
     tol = positive_float("tol", tol, maximum=0.5)

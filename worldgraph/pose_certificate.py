@@ -135,10 +135,10 @@ def _problem(solver: str):
 def _check_inputs(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike
                   ) -> tuple[NDArray, NDArray, NDArray]:
     x = _points("ego_points", ego_points)
-    y = _points("world_points", world_points, len(x))
+    y = _points("world_points", world_points, len(x), "ego_points")
     if len(x) < 3:
         raise TooFewPerceptsError(f"ego_points must hold at least 3 matches for a pose, got {len(x)}")
-    C = _covariances(covariances, len(x))
+    C = _covariances(covariances, len(x), like="ego_points")
     return x, y, C
 
 

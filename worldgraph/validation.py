@@ -83,8 +83,8 @@ def _inputs(world_from_ego: object, ego: object, covs: object, world_points: obj
     """Validated ``(world_from_ego (4, 4) rigid, ego (k, 3), covs (k, 3, 3) SPD, world_points (k, 3))``."""
     T = rigid_transform(pose_name, world_from_ego, max_translation=MAX_POSE_COORDINATE)
     x = _points("ego", ego)
-    C = _covariances(covs, len(x), "covs")
-    y = None if world_points is _ABSENT else _points("world_points", world_points, len(x))
+    C = _covariances(covs, len(x), "covs", "ego")
+    y = None if world_points is _ABSENT else _points("world_points", world_points, len(x), "ego")
     return T, x, C, y
 
 
