@@ -889,3 +889,10 @@ def test_audit_cases_are_named_errors(call, name):
     """Cases found by the independent audit: a WorldGraphError whose message names the argument."""
     with pytest.raises(wg.WorldGraphError, match=name):
         call()
+
+
+@pytest.mark.parametrize("types", [[], (), iter([])])
+def test_subset_of_no_types_names_types(types):
+    """Audit: subset([]) raised "objects must hold at least one object", naming no argument of subset."""
+    with pytest.raises(wg.EmptyWorldError, match="types"):
+        _AUDIT_WORLD.subset(types)

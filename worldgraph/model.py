@@ -965,6 +965,9 @@ class WorldModel:
             self._check_known_type(t, f"types[{k}]")
         keep = set(keep)
         objs = tuple(o for o in self.objects if o.type in keep)
+        if not objs:
+            raise EmptyWorldError(f"types must name at least one type of the world, got "
+                                  f"{_checks._short(types)}")
         cv = {o.geometry: self.class_vertices[o.geometry] for o in objs}
         return WorldModel(objs, self.max_link_length, cv, scene=None, link_margin=self.link_margin,
                           room=self.room)
