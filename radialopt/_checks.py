@@ -32,11 +32,12 @@ def _index(idx: tuple[int, ...]) -> str:
 
 
 def real_array(value: Any, name: str, shape: tuple[int | str | None, ...] | None = None,
-               ndim: tuple[int, ...] | None = None, max_abs: float | None = MAX_LENGTH
-               ) -> NDArray[np.float64]:
+               ndim: tuple[int, ...] | None = None, max_abs: float | None = MAX_LENGTH,
+               like: str = "") -> NDArray[np.float64]:
     """``value`` as a float64 array of real, finite numbers.
 
     ``shape`` may hold None (shown as ``n``) or a label such as ``"k"`` for any length;
+    ``like`` names the argument the expected shape comes from (for the message).
     ``ndim`` lists accepted dimension counts.  Bools,
     complex numbers, strings, None and ragged sequences are rejected (:class:`ShapeError`),
     NaN and infinities too (:class:`NonFiniteError`), magnitudes above ``max_abs``
@@ -76,7 +77,8 @@ def real_array(value: Any, name: str, shape: tuple[int | str | None, ...] | None
             isinstance(want, int) and got != want for got, want in zip(arr.shape, shape, strict=True))):
         want_s = "(" + ", ".join("n" if w is None else str(w) for w in shape) + ("," if len(shape) == 1
                                                                                   else "") + ")"
-        raise ShapeError(f"{name} must have shape {want_s}, got shape {arr.shape}")
+        raise ShapeError(f"{name} must have shape {want_s}{f' like {like}' if like else ''}, "
+                         f"got shape {arr.shape}")
     finite = np.isfinite(arr)
     if not np.all(finite):
         idx = tuple(np.argwhere(~finite)[0])

@@ -231,7 +231,7 @@ def _check_crlb_input(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike
     c = real_array(centers, "centers", shape=(None, 3))
     if len(c) == 0:
         raise ShapeError("centers must hold at least one centre, got shape (0, 3)")
-    s = real_array(sigmas, "sigmas", shape=(len(c),), max_abs=MAX_SIGMA)
+    s = real_array(sigmas, "sigmas", shape=(len(c),), max_abs=MAX_SIGMA, like="centers")
     x = point3(position, "position")
     sigma_range(s, "sigmas", max(float(np.abs(c).max()), float(np.abs(x).max())))
     return c, s, x
@@ -497,8 +497,8 @@ def srls(centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike,
         ``(0, 3)`` array when the centres are collinear or fewer than three.
     """
     c = real_array(centers, "centers", shape=(None, 3))
-    r = real_array(radii, "radii", shape=(len(c),))
-    s = real_array(sigmas, "sigmas", shape=(len(c),), max_abs=MAX_SIGMA)
+    r = real_array(radii, "radii", shape=(len(c),), like="centers")
+    s = real_array(sigmas, "sigmas", shape=(len(c),), max_abs=MAX_SIGMA, like="centers")
     rank_tol = real_scalar(rank_tol, "rank_tol", 0.0, 1.0)
     bad = np.flatnonzero(r < 0)
     if bad.size:

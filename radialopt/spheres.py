@@ -185,7 +185,7 @@ def make_spheres(
 ) -> list[GaussianSphere]:
     """Build spheres from ``centers (n, 3)``, ``radii (n,)``, ``sigmas (n,)`` (a scalar broadcasts)."""
     c = real_array(centers, "centers", shape=(None, 3))
-    r = real_array(radii, "radii", shape=(len(c),))
+    r = real_array(radii, "radii", shape=(len(c),), like="centers")
     s = real_array(sigmas, "sigmas", ndim=(0, 1), max_abs=MAX_SIGMA)
     s = np.broadcast_to(s, r.shape) if s.ndim == 0 else s
     if s.shape != r.shape:
@@ -223,8 +223,8 @@ def total_density(spheres: Sequence[GaussianSphere], x: ArrayLike) -> NDArray[np
 def radial_density(radii: ArrayLike, measured: ArrayLike, sigmas: ArrayLike) -> float:
     """Eq. 18/20 in radial space: ``exp(-1/2 |H (radii - measured)|^2)``, H = diag(1/sigma)."""
     x = real_array(radii, "radii", ndim=(1,))
-    m = real_array(measured, "measured", shape=x.shape)
-    s = real_array(sigmas, "sigmas", shape=x.shape, max_abs=MAX_SIGMA)
+    m = real_array(measured, "measured", shape=x.shape, like="radii")
+    s = real_array(sigmas, "sigmas", shape=x.shape, max_abs=MAX_SIGMA, like="radii")
     sigma_range(s, "sigmas", max(float(np.abs(np.r_[x, m]).max(initial=0.0)), 1.0))
     z = (x - m) / s
     return float(np.exp(-0.5 * float(z @ z)))

@@ -462,3 +462,14 @@ def test_add_constraint_callable_that_raises_is_a_named_error():
     """Audit: a constraint callable raising ZeroDivisionError escaped from add_constraint."""
     with pytest.raises(ro.RadialError, match="fn raised ZeroDivisionError"):
         ro.RadialProblem(3).add_constraint(lambda x: 1 / 0)
+
+
+@pytest.mark.parametrize(("call", "like"), [
+    (lambda: ro.make_spheres(np.zeros((0, 3)), RADII, SIGMAS), "centers"),
+    (lambda: ro.srls(np.zeros((0, 3)), RADII, SIGMAS), "centers"),
+    (lambda: ro.radial_density([], RADII, SIGMAS), "radii"),
+])
+def test_length_mismatch_names_the_reference_argument(call, like):
+    """Audit: an empty centers gave "radii must have shape (0,)", naming only the other argument."""
+    with pytest.raises(ro.RadialError, match=f"like {like}"):
+        call()
