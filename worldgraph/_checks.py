@@ -255,3 +255,16 @@ def name_string(name: str, value: Any, error: type[WorldGraphError] = WorldGraph
     if "\x00" in value:
         raise error(f"{name} must not contain NUL characters, got {_short(value)}")
     return value
+
+
+def as_list(name: str, value: Any, what: str, *, exclude: tuple[type, ...] = ()) -> list[Any]:
+    """A sequence as a list: not None, a string, bytes, a dict or one of ``exclude`` (a lone
+    element); :class:`ArgumentTypeError` saying it must be a sequence of ``what`` otherwise."""
+    if value is None or isinstance(value, (str, bytes, dict, *exclude)):
+        raise ArgumentTypeError(f"{name} must be a sequence of {what}, got {type(value).__name__} "
+                                f"{_short(value, 80)}")
+    try:
+        return list(value)
+    except TypeError as exc:
+        raise ArgumentTypeError(f"{name} must be a sequence of {what}, got {type(value).__name__} "
+                                f"{_short(value, 80)}") from exc

@@ -44,7 +44,7 @@ from scipy.spatial import cKDTree
 
 from perception import Percept
 
-from ._checks import finite_float, positive_float, rigid_transform, strict_int
+from ._checks import as_list, finite_float, positive_float, rigid_transform, strict_int
 from .errors import (
     ArgumentTypeError,
     EmptyWorldError,
@@ -463,14 +463,7 @@ def check_world_and_percepts(world: WorldModel, percepts: Sequence[Percept]) -> 
         raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
     if len(world) == 0:
         raise EmptyWorldError("the world model has no objects")
-    if percepts is None or isinstance(percepts, str | bytes | dict) or isinstance(percepts, Percept):
-        raise ArgumentTypeError("percepts must be a sequence of perception.Percept, "
-                                f"got {type(percepts).__name__}")
-    try:
-        percepts = list(percepts)
-    except TypeError as exc:
-        raise ArgumentTypeError(f"percepts must be a sequence of perception.Percept, "
-                                f"got {type(percepts).__name__}") from exc
+    percepts = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
     lo, hi = SIGMA_RANGE
     for k, p in enumerate(percepts):
         if not isinstance(p, Percept):

@@ -44,7 +44,7 @@ from scipy.stats import chi2
 
 from perception import Percept
 
-from ._checks import float_array, positive_float, rigid_transform, strict_int
+from ._checks import as_list, float_array, positive_float, rigid_transform, strict_int
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
 from .model import WorldModel
 from .pose import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, refine_pose
@@ -117,13 +117,7 @@ def _covariance_or_unknown(name: str, value: object, n: int) -> NDArray[np.float
 
 def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
     """``(k, 3, 3)`` ego-frame covariances (m^2): ``covariance`` when given, else ``sigma^2 I``."""
-    if percepts is None or isinstance(percepts, str | bytes):
-        raise ArgumentTypeError(f"percepts must be a sequence of perception.Percept, got {percepts!r}")
-    try:
-        percepts = list(percepts)
-    except TypeError as exc:
-        raise ArgumentTypeError(f"percepts must be a sequence of perception.Percept, got "
-                                f"{type(percepts).__name__} {percepts!r:.100}") from exc
+    percepts = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
     for i, p in enumerate(percepts):
         if not isinstance(p, Percept):
             raise ArgumentTypeError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
@@ -237,13 +231,7 @@ class NearestObjects:
     def __init__(self, world: WorldModel, types: list[str], k: int = 4) -> None:
         if not isinstance(world, WorldModel):
             raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
-        if types is None or isinstance(types, str | bytes):
-            raise ArgumentTypeError(f"types must be a sequence of type names, got {types!r}")
-        try:
-            types = list(types)
-        except TypeError as exc:
-            raise ArgumentTypeError(f"types must be a sequence of type names, got "
-                                    f"{type(types).__name__} {types!r:.80}") from exc
+        types = as_list("types", types, "type names")
         for i, t in enumerate(types):
             if not isinstance(t, str) or t not in world.type_index:
                 raise UnknownTypeError(f"types[{i}] = {t!r} is not a type of the world model")
