@@ -344,3 +344,15 @@ def test_ball_query_path_equals_brute_force_path(seed: int) -> None:
     assert [h.pairs for h in brute] == [h.pairs for h in tree]
     assert [h.cost for h in brute] == pytest.approx([h.cost for h in tree])
     assert tree[0].pairs == tuple((p, int(o)) for p, o in enumerate(truth))
+
+
+def test_orientation_filter_names_percepts_when_they_do_not_match_the_proximity_result() -> None:
+    from worldgraph.errors import WorldGraphError
+
+    rng = np.random.default_rng(5)
+    world = random_world(rng)
+    pose = random_pose(rng, world)
+    percepts = exact_percepts(world, pose, nearest_objects(world, pose, 5))
+    prox = proximity_filter(world, percepts)
+    with pytest.raises(WorldGraphError, match=r"percepts has 4 percepts but proximity\['objects'\] has 5"):
+        orientation_filter(world, percepts[:4], prox)

@@ -1080,9 +1080,12 @@ def _check_proximity(world: WorldModel, percepts: list[Percept], proximity: obje
         raise ArgumentTypeError("proximity must be the dict returned by proximity_filter (with 'objects' and "
                                 f"'adjacency'), got {type(proximity).__name__}")
     objects_in, adjacency = proximity["objects"], proximity["adjacency"]
-    if not isinstance(objects_in, list | tuple) or len(objects_in) != k or not isinstance(adjacency, dict):
-        raise ShapeError(f"proximity['objects'] must hold one object array per percept ({k}), and "
-                         "proximity['adjacency'] must be a dict")
+    if not isinstance(objects_in, list | tuple) or not isinstance(adjacency, dict):
+        raise ShapeError("proximity['objects'] must be a list of object arrays and proximity['adjacency'] a "
+                         f"dict, got {type(objects_in).__name__} and {type(adjacency).__name__}")
+    if len(objects_in) != k:
+        raise ShapeError(f"percepts has {k} percepts but proximity['objects'] has {len(objects_in)} entries: "
+                         "pass the percepts proximity_filter was given")
     objects = []
     for p, o in enumerate(objects_in):
         arr = np.asarray(o)
