@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import contextlib
 import io
-import math
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -189,17 +188,11 @@ class RadialProblem:
 
     def fix_radius(self, i: int, value: float) -> RadialProblem:
         """Constrain ``radii[i] == value`` (metres)."""
-        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not -self.n <= i < self.n:
+        i = integer(i, "i")
+        if not -self.n <= i < self.n:
             raise ShapeError(f"i must be a sphere index in [0, {self.n}), got {i!r}")
-        try:
-            v = float(value)
-        except (TypeError, ValueError, OverflowError) as exc:
-            raise RadialError(f"value must be a number, got {value!r}") from exc
-        if not math.isfinite(v):
-            raise NonFiniteError(f"value must be finite, got {value!r}")
-        if v < 0:
-            raise RadialError(f"value must be a radius >= 0, got {value!r}")
-        idx = int(i) % self.n
+        v = real_scalar(value, "value", 0.0)  # a radius, metres
+        idx = i % self.n
         return self.add_constraint(lambda x: [x[idx] == v])
 
     def _vector(self, v: ArrayLike, name: str) -> np.ndarray:
