@@ -47,7 +47,7 @@ from perception import Percept
 from ._checks import as_list, float_array, positive_float, rigid_transform, strict_int
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
 from .model import WorldModel
-from .pose import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, refine_pose
+from .pose import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, pose_information, refine_pose
 
 __all__ = [
     "CHI2_3_GATE",
@@ -512,7 +512,6 @@ def shared_view_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
     J = _placement_jacobian(world_from_ego, ego)
     W = np.linalg.inv(np.einsum("ij,kjl,ml->kim", R, covs, R))
     JW = np.einsum("kai,kab->kib", J, W)  # (k, 6, 3)
-    H = np.einsum("kib,kbj->ij", JW, J)
     G: dict[int, NDArray[np.float64]] = {}
     own = np.zeros((6, 6))
     for i, pairs in enumerate(shared):
@@ -524,11 +523,7 @@ def shared_view_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
     if not G:
         return np.zeros((6, 6))
     M = sum((g @ g.T for g in G.values()), np.zeros((6, 6))) - own
-    try:
-        Hinv = np.linalg.inv(H)
-    except np.linalg.LinAlgError as exc:
-        raise PoseError("the pose information is singular: the matched landmarks do not fix a "
-                        "6D pose") from exc
+    Hinv = ros_pose_covariance(pose_information(world_from_ego, ego, covs))  # H^-1, ROS order
     out = Hinv @ M @ Hinv
     return 0.5 * (out + out.T)
 
