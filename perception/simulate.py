@@ -326,6 +326,7 @@ def simulate_scan(
     if np.any(enc < 0) or np.any(enc > 0.5):
         i = int(np.flatnonzero((enc < 0) | (enc > 0.5))[0])
         raise NonPositiveSigmaError(f"encoder_sigma[{i}] = {float(enc[i])!r} must lie in [0, 0.5] rad")
+    encoders_err = bool(np.any(enc > 0))  # draw nothing extra when exact: seeded scans stay as they were
     pool = sorted(set(tps))
     Kinv = np.linalg.inv(rig.K1)
     w, h = rig.image_size
@@ -338,7 +339,7 @@ def simulate_scan(
     out_shared: list[list[tuple[tuple[int, NDArray[np.float64]], ...]]] = []
     for view, q in enumerate(scan_angles(chain, n_views, yaw_deg, pitch_deg)):
         ego_from_cam = chain.ego_from_camera(q)
-        q_true = q + rng.standard_normal(q.shape) * enc if np.any(enc > 0) else q
+        q_true = q + rng.standard_normal(q.shape) * enc if encoders_err else q
         cam_from_world = np.linalg.inv(M @ chain.ego_from_camera(q_true))
         P = (Xh @ cam_from_world.T)[:, :3]
         vis = (np.linalg.norm(P, axis=1) <= max_range) & rig.in_view(P)
@@ -358,7 +359,7 @@ def simulate_scan(
         out_pos.append(ego)
         out_sig.append(sig)
         out_truth.append(np.concatenate([detected, -np.ones(n_false, dtype=np.int64)]).astype(np.int64))
-        out_shared.append([((view, chain.point_jacobian(q, c) * enc),) if np.any(enc > 0) else ()
+        out_shared.append([((view, chain.point_jacobian(q, c) * enc),) if encoders_err else ()
                            for c in cam])
     pos = np.vstack(out_pos) if out_pos else np.zeros((0, 3))
     sigs = np.concatenate(out_sig) if out_sig else np.zeros(0)
