@@ -15,6 +15,8 @@ from perception import Percept
 from perception.simulate import simulate_percepts
 from worldgraph.association import (
     AssociationTolerances,
+    _Graph,
+    _prune,
     associate,
     discriminator,
     is_ambiguous,
@@ -115,6 +117,28 @@ def test_maximum_cliques_match_networkx(graph, near: int, min_size: int) -> None
     thr = max(best - near, min_size)
     expected = {c for c in cliques if len(c) >= thr} if best >= min_size else set()
     assert set(res.cliques) == expected
+
+
+@given(kpartite(), st.integers(1, 6))
+def test_prune_matches_node_by_node_reference_on_networkx(graph, need: int) -> None:
+    """The vectorised pruning equals the obvious loop: drop, until nothing changes, every vertex
+    whose alive neighbours lie in fewer than ``need - 1`` distinct other parts."""
+    sizes, adjacency = graph
+    g = to_networkx(sizes, adjacency)
+    alive = set(g.nodes)
+    changed = True
+    while changed:
+        changed = False
+        for node in sorted(alive):
+            parts = {q for q, _ in g.neighbors(node) if (q, _) in alive}
+            if len(parts) < need - 1:
+                alive.discard(node)
+                changed = True
+    edges = {key: (None if mat is None else tuple(np.nonzero(mat))) for key, mat in adjacency.items()}
+    objects = [np.arange(s, dtype=np.intp) for s in sizes]
+    got = _prune(_Graph(objects, edges), need)
+    assert [a.shape for a in got] == [(s,) for s in sizes]
+    assert {(p, a) for p, al in enumerate(got) for a in np.flatnonzero(al)} == alive
 
 
 def test_maximum_cliques_by_hand() -> None:

@@ -35,6 +35,7 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import networkx as nx
@@ -511,6 +512,24 @@ def _check_inputs(world: WorldModel, percepts: Sequence[Percept]) -> list[Percep
 
 
 @dataclass(frozen=True)
+class _SupportIndex:
+    """Edges of a :class:`_Graph` for vectorised pruning: global vertex ids ``u``/``v`` (vertex
+    ``a`` of part ``p`` is ``offsets[p] + a``); ``order`` sorts the ``2 E`` (vertex, other part)
+    keys of both edge ends, ``starts`` begins each distinct key and ``key_vertex`` is its vertex;
+    ``free_p``/``free_q`` are the unconstrained part pairs."""
+
+    offsets: NDArray[np.int64]
+    part_of: NDArray[np.int64]
+    u: NDArray[np.int64]
+    v: NDArray[np.int64]
+    order: NDArray[np.intp]
+    starts: NDArray[np.intp]
+    key_vertex: NDArray[np.int64]
+    free_p: NDArray[np.int64]
+    free_q: NDArray[np.int64]
+
+
+@dataclass(frozen=True)
 class _Graph:
     """Consistency graph: part p = percept p, its vertices = objects of p's type.
 
@@ -520,6 +539,38 @@ class _Graph:
 
     objects: list[NDArray[np.intp]]          # per percept: global object indices (local -> global)
     edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None]
+
+    @cached_property
+    def support_index(self) -> _SupportIndex:
+        """All constrained edges as global vertex ids, grouped by (vertex, other part) once, for
+        :func:`_prune` (which runs once per clique size tried)."""
+        k = len(self.objects)
+        sizes = np.array([len(o) for o in self.objects], dtype=np.int64)
+        off = np.concatenate([[0], np.cumsum(sizes)])
+        us, vs, pus, pvs, free = [], [], [], [], []
+        for (p, q), e in self.edges.items():
+            if e is None:
+                free.append((p, q))
+                continue
+            a, b = e
+            us.append(off[p] + np.asarray(a, dtype=np.int64))
+            vs.append(off[q] + np.asarray(b, dtype=np.int64))
+            pus.append(np.full(len(a), p, dtype=np.int64))
+            pvs.append(np.full(len(b), q, dtype=np.int64))
+
+        def cat(x: list[NDArray]) -> NDArray[np.int64]:
+            return np.concatenate(x) if x else np.zeros(0, dtype=np.int64)
+
+        u, v = cat(us), cat(vs)
+        keys = np.concatenate([u * k + cat(pvs), v * k + cat(pus)])
+        order = np.argsort(keys, kind="stable")
+        sk = keys[order]
+        starts = np.flatnonzero(np.concatenate([[True], sk[1:] != sk[:-1]])) if len(sk) else \
+            np.zeros(0, dtype=np.intp)
+        fr = np.array(free, dtype=np.int64).reshape(-1, 2)
+        return _SupportIndex(offsets=off, part_of=np.repeat(np.arange(k, dtype=np.int64), sizes), u=u, v=v,
+                             order=order, starts=starts, key_vertex=sk[starts] // k if len(sk) else sk,
+                             free_p=fr[:, 0], free_q=fr[:, 1])
 
     def dense(self, alive: list[NDArray[np.bool_]]
               ) -> tuple[list[NDArray[np.intp]], dict[tuple[int, int], NDArray[np.bool_] | None]]:
@@ -608,32 +659,32 @@ def _consistency_graph(world: WorldModel, percepts: list[Percept], tol: Associat
 
 
 def _prune(graph: _Graph, need: int) -> list[NDArray[np.bool_]]:
-    """Vertices that have compatible vertices in at least ``need - 1`` other parts (iterated)."""
-    k = len(graph.objects)
-    alive = [np.ones(len(o), dtype=bool) for o in graph.objects]
-    changed = True
-    while changed:
-        changed = False
-        support = [np.zeros(len(o), dtype=np.int64) for o in graph.objects]
-        for (p, q), e in graph.edges.items():
-            if e is None:
-                support[p] += bool(alive[q].any())
-                support[q] += bool(alive[p].any())
-                continue
-            a, b = e
-            keep = alive[p][a] & alive[q][b]
-            hp = np.zeros(len(alive[p]), dtype=bool)
-            hq = np.zeros(len(alive[q]), dtype=bool)
-            hp[a[keep]] = True
-            hq[b[keep]] = True
-            support[p] += hp
-            support[q] += hq
-        for p in range(k):
-            keep = alive[p] & (support[p] >= need - 1)
-            if keep.sum() != alive[p].sum():
-                alive[p] = keep
-                changed = True
-    return alive
+    """Vertices that have compatible vertices in at least ``need - 1`` other parts (iterated).
+
+    Vectorised over all edges at once (see :meth:`_Graph.support_index`): a vertex's support is
+    the number of distinct other parts holding an alive neighbour, plus the unconstrained part
+    pairs whose other part still has an alive vertex.
+    """
+    ix = graph.support_index
+    k, off = len(graph.objects), ix.offsets
+    alive = np.ones(int(off[-1]), dtype=bool)
+    while True:
+        keep = alive[ix.u] & alive[ix.v]
+        support = np.zeros(len(alive), dtype=np.int64)
+        if len(ix.starts):
+            hit = np.logical_or.reduceat(np.concatenate([keep, keep])[ix.order], ix.starts)
+            support += np.bincount(ix.key_vertex[hit], minlength=len(alive))
+        if len(ix.free_p):
+            has = np.zeros(k, dtype=bool)
+            has[ix.part_of[alive]] = True
+            free = np.bincount(ix.free_p, weights=has[ix.free_q], minlength=k) + \
+                np.bincount(ix.free_q, weights=has[ix.free_p], minlength=k)
+            support += free.astype(np.int64)[ix.part_of]
+        new = alive & (support >= need - 1)
+        if np.array_equal(new, alive):
+            break
+        alive = new
+    return [alive[off[p]:off[p + 1]].copy() for p in range(k)]
 
 
 # ----------------------------------------------------------------------------------------------
