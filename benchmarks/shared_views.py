@@ -2,12 +2,13 @@
 
 Each trial: the procedural kitchen, a robot at a random pose, a 20-view scan whose joint encoders
 err by ``encoder_sigma`` (one draw per view, shared by its percepts) on top of the stereo noise,
-fusion, then ``localize(method="ml")`` twice: with the percepts' shared loadings
+fusion, then ``localize`` twice per method (``--methods``, default "ml" and the range-only
+"spheres"): with the percepts' shared loadings
 (``Percept.shared``) and with the same percepts stripped of them (independent errors). The table
 gives the share of trials whose 6D pose error lies inside its 3-sigma gate (chi-square, 6 dof,
 0.9973) and the mean NEES (6 when the covariance is right).
 
-    python benchmarks/shared_views.py --trials 50
+    python benchmarks/shared_views.py --trials 50 [--methods ml spheres]
 """
 
 from __future__ import annotations
@@ -33,12 +34,13 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=50)
     ap.add_argument("--encoder-deg", type=float, nargs="*", default=[0.05, 0.3])
     ap.add_argument("--depth-factor", type=float, default=3000.0)
+    ap.add_argument("--methods", nargs="*", default=["ml", "spheres"])
     args = ap.parse_args()
     world = scenes.kitchen(seed=0)
-    print("| encoder sigma | trials | answered | inside 3 sigma, shared counted | mean NEES | "
+    print("| method | encoder sigma | trials | answered | inside 3 sigma, shared counted | mean NEES | "
           "inside 3 sigma, independent | mean NEES |")
-    print("|---|---|---|---|---|---|---|")
-    for enc in args.encoder_deg:
+    print("|---|---|---|---|---|---|---|---|")
+    for method, enc in ((m, e) for m in args.methods for e in args.encoder_deg):
         rows: list[tuple[float, float]] = []
         for seed in range(args.trials):
             rng = np.random.default_rng(1000 + seed)
@@ -50,7 +52,7 @@ def main() -> None:
             fused = pc.fuse_percepts(raw)
             plain = [pc.Percept(p.type, p.position, p.sigma, covariance=p.covariance, views=p.views)
                      for p in fused]
-            res, r0 = localize(world, fused), localize(world, plain)
+            res, r0 = localize(world, fused, method=method), localize(world, plain, method=method)
             if res.status not in ("ok", "weak", "ambiguous") or r0.status not in ("ok", "weak", "ambiguous"):
                 continue
             e = ros_error(T, res.transformation)
@@ -59,8 +61,8 @@ def main() -> None:
                          float(e0 @ np.linalg.solve(r0.pose_covariance, e0))))
         a = np.array(rows).reshape(-1, 2)
         cover = 100 * np.mean(a <= CHI2_6_GATE, axis=0)
-        print(f"| {enc:g} deg | {args.trials} | {len(a)} | {cover[0]:.1f} % | {a[:, 0].mean():.2f} | "
-              f"{cover[1]:.1f} % | {a[:, 1].mean():.1f} |", flush=True)
+        print(f"| {method} | {enc:g} deg | {args.trials} | {len(a)} | {cover[0]:.1f} % | "
+              f"{a[:, 0].mean():.2f} | {cover[1]:.1f} % | {a[:, 1].mean():.1f} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -8,10 +8,17 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import perception as pc
+import radialopt as ro
 from worldgraph import scenes
 from worldgraph.localize import localize
-from worldgraph.pose import pose_information, refine_pose
-from worldgraph.validation import CHI2_6_GATE, ros_pose_covariance, shared_view_covariance
+from worldgraph.pose import pose_information, refine_pose, transformation, weighted_rotation
+from worldgraph.validation import (
+    CHI2_6_GATE,
+    ros_pose_covariance,
+    rotation_only_covariance,
+    shared_range_covariance,
+    shared_view_covariance,
+)
 
 
 def ros_error(true: np.ndarray, est: np.ndarray) -> np.ndarray:
@@ -58,6 +65,67 @@ def test_sandwich_matches_monte_carlo_of_the_ml_pose() -> None:
     nees = np.einsum("ni,ij,nj->n", errs, np.linalg.inv(total), errs)
     assert 5.2 < nees.mean() < 6.8
     np.testing.assert_allclose(np.sqrt(np.diag(emp)), np.sqrt(np.diag(total)), rtol=0.12)
+
+
+def test_range_only_shared_term_matches_monte_carlo() -> None:
+    """Range-only position (ML over the Gaussian spheres) then the rotation with the position
+    fixed: each view's percepts share a 0.3 deg head rotation about a neck pivot off the ego
+    origin (so it moves the ranges too). Over 400 draws the empirical 6D covariance equals
+    rotation_only_covariance plus shared_range_covariance; without the shared term the bound
+    is overconfident."""
+    rng = np.random.default_rng(3)
+    k = 10
+    ego = rng.uniform([1.0, -3.0, -0.5], [6.0, 3.0, 1.5], (k, 3))
+    view = np.arange(k) % 2
+    s_ind, s_rot = 0.005, np.radians(0.3)
+    pivot = np.array([-0.3, 0.0, 0.6])
+    loads = [-skew(p - pivot) * s_rot for p in ego]
+    covs = np.array([s_ind**2 * np.eye(3) + S @ S.T for S in loads])
+    shared = [((int(v), S),) for v, S in zip(view, loads, strict=True)]
+    true = np.eye(4)
+    true[:3, :3] = Rotation.from_euler("zyx", [0.4, 0.05, -0.03]).as_matrix()
+    true[:3, 3] = [2.0, 1.0, 0.3]
+    centers = ego @ true[:3, :3].T + true[:3, 3]
+    unit = ego / np.linalg.norm(ego, axis=1)[:, None]
+    sig = np.sqrt(np.einsum("ka,kab,kb->k", unit, covs, unit))  # range sigma of the total covariance
+    weights = rng.uniform(0.5, 2.0, k)
+    errs = []
+    for _ in range(400):
+        e = rng.standard_normal((2, 3))
+        noisy = ego + np.stack([S @ e[v] for S, v in zip(loads, view, strict=True)]) \
+            + rng.normal(0.0, s_ind, (k, 3))
+        spheres = ro.make_spheres(centers, np.linalg.norm(noisy, axis=1), sig)
+        t = ro.estimate_position(spheres, method="ml").position
+        errs.append(ros_error(true, transformation(weighted_rotation(noisy, centers - t, weights), t)))
+    errs = np.array(errs)
+    emp = np.cov(errs.T)
+    indep = rotation_only_covariance(true, ego, covs, weights, ro.crlb(centers, sig, true[:3, 3]))
+    total = indep + shared_range_covariance(true, ego, covs, centers, sig, weights, shared)
+    nees = lambda C: np.einsum("ni,ij,nj->n", errs, np.linalg.inv(C), errs).mean()  # noqa: E731
+    assert nees(indep) > 9.0
+    assert 5.2 < nees(total) < 6.8
+    np.testing.assert_allclose(np.sqrt(np.diag(emp)), np.sqrt(np.diag(total)), rtol=0.15)
+
+
+def test_range_only_shared_term_is_zero_for_one_percept_per_view_and_checks_input() -> None:
+    rng = np.random.default_rng(2)
+    ego = rng.uniform(1, 4, (5, 3))
+    centers = ego + 1.0
+    T = np.eye(4)
+    T[:3, 3] = 1.0
+    covs = np.broadcast_to(1e-4 * np.eye(3), (5, 3, 3)).copy()
+    S = np.eye(3)[:, :2] * 1e-3
+    out = shared_range_covariance(T, ego, covs, centers, np.full(5, 0.01), np.ones(5),
+                                  [((i, S),) for i in range(5)])
+    np.testing.assert_allclose(out, 0.0, atol=1e-18)
+    from worldgraph.errors import WorldGraphError
+
+    with pytest.raises(WorldGraphError, match=r"sigmas\[2\] must be > 0"):
+        shared_range_covariance(T, ego, covs, centers, [0.01, 0.01, 0.0, 0.01, 0.01], np.ones(5), [()] * 5)
+    with pytest.raises(WorldGraphError, match="centers"):
+        shared_range_covariance(T, ego, covs, centers[:4], np.full(5, 0.01), np.ones(5), [()] * 5)
+    with pytest.raises(WorldGraphError, match="shared"):
+        shared_range_covariance(T, ego, covs, centers, np.full(5, 0.01), np.ones(5), [()] * 4)
 
 
 def test_no_shared_views_adds_nothing_and_bad_input_raises() -> None:
@@ -109,7 +177,8 @@ def test_fusion_keeps_the_shared_part_of_each_view() -> None:
         np.testing.assert_allclose(dict(f.shared)[1], C @ A2 @ S2, atol=1e-15)
 
 
-def test_localize_pose_covariance_covers_encoder_dominated_scans() -> None:
+@pytest.mark.parametrize("method", ["ml", "spheres"])
+def test_localize_pose_covariance_covers_encoder_dominated_scans(method: str) -> None:
     """End to end: scans whose head encoders (0.3 deg) dominate the stereo noise, fused and
     localised; the 6D pose error lies inside its 3-sigma gate in nearly every trial only when
     the shared views are counted."""
@@ -124,13 +193,13 @@ def test_localize_pose_covariance_covers_encoder_dominated_scans() -> None:
         raw = pc.simulate_scan(world.types, world.positions, T, rng, encoder_sigma=np.radians(0.3),
                                false_rate=0.0, depth_factor=3000.0)
         fused = pc.fuse_percepts(raw)
-        res = localize(world, fused)
+        res = localize(world, fused, method=method)
         assert res.status in ("ok", "weak", "ambiguous")
         e = ros_error(T, res.transformation)
         inside += e @ np.linalg.solve(res.pose_covariance, e) <= CHI2_6_GATE
         plain = [pc.Percept(p.type, p.position, p.sigma, covariance=p.covariance, views=p.views)
                  for p in fused]
-        r0 = localize(world, plain)
+        r0 = localize(world, plain, method=method)
         without += e @ np.linalg.solve(r0.pose_covariance, e) <= CHI2_6_GATE
     assert inside >= trials - 1
     assert without < inside

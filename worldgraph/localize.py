@@ -78,6 +78,7 @@ from .validation import (
     pose_cost,
     rotation_only_covariance,
     self_check,
+    shared_range_covariance,
     shared_view_covariance,
 )
 
@@ -560,6 +561,9 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     rot = weighted_rotation(ctx.ego[sp], s_centers - position, w)
     pose = transformation(rot, position)
     cov6 = rotation_only_covariance(pose, ctx.ego[sp], ctx.covs[sp], w, pos_cov)
+    shared = [ctx.used[i].shared for i in sp]
+    if any(shared):  # errors common to the percepts of one view (head encoders)
+        cov6 = cov6 + shared_range_covariance(pose, ctx.ego[sp], ctx.covs[sp], s_centers, sig, w, shared)
     ctx.timings["orientation"] = time.perf_counter() - t0
     if status == "ambiguous":
         ambiguous = True

@@ -504,27 +504,94 @@ def shared_view_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
     together and the independent bound is overconfident by the factor this corrects.
     """
     world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
-    if (shared is None or isinstance(shared, str | bytes) or not isinstance(shared, Sequence | np.ndarray)
-            or (isinstance(shared, np.ndarray) and shared.ndim == 0) or len(shared) != len(ego)):
-        raise ShapeError(f"shared must hold one sequence of (view, loading) pairs per percept "
-                         f"({len(ego)}), got {shared!r:.80}")
+    shared = _check_shared(shared, len(ego))
     R = world_from_ego[:3, :3]
     J = _placement_jacobian(world_from_ego, ego)
     W = np.linalg.inv(np.einsum("ij,kjl,ml->kim", R, covs, R))
     JW = np.einsum("kai,kab->kib", J, W)  # (k, 6, 3)
+    M = _shared_sandwich(JW @ R, shared)
+    if not M.any():
+        return np.zeros((6, 6))
+    Hinv = ros_pose_covariance(pose_information(world_from_ego, ego, covs))  # H^-1, ROS order
+    out = Hinv @ M @ Hinv
+    return 0.5 * (out + out.T)
+
+
+def _check_shared(shared: object, k: int) -> Sequence[Sequence[tuple[int, NDArray]]]:
+    if (shared is None or isinstance(shared, str | bytes) or not isinstance(shared, Sequence | np.ndarray)
+            or (isinstance(shared, np.ndarray) and shared.ndim == 0) or len(shared) != k):
+        raise ShapeError(f"shared must hold one sequence of (view, loading) pairs per percept "
+                         f"({k}), got {shared!r:.80}")
+    return shared  # type: ignore[return-value]
+
+
+def _shared_sandwich(L: NDArray[np.float64], shared: Sequence[Sequence[tuple[int, NDArray]]]
+                     ) -> NDArray[np.float64]:
+    """``sum_v G_v G_v^T - sum_{i,v} g_iv g_iv^T`` with ``g_iv = L_i S_iv`` and ``G_v = sum_i
+    g_iv``: the cross terms that percepts sharing view ``v`` add to the covariance of the linear
+    estimate ``sum_i L_i eps_i`` (``L (k, d, 3)``), whose independent part counts each percept's
+    own total covariance already."""
+    d = L.shape[1]
     G: dict[int, NDArray[np.float64]] = {}
-    own = np.zeros((6, 6))
+    own = np.zeros((d, d))
     for i, pairs in enumerate(shared):
         for j, (view, S) in enumerate(pairs):
             S = float_array(f"shared[{i}][{j}] loading", S, (3, None))
-            g = JW[i] @ R @ S
+            g = L[i] @ S
             G[int(view)] = G[int(view)] + g if int(view) in G else g
             own += g @ g.T
-    if not G:
-        return np.zeros((6, 6))
-    M = sum((g @ g.T for g in G.values()), np.zeros((6, 6))) - own
-    Hinv = ros_pose_covariance(pose_information(world_from_ego, ego, covs))  # H^-1, ROS order
-    out = Hinv @ M @ Hinv
+    return sum((g @ g.T for g in G.values()), np.zeros((d, d))) - own
+
+
+def shared_range_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray, centers: NDArray,
+                            sigmas: NDArray, weights: NDArray,
+                            shared: Sequence[Sequence[tuple[int, NDArray]]]) -> NDArray[np.float64]:
+    """What errors shared between percepts add to :func:`rotation_only_covariance` (ROS order).
+
+    The range-only position weighs range ``rho_i = |x_i|`` by ``1 / sigma_i^2``: to first order
+    ``dt = H^-1 sum_i u_i x_i^T eps_i / (|x_i| sigma_i^2)`` with ``u_i`` the unit vector from
+    centre ``i`` to the position and ``H = sum_i u_i u_i^T / sigma_i^2`` (the ML position; the
+    other range-only estimators are taken at this first order too).  The rotation fitted with the
+    position fixed moves by ``dphi = M^-1 (S^T dt + sum_i w_i A_i^T R eps_i)`` (``A_i``, ``M``,
+    ``S`` as in :func:`rotation_only_covariance`).  With ``L_i`` the 6x3 map of percept ``i``'s
+    ego error onto ``(dt, dphi)``, the cross terms of the percepts of each view are
+    ``sum_v G_v G_v^T - sum_{i,v} g_iv g_iv^T``, ``g_iv = L_i S_iv``.  A head rotation about the
+    ego origin leaves every range unchanged: such shared errors reach the position not at all and
+    the rotation in full.  Zero when no two percepts share a view; inf when the geometry fixes no
+    position or rotation.
+    """
+    world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
+    k = len(ego)
+    centers = float_array("centers", centers, (k, 3))
+    sig = float_array("sigmas", sigmas, (k,))
+    w = float_array("weights", weights, (k,))
+    for name, arr in (("sigmas", sig), ("weights", w)):
+        if np.any(arr <= 0):
+            i = int(np.argmax(arr <= 0))
+            raise PoseError(f"{name}[{i}] must be > 0, got {arr[i]!r}")
+    shared = _check_shared(shared, k)
+    R, t = world_from_ego[:3, :3], world_from_ego[:3, 3]
+    rng_ = np.linalg.norm(ego, axis=1)
+    toward = t - centers
+    dist = np.linalg.norm(toward, axis=1)
+    out = np.full((6, 6), np.inf)
+    if np.any(rng_ == 0) or np.any(dist == 0):
+        return out
+    u = toward / dist[:, None]
+    H = np.einsum("k,ka,kb->ab", 1.0 / sig**2, u, u)
+    A = _skew(ego @ R.T)
+    M = np.einsum("k,kai,kaj->ij", w, A, A)
+    S = np.einsum("k,kij->ij", w, A)
+    try:
+        Hi, Mi = np.linalg.inv(H), np.linalg.inv(M)
+    except np.linalg.LinAlgError:
+        return out
+    Lt = np.einsum("ab,kb,kc->kac", Hi, u / (sig**2 * rng_)[:, None], ego)  # (k, 3, 3)
+    Lr = np.einsum("ab,cb,kcd->kad", Mi, S, Lt) + \
+        np.einsum("ab,k,kcb,cd->kad", Mi, w, A, R)  # (k, 3, 3)
+    out = _shared_sandwich(np.concatenate([Lt, Lr], axis=1), shared)
+    if not np.all(np.isfinite(out)):
+        return np.full((6, 6), np.inf)
     return 0.5 * (out + out.T)
 
 
