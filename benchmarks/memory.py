@@ -32,6 +32,19 @@ out = pc.fuse_percepts(ps, min_views=2)
 result = f"{len(out)} fused percepts"
 """,
     ),
+    "fuse_percepts one blob": (
+        100_000,
+        "(new) 20,000 percepts within a few bandwidths: quadratic kernel sums, minutes",
+        """
+import numpy as np, perception as pc
+pts = np.random.default_rng(0).normal(0, 0.05, (N, 3))
+try:
+    out = pc.fuse_percepts([pc.Percept("handle", p, 0.01) for p in pts], min_views=1)
+    result = f"{len(out)} fused percepts"
+except pc.PerceptionError as exc:
+    result = type(exc).__name__
+""",
+    ),
     "from_arrays coincident": (
         300_000,
         "30,000 same-type objects at one point: every pair listed",

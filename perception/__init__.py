@@ -19,6 +19,7 @@ from .errors import (
     NotFittedError,
     PerceptionError,
     ShapeError,
+    TooManyNeighboursError,
     UnknownClassError,
 )
 from .fusion import fuse_percepts, mean_shift_modes
@@ -62,6 +63,7 @@ __all__ = [
     "NonFiniteError",
     "NonPositiveSigmaError",
     "NotFittedError",
+    "TooManyNeighboursError",
     "Percept",
     "PerceptionError",
     "Rectification",

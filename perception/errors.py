@@ -49,3 +49,8 @@ class ImageFormatError(ShapeError):
 
 class NotFittedError(PerceptionError):
     """A classifier cannot be fitted (too few samples of a class) or was given bad labels."""
+
+
+class TooManyNeighboursError(PerceptionError):
+    """Mean shift would evaluate more kernel pairs than its budget (a bandwidth that is large for
+    the density of the points): lower the bandwidth or fuse in batches."""

@@ -22,7 +22,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from ._checks import guard, integer, real_array, real_scalar, spd
-from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
+from .errors import (
+    NonFiniteError,
+    NonPositiveSigmaError,
+    PerceptionError,
+    ShapeError,
+    TooManyNeighboursError,
+    UnknownClassError,
+)
 from .percept import Percept
 
 DEFAULT_BANDWIDTH = 0.1
@@ -46,6 +53,11 @@ MAX_ITER_LIMIT = 1_000_000
 _PAIR_BUDGET = 2_000_000  # neighbour pairs held at once per chunk of mean-shift queries
 _CROWDED = 256  # rows with more neighbours than this are summed in dense blocks per grid cell
 _SLACK = 1e-9  # the tree is queried slightly beyond the support; the exact test follows
+MAX_KERNEL_PAIRS = 300_000_000
+"""Most (point, neighbour) pairs one mean-shift run evaluates over all its iterations (about half a
+minute of work at most); beyond it the bandwidth is too large for the points' density (thousands of
+points inside one kernel) and :class:`TooManyNeighboursError` is raised instead of running for
+hours (the exact kernel sums cost the square of the points in one kernel)."""
 
 
 def _bandwidth_factor(name: str, value: Any, d: int) -> NDArray[np.float64] | float:
@@ -134,21 +146,41 @@ def _dense_sums(
     return num, den
 
 
+def _spend(budget: list[int], pairs: float, crowd: int, n: int) -> None:
+    """Raise :class:`TooManyNeighboursError` when ``pairs`` exceed what is left of ``budget``."""
+    if pairs > budget[0]:
+        raise TooManyNeighboursError(
+            f"points: mean shift needs more than {MAX_KERNEL_PAIRS:,} kernel pair evaluations ({n:,} "
+            f"points, up to {crowd:,} of them inside one kernel); the bandwidth is too large for this "
+            "density of points: lower it, or fuse the points in batches"
+        )
+
+
 def _neighbour_means(
-    tree: cKDTree, Z: NDArray[np.float64], w: NDArray[np.float64], Y: NDArray[np.float64], radius: float
+    tree: cKDTree, Z: NDArray[np.float64], w: NDArray[np.float64], Y: NDArray[np.float64], radius: float,
+    budget: list[int] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Weighted sums ``sum w_j Z_j`` and ``sum w_j`` over ``|Z_j - Y_i| < radius``, per row of ``Y``.
 
     Rows with few neighbours use per-row neighbour lists; rows with many (crowded regions, where
     Python lists would dominate) are grouped by grid cell and summed in numpy blocks. Either
-    way at most about ``_PAIR_BUDGET`` pairs are held at once.
+    way at most about ``_PAIR_BUDGET`` pairs are held at once.  ``budget`` (a one-item list) is
+    decreased by the pairs this call evaluates; :class:`TooManyNeighboursError` when it falls below
+    zero.
     """
     m, d = Y.shape
     num = np.zeros((m, d))
     den = np.zeros(m)
     if m == 0:
         return num, den
+    if budget is not None:  # a strided sample first: counting every pair is itself quadratic
+        sample = np.asarray(tree.query_ball_point(Y[:: max(1, m // 256)], radius * (1.0 + _SLACK),
+                                                  return_length=True))
+        _spend(budget, float(sample.mean()) * m, int(sample.max()), tree.n)
     counts = np.asarray(tree.query_ball_point(Y, radius * (1.0 + _SLACK), return_length=True))
+    if budget is not None:
+        _spend(budget, float(counts.sum()), int(counts.max()), tree.n)
+        budget[0] -= int(counts.sum())
     crowded = (counts > _CROWDED) & np.all(np.abs(Y) < 1e12 * radius, axis=1)
     for mask, fn in ((~crowded, _sparse_sums), (crowded, _dense_sums)):
         idx = np.flatnonzero(mask)
@@ -250,6 +282,7 @@ def mean_shift_modes(
     tree = cKDTree(Z)
     Y = Z.copy()
     active = np.ones(n, dtype=bool)
+    budget = [MAX_KERNEL_PAIRS]
     for _ in range(max_iter):
         idx = np.flatnonzero(active)
         if idx.size == 0:
@@ -257,7 +290,7 @@ def mean_shift_modes(
         # Coincident positions (common once a cluster has collapsed) share one query.
         uniq, inv = np.unique(Y[idx], axis=0, return_inverse=True)
         inv = np.asarray(inv).reshape(-1)
-        num, den = _neighbour_means(tree, Z, w, uniq, 1.0)
+        num, den = _neighbour_means(tree, Z, w, uniq, 1.0, budget)
         num, den = num[inv], den[inv]
         empty = den <= 0  # no point strictly inside the kernel: y is a fixed point
         with np.errstate(invalid="ignore", divide="ignore"):

@@ -319,3 +319,35 @@ def test_tiny_bandwidth_names_argument() -> None:
         fuse_percepts([Percept("door", [1.0, 0.0, 0.0], 0.1)], bandwidth=1e-300)
     with pytest.raises(PerceptionError, match=r"points\[0\]"):
         mean_shift_modes([[1e200, 0.0, 0.0]], 1e-100)
+
+
+def test_mean_shift_refuses_a_bandwidth_that_holds_most_points_in_one_kernel() -> None:
+    """100,000 points within a few bandwidths: exact kernel sums would take hours; the run stops
+    at once with an error naming points and bandwidth, and the same points with a bandwidth 100
+    times smaller (a few points per kernel) are fused."""
+    from perception import TooManyNeighboursError
+
+    X = np.random.default_rng(0).normal(0, 0.05, (100_000, 3))
+    with pytest.raises(TooManyNeighboursError, match=r"points.*100,000 points.*bandwidth"):
+        mean_shift_modes(X, 0.1)
+    modes, labels = mean_shift_modes(X[:20_000], 0.001)
+    assert labels.shape == (20_000,) and len(modes) > 1_000
+
+
+def test_mean_shift_budget_counts_every_pair_it_evaluates(monkeypatch) -> None:
+    """With the budget set just above the pairs a run really evaluates (counted by brute force
+    per iteration from the reference), it finishes with the reference result; set below the
+    first iteration's pairs, it raises."""
+    from perception import TooManyNeighboursError
+
+    rng = np.random.default_rng(3)
+    X = np.vstack([rng.normal(0, 0.03, (60, 3)), rng.normal(1, 0.03, (40, 3))])
+    first = int(np.sum(np.linalg.norm(X[:, None] - X[None], axis=2) < 0.1))  # iteration 1: all rows
+    monkeypatch.setattr(fusion_module, "MAX_KERNEL_PAIRS", first - 1)
+    with pytest.raises(TooManyNeighboursError):
+        mean_shift_modes(X, 0.1)
+    monkeypatch.setattr(fusion_module, "MAX_KERNEL_PAIRS", 100 * first)
+    modes, labels = mean_shift_modes(X, 0.1)
+    ref_modes, ref_labels = dense_mean_shift(X, 0.01 * np.eye(3), np.ones(len(X)))
+    np.testing.assert_array_equal(labels, ref_labels)
+    np.testing.assert_allclose(modes, ref_modes, rtol=0, atol=1e-9)
