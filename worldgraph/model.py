@@ -928,7 +928,13 @@ class WorldModel:
 
     @property
     def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """``(lower (3,), upper (3,))`` of the union of the objects' oriented bounding boxes."""
+        """``(lower (3,), upper (3,))`` of the union of the objects' oriented bounding boxes
+        (computed once per world)."""
+        lo, hi = self._bounds
+        return lo.copy(), hi.copy()
+
+    @cached_property
+    def _bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         rot = np.array([o.pose[:3, :3] for o in self.objects])
         half = np.einsum("nij,nj->ni", np.abs(rot), np.array([o.size for o in self.objects]) * 0.5)
         return (self.positions - half).min(axis=0), (self.positions + half).max(axis=0)
