@@ -506,3 +506,21 @@ def test_room_round_trip_equality_and_subset(tmp_path):
         WorldModel.load(_write(tmp_path, data))
     data["room"] = None
     assert WorldModel.load(_write(tmp_path, data)).room is None
+
+
+def test_type_tree_holds_one_types_positions_in_index_order_and_is_kept() -> None:
+    rng = np.random.default_rng(4)
+    types = rng.choice(["door", "knob", "drawer"], 200)
+    world = WorldModel.from_arrays(types, rng.uniform(0, 10, (200, 3)))
+    for t in ("door", "knob", "drawer"):
+        tree = world.type_tree(t)
+        np.testing.assert_array_equal(tree.data, world.positions[types == t])
+        np.testing.assert_array_equal(world.positions[world.indices_of(t)], tree.data)
+        assert world.type_tree(t) is tree
+    lo, hi = world.bounds
+    before = lo.copy()
+    lo[:] = 1e9  # a copy: the world's bounds do not change
+    np.testing.assert_array_equal(world.bounds[0], before)
+    assert np.all(before < world.positions.min(axis=0))
+    with pytest.raises(wg.UnknownTypeError, match="type_name = 'sofa'"):
+        world.type_tree("sofa")

@@ -41,7 +41,6 @@ from typing import Any
 import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from perception import Percept
 
@@ -600,7 +599,6 @@ def _local(objects: NDArray[np.intp], glob: NDArray[np.intp]) -> NDArray[np.intp
 
 def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
                      tol: AssociationTolerances, objects: list[NDArray[np.intp]],
-                     trees: dict[str, cKDTree] | None = None
                      ) -> tuple[NDArray[np.intp], NDArray[np.intp]] | None:
     """Model pairs consistent with the percept pair (p, q): local indices ``(a, b)`` into
     ``objects[p]`` and ``objects[q]``; None when unconstrained (beyond the link table)."""
@@ -623,19 +621,14 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
     else:
-        # beyond the link table: k-d tree ball query of the annulus d - reach < |X_o - X_u| < d + reach
-        small, big = (op, oq) if len(op) <= len(oq) else (oq, op)
-        if trees is None:
-            trees = {}
-        key = percepts[q].type if big is oq else percepts[p].type
-        if key not in trees:
-            trees[key] = cKDTree(world.positions[big])
-        hits = trees[key].query_ball_point(world.positions[small], d + reach)
-        counts = np.fromiter((len(h) for h in hits), dtype=np.intp, count=len(hits))
-        i = np.repeat(small, counts)
-        j = big[np.fromiter(itertools.chain.from_iterable(hits), dtype=np.intp, count=int(counts.sum()))]
-        if big is op:
-            i, j = j, i
+        # beyond the link table: the two types' k-d trees give every pair within d + reach
+        # (dual tree, in C); the shell |d_model - d| < reach, with the distances computed as in
+        # the other branches, keeps the candidates
+        wide = reach * (1.0 + 1e-9) + 1e-12
+        pairs = world.type_tree(tp).sparse_distance_matrix(world.type_tree(tq), d + wide,
+                                                           output_type="ndarray")
+        shell = pairs["v"] > d - wide
+        i, j = op[pairs["i"][shell]], oq[pairs["j"][shell]]
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
@@ -651,10 +644,9 @@ def _consistency_graph(world: WorldModel, percepts: list[Percept], tol: Associat
     objects = [world.type_index[p.type] for p in percepts]
     sig = np.array([p.sigma for p in percepts])
     edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None] = {}
-    trees: dict[str, cKDTree] = {}
     for p, q in itertools.combinations(range(len(percepts)), 2):
         tau = float(tol.pair_tolerance(sig[p], sig[q]))
-        edges[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tol, objects, trees)
+        edges[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tol, objects)
     return _Graph(objects, edges)
 
 
@@ -785,7 +777,7 @@ class _Nearest:
         self.types = sorted({p.type for p in percepts})
         self.by_type = {t: np.array([i for i, p in enumerate(percepts) if p.type == t]) for t in self.types}
         self.objects = {t: world.type_index[t] for t in self.types}
-        self.trees = {t: cKDTree(world.positions[self.objects[t]]) for t in self.types}
+        self.trees = {t: world.type_tree(t) for t in self.types}
 
     def query(self, pred: NDArray[np.float64], scale: NDArray[np.float64], cap: float
               ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:

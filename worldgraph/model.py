@@ -921,6 +921,19 @@ class WorldModel:
         i, j, length = self._links[(type_b, type_a)].in_range(lo, hi)  # type: ignore[attr-defined]
         return j, i, length
 
+    def type_tree(self, type_name: str) -> cKDTree:
+        """A :class:`scipy.spatial.cKDTree` over the positions of one type's objects, in the order
+        of :meth:`indices_of` (built on first use, then kept with the world)."""
+        self._check_known_type(type_name, "type_name")
+        trees = self._type_trees
+        if type_name not in trees:
+            trees[type_name] = cKDTree(self._positions[self._type_index[type_name]])  # type: ignore[attr-defined]
+        return trees[type_name]
+
+    @cached_property
+    def _type_trees(self) -> dict[str, cKDTree]:
+        return {}
+
     def indices_of(self, type_name: str) -> NDArray[np.intp]:
         """Object indices of one type (``UnknownTypeError`` if absent)."""
         self._check_known_type(type_name, "type_name")
