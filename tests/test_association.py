@@ -370,6 +370,32 @@ def test_ball_query_path_equals_brute_force_path(seed: int) -> None:
     assert tree[0].pairs == tuple((p, int(o)) for p, o in enumerate(truth))
 
 
+@settings(max_examples=8)
+@given(seeds, st.booleans())
+def test_tree_pair_candidates_equal_all_pairs_also_across_storeys(seed: int, gravity: bool) -> None:
+    """Every percept pair's model candidates beyond the link table: the k-d tree queries (plain, and
+    with z scaled for gravity-aligned worlds) give exactly the pairs an all-pairs test gives, on a
+    three-storey world where other storeys hold pairs of the same 3D length."""
+    from worldgraph.association import _consistency_graph
+
+    rng = np.random.default_rng(seed)
+    n = 240
+    storey = rng.integers(0, 3, n)
+    pos = np.column_stack([rng.uniform(0, 14, n), rng.uniform(0, 12, n),
+                           3.0 * storey + rng.uniform(0, 2.5, n)])
+    world = WorldModel.from_arrays(rng.choice(TYPES, n), pos, max_link_length=1.5)
+    percepts = [Percept(str(t), rng.uniform([-6, -6, -1], [6, 6, 2.5]), float(rng.uniform(0.01, 0.08)))
+                for t in rng.choice(TYPES, 7)]
+    brute = _consistency_graph(world, percepts, AssociationTolerances(dense_pair_limit=10**9,
+                                                                      gravity_aligned=gravity))
+    tree = _consistency_graph(world, percepts, AssociationTolerances(dense_pair_limit=0,
+                                                                     gravity_aligned=gravity))
+    assert brute.edges.keys() == tree.edges.keys()
+    for key, e in brute.edges.items():
+        got = tree.edges[key]
+        assert {tuple(x) for x in np.column_stack(e)} == {tuple(x) for x in np.column_stack(got)}, key
+
+
 def test_orientation_filter_names_percepts_when_they_do_not_match_the_proximity_result() -> None:
     from worldgraph.errors import WorldGraphError
 

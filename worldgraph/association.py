@@ -597,6 +597,11 @@ def _local(objects: NDArray[np.intp], glob: NDArray[np.intp]) -> NDArray[np.intp
     return np.searchsorted(objects, glob)
 
 
+#: z scale of the k-d trees that gravity-aligned association queries beyond the link table: a
+#: height mismatch of 1 m weighs as 10 m sideways, so other storeys drop out of the query shell.
+GRAVITY_Z_SCALE = 10.0
+
+
 def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
                      tol: AssociationTolerances, objects: list[NDArray[np.intp]],
                      ) -> tuple[NDArray[np.intp], NDArray[np.intp]] | None:
@@ -619,6 +624,20 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         i, j = ii.ravel(), jj.ravel()
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
         keep = (np.abs(dm - d) < reach) & (i != j)
+        i, j = i[keep], j[keep]
+    elif tol.gravity_aligned:
+        # beyond the link table, z up: in the types' trees with z scaled by GRAVITY_Z_SCALE the
+        # pairs whose height difference is near dz stay within a thin shell, the other storeys
+        # far outside it; the gravity test below is exact
+        s = GRAVITY_Z_SCALE
+        h = math.hypot(diff[0], diff[1])
+        r_hi = math.hypot(h + tau, s * (abs(diff[2]) + ztol)) * (1.0 + 1e-9) + 1e-12
+        r_lo = math.hypot(max(h - tau, 0.0), s * max(abs(diff[2]) - ztol, 0.0)) * (1.0 - 1e-9)
+        pairs = world.type_tree(tp, s).sparse_distance_matrix(world.type_tree(tq, s), r_hi,
+                                                              output_type="ndarray")
+        shell = pairs["v"] >= r_lo
+        i, j = op[pairs["i"][shell]], oq[pairs["j"][shell]]
+        keep = i != j
         i, j = i[keep], j[keep]
     else:
         # beyond the link table: the two types' k-d trees give every pair within d + reach

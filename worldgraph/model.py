@@ -921,17 +921,22 @@ class WorldModel:
         i, j, length = self._links[(type_b, type_a)].in_range(lo, hi)  # type: ignore[attr-defined]
         return j, i, length
 
-    def type_tree(self, type_name: str) -> cKDTree:
+    def type_tree(self, type_name: str, z_scale: float = 1.0) -> cKDTree:
         """A :class:`scipy.spatial.cKDTree` over the positions of one type's objects, in the order
-        of :meth:`indices_of` (built on first use, then kept with the world)."""
+        of :meth:`indices_of`, with the z coordinate multiplied by ``z_scale`` (> 0; a large scale
+        keeps the storeys of a gravity-aligned world apart in distance queries).  Built on first
+        use, then kept with the world."""
         self._check_known_type(type_name, "type_name")
+        z_scale = _checks.positive_float("z_scale", z_scale)
         trees = self._type_trees
-        if type_name not in trees:
-            trees[type_name] = cKDTree(self._positions[self._type_index[type_name]])  # type: ignore[attr-defined]
-        return trees[type_name]
+        key = (type_name, z_scale)
+        if key not in trees:
+            pts = self._positions[self._type_index[type_name]]  # type: ignore[attr-defined]
+            trees[key] = cKDTree(pts if z_scale == 1.0 else pts * np.array([1.0, 1.0, z_scale]))
+        return trees[key]
 
     @cached_property
-    def _type_trees(self) -> dict[str, cKDTree]:
+    def _type_trees(self) -> dict[tuple[str, float], cKDTree]:
         return {}
 
     def indices_of(self, type_name: str) -> NDArray[np.intp]:
