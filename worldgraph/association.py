@@ -41,6 +41,7 @@ from typing import Any
 import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from perception import Percept
 
@@ -598,7 +599,7 @@ def _local(objects: NDArray[np.intp], glob: NDArray[np.intp]) -> NDArray[np.intp
 
 
 #: z scale of the k-d trees that gravity-aligned association queries beyond the link table: a
-#: height mismatch of 1 m weighs as 10 m sideways, so other storeys drop out of the query shell.
+#: height mismatch of 1 m weighs as 10 m sideways, so other storeys drop out of the query ball.
 GRAVITY_Z_SCALE = 10.0
 
 
@@ -626,16 +627,15 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
     elif tol.gravity_aligned:
-        # beyond the link table, z up: in the types' trees with z scaled by GRAVITY_Z_SCALE the
-        # pairs whose height difference is near dz stay within a thin shell, the other storeys
-        # far outside it; the gravity test below is exact
+        # beyond the link table, z up: p's objects raised by dz, against q's tree, both with z
+        # scaled by GRAVITY_Z_SCALE: the partners lie on a horizontal ring of radius h, thin in
+        # z, and the other storeys far outside the query radius; the gravity test below is exact
         s = GRAVITY_Z_SCALE
         h = math.hypot(diff[0], diff[1])
-        r_hi = math.hypot(h + tau, s * (abs(diff[2]) + ztol)) * (1.0 + 1e-9) + 1e-12
-        r_lo = math.hypot(max(h - tau, 0.0), s * max(abs(diff[2]) - ztol, 0.0)) * (1.0 - 1e-9)
-        pairs = world.type_tree(tp, s).sparse_distance_matrix(world.type_tree(tq, s), r_hi,
-                                                              output_type="ndarray")
-        shell = pairs["v"] >= r_lo
+        raised = cKDTree((world.positions[op] + [0.0, 0.0, diff[2]]) * [1.0, 1.0, s])
+        r_hi = math.hypot(h + tau, s * ztol) * (1.0 + 1e-9) + 1e-12
+        pairs = raised.sparse_distance_matrix(world.type_tree(tq, s), r_hi, output_type="ndarray")
+        shell = pairs["v"] >= (h - tau) * (1.0 - 1e-9)
         i, j = op[pairs["i"][shell]], oq[pairs["j"][shell]]
         keep = i != j
         i, j = i[keep], j[keep]
