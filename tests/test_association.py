@@ -101,13 +101,24 @@ def to_networkx(sizes, adjacency) -> nx.Graph:
     return g
 
 
-@given(kpartite(), st.integers(0, 2), st.integers(1, 3))
-def test_maximum_cliques_match_networkx(graph, near: int, min_size: int) -> None:
+@given(kpartite(), st.integers(0, 2), st.integers(1, 3), st.sampled_from(["dense", "packed", "csr"]))
+def test_maximum_cliques_match_networkx(graph, near: int, min_size: int, form: str) -> None:
+    """Dense boolean matrices, or sparse (rows, cols) index pairs packed into bit rows up front or
+    kept as CSR rows: the same cliques as networkx."""
+    import worldgraph.association as assoc
+
     sizes, adjacency = graph
     g = to_networkx(sizes, adjacency)
+    if form != "dense":
+        adjacency = {key: m if m is None else tuple(np.nonzero(m)) for key, m in adjacency.items()}
     cliques = [tuple(sorted(c)) for c in nx.find_cliques(g)] if g.number_of_nodes() else []
     best = max((len(c) for c in cliques), default=0)
-    res = maximum_cliques(sizes, adjacency, min_size=min_size, near_maximum=near)
+    old = assoc.DENSE_BITS
+    assoc.DENSE_BITS = 0 if form == "csr" else old
+    try:
+        res = maximum_cliques(sizes, adjacency, min_size=min_size, near_maximum=near)
+    finally:
+        assoc.DENSE_BITS = old
     assert res.complete
     expected_max = best if best >= min_size else 0
     assert res.maximum == expected_max
@@ -139,6 +150,17 @@ def test_prune_matches_node_by_node_reference_on_networkx(graph, need: int) -> N
     got = _prune(_Graph(objects, edges), need)
     assert [a.shape for a in got] == [(s,) for s in sizes]
     assert {(p, a) for p, al in enumerate(got) for a in np.flatnonzero(al)} == alive
+
+
+def test_maximum_cliques_sparse_adjacency_bad_input_is_named() -> None:
+    with pytest.raises(WorldGraphError, match=r"adjacency\[\(0, 1\)\] cols\[1\] = 5 is outside \[0, 2\)"):
+        maximum_cliques([2, 2], {(0, 1): (np.array([0, 1]), np.array([0, 5]))})
+    with pytest.raises(WorldGraphError, match="equal length"):
+        maximum_cliques([2, 2], {(0, 1): (np.array([0, 1]), np.array([0]))})
+    with pytest.raises(WorldGraphError, match="integer"):
+        maximum_cliques([2, 2], {(0, 1): (np.array([0.5]), np.array([0]))})
+    with pytest.raises(WorldGraphError, match="length 3"):
+        maximum_cliques([2, 2], {(0, 1): (np.array([0]), np.array([0]), np.array([0]))})
 
 
 def test_maximum_cliques_by_hand() -> None:

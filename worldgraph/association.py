@@ -278,6 +278,44 @@ def _bits(indices: NDArray[np.intp] | Sequence[int]) -> int:
     return out
 
 
+#: Sparse adjacency between two parts of at most this many vertex pairs is packed into bit rows
+#: up front (8 MiB at most); larger ones keep CSR rows, turned into bitsets per visited vertex.
+DENSE_BITS = 1 << 26
+
+
+def _csr(key: tuple[int, int], pairs: tuple, sizes: list[int], forward: bool
+         ) -> tuple[NDArray[np.intp], NDArray[np.intp], int] | NDArray[np.uint8] | int:
+    """Sparse adjacency ``(rows, cols)`` of parts ``key = (p, q)`` as rows of p's vertices
+    (``forward``) or of q's: packed bit rows when small (:data:`DENSE_BITS`), else CSR
+    ``(indptr, cols, size of the other part)``; 0 without edges."""
+    if len(pairs) != 2:
+        raise ShapeError(f"adjacency[{key}] must be a bool matrix or a pair (rows, cols) of index "
+                         f"arrays, got a tuple of length {len(pairs)}")
+    p, q = key
+    rows, cols = (np.asarray(x) for x in pairs)
+    for name, arr, size in (("rows", rows, sizes[p]), ("cols", cols, sizes[q])):
+        if arr.ndim != 1 or (arr.size and arr.dtype.kind not in "iu"):
+            raise ArgumentTypeError(f"adjacency[{key}] {name} must be a 1-D integer array, got dtype "
+                                    f"{arr.dtype} and shape {arr.shape}")
+        if arr.size and (arr.min() < 0 or arr.max() >= size):
+            bad = int(np.flatnonzero((arr < 0) | (arr >= size))[0])
+            raise OutOfRangeError(f"adjacency[{key}] {name}[{bad}] = {int(arr[bad])} is outside "
+                                  f"[0, {size})")
+    if rows.shape != cols.shape:
+        raise ShapeError(f"adjacency[{key}] rows and cols must have equal length, got {rows.shape} "
+                         f"and {cols.shape}")
+    if rows.size == 0:
+        return 0
+    src, dst, n_src, n_dst = (rows, cols, sizes[p], sizes[q]) if forward else (cols, rows, sizes[q], sizes[p])
+    if n_src * n_dst <= DENSE_BITS:  # small: packed bit rows, cheaper per visited vertex
+        mat = np.zeros((n_src, n_dst), dtype=bool)
+        mat[src, dst] = True
+        return np.packbits(mat, axis=1, bitorder="little")
+    order = np.argsort(src, kind="stable")
+    indptr = np.searchsorted(src[order], np.arange(n_src + 1)).astype(np.intp)
+    return indptr, dst[order].astype(np.intp), n_dst
+
+
 def maximum_cliques(
     sizes: Sequence[int],
     adjacency: dict[tuple[int, int], NDArray[np.bool_] | None],
@@ -300,8 +338,11 @@ def maximum_cliques(
     Parameters
     ----------
     sizes : (k,) int
-    adjacency : dict (p, q) -> (sizes[p], sizes[q]) bool or None
-        For ``p < q``; ``None`` means every pair is compatible; a missing key means none is.
+    adjacency : dict (p, q) -> (sizes[p], sizes[q]) bool, (rows, cols) int arrays, or None
+        For ``p < q``: a boolean matrix, or the compatible pairs as two equal-length integer
+        arrays (vertex ``rows[i]`` of part p with vertex ``cols[i]`` of part q; sparse, memory
+        linear in the edges); ``None`` means every pair is compatible; a missing key means none
+        is.
     min_size : int
     near_maximum : int
         Also return maximal cliques down to ``maximum - near_maximum``.
@@ -363,6 +404,9 @@ def maximum_cliques(
             if mat is None:
                 packed[d][e] = full[q]
                 continue
+            if isinstance(mat, tuple):
+                packed[d][e] = _csr(key, mat, sizes, p < q)
+                continue
             mat = np.asarray(mat)
             if mat.dtype != np.bool_:
                 raise ArgumentTypeError(f"adjacency[{key}] must be a bool array, got dtype {mat.dtype}")
@@ -379,7 +423,15 @@ def maximum_cliques(
             got = []
             for e in range(k):
                 pk = packed[d][e]
-                got.append(pk if isinstance(pk, int) else int.from_bytes(pk[a].tobytes(), "little"))
+                if isinstance(pk, int):
+                    got.append(pk)
+                elif isinstance(pk, tuple):  # sparse: (indptr, cols, size of the other part)
+                    indptr, cols, n_other = pk
+                    row = np.zeros(n_other, dtype=bool)
+                    row[cols[indptr[a]:indptr[a + 1]]] = True
+                    got.append(int.from_bytes(np.packbits(row, bitorder="little").tobytes(), "little"))
+                else:
+                    got.append(int.from_bytes(pk[a].tobytes(), "little"))
             cache[(d, a)] = got
         return got
 
@@ -572,24 +624,37 @@ class _Graph:
                              order=order, starts=starts, key_vertex=sk[starts] // k if len(sk) else sk,
                              free_p=fr[:, 0], free_q=fr[:, 1])
 
-    def dense(self, alive: list[NDArray[np.bool_]]
-              ) -> tuple[list[NDArray[np.intp]], dict[tuple[int, int], NDArray[np.bool_] | None]]:
-        """The subgraph of the alive vertices: compacted objects and boolean adjacency matrices."""
+    def compact(self, alive: list[NDArray[np.bool_]]
+                ) -> tuple[list[NDArray[np.intp]], dict[tuple[int, int], tuple[NDArray, NDArray] | None]]:
+        """The subgraph of the alive vertices: compacted objects and sparse adjacency (the index
+        pairs of the compatible vertices, renumbered), as :func:`maximum_cliques` takes it."""
         new_index = []
         for al in alive:
             idx = np.full(len(al), -1, dtype=np.intp)
             idx[al] = np.arange(int(al.sum()))
             new_index.append(idx)
         objects = [o[al] for o, al in zip(self.objects, alive, strict=True)]
-        adjacency: dict[tuple[int, int], NDArray[np.bool_] | None] = {}
+        adjacency: dict[tuple[int, int], tuple[NDArray, NDArray] | None] = {}
         for (p, q), e in self.edges.items():
             if e is None:
                 adjacency[(p, q)] = None
                 continue
             a, b = e
             keep = alive[p][a] & alive[q][b]
+            adjacency[(p, q)] = (new_index[p][a[keep]], new_index[q][b[keep]])
+        return objects, adjacency
+
+    def dense(self, alive: list[NDArray[np.bool_]]
+              ) -> tuple[list[NDArray[np.intp]], dict[tuple[int, int], NDArray[np.bool_] | None]]:
+        """:meth:`compact` with boolean adjacency matrices (for the paper's filters)."""
+        objects, sparse = self.compact(alive)
+        adjacency: dict[tuple[int, int], NDArray[np.bool_] | None] = {}
+        for (p, q), e in sparse.items():
+            if e is None:
+                adjacency[(p, q)] = None
+                continue
             mat = np.zeros((len(objects[p]), len(objects[q])), dtype=bool)
-            mat[new_index[p][a[keep]], new_index[q][b[keep]]] = True
+            mat[e[0], e[1]] = True
             adjacency[(p, q)] = mat
         return objects, adjacency
 
@@ -1310,7 +1375,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
         alive = _prune(graph, need)
         if sum(bool(a.any()) for a in alive) < need:
             continue
-        objects, adjacency = graph.dense(alive)
+        objects, adjacency = graph.compact(alive)
         search = maximum_cliques([len(o) for o in objects], adjacency, min_size=need, near_maximum=0,
                                  max_nodes=tol.max_nodes, stop_at=need)
         if search.maximum >= need:
@@ -1319,7 +1384,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     if best == 0:
         return []
     floor = max(best - tol.near_maximum, tol.min_clique_size)
-    objects, adjacency = graph.dense(_prune(graph, floor))
+    objects, adjacency = graph.compact(_prune(graph, floor))
     search = maximum_cliques([len(o) for o in objects], adjacency, min_size=floor,
                              near_maximum=tol.near_maximum, max_nodes=tol.max_nodes,
                              max_cliques=tol.max_cliques)
@@ -1332,7 +1397,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     hyps = _hypotheses_from_cliques(world, percepts, objects, cliques, tol, searched)
     if not hyps and floor > tol.min_clique_size:
         # every large clique was a mirror or degenerate: fall back to all sizes
-        objects, adjacency = graph.dense(_prune(graph, tol.min_clique_size))
+        objects, adjacency = graph.compact(_prune(graph, tol.min_clique_size))
         search = maximum_cliques([len(o) for o in objects], adjacency, min_size=tol.min_clique_size,
                                  near_maximum=k, max_nodes=tol.max_nodes, max_cliques=tol.max_cliques)
         hyps = _hypotheses_from_cliques(world, percepts, objects, search.cliques, tol, searched)
