@@ -63,6 +63,7 @@ __all__ = [
     "merge_percepts",
     "plan_view",
     "tells_apart",
+    "view_scores",
 ]
 
 ViewStatus = Literal[
@@ -322,6 +323,99 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
     return head.angle_vector(best_q), best_err, within
 
 
+@dataclass(frozen=True)
+class _Prediction:
+    """The hypotheses' predictions of the recognisable objects (see the module docstring)."""
+
+    poses: list[NDArray[np.float64]]
+    weights: NDArray[np.float64]
+    objects: NDArray[np.intp]             # indices into world.objects of the recognisable ones
+    ego: list[NDArray[np.float64]]        # per hypothesis (n, 3)
+    unit: list[NDArray[np.float64]]       # per hypothesis (n, 3) directions
+    rho: list[NDArray[np.float64]]        # per hypothesis (n,) ranges
+    in_range: list[NDArray[np.bool_]]     # per hypothesis (n,)
+    tells: NDArray[np.bool_]              # (H, H, n): see tells_apart
+
+
+def _predict(world: WorldModel, result: LocalizationResult, types: object, max_range: float,
+             depth_factor: float, min_sigma: float, n_sigma: float, margin: float) -> _Prediction:
+    recog = _check_types(world, types, result)
+    poses, weights = _hypotheses(result)
+    obj = np.flatnonzero(np.isin(world.types, recog))
+    X = world.positions[obj]
+    codes = np.unique(world.types[obj], return_inverse=True)[1].astype(np.intp)
+    ego = [(X - T[:3, 3]) @ T[:3, :3] for T in poses]
+    rho = [np.linalg.norm(e, axis=1) for e in ego]
+    in_range = [(r <= max_range) & (r > 0) for r in rho]
+    gate = [_gate(r, depth_factor, min_sigma, n_sigma, margin) for r in rho]
+    return _Prediction(poses, weights, obj, ego, [_unit_rows(e) for e in ego], rho, in_range,
+                       tells_apart(ego, codes, in_range, gate))
+
+
+def _in_view(pred: _Prediction, h: int, directions: NDArray[np.float64], cos_half: float
+             ) -> NDArray[np.bool_]:
+    """(C, n): object in view of each direction under hypothesis h."""
+    return ((directions @ pred.unit[h].T) >= cos_half - 1e-12) & pred.in_range[h]
+
+
+def _score(pred: _Prediction, directions: NDArray[np.float64], cos_half: float, detection: float
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Per direction: the probability that the look rules out all but the true hypothesis, the
+    expected number of discriminating objects in view and of objects in view."""
+    H = len(pred.poses)
+    miss = 1.0 - detection
+    score = np.zeros(len(directions))
+    count = np.zeros(len(directions))
+    seen = np.zeros(len(directions))
+    for h in range(H):
+        vf = _in_view(pred, h, directions, cos_half).astype(np.float64)    # (C, n)
+        n_hj = vf @ pred.tells[h].T.astype(np.float64)                      # (C, H)
+        ruled_out = 1.0 - miss ** n_hj
+        ruled_out[:, h] = 1.0
+        if H > 1:
+            score += pred.weights[h] * np.prod(ruled_out, axis=1)
+        count += pred.weights[h] * n_hj.sum(axis=1)
+        seen += pred.weights[h] * vf.sum(axis=1)
+    return score, count, seen
+
+
+def _check_common(world: object, result: object, fov_deg: object, max_range: object, detection: object,
+                  depth_factor: object, min_sigma: object, n_sigma: object, margin: object
+                  ) -> tuple[float, float, float, float, float, float, float]:
+    if not isinstance(world, WorldModel):
+        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+    if not isinstance(result, LocalizationResult):
+        raise ArgumentTypeError(f"result must be a LocalizationResult, got {type(result).__name__}")
+    return (positive_float("fov_deg", fov_deg, maximum=360.0),
+            positive_float("max_range", max_range, maximum=1e6),
+            positive_float("detection", detection, maximum=1.0), positive_float("depth_factor", depth_factor),
+            positive_float("min_sigma", min_sigma), positive_float("n_sigma", n_sigma),
+            positive_float("margin", margin, allow_zero=True))
+
+
+def _directions(name: str, value: object) -> NDArray[np.float64]:
+    arr = float_array(name, value, (None, 3), max_abs=1e12)
+    zero = np.flatnonzero(np.linalg.norm(arr, axis=1) == 0)
+    if zero.size:
+        raise OutOfRangeError(f"{name}[{int(zero[0])}] = {arr[zero[0]].tolist()} is no direction "
+                              "(zero length)")
+    return _unit_rows(arr)
+
+
+def view_scores(world: WorldModel, result: LocalizationResult, directions: object, *, fov_deg: float = 60.0,
+                max_range: float = 8.0, types: Sequence[str] | None = None, detection: float = 0.9,
+                depth_factor: float = 1000.0, min_sigma: float = 1e-4, n_sigma: float = 3.0,
+                margin: float = 0.05) -> NDArray[np.float64]:
+    """The score of :func:`plan_view` (the probability that a look rules out every hypothesis but
+    the true one) of each of the given ego directions (m, 3); arguments as for :func:`plan_view`.
+    0 for every direction when the result has a single hypothesis."""
+    fov, max_range, detection, depth_factor, min_sigma, n_sigma, margin = _check_common(
+        world, result, fov_deg, max_range, detection, depth_factor, min_sigma, n_sigma, margin)
+    D = _directions("directions", directions)
+    pred = _predict(world, result, types, max_range, depth_factor, min_sigma, n_sigma, margin)
+    return _score(pred, D, math.cos(math.radians(fov / 2.0)), detection)[0]
+
+
 def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float = 60.0, max_range: float = 8.0,
               head: KinematicChain | None = None, candidates: object = None,
               rng: np.random.Generator | None = None, types: Sequence[str] | None = None,
@@ -330,9 +424,11 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
               joint_limits: Mapping[str, Any] | None = None) -> ViewPlan:
     """The gaze direction that best tells the near-best pose hypotheses of ``result`` apart.
 
-    See the module docstring for the model.  A result with a single hypothesis (a unique
-    answer: no ``alternatives``) gives status ``"single_hypothesis"`` and score 0, looking
-    where the most recognisable objects are expected (a look there only refines the pose).
+    See the module docstring for the model.  The score is a probability (not an information
+    gain).  A result with a single hypothesis (a unique answer: no ``alternatives``) gives
+    status ``"single_hypothesis"`` and score 0, looking where the most recognisable objects are
+    expected (a look there only refines the pose); when no candidate tells the hypotheses
+    apart, status ``"not_discriminating"``, score 0, the same choice.
 
     Parameters
     ----------
@@ -373,97 +469,55 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
     WorldGraphError
         Bad arguments (the subclass and the message name the argument and the value).
     """
-    if not isinstance(world, WorldModel):
-        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
-    if not isinstance(result, LocalizationResult):
-        raise ArgumentTypeError(f"result must be a LocalizationResult, got {type(result).__name__}")
-    fov = positive_float("fov_deg", fov_deg, maximum=360.0)
-    max_range = positive_float("max_range", max_range, maximum=1e6)
-    detection = positive_float("detection", detection, maximum=1.0)
-    depth_factor = positive_float("depth_factor", depth_factor)
-    min_sigma = positive_float("min_sigma", min_sigma)
-    n_sigma = positive_float("n_sigma", n_sigma)
-    margin = positive_float("margin", margin, allow_zero=True)
+    fov, max_range, detection, depth_factor, min_sigma, n_sigma, margin = _check_common(
+        world, result, fov_deg, max_range, detection, depth_factor, min_sigma, n_sigma, margin)
     if head is not None and not isinstance(head, KinematicChain):
         raise ArgumentTypeError(f"head must be a perception.KinematicChain or None, "
                                 f"got {type(head).__name__}")
-    extra = np.zeros((0, 3))
-    if candidates is not None:
-        extra = float_array("candidates", candidates, (None, 3), max_abs=1e12)
-        zero = np.flatnonzero(np.linalg.norm(extra, axis=1) == 0)
-        if zero.size:
-            raise OutOfRangeError(f"candidates[{int(zero[0])}] = {extra[zero[0]].tolist()} is no direction "
-                                  "(zero length)")
+    extra = np.zeros((0, 3)) if candidates is None else _directions("candidates", candidates)
     if rng is not None:
         rng = generator("rng", rng)
-    recog = _check_types(world, types, result)
-    poses, weights = _hypotheses(result)
-    H = len(poses)
-
-    obj = np.flatnonzero(np.isin(world.types, recog))
-    X = world.positions[obj]
-    codes = np.unique(world.types[obj], return_inverse=True)[1].astype(np.intp)
-    ego = [(X - T[:3, 3]) @ T[:3, :3] for T in poses]
-    rho = [np.linalg.norm(e, axis=1) for e in ego]
-    in_range = [(r <= max_range) & (r > 0) for r in rho]
-    gate = [_gate(r, depth_factor, min_sigma, n_sigma, margin) for r in rho]
-    u = tells_apart(ego, codes, in_range, gate)          # (H, H, n)
-    disc = u.any(axis=1)                                 # (H, n): tells h from some j
-
-    dirs = [_FIXED, _unit_rows(extra)]
-    dirs += [_unit_rows(ego[h][disc[h] & in_range[h]]) for h in range(H)]
+    if head is not None and joint_limits is not None:
+        _check_limits(head, joint_limits)
+    pred = _predict(world, result, types, max_range, depth_factor, min_sigma, n_sigma, margin)
+    H = len(pred.poses)
+    disc = pred.tells.any(axis=1)                        # (H, n): tells h from some j
+    dirs = [_FIXED, extra] + [pred.unit[h][disc[h] & pred.in_range[h]] for h in range(H)]
     if rng is not None:
         dirs.append(_unit_rows(rng.standard_normal((N_RANDOM_DIRECTIONS, 3))))
     D = np.vstack(dirs)
-    cos_half = math.cos(math.radians(min(fov, 360.0) / 2.0))
-    miss = 1.0 - detection
-    score = np.zeros(len(D))
-    count = np.zeros(len(D))
-    seen = np.zeros(len(D))
-    for h in range(H):
-        unit = _unit_rows(ego[h])
-        view = ((D @ unit.T) >= cos_half - 1e-12) & in_range[h]   # (C, n)
-        vf = view.astype(np.float64)
-        n_hj = vf @ u[h].T.astype(np.float64)                     # (C, H)
-        ruled_out = 1.0 - miss ** n_hj
-        ruled_out[:, h] = 1.0
-        if H > 1:
-            score += weights[h] * np.prod(ruled_out, axis=1)
-        count += weights[h] * n_hj.sum(axis=1)
-        seen += weights[h] * vf.sum(axis=1)
-    if H == 1:
-        status: ViewStatus = "single_hypothesis"
-        best = int(np.lexsort((-seen,))[0])
-    elif float(score.max()) <= 0.0:
-        status = "not_discriminating"
-        best = int(np.lexsort((-seen,))[0])
+    cos_half = math.cos(math.radians(fov / 2.0))
+    score, count, seen = _score(pred, D, cos_half, detection)
+    status: ViewStatus
+    if H == 1 or float(score.max()) <= 0.0:
+        status = "single_hypothesis" if H == 1 else "not_discriminating"
+        best = int(np.argmax(seen))
     else:
         status = "ok"
-        # highest probability; ties (saturated at 1) by the expected number of discriminating objects
+        # highest probability; ties (saturated at 1) by the expected number of discriminating
+        # objects, then of objects in view
         best = int(np.lexsort((-seen, -count, -np.round(score, 12)))[0])
     d = D[best]
     expected, disc_in_view, ranges, all_ranges = [], [], [], []
     for h in range(H):
-        unit = _unit_rows(ego[h])
-        view = ((unit @ d) >= cos_half - 1e-12) & in_range[h]
-        expected.append(obj[view])
+        view = _in_view(pred, h, d[None], cos_half)[0]
+        expected.append(pred.objects[view])
         disc_in_view.append(disc[h][view])
-        ranges.append(rho[h][view & disc[h]])
-        all_ranges.append(rho[h][view])
+        ranges.append(pred.rho[h][view & disc[h]])
+        all_ranges.append(pred.rho[h][view])
     r_disc, r_all = np.concatenate(ranges), np.concatenate(all_ranges)
     dist = float(np.median(r_disc)) if r_disc.size else float(np.median(r_all)) if r_all.size \
         else 0.5 * max_range
     target = d * dist
-    plan = ViewPlan(direction=d.copy(), target=target, score=float(score[best]) if status == "ok" else 0.0,
-                    expected=tuple(expected), discriminating=tuple(disc_in_view),
-                    hypotheses=tuple(p.copy() for p in poses), weights=weights, status=status,
-                    candidates=len(D))
+    angles, err, within, reached = None, math.nan, None, None
     if head is not None:
         angles, err, within = gaze_angles(head, target, joint_limits=joint_limits)
-        reached = err <= GAZE_TOLERANCE and within is not False
-        plan = ViewPlan(**{**plan.__dict__, "joint_angles": angles, "pointing_error": err,
-                           "gaze_reached": bool(reached), "within_limits": within})
-    return plan
+        reached = bool(err <= GAZE_TOLERANCE and within is not False)
+    return ViewPlan(direction=d.copy(), target=target, score=float(score[best]) if status == "ok" else 0.0,
+                    expected=tuple(expected), discriminating=tuple(disc_in_view),
+                    hypotheses=tuple(p.copy() for p in pred.poses), weights=pred.weights, status=status,
+                    joint_angles=angles, pointing_error=err, gaze_reached=reached, within_limits=within,
+                    candidates=len(D))
 
 
 @dataclass(frozen=True)
