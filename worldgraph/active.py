@@ -80,6 +80,8 @@ N_FIXED_DIRECTIONS = 64
 N_RANDOM_DIRECTIONS = 32
 #: Largest pointing error (rad) of the head's optical axis at which ``gaze_reached`` is True.
 GAZE_TOLERANCE = math.radians(1.0)
+#: Localisation statuses that come with a pose to plan a view from.
+_POSED_STATUSES = ("ambiguous", "weak", "inconsistent", "outside_region", "ok")
 
 
 @dataclass(frozen=True)
@@ -567,9 +569,11 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                     planner: Callable[[LocalizationResult], NDArray[np.float64] | ViewPlan] | None = None,
                     method: str = "ml", tolerances: AssociationTolerances | None = None,
                     fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
-                    head: KinematicChain | None = None) -> ActiveLocalization:
-    """Localise; while the answer is ``"ambiguous"`` and looks remain: plan a view, look, and
-    localise again with the old and new percepts (:func:`merge_percepts` drops second sights).
+                    head: KinematicChain | None = None, look_while: Sequence[str] = ("ambiguous",)
+                    ) -> ActiveLocalization:
+    """Localise; while the status is in ``look_while`` (default ``"ambiguous"``) and looks remain:
+    plan a view, look, and localise again with the old and new percepts (:func:`merge_percepts`
+    drops second sights).
 
     Parameters
     ----------
@@ -585,12 +589,17 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         Default :func:`plan_view` with ``fov_deg``, ``max_range``, ``types`` and ``head``.
     method, tolerances
         Passed to :func:`~worldgraph.localize`.
+    look_while : sequence of str
+        Statuses that call for another look, among those that come with a pose (``"ambiguous"``,
+        ``"weak"``, ``"inconsistent"``, ``"outside_region"``, ``"ok"``); with ``"weak"`` a unique
+        but poorly determined pose also gets looks (plan_view's ``"single_hypothesis"`` view,
+        where the most objects are expected).
 
     Returns
     -------
     ActiveLocalization
-        Stops early when the status is anything but ``"ambiguous"`` (a unique answer, or a
-        failure no look is planned for).
+        Stops early when the status is not in ``look_while`` (a unique answer, or a failure no
+        look is planned for).
     """
     if not callable(look):
         raise ArgumentTypeError(f"look must be a callable direction -> list of Percept, "
@@ -599,11 +608,16 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         raise ArgumentTypeError(f"planner must be None or a callable result -> ViewPlan or direction, got "
                                 f"{type(planner).__name__}")
     max_looks = strict_int("max_looks", max_looks, minimum=0, maximum=1000)
+    statuses = as_list("look_while", look_while, "status names")
+    for i, st in enumerate(statuses):
+        if st not in _POSED_STATUSES:
+            raise OutOfRangeError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
+                                  f"choose among {_POSED_STATUSES}")
     tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
     current = check_world_and_percepts(world, percepts)
     result = localize(world, current, method, tolerances=tol)
     results, plans, directions = [result], [], []
-    while len(directions) < max_looks and result.status == "ambiguous":
+    while len(directions) < max_looks and result.status in statuses:
         if planner is None:
             plan = plan_view(world, result, fov_deg=fov_deg, max_range=max_range, types=types, head=head)
         else:
