@@ -91,6 +91,8 @@ def test_plan_view_looks_at_the_doors_not_at_the_shared_knob():
     assert np.linalg.norm(plan.direction) == pytest.approx(1.0)
     assert [list(world.types[e]) for e in plan.expected] == [["door"], ["door"]]
     assert plan.target @ plan.direction == pytest.approx(np.linalg.norm(plan.target))
+    # the target is on the gaze at the median range of the doors (3 m and |(0.8, -3, 0)|)
+    assert np.linalg.norm(plan.target) == pytest.approx(np.median([3.0, math.hypot(0.8, 3.0)]))
     # the paper's discriminator (largest predicted difference) is the knob behind, which both
     # rooms predict at the same ego spot: a look there tells nothing
     hyps = [AssociationHypothesis((), 0.0, 0, np.eye(4)), AssociationHypothesis((), 0.0, 0, _pose_b())]
