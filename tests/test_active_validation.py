@@ -3,7 +3,8 @@
 The two-room world: room 1 at the world origin (robot pose A = identity), room 2 at pose B (yaw
 180 deg, 20 m away), each holding the same ego layout of four handles in front and a knob
 behind, so both poses predict those at the same ego spots; the door of room 1 is at ego (0, -3,
-0), the door of room 2 at ego (0.8, -3, 0).  Only the doors (to the right) tell the rooms apart.
+0), the door of room 2 at ego (0.8, -3, 0), and beyond them both rooms have a knob at ego (0.3,
+-5, 0).  Only the doors (to the right) tell the rooms apart.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ HANDLES = np.array([[3.0, -1.0, 0.0], [3.0, 0.0, 0.5], [3.0, 1.0, 0.0], [3.0, 0.
 KNOB = np.array([-3.0, 0.0, 0.0])
 DOOR_A = np.array([0.0, -3.0, 0.0])
 DOOR_B = np.array([0.8, -3.0, 0.0])
+SIDE_KNOB = np.array([0.3, -5.0, 0.0])  # beyond the doors, at the same ego spot in both rooms
 HALF_FOV = math.radians(30.0)
 
 
@@ -43,9 +45,9 @@ def _pose_b() -> np.ndarray:
 
 def _two_rooms() -> wg.WorldModel:
     B = _pose_b()
-    room1 = np.vstack([HANDLES, KNOB, DOOR_A])
-    room2 = np.vstack([HANDLES, KNOB, DOOR_B]) @ B[:3, :3].T + B[:3, 3]
-    types = ["handle"] * 4 + ["knob", "door"]
+    room1 = np.vstack([HANDLES, KNOB, DOOR_A, SIDE_KNOB])
+    room2 = np.vstack([HANDLES, KNOB, DOOR_B, SIDE_KNOB]) @ B[:3, :3].T + B[:3, 3]
+    types = ["handle"] * 4 + ["knob", "door", "knob"]
     return wg.WorldModel.from_arrays(types * 2, np.vstack([room1, room2]), max_link_length=8.0,
                                      link_margin=0.5)
 
@@ -89,9 +91,11 @@ def test_plan_view_looks_at_the_doors_not_at_the_shared_knob():
     # by hand: each room sees its door, which the other room lacks there; detection 0.9 each
     assert plan.score == pytest.approx(0.9, abs=1e-12)
     assert np.linalg.norm(plan.direction) == pytest.approx(1.0)
-    assert [list(world.types[e]) for e in plan.expected] == [["door"], ["door"]]
+    assert [list(world.types[e]) for e in plan.expected] == [["door", "knob"], ["door", "knob"]]
+    assert [d.tolist() for d in plan.discriminating] == [[True, False], [True, False]]
     assert plan.target @ plan.direction == pytest.approx(np.linalg.norm(plan.target))
-    # the target is on the gaze at the median range of the doors (3 m and |(0.8, -3, 0)|)
+    # the target is on the gaze at the median range of the doors (3 m and |(0.8, -3, 0)|), not of
+    # everything in view (the shared knob is 5 m away)
     assert np.linalg.norm(plan.target) == pytest.approx(np.median([3.0, math.hypot(0.8, 3.0)]))
     # the paper's discriminator (largest predicted difference) is the knob behind, which both
     # rooms predict at the same ego spot: a look there tells nothing
@@ -131,7 +135,7 @@ def test_localize_then_one_look_resolves_the_two_rooms():
     world = _two_rooms()
     look = _look_at(world, np.eye(4))
     percepts = look(np.array([1.0, 0.0, 0.0])) + look(np.array([-1.0, 0.0, 0.0]))  # handles and knob
-    assert sorted(p.type for p in percepts) == ["handle"] * 4 + ["knob"]
+    assert sorted(p.type for p in percepts) == ["handle"] * 4 + ["knob"]  # the knob behind
     first = wg.localize(world, percepts)
     assert first.status == "ambiguous" and len(first.alternatives) == 1
     assert len(first.near_best_costs) == 2
@@ -142,7 +146,7 @@ def test_localize_then_one_look_resolves_the_two_rooms():
     out = wg.active_localize(world, percepts, look, types=["handle", "knob", "door"])
     assert out.looks == 1 and [r.status for r in out.results] == ["ambiguous", "ok"]
     assert np.allclose(out.result.transformation, np.eye(4), atol=1e-2)
-    assert sorted(p.type for p in out.percepts) == ["door"] + ["handle"] * 4 + ["knob"]
+    assert sorted(p.type for p in out.percepts) == ["door"] + ["handle"] * 4 + ["knob"] * 2
 
 
 def test_active_localize_stops_at_max_looks_and_takes_a_planner():
