@@ -310,7 +310,7 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
     for q0 in starts:
         q0 = np.clip(q0, np.where(np.isfinite(lo), lo + 1e-9, -np.inf),
                      np.where(np.isfinite(hi), hi - 1e-9, np.inf))
-        sol = least_squares(residual, q0, bounds=(lo, hi), xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        sol = least_squares(residual, q0, bounds=(lo, hi), xtol=1e-10, ftol=1e-10, gtol=1e-10)
         q = sol.x
         M = head.ego_from_camera(q)
         ray = tgt - M[:3, 3]
@@ -318,7 +318,7 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
         err = math.acos(min(1.0, max(-1.0, cosang)))
         if err < best_err:
             best_q, best_err = q, err
-        if best_err < 1e-6:
+        if best_err < 0.01 * GAZE_TOLERANCE:  # good enough: skip the other starts
             break
     assert best_q is not None
     within = None if bounds is None else bool(np.all((best_q >= lo - 1e-9) & (best_q <= hi + 1e-9)))
