@@ -1,6 +1,7 @@
 """worldgraph: world model graph, association and pose."""
 
 from . import scenes
+from .active import ActiveLocalization, ViewPlan, active_localize, plan_view
 from .association import (
     ASSOCIATION_TOLERANCES,
     AssociationHypothesis,
@@ -33,6 +34,7 @@ from .model import LinkTable, ObjectModel, WorldModel, box_vertices
 from .pose import percept_frame, pose_from_frames, weighted_kabsch
 
 __all__ = [
+    "ActiveLocalization",
     "ArgumentTypeError",
     "CoincidentObjectsError",
     "EmptyWorldError",
@@ -50,7 +52,9 @@ __all__ = [
     "UnknownGeometryError",
     "UnknownTypeError",
     "WorldGraphError",
+    "ViewPlan",
     "WorldModel",
+    "active_localize",
     "box_vertices",
     "franka_kitchen_path",
     "load_franka_kitchen",
@@ -69,6 +73,7 @@ __all__ += [
     "localize",
     "orientation_filter",
     "percept_frame",
+    "plan_view",
     "pose_from_frames",
     "proximity_filter",
     "weighted_kabsch",

@@ -189,6 +189,11 @@ class LocalizationResult:
         With ``certify=True``: whether the pose is proven the global minimum of the ML cost of
         its matches (the rotation SDP of :mod:`worldgraph.pose_certificate`), with the proven
         lower bound and the gap.  None otherwise.
+    near_best_costs : tuple of float
+        Robust costs (twice a negative log-likelihood up to a constant) of the validated fits
+        behind ``transformation`` and each of ``alternatives``, in that order (empty for the
+        ``"paper"`` method and when no pose was determined); what
+        :func:`worldgraph.active.plan_view` weights the near-best hypotheses with.
     """
 
     transformation: NDArray[np.float64]
@@ -208,6 +213,7 @@ class LocalizationResult:
     alternatives: tuple[NDArray[np.float64], ...] = ()
     log_likelihood_ratio: float = math.inf
     certificate: ro.Certificate | None = None
+    near_best_costs: tuple[float, ...] = ()
 
     @property
     def unique(self) -> bool:
@@ -530,6 +536,7 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
                          f"inliers) at a pose {gap:.3g} m away")
     llr = 0.5 * (distinct[1][0].cost - best.cost) if len(distinct) > 1 else math.inf
     alternatives = tuple(f.world_from_ego.copy() for f in runners)
+    near_best_costs = (float(best.cost), *(float(f.cost) for f in runners))
     pairs = best.pairs
     p_i = np.array([p for p, _ in pairs])
     o_i = np.array([o for _, o in pairs])
@@ -548,7 +555,8 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
         if any(shared):  # errors common to the percepts of one view (head encoders)
             cov6 = cov6 + shared_view_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], shared)
         ctx.timings["position"] = time.perf_counter() - t0
-        return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, None, check=False)
+        return replace(_finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, None, check=False),
+                       near_best_costs=near_best_costs)
 
     # range-only methods on the validated matches
     sph = _sphere_position(ctx, pairs, _SPHERE_ESTIMATOR[method], best.world_from_ego[:3, 3], rng)
@@ -567,8 +575,8 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     ctx.timings["orientation"] = time.perf_counter() - t0
     if status == "ambiguous":
         ambiguous = True
-    return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, est, check=True,
-                   status_hint=status)
+    return replace(_finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, est, check=True,
+                           status_hint=status), near_best_costs=near_best_costs)
 
 
 def match_spheres(world: WorldModel, percepts: Sequence[Percept], pairs: Sequence[tuple[int, int]]

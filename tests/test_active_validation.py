@@ -1,0 +1,340 @@
+"""Active validation (issue 14): plan_view, gaze_angles, view_scores, active_localize.
+
+The two-room world: room 1 at the world origin (robot pose A = identity), room 2 at pose B (yaw
+180 deg, 20 m away), each holding the same ego layout of four handles in front and a knob
+behind, so both poses predict those at the same ego spots; the door of room 1 is at ego (0, -3,
+0), the door of room 2 at ego (0.8, -3, 0), and beyond them both rooms have a knob at ego (0.3,
+-5, 0).  Only the doors (to the right) tell the rooms apart.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import perception as pc
+import worldgraph as wg
+from worldgraph.active import gaze_angles, merge_percepts, tells_apart, view_scores
+from worldgraph.association import AssociationHypothesis, discriminator
+from worldgraph.errors import (
+    ArgumentTypeError,
+    NonFiniteError,
+    NonPositiveError,
+    OutOfRangeError,
+    ShapeError,
+    UnknownTypeError,
+)
+from worldgraph.localize import LocalizationResult
+
+HANDLES = np.array([[3.0, -1.0, 0.0], [3.0, 0.0, 0.5], [3.0, 1.0, 0.0], [3.0, 0.5, -0.5]])
+KNOB = np.array([-3.0, 0.0, 0.0])
+DOOR_A = np.array([0.0, -3.0, 0.0])
+DOOR_B = np.array([0.8, -3.0, 0.0])
+SIDE_KNOB = np.array([0.3, -5.0, 0.0])  # beyond the doors, at the same ego spot in both rooms
+HALF_FOV = math.radians(30.0)
+
+
+def _pose_b() -> np.ndarray:
+    m = np.eye(4)
+    m[:3, :3] = [[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]]
+    m[:3, 3] = [20.0, 0.0, 0.0]
+    return m
+
+
+def _two_rooms() -> wg.WorldModel:
+    B = _pose_b()
+    room1 = np.vstack([HANDLES, KNOB, DOOR_A, SIDE_KNOB])
+    room2 = np.vstack([HANDLES, KNOB, DOOR_B, SIDE_KNOB]) @ B[:3, :3].T + B[:3, 3]
+    types = ["handle"] * 4 + ["knob", "door", "knob"]
+    return wg.WorldModel.from_arrays(types * 2, np.vstack([room1, room2]), max_link_length=8.0,
+                                     link_margin=0.5)
+
+
+def _result(poses: list[np.ndarray], costs: list[float], world: wg.WorldModel) -> LocalizationResult:
+    """An ambiguous result over ``poses`` (the first chosen), matched to room 1's handles."""
+    T = poses[0]
+    return LocalizationResult(T, T[:3, 3].copy(), 1e-4 * np.eye(3), ((0, 0), (1, 1), (2, 2), (3, 3)), (),
+                              len(poses) > 1, "ambiguous" if len(poses) > 1 else "ok",
+                              alternatives=tuple(poses[1:]), near_best_costs=tuple(costs))
+
+
+def _angle(a: np.ndarray, b: np.ndarray) -> float:
+    return math.acos(float(np.clip(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)), -1.0, 1.0)))
+
+
+def _look_at(world: wg.WorldModel, pose: np.ndarray, half_fov: float = HALF_FOV, max_range: float = 8.0):
+    """What a look from ``pose`` sees: exact percepts of the objects in the cone (eq. 6 sigma)."""
+    ego = (world.positions - pose[:3, 3]) @ pose[:3, :3]
+
+    def look(d: np.ndarray) -> list[pc.Percept]:
+        out = []
+        for t, x in zip(world.types, ego, strict=True):
+            rho = float(np.linalg.norm(x))
+            if 0 < rho <= max_range and _angle(x, d) <= half_fov:
+                s = max(1e-3, rho**2 / 1000.0)
+                out.append(pc.Percept(str(t), x, s, covariance=s**2 * np.eye(3)))
+        return out
+    return look
+
+
+def test_plan_view_looks_at_the_doors_not_at_the_shared_knob():
+    world = _two_rooms()
+    res = _result([np.eye(4), _pose_b()], [0.0, 0.0], world)
+    plan = wg.plan_view(world, res, types=["handle", "knob", "door"])
+    assert plan.status == "ok"
+    # both doors in view, nothing that both rooms show at one spot
+    assert _angle(plan.direction, DOOR_A) <= HALF_FOV and _angle(plan.direction, DOOR_B) <= HALF_FOV
+    assert _angle(plan.direction, KNOB) > HALF_FOV
+    assert all(_angle(plan.direction, h) > HALF_FOV for h in HANDLES)
+    # by hand: each room sees its door, which the other room lacks there; detection 0.9 each
+    assert plan.score == pytest.approx(0.9, abs=1e-12)
+    assert np.linalg.norm(plan.direction) == pytest.approx(1.0)
+    assert [list(world.types[e]) for e in plan.expected] == [["door", "knob"], ["door", "knob"]]
+    assert [d.tolist() for d in plan.discriminating] == [[True, False], [True, False]]
+    assert plan.target @ plan.direction == pytest.approx(np.linalg.norm(plan.target))
+    # the target is on the gaze at the median range of the doors (3 m and |(0.8, -3, 0)|), not of
+    # everything in view (the shared knob is 5 m away)
+    assert np.linalg.norm(plan.target) == pytest.approx(np.median([3.0, math.hypot(0.8, 3.0)]))
+    # the paper's discriminator (largest predicted difference) is the knob behind, which both
+    # rooms predict at the same ego spot: a look there tells nothing
+    hyps = [AssociationHypothesis((), 0.0, 0, np.eye(4)), AssociationHypothesis((), 0.0, 0, _pose_b())]
+    assert world.types[discriminator(world, hyps)] == "knob"
+    scores = view_scores(world, res, [KNOB, HANDLES.mean(axis=0), DOOR_A], types=["handle", "knob", "door"])
+    assert scores.tolist() == pytest.approx([0.0, 0.0, 0.9])
+
+
+def test_weights_follow_the_costs():
+    world = _two_rooms()
+    res = _result([np.eye(4), _pose_b()], [0.0, 2.0 * math.log(3.0)], world)  # A three times as likely
+    plan = wg.plan_view(world, res, types=["handle", "knob", "door"])
+    assert plan.weights.tolist() == pytest.approx([0.75, 0.25])
+    assert plan.score == pytest.approx(0.9)
+
+
+def test_same_door_spot_tells_nothing():
+    """Move room 2's door onto room 1's ego spot: no direction tells the rooms apart."""
+    B = _pose_b()
+    room = np.vstack([HANDLES, KNOB, DOOR_A])
+    world = wg.WorldModel.from_arrays(["handle"] * 4 + ["knob", "door"] + ["handle"] * 4 + ["knob", "door"],
+                                      np.vstack([room, room @ B[:3, :3].T + B[:3, 3]]), max_link_length=8.0)
+    plan = wg.plan_view(world, _result([np.eye(4), B], [0.0, 0.0], world), types=["handle", "knob", "door"])
+    assert plan.status == "not_discriminating" and plan.score == 0.0
+
+
+def test_unique_result_plans_a_single_hypothesis_view():
+    world = _two_rooms()
+    plan = wg.plan_view(world, _result([np.eye(4)], [0.0], world), types=["handle", "knob", "door"])
+    assert plan.status == "single_hypothesis" and plan.score == 0.0 and len(plan.hypotheses) == 1
+    # it looks where the most objects are: the four handles in front
+    assert all(_angle(plan.direction, h) <= HALF_FOV for h in HANDLES)
+
+
+def test_localize_then_one_look_resolves_the_two_rooms():
+    world = _two_rooms()
+    look = _look_at(world, np.eye(4))
+    percepts = look(np.array([1.0, 0.0, 0.0])) + look(np.array([-1.0, 0.0, 0.0]))  # handles and knob
+    assert sorted(p.type for p in percepts) == ["handle"] * 4 + ["knob"]  # the knob behind
+    first = wg.localize(world, percepts)
+    assert first.status == "ambiguous" and len(first.alternatives) == 1
+    assert len(first.near_best_costs) == 2
+    # the default recognisable types are the matched ones (handle, knob): no door, no difference
+    assert wg.plan_view(world, first).status == "not_discriminating"
+    plan = wg.plan_view(world, first, types=["handle", "knob", "door"])
+    assert plan.status == "ok" and _angle(plan.direction, DOOR_A) <= HALF_FOV
+    out = wg.active_localize(world, percepts, look, types=["handle", "knob", "door"])
+    assert out.looks == 1 and [r.status for r in out.results] == ["ambiguous", "ok"]
+    assert np.allclose(out.result.transformation, np.eye(4), atol=1e-2)
+    assert sorted(p.type for p in out.percepts) == ["door"] + ["handle"] * 4 + ["knob"] * 2
+
+
+def test_active_localize_stops_at_max_looks_and_takes_a_planner():
+    world = _two_rooms()
+    look = _look_at(world, np.eye(4))
+    percepts = look(np.array([1.0, 0.0, 0.0])) + look(np.array([-1.0, 0.0, 0.0]))
+    # a planner that looks behind (at the shared knob) every time: never resolves
+    out = wg.active_localize(world, percepts, look, planner=lambda r: np.array([-2.0, 0.0, 0.0]), max_looks=2)
+    assert out.looks == 2 and [r.status for r in out.results] == ["ambiguous"] * 3
+    assert len(out.percepts) == len(percepts)  # the knob seen again is merged away
+    assert wg.active_localize(world, percepts, look, max_looks=0).looks == 0
+
+
+def test_merge_percepts_drops_second_sights_only():
+    a = pc.Percept("door", [1.0, 0.0, 0.0], 0.01)
+    again = pc.Percept("door", [1.02, 0.0, 0.0], 0.01)       # 2 cm < 3 sqrt(2) 1 cm + 1 cm
+    other_type = pc.Percept("knob", [1.0, 0.0, 0.0], 0.01)
+    far = pc.Percept("door", [1.1, 0.0, 0.0], 0.01)          # 10 cm > 5.2 cm
+    merged = merge_percepts([a], [again, other_type, far])
+    assert merged == [a, other_type, far]
+
+
+def _slow_scores(world, poses, weights, types, directions, fov_deg, max_range, detection, margin):
+    """The score of the module docstring by plain loops over objects (no k-d tree, no matrices)."""
+    cos_half = math.cos(math.radians(fov_deg / 2))
+    objs = [o for o in range(len(world)) if world.types[o] in types]
+    ego = [{o: pose[:3, :3].T @ (world.positions[o] - pose[:3, 3]) for o in objs} for pose in poses]
+    out = []
+    for d in directions:
+        d = d / np.linalg.norm(d)
+        total = 0.0
+        for h in range(len(poses)):
+            prob = 1.0
+            for j in range(len(poses)):
+                if j == h:
+                    continue
+                n = 0
+                for o in objs:
+                    x = ego[h][o]
+                    rho = float(np.linalg.norm(x))
+                    if not (0 < rho <= max_range and x @ d >= cos_half * rho - 1e-12):
+                        continue
+                    gate = 3 * math.sqrt(2) * max(1e-4, rho**2 / 1000) + margin
+                    if all(world.types[q] != world.types[o] or np.linalg.norm(ego[j][q] - x) > gate
+                           for q in objs):
+                        n += 1
+                prob *= 1 - (1 - detection) ** n
+            total += weights[h] * prob
+        out.append(total)
+    return np.array(out)
+
+
+def _random_world(rng):
+    types = rng.choice(["door", "handle", "knob", "lamp"], 70)
+    return wg.WorldModel.from_arrays(types, rng.uniform([0, 0, 0], [9, 7, 2.5], (70, 3)), max_link_length=4.0)
+
+
+def _random_pose(rng, centre):
+    m = np.eye(4)
+    a = rng.uniform(0, 2 * np.pi)
+    m[:3, :3] = [[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]]
+    m[:3, 3] = centre + rng.normal(0, 0.3, 3)
+    return m
+
+
+def test_view_scores_match_a_slow_reference():
+    rng = np.random.default_rng(4)
+    world = _random_world(rng)
+    poses = [_random_pose(rng, [4.5, 3.5, 1.2]) for _ in range(3)]
+    costs = [0.0, 1.0, 3.0]
+    res = _result(poses, costs, world)
+    types = ["door", "handle", "knob"]
+    dirs = rng.standard_normal((40, 3))
+    fast = view_scores(world, res, dirs, types=types, fov_deg=50.0, max_range=5.0, detection=0.7, margin=0.3)
+    w = np.exp(-np.array(costs) / 2)
+    slow = _slow_scores(world, poses, w / w.sum(), types, dirs, 50.0, 5.0, 0.7, 0.3)
+    assert np.allclose(fast, slow, atol=1e-12)
+    assert fast.max() > 0.1 and fast.min() < fast.max()  # the check compares something
+    plan = wg.plan_view(world, res, types=types, fov_deg=50.0, max_range=5.0, detection=0.7, margin=0.3,
+                        candidates=dirs)
+    assert plan.score >= slow.max() - 1e-12  # the plan beats every direction given
+
+
+def test_score_is_a_lower_bound_of_the_monte_carlo_probability():
+    """With three hypotheses the product is a lower bound (Harris); sample the detections."""
+    rng = np.random.default_rng(5)
+    world = _random_world(rng)
+    poses = [_random_pose(rng, [4.5, 3.5, 1.2]) for _ in range(3)]
+    res = _result(poses, [0.0, 0.0, 0.0], world)
+    types = ["door", "handle", "knob"]
+    kw = dict(types=types, fov_deg=70.0, max_range=5.0, detection=0.5, margin=0.3)
+    plan = wg.plan_view(world, res, **kw)
+    objs = np.flatnonzero(np.isin(world.types, types))
+    ego = [(world.positions[objs] - p[:3, 3]) @ p[:3, :3] for p in poses]
+    rho = [np.linalg.norm(e, axis=1) for e in ego]
+    gate = [3 * math.sqrt(2) * np.maximum(1e-4, r**2 / 1000) + 0.3 for r in rho]
+    codes = np.unique(world.types[objs], return_inverse=True)[1]
+    u = tells_apart(ego, codes, [(r > 0) & (r <= 5.0) for r in rho], gate)
+    trials, hits = 20000, 0.0
+    for h in range(3):
+        view = (ego[h] @ plan.direction >= math.cos(math.radians(35.0)) * rho[h] - 1e-12) & (rho[h] <= 5.0)
+        det = rng.random((trials, len(objs))) < 0.5
+        seen = det & view
+        ok = np.ones(trials, dtype=bool)
+        for j in range(3):
+            if j != h:
+                ok &= (seen & u[h, j]).any(axis=1)
+        hits += ok.mean() / 3
+    se = math.sqrt(0.25 / (3 * trials))
+    assert plan.score <= hits + 4 * se
+    assert plan.score > 0.2
+
+
+def test_default_head_points_the_camera_at_targets():
+    head = pc.default_head()
+    rng = np.random.default_rng(6)
+    targets = rng.standard_normal((12, 3)) * [3, 3, 1]
+    targets = np.vstack([targets, [[-4.0, 0.1, 0.0], [0.5, 0.0, -3.0], [2.0, -2.0, 2.0]]])
+    for t in targets:
+        q, err, within = gaze_angles(head, t)
+        M = head.ego_from_camera(q)
+        assert _angle(M[:3, 2], t - M[:3, 3]) <= math.radians(1.0)
+        assert err == pytest.approx(_angle(M[:3, 2], t - M[:3, 3]), abs=1e-9)
+        assert within is None and q.shape == (head.n_joints,)
+
+
+def test_plan_view_with_the_default_head():
+    world = _two_rooms()
+    head = pc.default_head()
+    plan = wg.plan_view(world, _result([np.eye(4), _pose_b()], [0.0, 0.0], world), head=head,
+                        types=["handle", "knob", "door"])
+    M = head.ego_from_camera(plan.joint_angles)
+    assert _angle(M[:3, 2], plan.target - M[:3, 3]) <= math.radians(1.0)
+    assert plan.gaze_reached is True and plan.within_limits is None
+
+
+def test_joint_limits_are_kept_and_an_unreachable_gaze_is_flagged():
+    head = pc.default_head()
+    limits = {j.name: (-0.2, 0.2) for j in head.joints}
+    q, err, within = gaze_angles(head, [-4.0, 0.0, 0.0], joint_limits=limits)  # straight behind
+    assert within is True and np.all(np.abs(q[:len(head.joints)]) <= 0.2 + 1e-9)
+    assert err > math.radians(90.0)
+    world = _two_rooms()
+    plan = wg.plan_view(world, _result([np.eye(4), _pose_b()], [0.0, 0.0], world), head=head,
+                        types=["handle", "knob", "door"], joint_limits=limits)
+    assert plan.gaze_reached is False and plan.within_limits is True  # the doors are 90 deg to the right
+
+
+@pytest.mark.parametrize(("kwargs", "error", "name"), [
+    ({"fov_deg": -1.0}, NonPositiveError, "fov_deg"),
+    ({"fov_deg": 400.0}, OutOfRangeError, "fov_deg"),
+    ({"max_range": float("nan")}, NonFiniteError, "max_range"),
+    ({"detection": 1.5}, OutOfRangeError, "detection"),
+    ({"margin": -0.1}, NonPositiveError, "margin"),
+    ({"candidates": [[1.0, 0.0]]}, ShapeError, "candidates"),
+    ({"candidates": [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]}, OutOfRangeError, "candidates[1]"),
+    ({"types": ["door", "sofa"]}, UnknownTypeError, "types[1]"),
+    ({"types": "door"}, ArgumentTypeError, "types"),
+    ({"rng": 42}, ArgumentTypeError, "rng"),
+    ({"head": "armar"}, ArgumentTypeError, "head"),
+    ({"head": pc.default_head(), "joint_limits": {"neck": (0, 1)}}, UnknownTypeError, "neck"),
+    ({"head": pc.default_head(), "joint_limits": {"neck_yaw": (1, 0)}}, OutOfRangeError, "neck_yaw"),
+])
+def test_bad_arguments_raise_named_errors(kwargs, error, name):
+    world = _two_rooms()
+    res = _result([np.eye(4), _pose_b()], [0.0, 0.0], world)
+    with pytest.raises(error, match=name.replace("[", r"\[").replace("]", r"\]")):
+        wg.plan_view(world, res, **kwargs)
+
+
+def test_bad_world_result_and_loop_arguments():
+    world = _two_rooms()
+    res = _result([np.eye(4), _pose_b()], [0.0, 0.0], world)
+    with pytest.raises(ArgumentTypeError, match="world"):
+        wg.plan_view("kitchen", res)
+    with pytest.raises(ArgumentTypeError, match="result"):
+        wg.plan_view(world, {"status": "ambiguous"})
+    no_pose = LocalizationResult(np.full((4, 4), np.nan), np.full(3, np.nan), np.full((3, 3), np.nan), (), (),
+                                 False, "no_association")
+    with pytest.raises(NonFiniteError, match="no_association"):
+        wg.plan_view(world, no_pose, types=["door"])
+    look = _look_at(world, np.eye(4))
+    percepts = look(np.array([1.0, 0.0, 0.0])) + look(np.array([-1.0, 0.0, 0.0]))
+    with pytest.raises(ArgumentTypeError, match="look"):
+        wg.active_localize(world, percepts, "look")
+    with pytest.raises(OutOfRangeError, match="max_looks"):
+        wg.active_localize(world, percepts, look, max_looks=-1)
+    with pytest.raises(ArgumentTypeError, match=r"look\(direction\)\[0\]"):
+        wg.active_localize(world, percepts, lambda d: ["door"])
+    with pytest.raises(OutOfRangeError, match="zero direction"):
+        wg.active_localize(world, percepts, look, planner=lambda r: np.zeros(3))

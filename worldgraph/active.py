@@ -1,0 +1,648 @@
+"""Active validation: where to look next when the pose is ambiguous (paper, section 2.3).
+
+The paper ends an ambiguous association with "an active validation [...] selecting objects from
+the model and then localizing them in the visual space", choosing the object with the maximal
+pose difference between two hypotheses (:func:`worldgraph.association.discriminator`).  A large
+predicted difference does not make a look informative, though: under the other hypothesis the
+same ego spot may hold another object of the same type, and then both hypotheses predict the
+same sight.  :func:`plan_view` scores gaze directions by what would actually be seen:
+
+1. The near-best hypotheses are the chosen pose and every ``alternatives`` pose of the
+   :class:`~worldgraph.localize.LocalizationResult` (all validated fits within the ambiguity
+   margin, not only two), weighted ``w_h ∝ exp(-cost_h / 2)`` with their robust costs
+   (``near_best_costs``, twice a negative log-likelihood).
+2. Under hypothesis ``h`` every recognisable object ``o`` is predicted at the ego point
+   ``p_ho = R_h^T (X_o - t_h)``.  It *tells h from j* when hypothesis ``j`` predicts no object
+   of its type within the gate ``n_sigma sqrt(2) sigma(|p_ho|) + margin`` of ``p_ho`` (eq. 6
+   noise ``sigma(rho) = max(min_sigma, rho^2 / depth_factor)``).  This flag does not depend on
+   the gaze, so it is computed once per hypothesis pair (a k-d tree per hypothesis whose fourth
+   coordinate separates the types).
+3. A look in direction ``d`` sees the objects whose direction lies within ``fov_deg / 2`` of
+   ``d`` and whose range is at most ``max_range``.  If ``h`` is true, the look rules out ``j``
+   when at least one object that tells h from j is in view and detected (each independently
+   with probability ``detection``).  The score is the probability that the look rules out every
+   other hypothesis: ``sum_h w_h prod_{j != h} (1 - (1 - detection)^{n_hj(d)})``.  The product
+   is exact for two hypotheses and a lower bound for more (the events increase with the
+   detections, so they are positively correlated: Harris' inequality).
+4. Candidates are the directions to every object that tells any two hypotheses apart, under
+   every hypothesis, a fixed set of directions spread over the sphere and any given by the
+   caller; one matrix product per hypothesis scores them all.
+
+:func:`active_localize` is the loop: localise, plan, look (a user callback returning new
+percepts in the same ego frame), localise again with the old and new percepts, until the
+answer is unique or the looks run out.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+from scipy.spatial import cKDTree
+
+from perception import KinematicChain, Percept
+
+from ._checks import as_list, float_array, generator, positive_float, strict_int
+from .association import ASSOCIATION_TOLERANCES, AssociationTolerances, check_world_and_percepts
+from .errors import ArgumentTypeError, NonFiniteError, OutOfRangeError, UnknownTypeError
+from .localize import LocalizationResult, localize
+from .model import WorldModel
+
+__all__ = [
+    "ActiveLocalization",
+    "VIEW_STATUSES",
+    "ViewPlan",
+    "ViewStatus",
+    "active_localize",
+    "gaze_angles",
+    "merge_percepts",
+    "plan_view",
+    "tells_apart",
+    "view_scores",
+]
+
+ViewStatus = Literal[
+    "ok",                  # a direction whose look can rule out hypotheses (score > 0)
+    "not_discriminating",  # no candidate direction tells the hypotheses apart (score 0)
+    "single_hypothesis",   # the result has one hypothesis: nothing to tell apart (score 0)
+]
+VIEW_STATUSES: tuple[str, ...] = ("ok", "not_discriminating", "single_hypothesis")
+
+#: Fixed candidate directions spread over the sphere (Fibonacci lattice) added to the
+#: object directions.
+N_FIXED_DIRECTIONS = 64
+#: Random candidate directions added when ``rng`` is given.
+N_RANDOM_DIRECTIONS = 32
+#: Largest pointing error (rad) of the head's optical axis at which ``gaze_reached`` is True.
+GAZE_TOLERANCE = math.radians(1.0)
+#: Localisation statuses that come with a pose to plan a view from.
+_POSED_STATUSES = ("ambiguous", "weak", "inconsistent", "outside_region", "ok")
+
+
+@dataclass(frozen=True)
+class ViewPlan:
+    """Result of :func:`plan_view`.
+
+    Attributes
+    ----------
+    direction : (3,) float
+        Unit gaze direction in the ego frame (from the ego origin).
+    target : (3,) float
+        The ego point looked at: on ``direction``, at the median range of the discriminating
+        objects expected in view (of all expected objects when none discriminates).
+    score : float
+        Probability, in [0, 1], that the look rules out every hypothesis but the true one
+        (a lower bound with more than two hypotheses; see the module docstring).  0 when the
+        status is not ``"ok"``.
+    expected : tuple of (m_h,) int
+        Per hypothesis, the indices into ``world.objects`` of the recognisable objects expected
+        in view.
+    discriminating : tuple of (m_h,) bool
+        Per hypothesis, which of ``expected`` would tell it from at least one other hypothesis.
+    hypotheses : tuple of (4, 4) float
+        ``world_from_ego`` of the hypotheses considered: the result's pose first, then its
+        alternatives.
+    weights : (H,) float
+        Prior probability of each hypothesis (``exp(-cost / 2)`` normalised).
+    status : ViewStatus
+    joint_angles : (n_joints,) float or None
+        With a ``head``: joint angles (radians, in ``head.names`` order, the right eye parallel
+        to the left) that point the left camera's optical axis (+z of the OpenCV camera frame)
+        at ``target``.
+    pointing_error : float
+        Angle (rad) between the optical axis at ``joint_angles`` and the ray from the camera to
+        ``target``; NaN without a head.
+    gaze_reached : bool or None
+        ``pointing_error <= 1 deg`` (within the joint limits, when given); None without a head.
+    within_limits : bool or None
+        Whether ``joint_angles`` respect ``joint_limits``; **None when no limits were given**
+        (a :class:`perception.KinematicChain` carries none, so the angles are then unchecked).
+    candidates : int
+        Number of candidate directions scored.
+    """
+
+    direction: NDArray[np.float64]
+    target: NDArray[np.float64]
+    score: float
+    expected: tuple[NDArray[np.intp], ...]
+    discriminating: tuple[NDArray[np.bool_], ...]
+    hypotheses: tuple[NDArray[np.float64], ...]
+    weights: NDArray[np.float64]
+    status: ViewStatus
+    joint_angles: NDArray[np.float64] | None = None
+    pointing_error: float = math.nan
+    gaze_reached: bool | None = None
+    within_limits: bool | None = None
+    candidates: int = 0
+
+
+def _fibonacci_sphere(n: int) -> NDArray[np.float64]:
+    i = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * i / n
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = math.pi * (3.0 - math.sqrt(5.0)) * i
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+
+
+_FIXED = _fibonacci_sphere(N_FIXED_DIRECTIONS)
+
+
+def _unit_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    n = np.linalg.norm(v, axis=1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def _hypotheses(result: LocalizationResult) -> tuple[list[NDArray[np.float64]], NDArray[np.float64]]:
+    """The poses of the near-best hypotheses and their weights."""
+    T = np.asarray(result.transformation, dtype=np.float64)
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        raise NonFiniteError(f"result.transformation must be a finite pose to plan a view from, but the "
+                             f"result (status {result.status!r}) has none")
+    poses = [T] + [np.asarray(a, dtype=np.float64) for a in result.alternatives]
+    costs = np.asarray(result.near_best_costs, dtype=np.float64)
+    if costs.shape != (len(poses),) or not np.all(np.isfinite(costs)):
+        costs = np.zeros(len(poses))  # no costs (e.g. method "paper"): equal weights
+    w = np.exp(-(costs - costs.min()) / 2.0)
+    return poses, w / w.sum()
+
+
+def _check_types(world: WorldModel, types: object, result: LocalizationResult) -> list[str]:
+    if types is None:
+        objs = [o for _, o in result.correspondences]
+        out = sorted({str(world.types[o]) for o in objs})
+        if not out:
+            raise UnknownTypeError("types: the result has no correspondences to take the recognisable "
+                                   "types from; pass types=")
+        return out
+    out = as_list("types", types, "object type names")
+    for i, t in enumerate(out):
+        if not isinstance(t, str) or t not in world.type_index:
+            raise UnknownTypeError(f"types[{i}] = {t!r} is not a type of the world "
+                                   f"(types: {sorted(world.type_index)})")
+    return out
+
+
+def _gate(rho: NDArray[np.float64], depth_factor: float, min_sigma: float, n_sigma: float,
+          margin: float) -> NDArray[np.float64]:
+    """Distance (m) within which two predicted points of one type look the same at range rho."""
+    return n_sigma * math.sqrt(2.0) * np.maximum(min_sigma, rho**2 / depth_factor) + margin
+
+
+def tells_apart(ego: Sequence[NDArray[np.float64]], type_codes: NDArray[np.intp],
+                in_range: Sequence[NDArray[np.bool_]], gate: Sequence[NDArray[np.float64]]
+                ) -> NDArray[np.bool_]:
+    """``u[h, j, o]``: object o, in range under hypothesis h, has no object of its type within
+    ``gate[h][o]`` of its ego point ``ego[h][o]`` under hypothesis j (False for j = h)."""
+    H, n = len(ego), len(type_codes)
+    u = np.zeros((H, H, n), dtype=bool)
+    if n == 0:
+        return u
+    span = max(float(max(np.abs(e).max() for e in ego)), 1.0)
+    sep = 10.0 * span + 10.0 * float(max(g.max() for g in gate))  # types never closer than this
+    code = type_codes.astype(np.float64)[:, None] * sep
+    trees = [cKDTree(np.hstack([e, code])) for e in ego]
+    for h in range(H):
+        idx = np.flatnonzero(in_range[h])
+        if idx.size == 0:
+            continue
+        pts = np.hstack([ego[h][idx], code[idx]])
+        for j in range(H):
+            if j == h:
+                continue
+            d, _ = trees[j].query(pts, k=1)
+            u[h, j, idx] = d > gate[h][idx]
+    return u
+
+
+def _gaze_fk(head: KinematicChain, q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``ego_from_camera`` of the left camera for the serial angles q (plain numpy)."""
+    M = np.array(head.ego_from_base, dtype=np.float64)
+    for joint, angle in zip(head.joints, q, strict=True):
+        c, s = math.cos(angle), math.sin(angle)
+        i = "xyz".index(joint.axis)
+        j, k = (i + 1) % 3, (i + 2) % 3
+        rot = np.eye(4)
+        rot[j, j], rot[j, k], rot[k, j], rot[k, k] = c, -s, s, c
+        M = M @ joint.origin @ rot
+    return M @ head.tip_from_camera
+
+
+def _check_limits(head: KinematicChain, joint_limits: object) -> tuple[NDArray, NDArray] | None:
+    if joint_limits is None:
+        return None
+    if not isinstance(joint_limits, Mapping):
+        raise ArgumentTypeError(f"joint_limits must be a mapping joint name -> (lower, upper) radians, got "
+                                f"{type(joint_limits).__name__}")
+    names = [j.name for j in head.joints]
+    unknown = sorted(set(joint_limits) - set(head.names))
+    if unknown:
+        raise UnknownTypeError(f"joint_limits names unknown joints {unknown}; the head has "
+                               f"{list(head.names)}")
+    lo = np.full(len(names), -np.inf)
+    hi = np.full(len(names), np.inf)
+    for i, name in enumerate(names):
+        if name in joint_limits:
+            pair = float_array(f"joint_limits[{name!r}]", joint_limits[name], (2,))
+            if not pair[0] < pair[1]:
+                raise OutOfRangeError(f"joint_limits[{name!r}] must be (lower, upper) with lower < upper, "
+                                      f"got {pair.tolist()}")
+            lo[i], hi[i] = pair
+    return lo, hi
+
+
+def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[str, Any] | None = None
+                ) -> tuple[NDArray[np.float64], float, bool | None]:
+    """Joint angles pointing the left camera's optical axis at an ego point.
+
+    The optical axis is +z of the OpenCV left camera frame, ``head.ego_from_camera(q)[:3, 2]``;
+    the angles minimise ``|axis(q) - unit(target - centre(q))|^2 + 1e-6 |q|^2`` (the small
+    term picks the solution nearest the zero pose) by bounded least squares from a few starts
+    (zero; the first yaw joint at the target's azimuth with the next pitch joint at its
+    elevation).
+
+    Parameters
+    ----------
+    head : perception.KinematicChain
+    target : (3,) float
+        Ego point (m).
+    joint_limits : mapping joint name -> (lower, upper), optional
+        Radians; joints not named are free.  A chain carries no limits of its own.
+
+    Returns
+    -------
+    angles : (n_joints,) float
+        In ``head.names`` order (the right eye parallel to the left).
+    pointing_error : float
+        Angle (rad) between the optical axis and the ray from the camera centre to ``target``,
+        measured with ``head.ego_from_camera``.
+    within_limits : bool or None
+        None when no limits were given.
+    """
+    if not isinstance(head, KinematicChain):
+        raise ArgumentTypeError(f"head must be a perception.KinematicChain, got {type(head).__name__}")
+    tgt = float_array("target", target, (3,), max_abs=1e6)
+    bounds = _check_limits(head, joint_limits)
+    n = len(head.joints)
+    lo, hi = bounds if bounds is not None else (np.full(n, -np.inf), np.full(n, np.inf))
+
+    def residual(q: NDArray[np.float64]) -> NDArray[np.float64]:
+        M = _gaze_fk(head, q)
+        ray = tgt - M[:3, 3]
+        norm = np.linalg.norm(ray)
+        return np.concatenate([M[:3, 2] - ray / max(norm, 1e-12), 1e-3 * q])
+
+    starts = [np.zeros(n)]
+    axes = [j.axis for j in head.joints]
+    if "z" in axes:
+        iz = axes.index("z")
+        q0 = np.zeros(n)
+        q0[iz] = math.atan2(tgt[1], tgt[0])
+        if "y" in axes[iz + 1:]:
+            iy = iz + 1 + axes[iz + 1:].index("y")
+            q0[iy] = -math.atan2(tgt[2], math.hypot(tgt[0], tgt[1]))
+        starts.insert(0, q0)
+    best_q, best_err = None, math.inf
+    for q0 in starts:
+        q0 = np.clip(q0, np.where(np.isfinite(lo), lo + 1e-9, -np.inf),
+                     np.where(np.isfinite(hi), hi - 1e-9, np.inf))
+        sol = least_squares(residual, q0, bounds=(lo, hi), xtol=1e-10, ftol=1e-10, gtol=1e-10)
+        q = sol.x
+        M = head.ego_from_camera(q)
+        ray = tgt - M[:3, 3]
+        cosang = float(M[:3, 2] @ ray / max(np.linalg.norm(ray), 1e-12))
+        err = math.acos(min(1.0, max(-1.0, cosang)))
+        if err < best_err:
+            best_q, best_err = q, err
+        if best_err < 0.01 * GAZE_TOLERANCE:  # good enough: skip the other starts
+            break
+    assert best_q is not None
+    within = None if bounds is None else bool(np.all((best_q >= lo - 1e-9) & (best_q <= hi + 1e-9)))
+    return head.angle_vector(best_q), best_err, within
+
+
+@dataclass(frozen=True)
+class _Prediction:
+    """The hypotheses' predictions of the recognisable objects (see the module docstring)."""
+
+    poses: list[NDArray[np.float64]]
+    weights: NDArray[np.float64]
+    objects: NDArray[np.intp]             # indices into world.objects of the recognisable ones
+    ego: list[NDArray[np.float64]]        # per hypothesis (n, 3)
+    unit: list[NDArray[np.float64]]       # per hypothesis (n, 3) directions
+    rho: list[NDArray[np.float64]]        # per hypothesis (n,) ranges
+    in_range: list[NDArray[np.bool_]]     # per hypothesis (n,)
+    tells: NDArray[np.bool_]              # (H, H, n): see tells_apart
+
+
+def _predict(world: WorldModel, result: LocalizationResult, types: object, max_range: float,
+             depth_factor: float, min_sigma: float, n_sigma: float, margin: float) -> _Prediction:
+    recog = _check_types(world, types, result)
+    poses, weights = _hypotheses(result)
+    obj = np.flatnonzero(np.isin(world.types, recog))
+    X = world.positions[obj]
+    codes = np.unique(world.types[obj], return_inverse=True)[1].astype(np.intp)
+    ego = [(X - T[:3, 3]) @ T[:3, :3] for T in poses]
+    rho = [np.linalg.norm(e, axis=1) for e in ego]
+    in_range = [(r <= max_range) & (r > 0) for r in rho]
+    gate = [_gate(r, depth_factor, min_sigma, n_sigma, margin) for r in rho]
+    return _Prediction(poses, weights, obj, ego, [_unit_rows(e) for e in ego], rho, in_range,
+                       tells_apart(ego, codes, in_range, gate))
+
+
+def _in_view(pred: _Prediction, h: int, directions: NDArray[np.float64], cos_half: float
+             ) -> NDArray[np.bool_]:
+    """(C, n): object in view of each direction under hypothesis h."""
+    # element-wise, not BLAS: these thin products (inner size 3) ran 10-100x slower through a
+    # multithreaded OpenBLAS on a loaded 2-core machine
+    u = pred.unit[h]
+    cosines = directions[:, 0:1] * u[:, 0] + directions[:, 1:2] * u[:, 1] + directions[:, 2:3] * u[:, 2]
+    return (cosines >= cos_half - 1e-12) & pred.in_range[h]
+
+
+def _score(pred: _Prediction, directions: NDArray[np.float64], cos_half: float, detection: float
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Per direction: the probability that the look rules out all but the true hypothesis, the
+    expected number of discriminating objects in view and of objects in view."""
+    H = len(pred.poses)
+    miss = 1.0 - detection
+    score = np.zeros(len(directions))
+    count = np.zeros(len(directions))
+    seen = np.zeros(len(directions))
+    for h in range(H):
+        view = _in_view(pred, h, directions, cos_half)                     # (C, n)
+        n_hj = np.stack([np.count_nonzero(view & pred.tells[h, j], axis=1) for j in range(H)],
+                        axis=1).astype(np.float64)                          # (C, H)
+        ruled_out = 1.0 - miss ** n_hj
+        ruled_out[:, h] = 1.0
+        if H > 1:
+            score += pred.weights[h] * np.prod(ruled_out, axis=1)
+        count += pred.weights[h] * n_hj.sum(axis=1)
+        seen += pred.weights[h] * np.count_nonzero(view, axis=1)
+    return score, count, seen
+
+
+def _check_common(world: object, result: object, fov_deg: object, max_range: object, detection: object,
+                  depth_factor: object, min_sigma: object, n_sigma: object, margin: object
+                  ) -> tuple[float, float, float, float, float, float, float]:
+    if not isinstance(world, WorldModel):
+        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+    if not isinstance(result, LocalizationResult):
+        raise ArgumentTypeError(f"result must be a LocalizationResult, got {type(result).__name__}")
+    return (positive_float("fov_deg", fov_deg, maximum=360.0),
+            positive_float("max_range", max_range, maximum=1e6),
+            positive_float("detection", detection, maximum=1.0), positive_float("depth_factor", depth_factor),
+            positive_float("min_sigma", min_sigma), positive_float("n_sigma", n_sigma),
+            positive_float("margin", margin, allow_zero=True))
+
+
+def _directions(name: str, value: object) -> NDArray[np.float64]:
+    arr = float_array(name, value, (None, 3), max_abs=1e12)
+    zero = np.flatnonzero(np.linalg.norm(arr, axis=1) == 0)
+    if zero.size:
+        raise OutOfRangeError(f"{name}[{int(zero[0])}] = {arr[zero[0]].tolist()} is no direction "
+                              "(zero length)")
+    return _unit_rows(arr)
+
+
+def view_scores(world: WorldModel, result: LocalizationResult, directions: object, *, fov_deg: float = 60.0,
+                max_range: float = 8.0, types: Sequence[str] | None = None, detection: float = 0.9,
+                depth_factor: float = 1000.0, min_sigma: float = 1e-4, n_sigma: float = 3.0,
+                margin: float = 0.05) -> NDArray[np.float64]:
+    """The score of :func:`plan_view` (the probability that a look rules out every hypothesis but
+    the true one) of each of the given ego directions (m, 3); arguments as for :func:`plan_view`.
+    0 for every direction when the result has a single hypothesis."""
+    fov, max_range, detection, depth_factor, min_sigma, n_sigma, margin = _check_common(
+        world, result, fov_deg, max_range, detection, depth_factor, min_sigma, n_sigma, margin)
+    D = _directions("directions", directions)
+    pred = _predict(world, result, types, max_range, depth_factor, min_sigma, n_sigma, margin)
+    return _score(pred, D, math.cos(math.radians(fov / 2.0)), detection)[0]
+
+
+def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float = 60.0, max_range: float = 8.0,
+              head: KinematicChain | None = None, candidates: object = None,
+              rng: np.random.Generator | None = None, types: Sequence[str] | None = None,
+              detection: float = 0.9, depth_factor: float = 1000.0, min_sigma: float = 1e-4,
+              n_sigma: float = 3.0, margin: float = 0.05,
+              joint_limits: Mapping[str, Any] | None = None) -> ViewPlan:
+    """The gaze direction that best tells the near-best pose hypotheses of ``result`` apart.
+
+    See the module docstring for the model.  The score is a probability (not an information
+    gain).  A result with a single hypothesis (a unique answer: no ``alternatives``) gives
+    status ``"single_hypothesis"`` and score 0, looking where the most recognisable objects are
+    expected (a look there only refines the pose); when no candidate tells the hypotheses
+    apart, status ``"not_discriminating"``, score 0, the same choice.
+
+    Parameters
+    ----------
+    world : WorldModel
+    result : LocalizationResult
+        From :func:`~worldgraph.localize`; it must hold a finite pose (``"ambiguous"``, ``"ok"``,
+        ``"weak"``, ...).
+    fov_deg : float
+        Full cone angle of a look, degrees, in (0, 360] (at 360 a look sees everything in range).
+    max_range : float
+        Largest range (m) at which objects are recognised.
+    head : perception.KinematicChain, optional
+        Fill ``joint_angles`` (:func:`gaze_angles`) for ``target``.
+    candidates : (m, 3) float, optional
+        Extra candidate directions (ego frame, any non-zero length).
+    rng : numpy.random.Generator, optional
+        Adds :data:`N_RANDOM_DIRECTIONS` random candidate directions.
+    types : sequence of str, optional
+        The recognisable object types; default the types of the result's matched objects.
+    detection : float
+        Probability, in (0, 1], that an object in view is recognised.
+    depth_factor, min_sigma : float
+        Eq. 6 percept noise ``sigma = max(min_sigma, rho^2 / depth_factor)`` (m).
+    n_sigma, margin : float
+        Two predicted same-type points closer than ``n_sigma sqrt(2) sigma + margin`` look the
+        same; ``margin`` (m) covers the pose error of the hypotheses and the model's inaccuracy.
+    joint_limits : mapping joint name -> (lower, upper), optional
+        Radians, for ``head``.
+
+    Returns
+    -------
+    ViewPlan
+
+    Raises
+    ------
+    NonFiniteError
+        The result holds no pose.
+    WorldGraphError
+        Bad arguments (the subclass and the message name the argument and the value).
+    """
+    fov, max_range, detection, depth_factor, min_sigma, n_sigma, margin = _check_common(
+        world, result, fov_deg, max_range, detection, depth_factor, min_sigma, n_sigma, margin)
+    if head is not None and not isinstance(head, KinematicChain):
+        raise ArgumentTypeError(f"head must be a perception.KinematicChain or None, "
+                                f"got {type(head).__name__}")
+    extra = np.zeros((0, 3)) if candidates is None else _directions("candidates", candidates)
+    if rng is not None:
+        rng = generator("rng", rng)
+    if head is not None and joint_limits is not None:
+        _check_limits(head, joint_limits)
+    pred = _predict(world, result, types, max_range, depth_factor, min_sigma, n_sigma, margin)
+    H = len(pred.poses)
+    disc = pred.tells.any(axis=1)                        # (H, n): tells h from some j
+    dirs = [_FIXED, extra] + [pred.unit[h][disc[h] & pred.in_range[h]] for h in range(H)]
+    if rng is not None:
+        dirs.append(_unit_rows(rng.standard_normal((N_RANDOM_DIRECTIONS, 3))))
+    D = np.vstack(dirs)
+    cos_half = math.cos(math.radians(fov / 2.0))
+    score, count, seen = _score(pred, D, cos_half, detection)
+    status: ViewStatus
+    if H == 1 or float(score.max()) <= 0.0:
+        status = "single_hypothesis" if H == 1 else "not_discriminating"
+        best = int(np.argmax(seen))
+    else:
+        status = "ok"
+        # highest probability; ties (saturated at 1) by the expected number of discriminating
+        # objects, then of objects in view
+        best = int(np.lexsort((-seen, -count, -np.round(score, 12)))[0])
+    d = D[best]
+    expected, disc_in_view, ranges, all_ranges = [], [], [], []
+    for h in range(H):
+        view = _in_view(pred, h, d[None], cos_half)[0]
+        expected.append(pred.objects[view])
+        disc_in_view.append(disc[h][view])
+        ranges.append(pred.rho[h][view & disc[h]])
+        all_ranges.append(pred.rho[h][view])
+    r_disc, r_all = np.concatenate(ranges), np.concatenate(all_ranges)
+    dist = float(np.median(r_disc)) if r_disc.size else float(np.median(r_all)) if r_all.size \
+        else 0.5 * max_range
+    target = d * dist
+    angles, err, within, reached = None, math.nan, None, None
+    if head is not None:
+        angles, err, within = gaze_angles(head, target, joint_limits=joint_limits)
+        reached = bool(err <= GAZE_TOLERANCE and within is not False)
+    return ViewPlan(direction=d.copy(), target=target, score=float(score[best]) if status == "ok" else 0.0,
+                    expected=tuple(expected), discriminating=tuple(disc_in_view),
+                    hypotheses=tuple(p.copy() for p in pred.poses), weights=pred.weights, status=status,
+                    joint_angles=angles, pointing_error=err, gaze_reached=reached, within_limits=within,
+                    candidates=len(D))
+
+
+@dataclass(frozen=True)
+class ActiveLocalization:
+    """Result of :func:`active_localize`.
+
+    Attributes
+    ----------
+    result : LocalizationResult
+        The last localisation (of ``percepts``).
+    results : tuple of LocalizationResult
+        Before any look, then after each look.
+    plans : tuple of ViewPlan
+        One per look.
+    directions : tuple of (3,) float
+        The gaze direction of each look (ego frame).
+    percepts : tuple of Percept
+        The percepts passed in followed by the new ones each look added.
+    looks : int
+    """
+
+    result: LocalizationResult
+    results: tuple[LocalizationResult, ...]
+    plans: tuple[ViewPlan, ...]
+    directions: tuple[NDArray[np.float64], ...]
+    percepts: tuple[Percept, ...]
+    looks: int
+
+
+def merge_percepts(old: Sequence[Percept], new: Sequence[Percept], n_sigma: float = 3.0,
+                   floor: float = 0.01) -> list[Percept]:
+    """``old`` followed by the percepts of ``new`` that are not a second sight of an old one: a new
+    percept within ``n_sigma sqrt(s_old^2 + s_new^2) + floor`` (m) of an old percept of its type
+    is dropped (an object seen again; the association matches one percept per object)."""
+    old, new = list(old), list(new)
+    keep = []
+    for q in new:
+        again = any(p.type == q.type and float(np.linalg.norm(p.position - q.position))
+                    <= n_sigma * math.hypot(p.sigma, q.sigma) + floor for p in old)
+        if not again:
+            keep.append(q)
+    return old + keep
+
+
+def active_localize(world: WorldModel, percepts: Sequence[Percept],
+                    look: Callable[[NDArray[np.float64]], Sequence[Percept]], *, max_looks: int = 2,
+                    planner: Callable[[LocalizationResult], NDArray[np.float64] | ViewPlan] | None = None,
+                    method: str = "ml", tolerances: AssociationTolerances | None = None,
+                    fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
+                    head: KinematicChain | None = None, look_while: Sequence[str] = ("ambiguous",)
+                    ) -> ActiveLocalization:
+    """Localise; while the status is in ``look_while`` (default ``"ambiguous"``) and looks remain:
+    plan a view, look, and localise again with the old and new percepts (:func:`merge_percepts`
+    drops second sights).
+
+    Parameters
+    ----------
+    world : WorldModel
+    percepts : sequence of perception.Percept
+        Ego frame.
+    look : callable direction -> sequence of Percept
+        Turns the head to the (3,) ego direction and returns what it recognises, in the same
+        ego frame (the robot does not move).
+    max_looks : int
+        At most this many looks (>= 0).
+    planner : callable result -> ViewPlan or (3,) direction, optional
+        Default :func:`plan_view` with ``fov_deg``, ``max_range``, ``types`` and ``head``.
+    method, tolerances
+        Passed to :func:`~worldgraph.localize`.
+    look_while : sequence of str
+        Statuses that call for another look, among those that come with a pose (``"ambiguous"``,
+        ``"weak"``, ``"inconsistent"``, ``"outside_region"``, ``"ok"``); with ``"weak"`` a unique
+        but poorly determined pose also gets looks (plan_view's ``"single_hypothesis"`` view,
+        where the most objects are expected).
+
+    Returns
+    -------
+    ActiveLocalization
+        Stops early when the status is not in ``look_while`` (a unique answer, or a failure no
+        look is planned for).
+    """
+    if not callable(look):
+        raise ArgumentTypeError(f"look must be a callable direction -> list of Percept, "
+                                f"got {type(look).__name__}")
+    if planner is not None and not callable(planner):
+        raise ArgumentTypeError(f"planner must be None or a callable result -> ViewPlan or direction, got "
+                                f"{type(planner).__name__}")
+    max_looks = strict_int("max_looks", max_looks, minimum=0, maximum=1000)
+    statuses = as_list("look_while", look_while, "status names")
+    for i, st in enumerate(statuses):
+        if st not in _POSED_STATUSES:
+            raise OutOfRangeError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
+                                  f"choose among {_POSED_STATUSES}")
+    tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
+    current = check_world_and_percepts(world, percepts)
+    result = localize(world, current, method, tolerances=tol)
+    results, plans, directions = [result], [], []
+    while len(directions) < max_looks and result.status in statuses:
+        if planner is None:
+            plan = plan_view(world, result, fov_deg=fov_deg, max_range=max_range, types=types, head=head)
+        else:
+            plan = planner(result)
+        if isinstance(plan, ViewPlan):
+            plans.append(plan)
+            d = plan.direction
+        else:
+            d = float_array("planner(result)", plan, (3,))
+            if not np.linalg.norm(d) > 0:
+                raise OutOfRangeError(f"planner(result) returned a zero direction {d.tolist()}")
+            d = d / np.linalg.norm(d)
+        new = as_list("look(direction)", look(d.copy()), "perception.Percept", exclude=(Percept,))
+        for i, p in enumerate(new):
+            if not isinstance(p, Percept):
+                raise ArgumentTypeError(f"look(direction)[{i}] must be a perception.Percept, "
+                                        f"got {type(p).__name__}")
+        directions.append(d)
+        current = merge_percepts(current, new)
+        result = localize(world, current, method, tolerances=tol)
+        results.append(result)
+    return ActiveLocalization(result=result, results=tuple(results), plans=tuple(plans),
+                              directions=tuple(directions), percepts=tuple(current), looks=len(directions))
