@@ -9,7 +9,7 @@ percept in the visible region.  ``localize`` runs with every default (``--gravit
 association's ``gravity_aligned`` invariants).
 
 Then :func:`worldgraph.active_localize` looks at most twice while the status is in
-``--look-on`` (default "ambiguous"), with three ways of choosing the gaze:
+``--look-on`` (default "ambiguous" and "weak", as ``active_localize``), with three ways of choosing the gaze:
 
 * ``plan_view``: :func:`worldgraph.plan_view` (fov 60 deg, range 8 m, the four percept types);
 * ``random``: a level direction at a uniformly random azimuth;
@@ -166,7 +166,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--n-percepts", type=int, nargs="+", default=[5, 7],
                     help="percepts per trial, one of them false (5 = 4 true + 1 false)")
-    ap.add_argument("--look-on", nargs="+", default=["ambiguous"],
+    ap.add_argument("--look-on", nargs="+", default=["ambiguous", "weak"],
                     help="statuses that get looks (add 'weak' to look at unique but weak poses too)")
     args = ap.parse_args(argv)
     args.look_on = tuple(args.look_on)

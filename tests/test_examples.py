@@ -14,6 +14,7 @@ EXAMPLES = {
     "04_from_images.py": ["04_from_images.png"],
     "05_compare_solvers.py": ["solver_comparison.md", "solver_comparison.csv"],
     "06_robust_ranges.py": ["06_robust_ranges.png"],
+    "07_active_validation.py": ["07_active_validation.png"],
 }
 
 
