@@ -418,6 +418,34 @@ def test_tree_pair_candidates_equal_all_pairs_also_across_storeys(seed: int, gra
         assert {tuple(x) for x in np.column_stack(e)} == {tuple(x) for x in np.column_stack(got)}, key
 
 
+@settings(max_examples=10)
+@given(seeds, st.booleans(), st.integers(0, 2))
+def test_lazy_far_pairs_give_the_hypotheses_of_the_full_graph(seed: int, gravity: bool, n_false: int) -> None:
+    """Far percept pairs filled only for the objects that survive the near pairs' pruning: the
+    same hypotheses (pairs and costs) as the graph with every far pair computed up front."""
+    import worldgraph.association as assoc
+
+    rng = np.random.default_rng(seed)
+    world = WorldModel.from_arrays(rng.choice(TYPES, 300), rng.uniform([0, 0, 0], [20, 16, 2.5], (300, 3)),
+                                   max_link_length=2.0)
+    pose = random_pose(rng, world, yaw_only=True)
+    truth = nearest_objects(world, pose, 7)
+    percepts = exact_percepts(world, pose, truth, sigma=0.02)
+    for _ in range(n_false):
+        percepts.append(Percept(str(rng.choice(TYPES)), rng.uniform(-4, 4, 3), 0.02))
+    tol = AssociationTolerances(dense_pair_limit=0, gravity_aligned=gravity)
+    lazy = associate(world, percepts, tol)
+    real = assoc._is_far
+    assoc._is_far = lambda *args: False  # every pair computed eagerly, for all objects
+    try:
+        eager = associate(world, percepts, tol)
+    finally:
+        assoc._is_far = real
+    assert [h.pairs for h in lazy] == [h.pairs for h in eager]
+    assert [h.cost for h in lazy] == pytest.approx([h.cost for h in eager])
+    assert [h.complete for h in lazy] == [h.complete for h in eager]
+
+
 def test_orientation_filter_names_percepts_when_they_do_not_match_the_proximity_result() -> None:
     from worldgraph.errors import WorldGraphError
 

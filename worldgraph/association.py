@@ -668,11 +668,24 @@ def _local(objects: NDArray[np.intp], glob: NDArray[np.intp]) -> NDArray[np.intp
 GRAVITY_Z_SCALE = 10.0
 
 
+def _is_far(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
+            tol: AssociationTolerances, objects: list[NDArray[np.intp]]) -> bool:
+    """The percept pair lies beyond the link table and its types are too many for all pairs:
+    its candidates come from k-d tree queries (and may be computed for some of p's objects)."""
+    d = float(np.linalg.norm(percepts[q].position - percepts[p].position))
+    ztol = tau if tol.height_tolerance is None else float(tol.height_tolerance)
+    reach = tau + (ztol if tol.gravity_aligned else 0.0)
+    return not (d + reach < world.max_link_length + world.link_margin
+                or len(objects[p]) * len(objects[q]) <= tol.dense_pair_limit)
+
+
 def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
                      tol: AssociationTolerances, objects: list[NDArray[np.intp]],
-                     ) -> tuple[NDArray[np.intp], NDArray[np.intp]] | None:
+                     rows: NDArray[np.intp] | None = None,
+                     ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """Model pairs consistent with the percept pair (p, q): local indices ``(a, b)`` into
-    ``objects[p]`` and ``objects[q]``; None when unconstrained (beyond the link table)."""
+    ``objects[p]`` and ``objects[q]``.  ``rows`` (local indices into ``objects[p]``; used for far
+    pairs, see :func:`_is_far`) restricts p's side to those objects."""
     xp, xq = percepts[p].position, percepts[q].position
     tp, tq = percepts[p].type, percepts[q].type
     op, oq = objects[p], objects[q]
@@ -681,12 +694,16 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
     ztol = tau if tol.height_tolerance is None else float(tol.height_tolerance)
     reach = tau + (ztol if tol.gravity_aligned else 0.0)
     covered = d + reach < world.max_link_length + world.link_margin
+    sub = op if rows is None else op[rows]
     if covered:
         i, j, _ = world.link_lengths(tp, tq, d - reach, d + reach)
         if tp == tq:
             i, j = np.concatenate([i, j]), np.concatenate([j, i])
+        if rows is not None:
+            keep = np.isin(i, sub)
+            i, j = i[keep], j[keep]
     elif len(op) * len(oq) <= tol.dense_pair_limit:
-        ii, jj = np.meshgrid(op, oq, indexing="ij")
+        ii, jj = np.meshgrid(sub, oq, indexing="ij")
         i, j = ii.ravel(), jj.ravel()
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
         keep = (np.abs(dm - d) < reach) & (i != j)
@@ -697,11 +714,11 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         # z, and the other storeys far outside the query radius; the gravity test below is exact
         s = GRAVITY_Z_SCALE
         h = math.hypot(diff[0], diff[1])
-        raised = cKDTree((world.positions[op] + [0.0, 0.0, diff[2]]) * [1.0, 1.0, s])
+        raised = cKDTree((world.positions[sub] + [0.0, 0.0, diff[2]]) * [1.0, 1.0, s])
         r_hi = math.hypot(h + tau, s * ztol) * (1.0 + 1e-9) + 1e-12
         pairs = raised.sparse_distance_matrix(world.type_tree(tq, s), r_hi, output_type="ndarray")
         shell = pairs["v"] >= (h - tau) * (1.0 - 1e-9)
-        i, j = op[pairs["i"][shell]], oq[pairs["j"][shell]]
+        i, j = sub[pairs["i"][shell]], oq[pairs["j"][shell]]
         keep = i != j
         i, j = i[keep], j[keep]
     else:
@@ -709,10 +726,10 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         # (dual tree, in C); the shell |d_model - d| < reach, with the distances computed as in
         # the other branches, keeps the candidates
         wide = reach * (1.0 + 1e-9) + 1e-12
-        pairs = world.type_tree(tp).sparse_distance_matrix(world.type_tree(tq), d + wide,
-                                                           output_type="ndarray")
+        mine = world.type_tree(tp) if rows is None else cKDTree(world.positions[sub])
+        pairs = mine.sparse_distance_matrix(world.type_tree(tq), d + wide, output_type="ndarray")
         shell = pairs["v"] > d - wide
-        i, j = op[pairs["i"][shell]], oq[pairs["j"][shell]]
+        i, j = sub[pairs["i"][shell]], oq[pairs["j"][shell]]
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
@@ -722,6 +739,60 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
             (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - math.hypot(diff[0], diff[1])) < tau)
         i, j = i[keep], j[keep]
     return _local(op, i), _local(oq, j)
+
+
+class _LazyGraph:
+    """The consistency graph with the far percept pairs (:func:`_is_far`) filled on demand.
+
+    Pruning for a clique size ``need`` first treats every far pair as unconstrained; that keeps a
+    superset of the vertices the exact pruning keeps (pruning is monotone in the edges).  The far
+    pairs' candidates are then computed for those vertices only (p's side of each pair; later
+    calls add the vertices a smaller ``need`` revives), and the graph of the near pairs plus the
+    far candidates found so far is pruned again: exactly, because every vertex it can keep has
+    all its far candidates.  Far pairs cost queries for the few objects that fit the near
+    pairs, not for every object of their type.
+    """
+
+    def __init__(self, world: WorldModel, percepts: list[Percept], tol: AssociationTolerances) -> None:
+        self.world, self.percepts, self.tol = world, percepts, tol
+        self.objects = [world.type_index[p.type] for p in percepts]
+        sig = np.array([p.sigma for p in percepts])
+        self.near: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]]] = {}
+        self.far: dict[tuple[int, int], tuple[float, NDArray[np.bool_], list, list]] = {}
+        for p, q in itertools.combinations(range(len(percepts)), 2):
+            tau = float(tol.pair_tolerance(sig[p], sig[q]))
+            if _is_far(world, percepts, p, q, tau, tol, self.objects):
+                self.far[(p, q)] = (tau, np.zeros(len(self.objects[p]), dtype=bool), [], [])
+            else:
+                self.near[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tol, self.objects)
+        self.free = _Graph(self.objects, {**self.near, **dict.fromkeys(self.far)})
+        self._graph: _Graph | None = None if self.far else self.free
+
+    def graph(self, need: int) -> _Graph:
+        """A graph whose pruning for ``need`` (or any larger size) equals the full graph's."""
+        if not self.far:
+            return self.free
+        alive = _prune(self.free, need)
+        grown = False
+        for (p, q), (tau, done, a_parts, b_parts) in self.far.items():
+            todo = np.flatnonzero(alive[p] & ~done)
+            if todo.size:
+                a, b = _pair_candidates(self.world, self.percepts, p, q, tau, self.tol, self.objects, todo)
+                a_parts.append(a)
+                b_parts.append(b)
+                done[todo] = True
+                grown = True
+        if grown or self._graph is None:
+            edges = dict(self.near)
+            for key, (_, _, a_parts, b_parts) in self.far.items():
+                edges[key] = (np.concatenate(a_parts) if a_parts else np.zeros(0, np.intp),
+                              np.concatenate(b_parts) if b_parts else np.zeros(0, np.intp))
+            self._graph = _Graph(self.objects, dict(sorted(edges.items())))
+        return self._graph
+
+    def prune(self, need: int) -> tuple[_Graph, list[NDArray[np.bool_]]]:
+        graph = self.graph(need)
+        return graph, _prune(graph, need)
 
 
 def _consistency_graph(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances) -> _Graph:
@@ -1367,12 +1438,12 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
         hyps = _hypotheses_from_cliques(world, percepts, filt["objects"], search.cliques, tol, searched)
         return _rank(hyps, tol, limit)
 
-    graph = _consistency_graph(world, sub, tol)
+    lazy = _LazyGraph(world, sub, tol)
     # find the maximum size with strong pruning first (the first clique found of size ``need``
     # is a maximum one: larger ones were ruled out before), then enumerate down to max - near
     best = 0
     for need in range(k, tol.min_clique_size - 1, -1):
-        alive = _prune(graph, need)
+        graph, alive = lazy.prune(need)
         if sum(bool(a.any()) for a in alive) < need:
             continue
         objects, adjacency = graph.compact(alive)
@@ -1384,7 +1455,8 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     if best == 0:
         return []
     floor = max(best - tol.near_maximum, tol.min_clique_size)
-    objects, adjacency = graph.compact(_prune(graph, floor))
+    graph, alive = lazy.prune(floor)
+    objects, adjacency = graph.compact(alive)
     search = maximum_cliques([len(o) for o in objects], adjacency, min_size=floor,
                              near_maximum=tol.near_maximum, max_nodes=tol.max_nodes,
                              max_cliques=tol.max_cliques)
@@ -1397,7 +1469,8 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     hyps = _hypotheses_from_cliques(world, percepts, objects, cliques, tol, searched)
     if not hyps and floor > tol.min_clique_size:
         # every large clique was a mirror or degenerate: fall back to all sizes
-        objects, adjacency = graph.compact(_prune(graph, tol.min_clique_size))
+        graph, alive = lazy.prune(tol.min_clique_size)
+        objects, adjacency = graph.compact(alive)
         search = maximum_cliques([len(o) for o in objects], adjacency, min_size=tol.min_clique_size,
                                  near_maximum=k, max_nodes=tol.max_nodes, max_cliques=tol.max_cliques)
         hyps = _hypotheses_from_cliques(world, percepts, objects, search.cliques, tol, searched)
