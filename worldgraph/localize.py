@@ -486,9 +486,14 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
             break
         if any(_pose_nees(f, h.world_from_ego) <= CHI2_6_GATE for f, _ in fits.values()):
             continue  # its pose lies inside a fit's 3-sigma ellipsoid: it would converge there
-        fit = fit_hypothesis(ctx.world, ctx.ego, ctx.covs, ctx.nearest, h.all_pairs, h.world_from_ego)
-        if fit is not None and fit.pairs not in fits:  # converged to the same inliers: one answer
-            fits[fit.pairs] = (fit, h_i)
+        # from the clique alone, and from the clique with the association's validated matches:
+        # those were taken at the clique's pose without its uncertainty, and a wrong one (an
+        # object one module over, far from a compact clique) can pull the fit away for good
+        starts = (h.pairs,) if h.all_pairs == h.pairs else (h.pairs, h.all_pairs)
+        for start in starts:
+            fit = fit_hypothesis(ctx.world, ctx.ego, ctx.covs, ctx.nearest, start, h.world_from_ego)
+            if fit is not None and fit.pairs not in fits:  # converged to the same inliers: one answer
+                fits[fit.pairs] = (fit, h_i)
     ctx.timings["validation"] = time.perf_counter() - t0
     # the card's convex problem for every validated hypothesis: the Gaussian spheres of its
     # matches (clique and validated percepts, one per distinct centre) projected
