@@ -12,6 +12,10 @@
   handle on each door at one height (a coplanar landmark case), light switches and lamps.
 * :func:`floor`: a large floor of many corridors and rooms, built from arrays, for the
   20,000-object association benchmark.
+* :func:`building` / :func:`building_site` and :func:`campus` / :func:`campus_site`:
+  multi-storey office buildings (identical room modules along corridors, stair cores, each
+  storey nearly the plan of the one below) and campuses of them, built from arrays, with the
+  building and storey of every object (:class:`Site`) for :func:`worldgraph.tiles.split`.
 
 Every object of a scene is a geometry node of a :class:`trimesh.Scene` named
 ``f"{type}_{k:03d}"`` whose node metadata holds ``{"type": type}``; each mesh's metadata
@@ -1026,7 +1030,7 @@ _CORRIDOR_LAMPS, _EXTINGUISHERS, _CORE_OBJECTS = _MODULES, 4, 10
 _PER_MODULE = 6 + float(_KIND_P @ [1 + 1 + 3 + 0.4, 1 + 1 + 3 + 0.4, 2 + 1 + 3 + 0.4, 1 - 1 + 0])
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Site:
     """A world model with the building and storey of every object.
 

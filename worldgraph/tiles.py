@@ -319,7 +319,9 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         Local worker processes (default ``min(len(tiles), os.cpu_count())``); 1 runs the tiles
         one after another in this process.  Ignored with ``scheduler``.  On platforms with
         ``fork`` the workers inherit the tiles (nothing is pickled but the percepts and the
-        answers); elsewhere every tile is pickled to its worker on each call.
+        answers); elsewhere every tile is pickled to its worker on each call.  Forking a
+        process that runs threads (an in-process Dask cluster, a GUI) can deadlock: use
+        ``workers=1`` or ``scheduler`` there.
     tolerances : AssociationTolerances, optional
     rng : numpy.random.Generator, optional
         Split into one child generator per tile (:meth:`numpy.random.Generator.spawn`).
@@ -387,7 +389,4 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         else:  # pragma: no cover - spawn-only platforms pickle the tiles
             with ProcessPoolExecutor(n_workers) as pool:
                 answers = list(pool.map(_run_tile, [t.world for t in tiles], *zip(*args, strict=True)))
-    for a in answers:  # a bad input raises in every tile: re-raise it here
-        if a.error is not None and not isinstance(a.error, UnknownTypeError):
-            raise a.error
     return _combine(tiles, list(answers), tol, t_start)
