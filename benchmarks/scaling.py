@@ -3,7 +3,8 @@
 Worlds (``--worlds``, default all): ``kitchen`` (scenes.kitchen, 753 objects), ``floor``
 (scenes.floor(20000)), ``building`` (scenes.building_site: 5 storeys, 100k objects) and ``campus``
 (scenes.campus_site: 10 buildings x 5 storeys, 1M objects).  Every world runs in its own
-subprocess, so its peak memory (``ru_maxrss``) is its own: after the build and at the end.
+subprocess, so its peak memory (``VmHWM``, the ``ru_maxrss`` of this process alone) is its own:
+after the imports, after the build and at the end.
 
 For each of ``--poses`` random robot poses (kitchen: as in benchmarks/association.py, x, y
 uniform 0.5 m inside the room, z = 1.5 m, percept types door/handle/drawer/knob; the others: at a
@@ -57,6 +58,16 @@ N_TRUE, N_FALSE = 8, 1
 
 
 def _maxrss_mib() -> float:
+    """Peak resident memory of this process (MiB): ``VmHWM`` of /proc/self/status on Linux, which
+    starts afresh at exec, unlike ``ru_maxrss`` (it keeps the launching parent's peak across
+    fork and exec); ``ru_maxrss`` elsewhere."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0  # kB
+    except OSError:
+        pass
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
 
 
