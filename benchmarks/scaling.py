@@ -14,7 +14,8 @@ robot sees 8 true percepts (random visible landmarks within 8 m) and 1 false one
 same percepts it times ``associate`` and ``localize(method="ml")`` (and, for the building and
 the campus, ``localize_tiled`` over storey or building tiles on local processes), and judges
 the answer like benchmarks/association.py: correct = status "ok", 6D NEES <= 20.06 with the
-returned covariance and rotation error <= 2 deg.
+returned covariance and rotation error <= 2 deg; the table counts the other answers too
+(ambiguous, unique but wrong, failed; "weak" makes up the rest).
 
 Baselines on the same percepts (``--baselines``, by default on the kitchen only: their
 candidate sets grow with the number of same-type objects): ``ransac``, this script's numpy
@@ -233,6 +234,7 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
     rng = np.random.default_rng(args.seed + 17)
     t_assoc, t_loc, t_tiled = [], [], []
     verdicts = {"good": 0, "tiled_good": 0}
+    kinds = {"plain": {}, "tiled": {}}  # verdict -> count: good, ambiguous, weak, wrong, failed
     base = {b: {"time": [], "good": 0} for b in args.baselines if name in args.baseline_worlds}
     start = time.perf_counter()
     n = 0
@@ -247,12 +249,16 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
         t = time.perf_counter()
         res = localize(world, percepts, tolerances=tol)
         t_loc.append(time.perf_counter() - t)
-        verdicts["good"] += assoc_bench._judge(res, pose) == "good"
+        v = assoc_bench._judge(res, pose)
+        verdicts["good"] += v == "good"
+        kinds["plain"][v] = kinds["plain"].get(v, 0) + 1
         if tiles is not None:
             t = time.perf_counter()
             tr = localize_tiled(tiles, percepts, tolerances=tol, workers=args.workers)
             t_tiled.append(time.perf_counter() - t)
-            verdicts["tiled_good"] += assoc_bench._judge(tr, pose) == "good"
+            v = assoc_bench._judge(tr, pose)
+            verdicts["tiled_good"] += v == "good"
+            kinds["tiled"][v] = kinds["tiled"].get(v, 0) + 1
         for b, acc in base.items():
             t = time.perf_counter()
             est = ransac_baseline(world, percepts, rng) if b == "ransac" else open3d_baseline(world, percepts)
@@ -270,6 +276,7 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
             "rss_peak": _maxrss_mib(), "poses": n, "associate": stats(t_assoc), "localize": stats(t_loc),
             "tiled": stats(t_tiled), "tiles": len(tiles) if tiles else 0,
             "correct": verdicts["good"] / max(n, 1), "tiled_correct": verdicts["tiled_good"] / max(n, 1),
+            "verdicts": kinds,
             "baselines": {b: {"time": stats(a["time"]), "correct": a["good"] / max(n, 1)}
                           for b, a in base.items()}}
 
@@ -285,19 +292,22 @@ def table(rows: list[dict]) -> str:
     kitchen = next((r for r in rows if r["world"] == "kitchen" and r.get("associate")), None)
     out = ["| world | objects | build s | peak MiB (imports / build / end) | poses "
            "| associate median / p95 ms | x kitchen | localize median / p95 ms | correct "
-           "| tiled localize median / p95 ms (tiles) | tiled correct |",
-           "|---|---|---|---|---|---|---|---|---|---|---|"]
+           "| ambiguous / wrong / failed | tiled localize median / p95 ms (tiles) | tiled correct |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if "error" in r:
-            out.append(f"| {r['world']} | - | - | - | - | {r['error']} | - | - | - | - | - |")
+            out.append(f"| {r['world']} | - | - | - | - | {r['error']} | - | - | - | - | - | - |")
             continue
         ratio = (f"{r['associate'][0] / kitchen['associate'][0]:.1f}x" if kitchen and r["associate"]
                  else "-")
         tiled = f"{_ms(r['tiled'])} ({r['tiles']})" if r["tiles"] else "-"
         tc = f"{100 * r['tiled_correct']:.0f} %" if r["tiles"] else "-"
+        kv = r.get("verdicts", {}).get("plain", {})
+        awf = " / ".join(str(kv.get(k, 0)) for k in ("ambiguous", "wrong", "failed"))
         out.append(f"| {r['world']} | {r['objects']:,} | {r['build']:.2f} | {r['rss_imports']:,.0f} / "
                    f"{r['rss_build']:,.0f} / {r['rss_peak']:,.0f} | {r['poses']} | {_ms(r['associate'])} "
-                   f"| {ratio} | {_ms(r['localize'])} | {100 * r['correct']:.0f} % | {tiled} | {tc} |")
+                   f"| {ratio} | {_ms(r['localize'])} | {100 * r['correct']:.0f} % | {awf} | {tiled} "
+                   f"| {tc} |")
     base = [(r, b, a) for r in rows if "baselines" in r for b, a in r["baselines"].items()]
     if base:
         out += ["", "| world | method | median / p95 ms | correct (0.2 m, 2 deg) |", "|---|---|---|---|"]
