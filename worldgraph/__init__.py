@@ -1,6 +1,6 @@
 """worldgraph: world model graph, association and pose."""
 
-from . import scenes
+from . import scenes, tiles
 from .active import ActiveLocalization, ViewPlan, active_localize, plan_view
 from .association import (
     ASSOCIATION_TOLERANCES,
@@ -32,6 +32,7 @@ from .franka import franka_kitchen_path, load_franka_kitchen
 from .localize import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
 from .model import LinkTable, ObjectModel, WorldModel, box_vertices
 from .pose import percept_frame, pose_from_frames, weighted_kabsch
+from .tiles import Tile, localize_tiled
 
 __all__ = [
     "ActiveLocalization",
@@ -59,6 +60,7 @@ __all__ = [
     "franka_kitchen_path",
     "load_franka_kitchen",
     "scenes",
+    "tiles",
 ]
 
 __all__ += [
@@ -77,4 +79,6 @@ __all__ += [
     "pose_from_frames",
     "proximity_filter",
     "weighted_kabsch",
+    "Tile",
+    "localize_tiled",
 ]

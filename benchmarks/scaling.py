@@ -1,0 +1,370 @@
+"""Benchmark: how association and localisation scale from the kitchen to a 1M-object campus (issue 13).
+
+Worlds (``--worlds``, default all): ``kitchen`` (scenes.kitchen, 753 objects), ``floor``
+(scenes.floor(20000)), ``building`` (scenes.building_site: 5 storeys, 100k objects) and ``campus``
+(scenes.campus_site: 10 buildings x 5 storeys, 1M objects).  Every world runs in its own
+subprocess, so its peak memory (``VmHWM``, the ``ru_maxrss`` of this process alone) is its own:
+after the imports, after the build and at the end.
+
+For each of ``--poses`` random robot poses (kitchen: as in benchmarks/association.py, x, y
+uniform 0.5 m inside the room, z = 1.5 m, percept types door/handle/drawer/knob; the others: at a
+random table, 0.8 m above it, all types; in a building the robot sees its own storey only) the
+robot sees 8 true percepts (random visible landmarks within 8 m) and 1 false one, with
+``sigma = rho^2 / 1000`` (eq. 6), drawn with the helpers of benchmarks/association.py.  On the
+same percepts it times ``associate`` and ``localize(method="ml")`` (and, for the building and
+the campus, ``localize_tiled`` over storey or building tiles on local processes), and judges
+the answer like benchmarks/association.py: correct = status "ok", 6D NEES <= 20.06 with the
+returned covariance and rotation error <= 2 deg; the table counts the other answers too
+(ambiguous, unique but wrong, failed; "weak" makes up the rest).
+
+Baselines on the same percepts (``--baselines``, by default on the kitchen only: their
+candidate sets grow with the number of same-type objects): ``ransac``, this script's numpy
+RANSAC over triples of same-type candidate correspondences (edge-length pre-check, Kabsch,
+inliers within 4 sigma + 1 cm of a same-type object, refit on the inliers), and ``open3d``,
+Open3D's ``registration_ransac_based_on_correspondence`` on the same candidates when
+``import open3d`` works (``--open3d-path`` appends directories to ``sys.path`` for it).
+Baselines give no covariance: correct = position error < 0.2 m and rotation error <= 2 deg.
+TEASER++ is not on PyPI (``pip download teaserpp-python`` finds nothing) and is not run.
+
+Run:  python benchmarks/scaling.py [--worlds kitchen floor building campus] [--poses 50]
+      [--gravity] [--max-seconds 900] [--baselines ransac open3d]
+Prints a Markdown table (progress on stderr).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import association as assoc_bench  # noqa: E402  (benchmarks/association.py: _draw, _judge, _pose)
+
+from worldgraph import scenes  # noqa: E402
+from worldgraph.association import AssociationTolerances, associate  # noqa: E402
+from worldgraph.localize import localize  # noqa: E402
+from worldgraph.tiles import localize_tiled, split  # noqa: E402
+
+WORLDS = ("kitchen", "floor", "building", "campus")
+N_TRUE, N_FALSE = 8, 1
+
+
+def _maxrss_mib() -> float:
+    """Peak resident memory of this process (MiB): ``VmHWM`` of /proc/self/status on Linux, which
+    starts afresh at exec, unlike ``ru_maxrss`` (it keeps the launching parent's peak across
+    fork and exec); ``ru_maxrss`` elsewhere."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0  # kB
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
+
+
+# ----------------------------------------------------------------------------------------------
+# worlds and poses
+# ----------------------------------------------------------------------------------------------
+def _build(name: str, seed: int):  # noqa: ANN202 - (world, site or None)
+    if name == "kitchen":
+        return scenes.kitchen(seed=seed), None
+    if name == "floor":
+        return scenes.floor(n_objects=20000, seed=seed), None
+    if name == "building":
+        site = scenes.building_site(storeys=5, n_objects=100_000, seed=seed)
+        return site.world, site
+    site = scenes.campus_site(buildings=10, storeys=5, n_objects=1_000_000, seed=seed)
+    return site.world, site
+
+
+def _at_table(world, rng: np.random.Generator, tables: np.ndarray) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
+    m[:3, 3] = world.positions[tables[rng.integers(len(tables))]] + [0.0, 0.0, 0.8]
+    return m
+
+
+def _drawer(name: str, world, site, args: argparse.Namespace):  # noqa: ANN202 - callable
+    """``draw(rng) -> (pose, percepts)`` for the world."""
+    if name == "kitchen":
+        mask = np.isin(world.types, assoc_bench.PERCEPT_TYPES)
+        lo, hi = world.bounds
+        return lambda rng: assoc_bench._draw(world, mask, rng, N_TRUE, N_FALSE, args,
+                                             lambda r: assoc_bench._pose(r, lo, hi, 1.5))[:2]
+    tables = np.flatnonzero(world.types == "table")
+    if site is None:
+        every = np.ones(len(world), dtype=bool)
+        return lambda rng: assoc_bench._draw(world, every, rng, N_TRUE, N_FALSE, args,
+                                             lambda r: _at_table(world, r, tables))[:2]
+
+    def draw(rng: np.random.Generator):  # noqa: ANN202
+        # the robot sees the landmarks of its own storey (no percepts through the slabs)
+        table = tables[rng.integers(len(tables))]
+        mask = (site.storey == site.storey[table]) & (site.building == site.building[table])
+        own = tables[mask[tables]]
+        return assoc_bench._draw(world, mask, rng, N_TRUE, N_FALSE, args,
+                                 lambda r: _at_table(world, r, own))[:2]
+    return draw
+
+
+# ----------------------------------------------------------------------------------------------
+# baselines
+# ----------------------------------------------------------------------------------------------
+def _candidates(world, percepts) -> tuple[np.ndarray, np.ndarray]:
+    """Every same-type (percept, object) pair."""
+    p_i, o_i = [], []
+    for k, p in enumerate(percepts):
+        objs = world.type_index.get(p.type, np.zeros(0, np.intp))
+        p_i.append(np.full(len(objs), k))
+        o_i.append(objs)
+    return np.concatenate(p_i).astype(np.intp), np.concatenate(o_i).astype(np.intp)
+
+
+def _kabsch(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Batched ``R, t`` with ``R a + t ~ b``; ``a, b (m, k, 3)``."""
+    ca, cb = a.mean(axis=1), b.mean(axis=1)
+    h = np.einsum("mki,mkj->mij", a - ca[:, None], b - cb[:, None])
+    u, _, vt = np.linalg.svd(h)
+    d = np.sign(np.linalg.det(np.einsum("mij,mjk->mik", vt.transpose(0, 2, 1), u.transpose(0, 2, 1))))
+    s = np.ones((len(a), 3))
+    s[:, 2] = d
+    rot = np.einsum("mji,mj,mkj->mik", vt, s, u)
+    return rot, cb - np.einsum("mij,mj->mi", rot, ca)
+
+
+def ransac_baseline(world, percepts, rng: np.random.Generator, iterations: int = 200_000, batch: int = 5000
+                    ) -> np.ndarray:
+    """numpy RANSAC over triples of same-type candidate correspondences; ``world_from_ego``."""
+    ego = np.array([p.position for p in percepts])
+    sig = np.array([p.sigma for p in percepts])
+    p_i, o_i = _candidates(world, percepts)
+    pos = world.positions
+    types = sorted({p.type for p in percepts})
+    trees = {t: cKDTree(pos[world.type_index[t]]) for t in types}
+    groups = {t: np.array([k for k, p in enumerate(percepts) if p.type == t]) for t in types}
+    gate = 4.0 * sig + 0.01
+    best, best_key = np.eye(4), (-1, np.inf)
+    done = 0
+    while done < iterations:
+        pick = rng.integers(len(p_i), size=(batch, 3))
+        pp, oo = p_i[pick], o_i[pick]
+        ok = (pp[:, 0] != pp[:, 1]) & (pp[:, 0] != pp[:, 2]) & (pp[:, 1] != pp[:, 2])
+        a, b = ego[pp], pos[oo]
+        for u, v in ((0, 1), (0, 2), (1, 2)):  # edge-length check (Open3D's checker, 3 sigma)
+            da = np.linalg.norm(a[:, u] - a[:, v], axis=1)
+            db = np.linalg.norm(b[:, u] - b[:, v], axis=1)
+            ok &= np.abs(da - db) < 3.0 * np.hypot(sig[pp[:, u]], sig[pp[:, v]]) + 0.01
+        done += batch
+        if not ok.any():
+            continue
+        rot, t = _kabsch(a[ok], b[ok])
+        pred = np.einsum("mij,kj->mki", rot, ego) + t[:, None, :]
+        dist = np.empty(pred.shape[:2])
+        for typ, idx in groups.items():
+            d, _ = trees[typ].query(pred[:, idx].reshape(-1, 3))
+            dist[:, idx] = d.reshape(len(pred), len(idx))
+        inl = dist < gate
+        score = inl.sum(axis=1)
+        err = np.where(inl, dist**2, 0.0).sum(axis=1)
+        m = int(np.lexsort((err, -score))[0])
+        if (score[m], -err[m]) > (best_key[0], -best_key[1]):
+            best_key = (int(score[m]), float(err[m]))
+            best = np.eye(4)
+            best[:3, :3], best[:3, 3] = rot[m], t[m]
+    # refit on the inliers of the best pose
+    pred = ego @ best[:3, :3].T + best[:3, 3]
+    src, dst = [], []
+    for typ, idx in groups.items():
+        d, j = trees[typ].query(pred[idx])
+        keep = d < gate[idx]
+        src.append(ego[idx][keep])
+        dst.append(pos[world.type_index[typ][j[keep]]])
+    src, dst = np.concatenate(src), np.concatenate(dst)
+    if len(src) >= 3:
+        rot, t = _kabsch(src[None], dst[None])
+        best[:3, :3], best[:3, 3] = rot[0], t[0]
+    return best
+
+
+def open3d_baseline(world, percepts) -> np.ndarray:
+    """Open3D's correspondence RANSAC on the same-type candidates; ``world_from_ego``."""
+    import open3d as o3d
+
+    reg = o3d.pipelines.registration
+    ego = np.array([p.position for p in percepts])
+    p_i, o_i = _candidates(world, percepts)
+    src = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(ego))
+    dst = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.array(world.positions)))
+    corres = o3d.utility.Vector2iVector(np.column_stack([p_i, o_i]).astype(np.int32))
+    max_sigma = max(p.sigma for p in percepts)
+    result = reg.registration_ransac_based_on_correspondence(
+        src, dst, corres, 4.0 * max_sigma + 0.01, reg.TransformationEstimationPointToPoint(False), 3,
+        [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9)], reg.RANSACConvergenceCriteria(100000, 0.999))
+    return np.asarray(result.transformation)
+
+
+def _close(est: np.ndarray, pose: np.ndarray) -> bool:
+    return bool(np.linalg.norm(est[:3, 3] - pose[:3, 3]) < 0.2 and assoc_bench._rot_err_deg(est, pose) <= 2.0)
+
+
+# ----------------------------------------------------------------------------------------------
+# one world (in its own subprocess)
+# ----------------------------------------------------------------------------------------------
+def run_world(name: str, args: argparse.Namespace) -> dict:
+    rss_imports = _maxrss_mib()
+    t0 = time.perf_counter()
+    world, site = _build(name, args.seed)
+    build = time.perf_counter() - t0
+    rss_build = _maxrss_mib()
+    print(f"{name}: {len(world)} objects built in {build:.1f} s, {rss_build:.0f} MiB", file=sys.stderr,
+          flush=True)
+    tol = AssociationTolerances(gravity_aligned=args.gravity)
+    tiles = split(world, site.labels("storey" if name == "building" else "building")) if site else None
+    draw = _drawer(name, world, site, args)
+    rng = np.random.default_rng(args.seed + 17)
+    t_assoc, t_loc, t_tiled = [], [], []
+    verdicts = {"good": 0, "tiled_good": 0}
+    kinds = {"plain": {}, "tiled": {}}  # verdict -> count: good, ambiguous, weak, wrong, failed
+    base = {b: {"time": [], "good": 0} for b in args.baselines if name in args.baseline_worlds}
+    start = time.perf_counter()
+    n = 0
+    for k in range(args.poses):
+        if time.perf_counter() - start > args.max_seconds:
+            print(f"{name}: time budget reached after {n} poses", file=sys.stderr, flush=True)
+            break
+        pose, percepts = draw(rng)
+        t = time.perf_counter()
+        associate(world, percepts, tol)
+        t_assoc.append(time.perf_counter() - t)
+        t = time.perf_counter()
+        res = localize(world, percepts, tolerances=tol)
+        t_loc.append(time.perf_counter() - t)
+        v = assoc_bench._judge(res, pose)
+        verdicts["good"] += v == "good"
+        kinds["plain"][v] = kinds["plain"].get(v, 0) + 1
+        if tiles is not None:
+            t = time.perf_counter()
+            tr = localize_tiled(tiles, percepts, tolerances=tol, workers=args.workers)
+            t_tiled.append(time.perf_counter() - t)
+            v = assoc_bench._judge(tr, pose)
+            verdicts["tiled_good"] += v == "good"
+            kinds["tiled"][v] = kinds["tiled"].get(v, 0) + 1
+        for b, acc in base.items():
+            t = time.perf_counter()
+            est = ransac_baseline(world, percepts, rng) if b == "ransac" else open3d_baseline(world, percepts)
+            acc["time"].append(time.perf_counter() - t)
+            acc["good"] += _close(est, pose)
+        n += 1
+        print(f"{name} pose {k}: associate {t_assoc[-1] * 1e3:.0f} ms, localize {t_loc[-1] * 1e3:.0f} ms "
+              f"{res.status}", file=sys.stderr, flush=True)
+
+    def stats(v: list[float]) -> list[float] | None:
+        return [float(np.median(v)), float(np.percentile(v, 95))] if v else None
+
+    return {"world": name, "objects": len(world), "build": build, "rss_imports": rss_imports,
+            "rss_build": rss_build,
+            "rss_peak": _maxrss_mib(), "poses": n, "associate": stats(t_assoc), "localize": stats(t_loc),
+            "tiled": stats(t_tiled), "tiles": len(tiles) if tiles else 0,
+            "correct": verdicts["good"] / max(n, 1), "tiled_correct": verdicts["tiled_good"] / max(n, 1),
+            "verdicts": kinds,
+            "baselines": {b: {"time": stats(a["time"]), "correct": a["good"] / max(n, 1)}
+                          for b, a in base.items()}}
+
+
+# ----------------------------------------------------------------------------------------------
+# table
+# ----------------------------------------------------------------------------------------------
+def _ms(s: list[float] | None) -> str:
+    return "-" if s is None else f"{s[0] * 1e3:,.1f} / {s[1] * 1e3:,.1f}"
+
+
+def table(rows: list[dict]) -> str:
+    kitchen = next((r for r in rows if r["world"] == "kitchen" and r.get("associate")), None)
+    out = ["| world | objects | build s | peak MiB (imports / build / end) | poses "
+           "| associate median / p95 ms | x kitchen | localize median / p95 ms | correct "
+           "| ambiguous / wrong / failed | tiled localize median / p95 ms (tiles) | tiled correct |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if "error" in r:
+            out.append(f"| {r['world']} | - | - | - | - | {r['error']} | - | - | - | - | - | - |")
+            continue
+        ratio = (f"{r['associate'][0] / kitchen['associate'][0]:.1f}x" if kitchen and r["associate"]
+                 else "-")
+        tiled = f"{_ms(r['tiled'])} ({r['tiles']})" if r["tiles"] else "-"
+        tc = f"{100 * r['tiled_correct']:.0f} %" if r["tiles"] else "-"
+        kv = r.get("verdicts", {}).get("plain", {})
+        awf = " / ".join(str(kv.get(k, 0)) for k in ("ambiguous", "wrong", "failed"))
+        out.append(f"| {r['world']} | {r['objects']:,} | {r['build']:.2f} | {r['rss_imports']:,.0f} / "
+                   f"{r['rss_build']:,.0f} / {r['rss_peak']:,.0f} | {r['poses']} | {_ms(r['associate'])} "
+                   f"| {ratio} | {_ms(r['localize'])} | {100 * r['correct']:.0f} % | {awf} | {tiled} "
+                   f"| {tc} |")
+    base = [(r, b, a) for r in rows if "baselines" in r for b, a in r["baselines"].items()]
+    if base:
+        out += ["", "| world | method | median / p95 ms | correct (0.2 m, 2 deg) |", "|---|---|---|---|"]
+        for r in rows:
+            if r.get("localize"):
+                out.append(f"| {r['world']} | worldgraph localize (ml) | {_ms(r['localize'])} "
+                           f"| {100 * r['correct']:.0f} % (NEES) |")
+        for r, b, a in base:
+            out.append(f"| {r['world']} | {b} | {_ms(a['time'])} | {100 * a['correct']:.0f} % |")
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--worlds", nargs="+", choices=WORLDS, default=list(WORLDS))
+    ap.add_argument("--poses", type=int, default=50)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--gravity", action="store_true",
+                    help="gravity-aligned invariants (the robot knows which way is up)")
+    ap.add_argument("--max-seconds", type=float, default=900.0,
+                    help="stop drawing poses for a world after this many seconds")
+    ap.add_argument("--workers", type=int, default=None, help="processes of localize_tiled")
+    ap.add_argument("--baselines", nargs="*", choices=("ransac", "open3d"), default=["ransac", "open3d"])
+    ap.add_argument("--baseline-worlds", nargs="*", choices=WORLDS, default=["kitchen"])
+    ap.add_argument("--open3d-path", default=None,
+                    help="directories (os.pathsep-separated) appended to sys.path for open3d and its deps")
+    ap.add_argument("--depth-factor", type=float, default=1000.0)
+    ap.add_argument("--max-range", type=float, default=8.0)
+    ap.add_argument("--hfov", type=float, default=None)
+    ap.add_argument("--one", choices=WORLDS, help=argparse.SUPPRESS)  # internal: run one world, print JSON
+    args = ap.parse_args(argv)
+    if args.open3d_path:
+        sys.path.extend(args.open3d_path.split(os.pathsep))
+    if "open3d" in args.baselines and not args.one:  # the worker imports it on first use
+        try:
+            import open3d  # noqa: F401
+        except ImportError as exc:
+            print(f"open3d baseline dropped: {exc}", file=sys.stderr)
+            args.baselines = [b for b in args.baselines if b != "open3d"]
+    if args.one:
+        print(json.dumps(run_world(args.one, args)))
+        return
+    rows = []
+    passthrough = [a for a in (argv if argv is not None else sys.argv[1:])]
+    for name in args.worlds:
+        cmd = [sys.executable, __file__, *passthrough, "--one", name]
+        proc = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, env=os.environ.copy())
+        lines = proc.stdout.strip().splitlines()
+        if proc.returncode != 0 or not lines:
+            rows.append({"world": name, "error": f"subprocess failed (exit {proc.returncode})"})
+        else:
+            rows.append(json.loads(lines[-1]))
+        print(table(rows[-1:]), file=sys.stderr, flush=True)
+    print(f"{N_TRUE} true + {N_FALSE} false percepts, sigma = rho^2/{args.depth_factor:g}, max_range "
+          f"{args.max_range:g} m, gravity_aligned={args.gravity}, seed {args.seed}\n")
+    print(table(rows))
+
+
+if __name__ == "__main__":
+    main()
