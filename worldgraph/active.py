@@ -393,11 +393,15 @@ def _check_common(world: object, result: object, fov_deg: object, max_range: obj
         raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
     if not isinstance(result, LocalizationResult):
         raise ArgumentTypeError(f"result must be a LocalizationResult, got {type(result).__name__}")
+    depth_factor = positive_float("depth_factor", depth_factor, maximum=1e12)
+    if depth_factor < 1e-3:
+        raise OutOfRangeError(f"depth_factor = {depth_factor!r} is out of range: must be >= 0.001 (1/m)")
     return (positive_float("fov_deg", fov_deg, maximum=360.0),
             positive_float("max_range", max_range, maximum=1e6),
-            positive_float("detection", detection, maximum=1.0), positive_float("depth_factor", depth_factor),
-            positive_float("min_sigma", min_sigma), positive_float("n_sigma", n_sigma),
-            positive_float("margin", margin, allow_zero=True))
+            positive_float("detection", detection, maximum=1.0), depth_factor,
+            positive_float("min_sigma", min_sigma, maximum=1e3),
+            positive_float("n_sigma", n_sigma, maximum=1e3),
+            positive_float("margin", margin, allow_zero=True, maximum=1e3))
 
 
 def _directions(name: str, value: object) -> NDArray[np.float64]:
