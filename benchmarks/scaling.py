@@ -341,11 +341,12 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     if args.open3d_path:
         sys.path.extend(args.open3d_path.split(os.pathsep))
-    if "open3d" in args.baselines and not args.one:  # the worker imports it on first use
+    if "open3d" in args.baselines:  # each world's subprocess checks again for itself
         try:
             import open3d  # noqa: F401
         except ImportError as exc:
-            print(f"open3d baseline dropped: {exc}", file=sys.stderr)
+            if not args.one:
+                print(f"open3d baseline dropped: {exc}", file=sys.stderr)
             args.baselines = [b for b in args.baselines if b != "open3d"]
     if args.one:
         print(json.dumps(run_world(args.one, args)))
