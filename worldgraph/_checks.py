@@ -254,7 +254,33 @@ def name_string(name: str, value: Any, error: type[WorldGraphError] = WorldGraph
         raise error(f"{name} must be a non-empty string, got {_short(value)}")
     if "\x00" in value:
         raise error(f"{name} must not contain NUL characters, got {_short(value)}")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise error(f"{name} must be valid Unicode text (UTF-8 encodable), got {_short(value)}: {exc.reason} "
+                    f"at position {exc.start}") from exc
     return value
+
+
+#: Longest file path accepted (characters).
+MAX_PATH_LENGTH = 4096
+
+
+def file_path(name: str, value: Any, kinds: str = "a str or os.PathLike") -> str:
+    """A file path as ``str``: ``str`` or ``os.PathLike`` of ``str``, non-empty, without NUL,
+    UTF-8 encodable, at most :data:`MAX_PATH_LENGTH` characters (:class:`ArgumentTypeError`)."""
+    import os
+
+    if isinstance(value, bytes) or not isinstance(value, str | os.PathLike):
+        raise ArgumentTypeError(f"{name} must be {kinds}, got {_short(value)}")
+    text = os.fspath(value)
+    if not isinstance(text, str):
+        raise ArgumentTypeError(f"{name} must be a str or os.PathLike of str, got {_short(value)}")
+    name_string(name, text, ArgumentTypeError)
+    if len(text) > MAX_PATH_LENGTH:
+        raise ArgumentTypeError(f"{name} is {len(text)} characters long, more than {MAX_PATH_LENGTH}: "
+                                f"{_short(text)}")
+    return text
 
 
 def as_list(name: str, value: Any, what: str, *, exclude: tuple[type, ...] = ()) -> list[Any]:

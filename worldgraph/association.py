@@ -45,10 +45,11 @@ from scipy.spatial import cKDTree
 
 from perception import Percept
 
-from ._checks import as_list, finite_float, positive_float, rigid_transform, strict_int
+from ._checks import as_list, finite_float, float_array, positive_float, rigid_transform, strict_int
 from .errors import (
     ArgumentTypeError,
     EmptyWorldError,
+    NonPositiveError,
     OutOfRangeError,
     ShapeError,
     TooFewPerceptsError,
@@ -185,17 +186,31 @@ class AssociationTolerances:
         put("min_clique_size", strict_int("AssociationTolerances.min_clique_size", self.min_clique_size,
                                           minimum=2, maximum=64))
         put("max_search_percepts", strict_int("AssociationTolerances.max_search_percepts",
-                                              self.max_search_percepts, minimum=self.min_clique_size,
-                                              maximum=100_000))
+                                              self.max_search_percepts, minimum=2, maximum=100_000))
+        if self.min_clique_size > self.max_search_percepts:
+            raise OutOfRangeError(f"AssociationTolerances.min_clique_size = {self.min_clique_size} exceeds "
+                                  f"max_search_percepts = {self.max_search_percepts} (the clique search "
+                                  "looks at that many percepts at most): raise max_search_percepts too")
         for name, lo in (("near_maximum", 0), ("max_nodes", 1), ("max_cliques", 1), ("dense_pair_limit", 0),
                          ("max_hypotheses", 1)):
             put(name, strict_int(f"AssociationTolerances.{name}", getattr(self, name), minimum=lo,
                                  maximum=10**9))
 
     def pair_tolerance(self, sigma_p: float | NDArray, sigma_q: float | NDArray) -> float | NDArray:
-        """``tau_pq = n_sigma * pair_factor * sqrt(s_p^2 + s_q^2) + min_tolerance`` (metres)."""
-        return self.n_sigma * self.pair_factor * np.sqrt(np.square(sigma_p) + np.square(sigma_q)) \
-            + self.min_tolerance
+        """``tau_pq = n_sigma * pair_factor * sqrt(s_p^2 + s_q^2) + min_tolerance`` (metres);
+        sigmas are non-negative finite reals (scalars or arrays that broadcast)."""
+        sp = float_array("sigma_p", sigma_p, None, max_abs=1e150)
+        sq = float_array("sigma_q", sigma_q, None, max_abs=1e150)
+        for name, arr in (("sigma_p", sp), ("sigma_q", sq)):
+            if np.any(arr < 0):
+                i = int(np.flatnonzero(np.ravel(arr) < 0)[0])
+                raise NonPositiveError(f"{name}[{i}] must be >= 0, got {float(np.ravel(arr)[i])!r}"
+                                       if arr.ndim else f"{name} must be >= 0, got {float(arr)!r}")
+        try:
+            out = self.n_sigma * self.pair_factor * np.hypot(sp, sq) + self.min_tolerance
+        except ValueError as exc:
+            raise ShapeError(f"sigma_p {sp.shape} and sigma_q {sq.shape} do not broadcast") from exc
+        return float(out) if np.ndim(out) == 0 else out
 
 
 ASSOCIATION_TOLERANCES = AssociationTolerances()

@@ -51,7 +51,6 @@ from __future__ import annotations
 
 import importlib.util
 import math
-import os
 import pathlib
 import re
 import xml.etree.ElementTree as ET
@@ -63,7 +62,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from . import _checks
-from .errors import ArgumentTypeError, ImporterError, MalformedFileError, WorldGraphError
+from .errors import ImporterError, MalformedFileError, WorldGraphError
 from .model import WorldModel
 
 __all__ = ["FRANKA_TYPE_RULES", "ROOM_HEIGHT", "franka_kitchen_path", "franka_kitchen_scene",
@@ -430,9 +429,15 @@ def franka_kitchen_scene(path: str | pathlib.Path | None = None) -> tuple[trimes
     deep) is a :class:`MalformedFileError` naming the file; a ``path`` that is not ``None``, a
     ``str`` or an ``os.PathLike`` (or holds a NUL character) is an :class:`ArgumentTypeError`.
     """
-    directory = franka_kitchen_path() if path is None else pathlib.Path(_check_path(path))
-    main = directory / _MAIN_FILE if directory.is_dir() else directory
-    if not main.is_file():
+    directory = franka_kitchen_path() if path is None else \
+        pathlib.Path(_checks.file_path("path", path, "None, a str or an os.PathLike"))
+    try:
+        main = directory / _MAIN_FILE if directory.is_dir() else directory
+        found = main.is_file()
+    except OSError as exc:
+        raise ImporterError(f"Franka kitchen model at {_checks._short(str(directory))} cannot be read: "
+                            f"{exc}") from exc
+    if not found:
         raise ImporterError(f"Franka kitchen model {main} not found; install it with: {_PIP}")
     try:
         return _build_scene(main)
@@ -443,15 +448,6 @@ def franka_kitchen_scene(path: str | pathlib.Path | None = None) -> tuple[trimes
     except (OSError, ValueError, TypeError, KeyError, IndexError, AttributeError, ArithmeticError,
             np.linalg.LinAlgError) as exc:
         raise MalformedFileError(f"{main}: cannot build the kitchen: {type(exc).__name__}: {exc}") from exc
-
-
-def _check_path(path: object) -> str:
-    if isinstance(path, bytes) or not isinstance(path, str | pathlib.PurePath | os.PathLike):
-        raise ArgumentTypeError(f"path must be None, a str or an os.PathLike, got {_checks._short(path)}")
-    text = os.fspath(path)
-    if not isinstance(text, str):
-        raise ArgumentTypeError(f"path must be a str or os.PathLike of str, got {_checks._short(path)}")
-    return _checks.name_string("path", text, ArgumentTypeError)
 
 
 def _build_scene(main: pathlib.Path) -> tuple[trimesh.Scene, dict[str, str]]:

@@ -338,6 +338,9 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         raise ArgumentTypeError(f"certify must be a bool, got {certify!r}")
     pos_tol = positive_float("max_position_3sigma", max_position_3sigma)
     rot_tol = positive_float("max_rotation_3sigma", max_rotation_3sigma)
+    if rot_tol > math.pi:
+        raise OutOfRangeError(f"max_rotation_3sigma = {rot_tol!r} is an angle in radians and must be <= pi; "
+                              f"did you mean degrees? np.radians({rot_tol:g}) = {math.radians(rot_tol):.4g}")
     big = float(np.max(np.abs(world.positions)))
     if not big <= MAX_COORDINATE:
         raise OutOfRangeError(f"world positions reach {big:.3g} m; localize handles coordinates up to "

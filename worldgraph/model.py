@@ -52,6 +52,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -190,6 +191,11 @@ def _check_scene(scene: Any) -> None:
         raise ImporterError("from_trimesh needs trimesh: pip install trimesh") from exc
     if not isinstance(scene, _trimesh.Scene):
         raise ArgumentTypeError(f"scene must be a trimesh.Scene, got {_checks._short(scene)}")
+    from .errors import ImporterError
+
+    for node in list(getattr(scene.graph.transforms, "node_data", {})):
+        if isinstance(node, str):
+            _checks.name_string(f"scene node name {node!r}", node, ImporterError)
 
 
 def _geometry_nodes(scene: trimesh.Scene) -> Iterable[tuple[str, NDArray[np.float64], str, Any]]:
@@ -284,13 +290,8 @@ def _name_list(name: str, value: Any, n: int, error: type[WorldGraphError]) -> l
 
 
 def _check_path(path: Any) -> str:
-    """A file path as ``str``: ``str`` or ``os.PathLike`` of ``str``, non-empty, without NUL."""
-    if isinstance(path, bytes) or not isinstance(path, str | os.PathLike):
-        raise ArgumentTypeError(f"path must be a str or os.PathLike, got {_checks._short(path)}")
-    text = os.fspath(path)
-    if not isinstance(text, str):
-        raise ArgumentTypeError(f"path must be a str or os.PathLike of str, got {_checks._short(path)}")
-    return _checks.name_string("path", text)
+    """A file path as ``str`` (:func:`worldgraph._checks.file_path`)."""
+    return _checks.file_path("path", path)
 
 
 def _check_type_name(value: Any, what: str) -> str:
@@ -575,9 +576,15 @@ class WorldModel:
         if isinstance(self.objects, str | bytes | Mapping) or not isinstance(self.objects, Iterable):
             raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
                                     f"{_checks._short(self.objects)}")
-        objects = tuple(self.objects)
+        try:
+            objects = tuple(self.objects)
+        except TypeError as exc:
+            raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
+                                    f"{_checks._short(self.objects)}") from exc
         if not objects:
             raise EmptyWorldError("objects must hold at least one object (an ObjectModel), got 0")
+        if self.scene is not None:
+            _check_scene(self.scene)
         for k, obj in enumerate(objects):
             if not isinstance(obj, ObjectModel):
                 raise ArgumentTypeError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
@@ -795,9 +802,12 @@ class WorldModel:
             room = _check_room(room)
         objs: list[ObjectModel] = []
         class_vertices: dict[str, NDArray[np.float64]] = {}
+        empty: list[str] = []
+        mirrored: list[str] = []
         for node, matrix, geom_name, geometry in _geometry_nodes(scene):
             verts = _vertices(f"vertices of geometry {geom_name!r}", geometry)
             if verts is None:  # an empty Trimesh or PointCloud: nothing to perceive
+                empty.append(str(node))
                 continue
             if type_of is not None:
                 try:
@@ -813,6 +823,8 @@ class WorldModel:
             lo, hi = verts.min(axis=0), verts.max(axis=0)
             centre = 0.5 * (lo + hi)
             rot, scale = _rotation_and_scale(matrix)
+            if np.linalg.det(matrix[:3, :3]) < 0:
+                mirrored.append(str(node))
             pose = np.eye(4)
             pose[:3, :3] = rot
             pose[:3, 3] = matrix[:3, :3] @ centre + matrix[:3, 3]
@@ -821,6 +833,14 @@ class WorldModel:
             if key not in class_vertices:
                 class_vertices[key] = (verts - centre) * scale
             objs.append(ObjectModel(str(node), typ, pose, size, key))
+        if empty:
+            warnings.warn(f"from_trimesh: {len(empty)} geometry node(s) without vertices skipped (trimesh "
+                          f"drops non-finite vertices when a mesh is made): {empty[:5]}", UserWarning,
+                          stacklevel=2)
+        if mirrored:
+            warnings.warn(f"from_trimesh: {len(mirrored)} node(s) with a reflecting transform taken as the "
+                          "proper rotation with one axis mirrored (position and size exact, class vertices "
+                          f"not mirrored): {mirrored[:5]}", UserWarning, stacklevel=2)
         if not objs:
             raise EmptyWorldError("scene has no typed geometry nodes with vertices (a WorldModel needs one)")
         return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
@@ -1050,6 +1070,10 @@ class WorldModel:
     @classmethod
     def from_dict(cls, data: Any, source: str = "data") -> WorldModel:
         """Build from the dictionary of the file format, validating every entry."""
+        if not isinstance(source, str):
+            raise ArgumentTypeError(f"source must be a str (the name used in messages), "
+                                    f"got {type(source).__name__}")
+
         def bad(msg: str) -> MalformedFileError:
             return MalformedFileError(f"{source}: {msg}")
 
