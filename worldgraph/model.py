@@ -289,6 +289,11 @@ def _name_list(name: str, value: Any, n: int, error: type[WorldGraphError]) -> l
     return [str(_checks.name_string(f"{name}[{k}]", x, error)) for k, x in enumerate(items)]
 
 
+#: Most object pairs a world's link table may hold (about 1 GB of link arrays; a 1M-object campus
+#: at 5 m holds about 28 million).
+MAX_LINKS = 40_000_000
+
+
 def _check_path(path: Any) -> str:
     """A file path as ``str`` (:func:`worldgraph._checks.file_path`)."""
     return _checks.file_path("path", path)
@@ -670,6 +675,16 @@ class WorldModel:
         tree = cKDTree(positions)
 
         radius = self.max_link_length + self.link_margin
+        n = len(positions)
+        if n > 1000:  # a strided sample says how many links the table would hold before it is built
+            counts = np.asarray(tree.query_ball_point(positions[:: n // 1000], radius, return_length=True))
+            estimate = (float(counts.mean()) - 1.0) * n / 2.0
+            if estimate > MAX_LINKS:
+                raise OutOfRangeError(
+                    f"max_link_length = {self.max_link_length:g} m (+ link_margin {self.link_margin:g} m) "
+                    f"would link about {estimate:,.0f} object pairs ({n:,} objects, about "
+                    f"{counts.mean() - 1:,.0f} within reach of each), more than {MAX_LINKS:,}: lower "
+                    "max_link_length or thin the world")
         # query slightly wide, then filter with the exact strict test below
         pairs = tree.query_pairs(radius * (1.0 + 1e-9), output_type="ndarray").astype(np.intp)
         if pairs.size == 0:
