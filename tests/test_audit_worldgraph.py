@@ -101,7 +101,7 @@ def test_a_link_table_beyond_its_budget_is_refused_before_it_is_built(monkeypatc
     import worldgraph.model as model
 
     rng = np.random.default_rng(0)
-    with pytest.raises(wg.OutOfRangeError, match=r"max_link_length = 5 m .* about 5\d,\d{3},\d{3} pairs"):
+    with pytest.raises(wg.OutOfRangeError, match=r"max_link_length = 5 m .* about 5\d,\d{3},\d{3} object"):
         wg.WorldModel.from_arrays(["door"] * 20_000, rng.uniform(0, 10, (20_000, 3)))
     pos = rng.uniform(0, 40, (3000, 3))
     exact = wg.WorldModel.from_arrays(["door"] * 3000, pos)
