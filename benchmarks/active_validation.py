@@ -39,6 +39,7 @@ import sys
 import time
 
 import numpy as np
+from association import _judge as association_judge  # benchmarks/association.py
 from scipy.spatial.transform import Rotation
 
 from perception.simulate import simulate_percepts
@@ -79,17 +80,9 @@ def _draw(types: list, pos: np.ndarray, lo: np.ndarray, hi: np.ndarray, rng: np.
 
 
 def _judge(res: LocalizationResult, pose: np.ndarray) -> str:
-    if res.status == "ambiguous":
-        return "ambiguous"
-    if res.status != "ok":
-        return "other"
-    e = np.concatenate([pose[:3, 3] - res.position,
-                        Rotation.from_matrix(pose[:3, :3] @ res.transformation[:3, :3].T).as_rotvec()])
-    cov = res.pose_covariance
-    if not np.all(np.isfinite(cov)):
-        return "wrong"
-    rot = float(np.degrees(Rotation.from_matrix(pose[:3, :3].T @ res.transformation[:3, :3]).magnitude()))
-    return "good" if float(e @ np.linalg.solve(cov, e)) <= CHI2_6_3SIGMA and rot <= 2.0 else "wrong"
+    """benchmarks/association.py's verdict, with "weak" and failures together as "other"."""
+    verdict = association_judge(res, pose)
+    return verdict if verdict in ("good", "ambiguous", "wrong") else "other"
 
 
 def _looker(types: list, pos: np.ndarray, pose: np.ndarray, rng: np.random.Generator):

@@ -57,6 +57,19 @@ except wg.WorldGraphError as exc:
     result = type(exc).__name__
 """,
     ),
+    "from_arrays dense links": (
+        200_000,
+        "(audit) 20,000 objects of one type in a 10 m cube: 56 million links, MemoryError",
+        """
+import numpy as np, worldgraph as wg
+rng = np.random.default_rng(0)
+try:
+    w = wg.WorldModel.from_arrays(["door"] * N, rng.uniform(0, 10, (N, 3)))
+    result = f"{len(w.objects)} objects (wrong: too many links)"
+except wg.WorldGraphError as exc:
+    result = type(exc).__name__
+""",
+    ),
     "from_arrays many types": (
         30_000,
         "3,000 types: one link table per type pair",
