@@ -42,7 +42,7 @@ returned and the status is ``"ambiguous"`` unless the region keeps only one.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from itertools import combinations
 from typing import Literal, get_args
@@ -773,6 +773,9 @@ def estimate_position(
     RadialError
         Invalid spheres (e.g. :class:`~radialopt.errors.CoincidentCentersError`).
     """
+    if not isinstance(spheres, (Sequence, str, bytes, GaussianSphere, np.ndarray)) and isinstance(
+            spheres, Iterable):
+        spheres = list(spheres)  # a generator is read once; every method reads the spheres twice
     if not isinstance(method, str) or method not in _METHODS:
         raise UnknownMethodError(f"unknown position method {method!r:.100}; choose one of "
                                  f"{', '.join(POSITION_METHODS)}")

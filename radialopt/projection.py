@@ -58,7 +58,7 @@ from __future__ import annotations
 import contextlib
 import io
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cached_property, lru_cache
@@ -587,6 +587,9 @@ def project_radii(
         Bad input (see :mod:`radialopt.errors`), unknown method or solver.
     SolverError
         The backend failed and no answer can be trusted.
+    TooManySpheresError
+        ``check`` or ``method="vertices"`` with more than
+        :data:`~radialopt.vertices.MAX_VERTEX_SPHERES` spheres (vertex enumeration).
     """
     if not isinstance(method, str) or method not in _BACKENDS:
         raise UnknownMethodError(f"unknown method {method!r:.100}; choose one of {', '.join(METHODS)}")
@@ -599,7 +602,15 @@ def project_radii(
     instance(tol, "tol", Tolerances)
     if check == "exact":
         _cdd_gmp()  # fail before solving when the exact mode is missing
+    if not isinstance(spheres, (Sequence, str, bytes, GaussianSphere, np.ndarray)) and isinstance(
+            spheres, Iterable):
+        spheres = list(spheres)  # a generator is read once; check=True reads the spheres again
     problem = _Problem.build(spheres, tol)
+    if check is not False or method == "vertices":
+        from .vertices import check_vertex_spheres
+
+        what = f"check={check!r}" if check is not False else "method='vertices'"
+        check_vertex_spheres(len(problem.radii), f"spheres ({what} enumerates vertices)")
     t0 = time.perf_counter()
     z, status = _BACKENDS[method](problem, solver, tol)
     if status == "infeasible" or not np.all(np.isfinite(z)):
