@@ -62,3 +62,88 @@ def test_project_radii_with_enumeration_refuses_too_many_spheres(kwargs: dict) -
     sol = ro.project_radii(spheres)  # check=False handles any size
     poly = ro.RestrictionPolytope.from_centers([s.center for s in spheres])
     assert poly.contains(sol.radii, 1e-6)
+
+
+# ---------------------------------------------------------------- 3. bounded memory: chunked batches
+def _batch_equal(a: object, b: object) -> None:
+    from dataclasses import fields
+
+    assert type(a) is type(b)
+    for f in fields(a):
+        np.testing.assert_array_equal(getattr(a, f.name), getattr(b, f.name), err_msg=f.name)
+
+
+@pytest.mark.parametrize("fn, m", [(ro.meet2_batch, 2), (ro.meet3_batch, 3), (ro.meet4_batch, 4)])
+def test_meet_batches_chunked_equal_unchunked(monkeypatch: pytest.MonkeyPatch, fn: object, m: int) -> None:
+    import radialopt.conformal as conformal
+
+    rng = np.random.default_rng(3)
+    k = 1003
+    c = rng.uniform(0, 10, (k, m, 3))
+    r2 = rng.uniform(1, 5, (k, m)) ** 2
+    c[5, 1] = c[5, 0]  # a coincident instance (NaN rows) inside a later chunk too
+    c[777, 1] = c[777, 0]
+    whole = fn(c, r2)
+    monkeypatch.setattr(conformal, "MEET_CHUNK", 64)
+    chunked = fn(c, r2)
+    _batch_equal(whole, chunked)
+    # each row equals the meet of that instance alone (the obvious per-row reference)
+    for i in (0, 5, 63, 64, 777, k - 1):
+        _batch_equal(fn(c[i:i + 1], r2[i:i + 1]), type(whole)(
+            **{f: getattr(whole, f)[i:i + 1] for f in whole.__dataclass_fields__}))
+
+
+def test_total_density_chunked_equals_a_per_point_loop(monkeypatch: pytest.MonkeyPatch) -> None:
+    import math
+
+    import radialopt.spheres as spheres_mod
+
+    rng = np.random.default_rng(4)
+    centers = rng.uniform(0, 10, (7, 3))
+    truth = np.array([4.0, 5.0, 6.0])
+    spheres = ro.make_spheres(centers, np.linalg.norm(centers - truth, axis=1) + 0.05, np.full(7, 0.5))
+    pts = np.vstack([truth, rng.uniform(0, 10, (200, 3))])
+    monkeypatch.setattr(spheres_mod, "DENSITY_CHUNK_ELEMENTS", 3 * 7 * 13)  # 13 points per chunk
+    got = ro.total_density(spheres, pts)
+    ref = [math.exp(-0.5 * sum(((math.dist(p, s.center) - s.radius) / s.sigma) ** 2 for s in spheres))
+           for p in pts]
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)
+    assert ro.total_density(spheres, truth) == pytest.approx(math.exp(-0.5 * 7 * 0.1**2), rel=1e-12)
+
+
+def test_meet4_batch_memory_stays_near_the_input_size(monkeypatch: pytest.MonkeyPatch) -> None:
+    import tracemalloc
+
+    import radialopt.conformal as conformal
+
+    rng = np.random.default_rng(5)
+    c = rng.uniform(0, 10, (200_000, 4, 3))
+    r2 = rng.uniform(1, 5, (200_000, 4))
+    monkeypatch.setattr(conformal, "MEET_CHUNK", 10_000)
+    tracemalloc.start()
+    try:
+        ro.meet4_batch(c, r2)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    # unchunked: about 6x the input (SVD, solve and distance temporaries of every row at once)
+    assert peak < 2.5 * (c.nbytes + r2.nbytes)
+
+
+def test_total_density_memory_is_bounded_by_the_chunk(monkeypatch: pytest.MonkeyPatch) -> None:
+    import tracemalloc
+
+    import radialopt.spheres as spheres_mod
+
+    rng = np.random.default_rng(6)
+    spheres = ro.make_spheres(rng.uniform(0, 10, (1000, 3)), rng.uniform(1, 5, 1000), np.full(1000, 0.3))
+    pts = rng.uniform(0, 10, (3000, 3))
+    monkeypatch.setattr(spheres_mod, "DENSITY_CHUNK_ELEMENTS", 300_000)
+    tracemalloc.start()
+    try:
+        ro.total_density(spheres, pts)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    unchunked_temporary = pts.shape[0] * len(spheres) * 3 * 8  # the (points, spheres, 3) difference
+    assert peak < unchunked_temporary / 4
