@@ -84,7 +84,8 @@ __all__ = [
 PositionStatus = Literal[
     "ok",                    # a unique estimate
     "ambiguous",             # another candidate is about as likely (mirror image, ...)
-    "outside_region",        # no candidate inside the region; the best one is returned
+    "outside_region",        # no candidate inside the region; the best one (outside it) is
+                             # returned for diagnosis: not a success (it violates the region)
     "degenerate_coplanar",   # coplanar centres and the estimate on their plane: J singular
     "degenerate_collinear",  # collinear centres: the position is only known up to a circle
     "too_few_spheres",       # fewer than three spheres
@@ -94,8 +95,10 @@ PositionStatus = Literal[
     "not_converged",         # "ml" polish or "gradient" ascent hit its cap: best point found
 ]
 POSITION_STATUSES: tuple[str, ...] = get_args(PositionStatus)
-#: Statuses whose position is a usable answer (finite, converged, near the landmarks).
-POSITION_SUCCESS = ("ok", "ambiguous", "outside_region")
+#: Statuses whose position is a usable answer (finite, converged, near the landmarks and inside
+#: the ``region`` when one is given).  ``"outside_region"`` is not one: its position violates the
+#: caller's region (worldgraph's ``localize`` treats it as a failure too).
+POSITION_SUCCESS = ("ok", "ambiguous")
 
 
 @dataclass(frozen=True)

@@ -147,3 +147,26 @@ def test_total_density_memory_is_bounded_by_the_chunk(monkeypatch: pytest.Monkey
         tracemalloc.stop()
     unchunked_temporary = pts.shape[0] * len(spheres) * 3 * 8  # the (points, spheres, 3) difference
     assert peak < unchunked_temporary / 4
+
+
+# ---------------------------------------------------------------- 4. outside_region is no success
+def test_outside_region_is_not_a_success_status() -> None:
+    region = ro.Region([5.0, 5, 5], [6.0, 6, 6])
+    est = ro.estimate_position(_spheres(), region=region)
+    assert est.status == "outside_region"
+    assert not region.contains(est.position)
+    assert est.status not in ro.POSITION_SUCCESS
+
+
+@pytest.mark.parametrize("method", ro.POSITION_METHODS)
+def test_success_positions_lie_in_the_region(method: str) -> None:
+    """Exact ranges from a known point: a success status must put the position in the region."""
+    centers = np.array([[1.0, 1, 0.5], [9, 2, 1], [3, 9, 1.5], [5, 5, 8]])
+    truth = np.array([4.0, 4.0, 3.0])
+    spheres = ro.make_spheres(centers, np.linalg.norm(centers - truth, axis=1), np.full(4, 0.05))
+    for lo, hi in (([0.0, 0, 0], [8.0, 8, 8]), ([20.0, 20, 20], [30.0, 30, 30])):
+        region = ro.Region(lo, hi)
+        est = ro.estimate_position(spheres, method=method, region=region)
+        if est.status in ro.POSITION_SUCCESS:
+            assert region.contains(est.position, tol=1e-9)
+            np.testing.assert_allclose(est.position, truth, atol=1e-6)
