@@ -309,13 +309,15 @@ def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
     geometric = np.linalg.eigvalsh(u.T @ u / len(u))
     if geometric[0] <= rcond:
         raise SingularFisherError(
-            f"Fisher information at {x.tolist()} is singular: the directions to the {len(c)} "
-            f"centres span too few dimensions (smallest eigenvalue {geometric[0]:.3g} <= {rcond:g})")
+            f"Fisher information at position = {x.tolist()} is singular: the directions from it to the "
+            f"{len(c)} centers span too few dimensions (smallest eigenvalue {geometric[0]:.3g} <= "
+            f"{rcond:g}); centers = {c.tolist()!r:.300}")
     w, V = np.linalg.eigh(J)
     if not (np.all(np.isfinite(w)) and w[0] > 1e-13 * w[-1]):
         raise SingularFisherError(
-            f"Fisher information at {x.tolist()} is numerically singular: eigenvalues {w.tolist()} "
-            f"(condition beyond 1e13; sigmas span {float(s.min()):.3g} to {float(s.max()):.3g} m)")
+            f"Fisher information at position = {x.tolist()} is numerically singular: eigenvalues "
+            f"{w.tolist()} (condition beyond 1e13; sigmas span {float(s.min()):.3g} to "
+            f"{float(s.max()):.3g} m); centers = {c.tolist()!r:.300}")
     return (V / w) @ V.T
 
 

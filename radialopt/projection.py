@@ -418,10 +418,10 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
     ``"optimal_inaccurate"`` (a solver's own ``optimal_inaccurate`` is never upgraded)."""
     import cvxpy as cp
 
-    name = (solver or "CLARABEL").upper()
+    name = "CLARABEL" if solver is None else solver.upper()
     if name not in installed_cvxpy_solvers():
         raise UnknownMethodError(
-            f"cvxpy solver {name!r} is not installed; installed: "
+            f"solver = {solver!r} is not an installed cvxpy solver; installed: "
             f"{', '.join(installed_cvxpy_solvers())}. Install e.g. `pip install osqp scs ecos`."
         )
     prob, w, G, h = _cvxpy_problem(*p.G.shape[::-1])
@@ -615,7 +615,7 @@ def project_radii(
     z, status = _BACKENDS[method](problem, solver, tol)
     if status == "infeasible" or not np.all(np.isfinite(z)):
         raise SolverError(f"method {method!r} found no feasible radii (status {status!r})")
-    solver_name = (solver or "CLARABEL").upper() if method == "cvxpy" else None
+    solver_name = ("CLARABEL" if solver is None else solver.upper()) if method == "cvxpy" else None
     status = problem.checked_status(z, status, method, tol)
     sol = problem.solution(z, status, method, solver_name, t0)
     if check == "exact":

@@ -265,6 +265,9 @@ def conformal_sphere(center: ArrayLike, radius: float) -> NDArray[np.float64]:
     """
     x = point3(center, "center")
     rad = real_scalar(radius, "radius", max_abs=MAX_LENGTH)
+    if rad < 0:
+        raise NegativeRadiusError(f"radius = {rad!r} must be >= 0 (an imaginary sphere goes through "
+                                  "conformal_sphere_sq with a negative squared radius)")
     return conformal_sphere_sq(x, rad**2)
 
 

@@ -170,3 +170,82 @@ def test_success_positions_lie_in_the_region(method: str) -> None:
         if est.status in ro.POSITION_SUCCESS:
             assert region.contains(est.position, tol=1e-9)
             np.testing.assert_allclose(est.position, truth, atol=1e-6)
+
+
+# ---------------------------------------------------------------- 5. conformal_sphere radius sign
+def test_conformal_sphere_rejects_a_negative_radius() -> None:
+    with pytest.raises(errors.NegativeRadiusError, match=r"radius = -1\.0"):
+        ro.conformal_sphere([0.0, 0, 0], -1.0)
+    # a non-negative radius still works: e_inf coefficient 1/2 (|X|^2 - r^2) of eq. 4
+    s = ro.conformal_sphere([1.0, 2.0, 2.0], 1.5)
+    assert s[4] == pytest.approx(0.5 * (9.0 - 2.25))
+
+
+# ---------------------------------------------------------------- 6. negative indices do not wrap
+def test_row_name_rejects_a_negative_index() -> None:
+    poly = ro.RestrictionPolytope.from_centers(np.eye(3))
+    with pytest.raises(errors.RadialError, match=r"k = -1"):
+        poly.row_name(-1)
+    assert poly.row_name(len(poly.kinds) - 1).endswith("(1,2)")  # last pair of 3 spheres
+
+
+def test_fix_radius_rejects_a_negative_index() -> None:
+    with pytest.raises(errors.RadialError, match=r"i = -1"):
+        ro.RadialProblem(4).fix_radius(-1, 2.0)
+
+
+# ---------------------------------------------------------------- 7. bound_radii / fix_radius values
+@pytest.mark.parametrize("lo, hi, name", [(True, 10.0, "lo"), (0.0, True, "hi"),
+                                          (0.0, np.array([True] * 4), "hi"), (float("nan"), 1.0, "lo"),
+                                          (0.0, 1e300, "hi"), (0.0, [1.0, 2.0], "hi"), (0.0, "3", "hi")])
+def test_bound_radii_rejects_bad_bounds(lo: object, hi: object, name: str) -> None:
+    with pytest.raises(errors.RadialError, match=rf"\b{name}\b"):
+        ro.RadialProblem(4).bound_radii(lo, hi)
+
+
+def test_fix_radius_rejects_a_huge_value() -> None:
+    with pytest.raises(errors.OutOfRangeError, match=r"value = 1e\+308"):
+        ro.RadialProblem(4).fix_radius(1, 1e308)
+
+
+def test_infeasible_added_constraints_are_named() -> None:
+    spheres = _spheres()  # centres 0 and 1 are 4 m apart: radii 0.1 and 0.1 cannot reach
+    with pytest.raises(errors.SolverError,
+                       match=r"fix_radius\(i=0, value=0\.1\).*fix_radius\(i=1, value=0\.1\)"):
+        ro.RadialProblem(4).fix_radius(0, 0.1).fix_radius(1, 0.1).solve(spheres)
+    with pytest.raises(errors.SolverError, match=r"bound_radii\(lo=0\.0, hi=0\.5\)"):
+        ro.RadialProblem(4).bound_radii(0.0, 0.5).solve(spheres)
+
+
+def test_bound_radii_keeps_open_sides_and_arrays() -> None:
+    spheres = _spheres()
+    sol = ro.RadialProblem(4).bound_radii(-np.inf, [10.0, 10.0, 10.0, np.inf]).solve(spheres)
+    # the measured radii already satisfy the polytope (feasible), so the projection keeps them
+    np.testing.assert_allclose(sol.radii, [1.9, 3.4, 2.1, 2.3], atol=1e-6)
+    sol = ro.RadialProblem(4).bound_radii(0.0, 3.0).solve(spheres)
+    assert np.all(sol.radii <= 3.0 + 1e-6)
+
+
+# ---------------------------------------------------------------- 8. empty / unknown solver names
+@pytest.mark.parametrize("solver", ["", " ", "NO_SUCH_SOLVER"])
+def test_project_radii_rejects_an_empty_or_unknown_solver(solver: str) -> None:
+    with pytest.raises(errors.UnknownMethodError, match=rf"solver = {solver!r}"):
+        ro.project_radii(_spheres(), method="cvxpy", solver=solver)
+
+
+def test_project_radii_default_solver_is_still_clarabel() -> None:
+    assert ro.project_radii(_spheres(), method="cvxpy").solver == "CLARABEL"
+    assert ro.project_radii(_spheres(), method="cvxpy", solver="clarabel").solver == "CLARABEL"
+
+
+# ---------------------------------------------------------------- 9. messages name `centers`
+def test_crlb_singular_names_centers_and_position() -> None:
+    with pytest.raises(errors.SingularFisherError, match=r"position = \[1\.0, 1\.2, 1\.1\].*centers = "
+                       r"\[\[-1\.0, -1\.0, -1\.0\]"):
+        ro.crlb(np.full((4, 3), -1.0), [0.1] * 4, [1.0, 1.2, 1.1])
+
+
+def test_from_centers_coincident_message_uses_the_argument_name() -> None:
+    with pytest.raises(errors.CoincidentCentersError, match=r"centers\[0\] = \[0\.0, 0\.0, 0\.0\] and "
+                       r"centers\[2\] = \[0\.0, 0\.0, 0\.0\]"):
+        ro.RestrictionPolytope.from_centers([[0.0, 0, 0], [1.0, 0, 0], [0.0, 0, 0]])
