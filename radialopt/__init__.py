@@ -136,9 +136,16 @@ __all__ += [
 ]
 
 # --- vertex enumeration (the independent check of the projection) ---
-from .vertices import VertexEnumeration, certify_projection, enumerate_vertices, project_vform  # noqa: E402
+from .vertices import (  # noqa: E402
+    MAX_VERTEX_SPHERES,
+    VertexEnumeration,
+    certify_projection,
+    enumerate_vertices,
+    project_vform,
+)
 
-__all__ += ["VertexEnumeration", "certify_projection", "enumerate_vertices", "project_vform"]
+__all__ += ["MAX_VERTEX_SPHERES", "VertexEnumeration", "certify_projection", "enumerate_vertices",
+            "project_vform"]
 
 # --- certificates of global optimality of the ML position (issue 11) ---
 from .certificates import CERTIFICATE_METHODS, Certificate, certify_position  # noqa: E402

@@ -21,8 +21,10 @@ configuration).  Degenerate centre configurations return a status (``"coincident
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, fields
 from enum import IntEnum
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -312,6 +314,33 @@ def _min_pair_distance(cc: NDArray) -> NDArray:
     return np.linalg.norm(cc[:, iu] - cc[:, ju], axis=2).min(axis=1)
 
 
+#: The batched meets work on at most this many instances at a time, so their temporaries (a few
+#: dozen floats per instance) stay bounded whatever k is; the outputs are filled in place.
+MEET_CHUNK = 100_000
+
+
+def _chunked(rows: Callable[[NDArray, NDArray, MeetTolerances], Any], c: NDArray, r2: NDArray,
+             tol: MeetTolerances) -> Any:
+    """``rows(c, r2, tol)`` over slices of :data:`MEET_CHUNK` instances, written into outputs
+    allocated once (memory: the outputs plus one chunk of temporaries)."""
+    k = c.shape[0]
+    step = max(int(MEET_CHUNK), 1)
+    if k <= step:
+        return rows(c, r2, tol)
+    first = rows(c[:step], r2[:step], tol)
+    names = [f.name for f in fields(first)]
+    out = {}
+    for name in names:
+        part = getattr(first, name)
+        out[name] = np.empty((k,) + part.shape[1:], dtype=part.dtype)
+        out[name][:step] = part
+    for lo in range(step, k, step):
+        part = rows(c[lo:lo + step], r2[lo:lo + step], tol)
+        for name in names:
+            out[name][lo:lo + step] = getattr(part, name)
+    return type(first)(**out)
+
+
 def meet2_batch(centers: ArrayLike, radii_sq: ArrayLike,
                 tol: MeetTolerances = MEET_TOLERANCES) -> CircleBatch:
     """Circles of k sphere pairs.
@@ -329,6 +358,10 @@ def meet2_batch(centers: ArrayLike, radii_sq: ArrayLike,
     """
     instance(tol, "tol", MeetTolerances)
     c, r2 = _check_batch(centers, radii_sq, 2)
+    return _chunked(_meet2_rows, c, r2, tol)
+
+
+def _meet2_rows(c: NDArray, r2: NDArray, tol: MeetTolerances) -> CircleBatch:
     origin, cc, _, size = _centred(c, r2)
     d = cc[:, 1] - cc[:, 0]
     delta = np.linalg.norm(d, axis=1)
@@ -373,6 +406,10 @@ def meet3_batch(centers: ArrayLike, radii_sq: ArrayLike,
     """
     instance(tol, "tol", MeetTolerances)
     c, r2 = _check_batch(centers, radii_sq, 3)
+    return _chunked(_meet3_rows, c, r2, tol)
+
+
+def _meet3_rows(c: NDArray, r2: NDArray, tol: MeetTolerances) -> PointPairBatch:
     origin, cc, power, size = _centred(c, r2)
     a = cc[:, 1] - cc[:, 0]
     b = cc[:, 2] - cc[:, 0]
@@ -421,6 +458,10 @@ def meet4_batch(centers: ArrayLike, radii_sq: ArrayLike,
     """
     instance(tol, "tol", MeetTolerances)
     c, r2 = _check_batch(centers, radii_sq, 4)
+    return _chunked(_meet4_rows, c, r2, tol)
+
+
+def _meet4_rows(c: NDArray, r2: NDArray, tol: MeetTolerances) -> PointBatch:
     origin, cc, power, size = _centred(c, r2)
     sv = np.linalg.svd(cc, compute_uv=False)  # (k, 3)
     smax = np.maximum(sv[:, 0], np.finfo(float).tiny)

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ._checks import MAX_LENGTH, instance, integer, real_scalar
+from ._checks import MAX_LENGTH, instance, integer, real_array, real_scalar
 from .errors import (
     NonFiniteError,
     RadialError,
@@ -109,6 +109,7 @@ class RadialProblem:
             "scaled_radii": cp.Parameter(self.n, name="scaled_radii"),
         }
         self._extra: list[Callable[[Any], Any]] = []
+        self._labels: list[str] = []  # what each entry of _extra came from (for messages)
         self.compilations = 0
         self._build()
 
@@ -153,11 +154,18 @@ class RadialProblem:
         cons = _as_constraints(out)
         if not cons:
             raise RadialError("fn returned no cvxpy constraint")
+        name = getattr(fn, "__name__", type(fn).__name__)
+        return self._add(fn, f"add_constraint #{len(self._extra) + 1} ({name})")
+
+    def _add(self, fn: Callable[[Any], Any], label: str) -> RadialProblem:
+        """Append a constraint callable with the label infeasibility messages show; rebuild."""
         self._extra.append(fn)
+        self._labels.append(label)
         try:
             self._build()
         except RadialError:
             self._extra.pop()
+            self._labels.pop()
             self._build()
             raise
         return self
@@ -167,8 +175,6 @@ class RadialProblem:
         leave a side open)."""
         lo_a = self._vector(lo, "lo")
         hi_a = self._vector(hi, "hi")
-        if np.any(np.isnan(lo_a)) or np.any(np.isnan(hi_a)):
-            raise NonFiniteError("lo and hi must not be NaN")
         if np.any(lo_a > hi_a):
             k = int(np.argmax(lo_a > hi_a))
             raise RadialError(f"lo must be <= hi; lo[{k}]={lo_a[k]!r} > hi[{k}]={hi_a[k]!r}")
@@ -184,23 +190,33 @@ class RadialProblem:
 
         if lo_i.size == 0 and hi_i.size == 0:
             raise RadialError("bound_radii with lo=-inf and hi=inf adds nothing")
-        return self.add_constraint(bounds)
+
+        def show(a: np.ndarray) -> str:
+            return repr(float(a[0])) if np.all(a == a[0]) else repr(a.tolist())
+
+        return self._add(bounds, f"bound_radii(lo={show(lo_a)}, hi={show(hi_a)})")
 
     def fix_radius(self, i: int, value: float) -> RadialProblem:
         """Constrain ``radii[i] == value`` (metres)."""
         i = integer(i, "i")
-        if not -self.n <= i < self.n:
-            raise ShapeError(f"i must be a sphere index in [0, {self.n}), got {i!r}")
-        v = real_scalar(value, "value", 0.0)  # a radius, metres
-        idx = i % self.n
-        return self.add_constraint(lambda x: [x[idx] == v])
+        if not 0 <= i < self.n:  # no wrap-around: i = -1 is a caller's bug, not the last sphere
+            raise ShapeError(f"i = {i!r} must be a sphere index in [0, {self.n})")
+        v = real_scalar(value, "value", 0.0, max_abs=MAX_LENGTH)  # a radius, metres
+        return self._add(lambda x: [x[i] == v], f"fix_radius(i={i}, value={v!r})")
 
     def _vector(self, v: ArrayLike, name: str) -> np.ndarray:
+        """``v`` (scalar or (n,)) as an (n,) float array: real, not NaN, finite values of at most
+        MAX_LENGTH metres; +-inf allowed (an open side)."""
         try:
-            a = np.broadcast_to(np.asarray(v, dtype=np.float64), (self.n,)).copy()
-        except (TypeError, ValueError, OverflowError) as exc:
-            raise ShapeError(f"{name} must be a scalar or shape ({self.n},), got {v!r}") from exc
-        return a
+            arr = real_array(v, name, ndim=(0, 1))
+        except NonFiniteError:
+            arr = np.asarray(v, dtype=np.float64)  # real_array rejected bools etc. before this
+            if np.any(np.isnan(arr)):
+                raise
+            real_array(np.where(np.isinf(arr), 0.0, arr), name, ndim=(0, 1))  # range of the rest
+        if arr.ndim == 1 and arr.shape != (self.n,):
+            raise ShapeError(f"{name} must be a scalar or shape ({self.n},), got shape {arr.shape}")
+        return np.broadcast_to(arr, (self.n,)).copy()
 
     # ------------------------------------------------------------------------ solving
     def set_parameters(self, spheres: Sequence[GaussianSphere], tol: Tolerances = TOLERANCES) -> Any:
@@ -259,9 +275,13 @@ class RadialProblem:
         status = _CVXPY_STATUS.get(str(self.problem.status), "error")
         x = self.variables["radii"].value
         if status in ("error", "infeasible") or x is None:
+            added = "; ".join(self._labels) if self._labels else "none"
+            cause = (f"the added constraints [{added}] are incompatible with the restriction "
+                     "polytope of these centres (or with each other)" if status == "infeasible"
+                     else f"added constraints: [{added}]")
             raise SolverError(
                 f"RadialProblem(objective={self.objective!r}) with solver {name}: status "
-                f"{self.problem.status!r}, no answer (infeasible added constraints?)")
+                f"{self.problem.status!r}, no answer; {cause}")
         z = (np.asarray(x, dtype=np.float64) - inst.radii) / inst.sigmas
         status = inst.checked_status(z, status, f"formulation:{self.objective}", tol)
         return inst.solution(z, status, f"formulation:{self.objective}", name, t0)

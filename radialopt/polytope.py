@@ -178,7 +178,7 @@ class RestrictionPolytope:
 
     def row_name(self, k: int) -> str:
         """Name of row ``k``: kind and sphere pair, e.g. ``"beta(1,3)"``."""
-        k = integer(k, "k", -len(self.kinds), len(self.kinds) - 1)
+        k = integer(k, "k", 0, len(self.kinds) - 1)  # no wrap-around: k = -1 is a caller's bug
         i, j = self.pairs[k]
         return f"{self.kinds[k]}({i},{j})"
 
@@ -218,8 +218,8 @@ def _raise_if_coincident(
     if bad.size:
         i, j = int(iu[bad[0]]), int(ju[bad[0]])
         raise CoincidentCentersError(
-            f"centres {i} and {j} coincide ({c[i].tolist()}, distance {d[bad[0]]:.3g} "
-            f"<= {tol.coincident:g})"
+            f"centers[{i}] = {c[i].tolist()} and centers[{j}] = {c[j].tolist()} coincide (distance "
+            f"{d[bad[0]]:.3g} <= {tol.coincident:g})"
         )
 
 

@@ -42,7 +42,7 @@ returned and the status is ``"ambiguous"`` unless the region keeps only one.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from itertools import combinations
 from typing import Literal, get_args
@@ -84,7 +84,8 @@ __all__ = [
 PositionStatus = Literal[
     "ok",                    # a unique estimate
     "ambiguous",             # another candidate is about as likely (mirror image, ...)
-    "outside_region",        # no candidate inside the region; the best one is returned
+    "outside_region",        # no candidate inside the region; the best one (outside it) is
+                             # returned for diagnosis: not a success (it violates the region)
     "degenerate_coplanar",   # coplanar centres and the estimate on their plane: J singular
     "degenerate_collinear",  # collinear centres: the position is only known up to a circle
     "too_few_spheres",       # fewer than three spheres
@@ -94,8 +95,10 @@ PositionStatus = Literal[
     "not_converged",         # "ml" polish or "gradient" ascent hit its cap: best point found
 ]
 POSITION_STATUSES: tuple[str, ...] = get_args(PositionStatus)
-#: Statuses whose position is a usable answer (finite, converged, near the landmarks).
-POSITION_SUCCESS = ("ok", "ambiguous", "outside_region")
+#: Statuses whose position is a usable answer (finite, converged, near the landmarks and inside
+#: the ``region`` when one is given).  ``"outside_region"`` is not one: its position violates the
+#: caller's region (worldgraph's ``localize`` treats it as a failure too).
+POSITION_SUCCESS = ("ok", "ambiguous")
 
 
 @dataclass(frozen=True)
@@ -306,13 +309,15 @@ def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
     geometric = np.linalg.eigvalsh(u.T @ u / len(u))
     if geometric[0] <= rcond:
         raise SingularFisherError(
-            f"Fisher information at {x.tolist()} is singular: the directions to the {len(c)} "
-            f"centres span too few dimensions (smallest eigenvalue {geometric[0]:.3g} <= {rcond:g})")
+            f"Fisher information at position = {x.tolist()} is singular: the directions from it to the "
+            f"{len(c)} centers span too few dimensions (smallest eigenvalue {geometric[0]:.3g} <= "
+            f"{rcond:g}); centers = {c.tolist()!r:.300}")
     w, V = np.linalg.eigh(J)
     if not (np.all(np.isfinite(w)) and w[0] > 1e-13 * w[-1]):
         raise SingularFisherError(
-            f"Fisher information at {x.tolist()} is numerically singular: eigenvalues {w.tolist()} "
-            f"(condition beyond 1e13; sigmas span {float(s.min()):.3g} to {float(s.max()):.3g} m)")
+            f"Fisher information at position = {x.tolist()} is numerically singular: eigenvalues "
+            f"{w.tolist()} (condition beyond 1e13; sigmas span {float(s.min()):.3g} to "
+            f"{float(s.max()):.3g} m); centers = {c.tolist()!r:.300}")
     return (V / w) @ V.T
 
 
@@ -773,6 +778,9 @@ def estimate_position(
     RadialError
         Invalid spheres (e.g. :class:`~radialopt.errors.CoincidentCentersError`).
     """
+    if not isinstance(spheres, (Sequence, str, bytes, GaussianSphere, np.ndarray)) and isinstance(
+            spheres, Iterable):
+        spheres = list(spheres)  # a generator is read once; every method reads the spheres twice
     if not isinstance(method, str) or method not in _METHODS:
         raise UnknownMethodError(f"unknown position method {method!r:.100}; choose one of "
                                  f"{', '.join(POSITION_METHODS)}")

@@ -58,7 +58,7 @@ from __future__ import annotations
 import contextlib
 import io
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cached_property, lru_cache
@@ -418,10 +418,10 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
     ``"optimal_inaccurate"`` (a solver's own ``optimal_inaccurate`` is never upgraded)."""
     import cvxpy as cp
 
-    name = (solver or "CLARABEL").upper()
+    name = "CLARABEL" if solver is None else solver.upper()
     if name not in installed_cvxpy_solvers():
         raise UnknownMethodError(
-            f"cvxpy solver {name!r} is not installed; installed: "
+            f"solver = {solver!r} is not an installed cvxpy solver; installed: "
             f"{', '.join(installed_cvxpy_solvers())}. Install e.g. `pip install osqp scs ecos`."
         )
     prob, w, G, h = _cvxpy_problem(*p.G.shape[::-1])
@@ -587,6 +587,9 @@ def project_radii(
         Bad input (see :mod:`radialopt.errors`), unknown method or solver.
     SolverError
         The backend failed and no answer can be trusted.
+    TooManySpheresError
+        ``check`` or ``method="vertices"`` with more than
+        :data:`~radialopt.vertices.MAX_VERTEX_SPHERES` spheres (vertex enumeration).
     """
     if not isinstance(method, str) or method not in _BACKENDS:
         raise UnknownMethodError(f"unknown method {method!r:.100}; choose one of {', '.join(METHODS)}")
@@ -599,12 +602,20 @@ def project_radii(
     instance(tol, "tol", Tolerances)
     if check == "exact":
         _cdd_gmp()  # fail before solving when the exact mode is missing
+    if not isinstance(spheres, (Sequence, str, bytes, GaussianSphere, np.ndarray)) and isinstance(
+            spheres, Iterable):
+        spheres = list(spheres)  # a generator is read once; check=True reads the spheres again
     problem = _Problem.build(spheres, tol)
+    if check is not False or method == "vertices":
+        from .vertices import check_vertex_spheres
+
+        what = f"check={check!r}" if check is not False else "method='vertices'"
+        check_vertex_spheres(len(problem.radii), f"spheres ({what} enumerates vertices)")
     t0 = time.perf_counter()
     z, status = _BACKENDS[method](problem, solver, tol)
     if status == "infeasible" or not np.all(np.isfinite(z)):
         raise SolverError(f"method {method!r} found no feasible radii (status {status!r})")
-    solver_name = (solver or "CLARABEL").upper() if method == "cvxpy" else None
+    solver_name = ("CLARABEL" if solver is None else solver.upper()) if method == "cvxpy" else None
     status = problem.checked_status(z, status, method, tol)
     sol = problem.solution(z, status, method, solver_name, t0)
     if check == "exact":

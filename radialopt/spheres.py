@@ -211,12 +211,21 @@ def density(sphere: GaussianSphere, x: ArrayLike) -> NDArray[np.float64] | float
     return float(out[0]) if single else out
 
 
+#: :func:`total_density` evaluates the points in chunks whose (points, spheres, 3) temporary holds
+#: at most about this many floats (8 MB), so its memory is linear in the input.
+DENSITY_CHUNK_ELEMENTS = 1_000_000
+
+
 def total_density(spheres: Sequence[GaussianSphere], x: ArrayLike) -> NDArray[np.float64] | float:
     """Product density of several Gaussian spheres at ``x`` (eq. 14, radial form eq. 20)."""
     centers, radii, sigmas = sphere_arrays(spheres, min_count=1, check_centers=False)
     pts, single = as_points(x)
-    rx = np.linalg.norm(pts[:, None, :] - centers[None, :, :], axis=-1)
-    out = np.exp(-0.5 * np.sum(((rx - radii) / sigmas) ** 2, axis=1))
+    # chunks of points keep the (points, spheres, 3) temporary near DENSITY_CHUNK_ELEMENTS floats
+    step = max(int(DENSITY_CHUNK_ELEMENTS) // (3 * len(centers)), 1)
+    out = np.empty(len(pts))
+    for lo in range(0, len(pts), step):
+        rx = np.linalg.norm(pts[lo:lo + step, None, :] - centers[None, :, :], axis=-1)
+        out[lo:lo + step] = np.exp(-0.5 * np.sum(((rx - radii) / sigmas) ** 2, axis=1))
     return float(out[0]) if single else out
 
 
@@ -256,6 +265,9 @@ def conformal_sphere(center: ArrayLike, radius: float) -> NDArray[np.float64]:
     """
     x = point3(center, "center")
     rad = real_scalar(radius, "radius", max_abs=MAX_LENGTH)
+    if rad < 0:
+        raise NegativeRadiusError(f"radius = {rad!r} must be >= 0 (an imaginary sphere goes through "
+                                  "conformal_sphere_sq with a negative squared radius)")
     return conformal_sphere_sq(x, rad**2)
 
 

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 from scipy.spatial.distance import cdist
 
-from radialopt.errors import NonFiniteError, RadialError, ShapeError, UnknownMethodError
+from radialopt.errors import NonFiniteError, RadialError, ShapeError, TooManySpheresError, UnknownMethodError
 from radialopt.polytope import RestrictionPolytope
 from radialopt.vertices import (
     VERTEX_TOLERANCES,
@@ -346,8 +346,11 @@ def test_bad_inputs_raise_specific_errors() -> None:
         enumerate_vertices((np.array([[1.0, 0.0], [-1.0, 0.0]]), np.ones(2)))
     with pytest.raises(UnknownMethodError, match="double_description"):
         enumerate_vertices((A, np.ones(2)), method="lrs")
-    with pytest.raises(TooLargeError):
-        enumerate_vertices(RestrictionPolytope.from_centers(_seeded(0, 8)), method="bruteforce")
+    big = RestrictionPolytope.from_centers(_seeded(0, 8))
+    with pytest.raises(TooLargeError):  # a plain (A, b) pair is not held to MAX_VERTEX_SPHERES
+        enumerate_vertices((big.A, big.b), method="bruteforce")
+    with pytest.raises(TooManySpheresError, match="8 spheres.*MAX_VERTEX_SPHERES = 7"):
+        enumerate_vertices(big, method="bruteforce")
     assert issubclass(NotPointedError, RadialError) and issubclass(TooLargeError, RadialError)
 
 
