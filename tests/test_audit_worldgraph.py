@@ -111,3 +111,17 @@ def test_a_link_table_beyond_its_budget_is_refused_before_it_is_built(monkeypatc
         wg.WorldModel.from_arrays(["door"] * 3000, pos)
     monkeypatch.setattr(model, "MAX_LINKS", int(1.25 * n_links))
     assert len(wg.WorldModel.from_arrays(["door"] * 3000, pos).links[("door", "door")]) == n_links
+
+
+def test_localize_check_skips_hypotheses_beyond_the_enumeration_limit_and_says_so() -> None:
+    """check=True with 10 matched percepts: vertex enumeration of 10 spheres would run for minutes;
+    localize solves those unchecked and its message names the limit."""
+    import radialopt as ro
+
+    world, percepts = _world()
+    res = wg.localize(world, percepts, check=True)
+    assert res.status in wg.LOCALIZE_STATUSES
+    assert len(res.correspondences) > ro.MAX_VERTEX_SPHERES
+    assert "MAX_VERTEX_SPHERES" in res.message
+    small = wg.localize(world, percepts[:5], check=True)
+    assert "MAX_VERTEX_SPHERES" not in small.message

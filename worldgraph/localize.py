@@ -291,9 +291,10 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         ``AssociationHypothesis.radial``) is solved: ``"active_set"`` (exact, default) or the
         name of an installed cvxpy solver (``"CLARABEL"``, ...), compiled once per sphere count.
     check : bool
-        Verify every radial solution against explicit vertex enumeration (raises
-        :class:`~worldgraph.errors.WorldGraphError` from ``radialopt.VerificationError`` on
-        disagreement).
+        Verify every radial solution of at most ``radialopt.MAX_VERTEX_SPHERES`` spheres against
+        explicit vertex enumeration (raises :class:`~worldgraph.errors.WorldGraphError` from
+        ``radialopt.VerificationError`` on disagreement); larger ones are solved unchecked and
+        the message says so (enumeration grows combinatorially: 8 spheres take ~20 s).
     certify : bool
         Fill ``certificate``: the rotation SDP's proof (or not) that the returned pose is the
         global minimum of the ML cost of its matched percepts.  With 3 or 4 matches the SDP is
@@ -656,9 +657,16 @@ def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]]) -> ro.RadialSolutio
     _, _, spheres = _most_certain(ctx, p_i, o_i, spheres, limit)
     if len(spheres) < 2:
         return None
+    check = ctx.check
+    if check and len(spheres) > ro.MAX_VERTEX_SPHERES:  # enumeration would take minutes
+        check = False
+        note = (f"the vertex-enumeration check ran only on hypotheses of at most {ro.MAX_VERTEX_SPHERES} "
+                "spheres (radialopt.MAX_VERTEX_SPHERES); larger ones were solved unchecked")
+        if note not in ctx.notes:
+            ctx.notes.append(note)
     if ctx.solver == "active_set":
-        return ro.project_radii(spheres, method="active_set", check=ctx.check)
-    return ro.project_radii(spheres, method="cvxpy", solver=ctx.solver, check=ctx.check)
+        return ro.project_radii(spheres, method="active_set", check=check)
+    return ro.project_radii(spheres, method="cvxpy", solver=ctx.solver, check=check)
 
 
 def _radial_score(sol: ro.RadialSolution | None) -> float:
