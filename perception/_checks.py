@@ -154,10 +154,50 @@ def rng(name: str, value: Any) -> np.random.Generator:
 
 
 def name_str(name: str, value: Any, error: type[PerceptionError] = PerceptionError) -> str:
-    """A non-empty string without NUL characters."""
+    """A non-empty string without NUL characters that encodes as UTF-8 (no lone surrogates)."""
     if not isinstance(value, str) or not value or "\0" in value:
         raise error(f"{name} must be a non-empty string without NUL characters, got {_short(value)}")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise error(
+            f"{name} must be encodable as UTF-8, got {_short(value)} (character {exc.start}: "
+            f"{value[exc.start]!r})"
+        ) from exc
     return value
+
+
+#: Longest file path accepted, characters (Linux PATH_MAX).
+MAX_PATH_LENGTH = 4096
+
+
+def file_path(name: str, value: Any, error: type[PerceptionError] = PerceptionError) -> str:
+    """A file path (str or os.PathLike of str) as a str: non-empty, without NUL characters,
+    encodable by the file system (no lone surrogates the codec cannot map) and at most
+    :data:`MAX_PATH_LENGTH` characters."""
+    import os
+
+    try:
+        text = os.fspath(value) if isinstance(value, (str, os.PathLike)) else None
+    except TypeError:
+        text = None
+    if not isinstance(text, str) or not text:
+        raise error(f"{name} must be a non-empty str or os.PathLike of str, got {type(value).__name__} "
+                    f"{_short(value)}")
+    if "\0" in text:
+        raise error(f"{name} must not contain NUL characters, got {_short(text)}")
+    if len(text) > MAX_PATH_LENGTH:
+        raise error(f"{name} must be at most {MAX_PATH_LENGTH} characters long, got {len(text)}: "
+                    f"{_short(text)}")
+    for codec in ("fs", "utf-8"):
+        try:
+            os.fsencode(text) if codec == "fs" else text.encode("utf-8")
+        except UnicodeEncodeError as exc:
+            raise error(
+                f"{name} must be encodable ({codec}), got {_short(text)} (character {exc.start}: "
+                f"{text[exc.start]!r})"
+            ) from exc
+    return text
 
 
 def sequence(name: str, value: Any, kind: type | None = None, error: type[PerceptionError] = ShapeError

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import guard, real_array, real_scalar, vector3
+from ._checks import guard, name_str, real_array, real_scalar, vector3
 from .errors import (
     InvalidPoseError,
     KinematicsError,
@@ -25,6 +25,20 @@ from .errors import (
 )
 
 _AXES = {"x": 0, "y": 1, "z": 2}
+MAX_ANGLE = 2.0 * np.pi
+"""Largest joint angle magnitude accepted, radians (larger values are almost surely degrees)."""
+MAX_ENCODER_SIGMA = 0.5
+"""Largest joint-encoder standard deviation accepted, radians (as :func:`perception.simulate_scan`)."""
+
+
+def _check_angle(joint: str, index: int | None, value: float) -> float:
+    if abs(value) > MAX_ANGLE:
+        where = "" if index is None else f" (index {index})"
+        raise KinematicsError(
+            f"angle of joint {joint!r}{where} = {value!r} exceeds 2*pi in magnitude: angles are "
+            "radians; did you pass degrees? use np.radians"
+        )
+    return value
 MAX_TRANSLATION = 1e150
 """Largest translation (metres) of a rigid transform accepted."""
 # tip (x forward, y left, z up) from OpenCV camera (x right, y down, z forward)
@@ -100,8 +114,7 @@ class Joint:
 
     @guard
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name:
-            raise KinematicsError(f"joint name must be a non-empty string, got {self.name!r}")
+        name_str("joint name", self.name, KinematicsError)
         if not isinstance(self.axis, str) or self.axis not in _AXES:
             raise KinematicsError(f"joint {self.name!r}: axis must be 'x', 'y' or 'z', got {self.axis!r}")
         M = check_transform(f"origin of joint {self.name!r}", self.origin)
@@ -111,7 +124,8 @@ class Joint:
     @guard
     def transform(self, angle: float) -> NDArray[np.float64]:
         """``parent_from_joint`` at ``angle`` (radians)."""
-        return self.origin @ rotation(self.axis, real_scalar("angle", angle))
+        q = _check_angle(self.name, None, real_scalar(f"angle of joint {self.name!r}", angle))
+        return self.origin @ rotation(self.axis, q)
 
 
 @dataclass(frozen=True)
@@ -201,11 +215,10 @@ class KinematicChain:
                 )
             if vec.size < self.n_joints:
                 vec = np.append(vec, vec[-1])
-        big = np.flatnonzero(np.abs(vec) > 1e6)
+        big = np.flatnonzero(np.abs(vec) > MAX_ANGLE)
         if big.size:
-            raise KinematicsError(
-                f"angles[{big[0]}] must be at most 1e6 rad in magnitude, got {vec[big[0]]!r}"
-            )
+            i = int(big[0])
+            _check_angle(self.names[i], i, float(vec[i]))
         return vec
 
     @guard
@@ -354,6 +367,13 @@ def percept_covariance(
         raise NonFiniteError(f"encoder_sigma must be finite, got {s.tolist()}")
     if np.any(s < 0):
         raise NonPositiveSigmaError(f"encoder_sigma must be >= 0, got {s.tolist()}")
+    big = np.flatnonzero(s > MAX_ENCODER_SIGMA)
+    if big.size:
+        i = int(big[0])
+        raise NonPositiveSigmaError(
+            f"encoder_sigma[{i}] = {float(s[i])!r} must lie in [0, {MAX_ENCODER_SIGMA:g}] rad: encoder "
+            "noise is in radians; did you pass degrees? use np.radians"
+        )
     R = chain.ego_from_camera(angles)[:3, :3]
     J = chain.point_jacobian(angles, point_camera)
     with np.errstate(over="ignore", invalid="ignore"):

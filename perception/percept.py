@@ -8,7 +8,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._checks import guard, integer, name_str, real_array, real_scalar, spd, vector3
-from .errors import ShapeError, UnknownClassError
+from .errors import NonFiniteError, NonPositiveSigmaError, ShapeError, UnknownClassError
+
+#: Largest magnitude of a position component accepted, metres (as worldgraph/radialopt bound
+#: their coordinates); beyond it ranges and fused means overflow or lose all precision.
+MAX_COORDINATE = 1e9
+#: Largest ``views`` count accepted (a 32-bit signed integer).
+MAX_VIEWS = 2**31 - 1
+#: Largest ``sigma`` accepted together with ``shared`` loadings (``sigma**2`` stays finite).
+MAX_SHARED_SIGMA = 1e150
 
 
 @dataclass(frozen=True)
@@ -57,8 +65,14 @@ class Percept:
     def __post_init__(self) -> None:
         name_str("type", self.type, UnknownClassError)
         pos = vector3("position", self.position)
+        big = np.flatnonzero(np.abs(pos) > MAX_COORDINATE)
+        if big.size:
+            i = int(big[0])
+            raise NonFiniteError(
+                f"position[{i}] = {float(pos[i])!r} must be at most {MAX_COORDINATE:g} m in magnitude"
+            )
         sigma = real_scalar("sigma", self.sigma, positive=True)
-        views = integer("views", self.views, minimum=1)
+        views = integer("views", self.views, minimum=1, maximum=MAX_VIEWS)
         pos.setflags(write=False)
         object.__setattr__(self, "position", pos)
         object.__setattr__(self, "sigma", sigma)
@@ -97,6 +111,11 @@ def _shared(value: object, covariance: NDArray[np.float64] | None, sigma: float
     """Validated ``shared`` loadings: distinct views, finite (3, k) blocks inside the total."""
     if value is None or (isinstance(value, tuple | list) and len(value) == 0):
         return ()
+    if covariance is None and sigma > MAX_SHARED_SIGMA:
+        raise NonPositiveSigmaError(
+            f"sigma = {sigma!r} must be at most {MAX_SHARED_SIGMA:g} m when shared loadings are given "
+            "(sigma**2 overflows)"
+        )
     if isinstance(value, str | bytes) or not isinstance(value, tuple | list):
         raise ShapeError(f"shared must be a sequence of (view, (3, k) loading) pairs, got "
                          f"{type(value).__name__}")
@@ -110,6 +129,10 @@ def _shared(value: object, covariance: NDArray[np.float64] | None, sigma: float
             raise ShapeError(f"shared[{i}] repeats view {view}")
         seen.add(view)
         S = real_array(f"shared[{i}] loading", item[1])
+        if S.size and float(np.max(np.abs(S))) > MAX_SHARED_SIGMA:
+            j = np.unravel_index(int(np.argmax(np.abs(S))), S.shape)
+            raise NonFiniteError(f"shared[{i}] loading[{j[0]}, {j[1]}] = {float(S[j])!r} must be at most "
+                                 f"{MAX_SHARED_SIGMA:g} in magnitude")
         if S.ndim != 2 or S.shape[0] != 3 or not 1 <= S.shape[1] <= MAX_SHARED_COLUMNS:
             raise ShapeError(f"shared[{i}] loading must have shape (3, k) with 1 <= k <= "
                              f"{MAX_SHARED_COLUMNS}, got shape {S.shape}")

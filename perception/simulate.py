@@ -75,6 +75,19 @@ def _sigmas(sig: NDArray[np.float64]) -> None:
         )
 
 
+def _bounded_positions(pos: NDArray[np.float64]) -> None:
+    """Simulated positions must respect :data:`perception.percept.MAX_COORDINATE`."""
+    from .percept import MAX_COORDINATE
+
+    bad = np.flatnonzero(np.any(~(np.abs(pos) <= MAX_COORDINATE), axis=1)) if pos.size else np.zeros(0, int)
+    if bad.size:
+        i = int(bad[0])
+        raise NonPositiveSigmaError(
+            f"simulated position {pos[i].tolist()} (from world_positions, depth_factor, min_sigma and "
+            f"max_range) exceeds {MAX_COORDINATE:g} m in magnitude; choose them so that it does not"
+        )
+
+
 def _false_type_pool(false_types: Sequence[str] | None, present: Sequence[str]) -> list[str]:
     if false_types is None:
         return sorted(set(present))
@@ -172,6 +185,7 @@ def simulate_percepts(
 
     all_types = [tps[i] for i in idx] + ftype
     all_pos = np.vstack([noisy, fpos])
+    _bounded_positions(all_pos)
     all_sig = np.concatenate([sig, fsig])
     all_truth = np.concatenate([idx, -np.ones(n_false, dtype=np.int64)]).astype(np.int64)
     order = rng.permutation(all_truth.size)
@@ -362,6 +376,7 @@ def simulate_scan(
         out_shared.append([((view, chain.point_jacobian(q, c) * enc),) if encoders_err else ()
                            for c in cam])
     pos = np.vstack(out_pos) if out_pos else np.zeros((0, 3))
+    _bounded_positions(pos)
     sigs = np.concatenate(out_sig) if out_sig else np.zeros(0)
     truth = np.concatenate(out_truth) if out_truth else np.zeros(0, dtype=np.int64)
     shared = [sh for view in out_shared for sh in view]

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import guard, integer, real_array, real_scalar
+from ._checks import _UNEXPECTED, file_path, guard, integer, real_array, real_scalar
 from .errors import (
     BehindCameraError,
     CalibrationError,
@@ -32,6 +32,15 @@ MAX_PIXELS = 1e9
 """Largest camera-matrix entry (focal length, principal point), pixels."""
 MAX_COORD = 1e150
 """Largest coordinate accepted for points (metres) and pixels."""
+MAX_BASELINE = 100.0
+"""Largest baseline of :meth:`StereoRig.default`, metres."""
+MAX_DISTORTION = 1e4
+"""Largest magnitude of an OpenCV distortion coefficient."""
+MAX_FILE_BYTES = 16 * 1024 * 1024
+"""Largest calibration file read, bytes."""
+MAX_FILE_DEPTH = 64
+"""Deepest nesting accepted in a calibration file (``[``/``{`` depth, XML tag depth, YAML
+indentation levels); OpenCV's recursive parser overflows its stack on deeply nested input."""
 
 _FILE_KEYS = ("K1", "D1", "K2", "D2", "R", "T", "image_size")
 # Iterative undistortion: OpenCV's default (5 iterations) is not enough for strong distortion.
@@ -74,6 +83,13 @@ def _distortion(name: str, value: ArrayLike | None) -> NDArray[np.float64]:
         )
     if not np.all(np.isfinite(arr)):
         raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
+    big = np.flatnonzero(np.abs(arr) > MAX_DISTORTION)
+    if big.size:
+        i = int(big[0])
+        raise CalibrationError(
+            f"{name}[{i}] = {float(arr[i])!r}: distortion coefficients must be at most {MAX_DISTORTION:g} in "
+            "magnitude"
+        )
     return arr
 
 
@@ -113,11 +129,54 @@ def _image_size(value: object) -> tuple[int, int]:
 
 
 def _path(path: object) -> Path:
-    if not isinstance(path, (str, Path)) or "\0" in str(path) or not str(path):
+    return Path(file_path("path", path, CalibrationFileError))
+
+
+def _flow_depth(data: bytes) -> int:
+    """Deepest nesting of ``[``/``{`` brackets in ``data`` (a running count, vectorised)."""
+    b = np.frombuffer(data, dtype=np.uint8)
+    step = ((b == ord("[")).astype(np.int64) + (b == ord("{")) - (b == ord("]")) - (b == ord("}")))
+    return int(np.max(np.cumsum(step), initial=0))
+
+
+def _nesting_depth(data: bytes) -> tuple[int, str]:
+    """Deepest nesting of ``data`` and what it counts: the depth of ``[``/``{`` (JSON, YAML flow
+    style), of open XML tags, and the number of distinct indentation levels (YAML block style);
+    the largest of the three."""
+    import re
+
+    flow = _flow_depth(data)
+    tags = np.array([-1 if m.group(1) else (0 if m.group(2) else 1)
+                     for m in re.finditer(rb"<(/?)[A-Za-z_][^<>]*?(/?)>", data)], dtype=np.int64)
+    xml = int(np.max(np.cumsum(tags), initial=0))
+    indents = {len(m.group(1)) for m in re.finditer(rb"^([ \t]*)[^ \t\r\n#%]", data, re.MULTILINE)}
+    return max((flow, "[/{ nesting"), (xml, "XML tag nesting"), (len(indents), "YAML indentation levels"))
+
+
+def _check_file(path: Path) -> None:
+    """Refuse a calibration file that is missing, too large or too deeply nested for OpenCV's parser."""
+    try:
+        if not path.is_file():
+            raise CalibrationFileError(f"calibration file path={str(path)!r} does not exist")
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise CalibrationFileError(
+                f"calibration file path={str(path)!r} has {size:,} bytes, more than {MAX_FILE_BYTES:,}"
+            )
+        with path.open("rb") as fh:
+            data = fh.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise CalibrationFileError(f"calibration file path={str(path)!r} cannot be read: {exc}") from exc
+    if len(data) > MAX_FILE_BYTES:
         raise CalibrationFileError(
-            f"path must be a non-empty str or Path without NUL characters, got {path!r}"
+            f"calibration file path={str(path)!r} has more than {MAX_FILE_BYTES:,} bytes"
         )
-    return Path(path)
+    depth, what = _nesting_depth(data)
+    if depth > MAX_FILE_DEPTH:
+        raise CalibrationFileError(
+            f"calibration file path={str(path)!r} is nested too deeply: depth {depth} ({what}) exceeds "
+            f"{MAX_FILE_DEPTH}"
+        )
 
 
 def _file_int(path: Path, value: float) -> int:
@@ -126,6 +185,20 @@ def _file_int(path: Path, value: float) -> int:
             f"calibration file path={str(path)!r}: image_size must hold integers, got {value!r}"
         )
     return int(value)
+
+
+def _check_triangulated(X: NDArray[np.float64], uv_left: ArrayLike, uv_right: ArrayLike, offset: int = 0
+                        ) -> None:
+    """:class:`BehindCameraError` naming the first pixel pair (index ``offset + i``) whose point is
+    non-finite or behind the left camera."""
+    bad = ~np.all(np.isfinite(X), axis=1) | (X[:, 2] <= 0)
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        raise BehindCameraError(
+            f"pixel pair {offset + i} (uv_left {np.asarray(uv_left, dtype=float)[i].tolist()}, uv_right "
+            f"{np.asarray(uv_right, dtype=float)[i].tolist()}) triangulates to {X[i].tolist()}, "
+            "at infinity or behind the camera"
+        )
 
 
 @dataclass(frozen=True)
@@ -211,8 +284,8 @@ class StereoRig:
         """
         w, h = _image_size(image_size)
         baseline = real_scalar("baseline", baseline, positive=True)
-        if baseline > MAX_COORD:
-            raise CalibrationError(f"baseline must be at most {MAX_COORD:g} m, got {baseline!r}")
+        if baseline > MAX_BASELINE:
+            raise CalibrationError(f"baseline must lie in (0, {MAX_BASELINE:g}] m, got {baseline!r}")
         hfov_deg = real_scalar("hfov_deg", hfov_deg)
         if not 1e-6 <= hfov_deg <= 179.0:
             raise CalibrationError(f"hfov_deg must lie in [1e-6, 179], got {hfov_deg!r}")
@@ -240,8 +313,16 @@ class StereoRig:
             The file is missing, unreadable, or lacks a key or holds a non-matrix under it.
         """
         path = _path(path)
-        if not path.is_file():
-            raise CalibrationFileError(f"calibration file path={str(path)!r} does not exist")
+        _check_file(path)
+        try:
+            return cls._read(path)
+        except CalibrationFileError:
+            raise
+        except (PerceptionError, OSError, *_UNEXPECTED, cv2.error) as exc:
+            raise CalibrationFileError(f"calibration file path={str(path)!r} is invalid: {exc}") from exc
+
+    @classmethod
+    def _read(cls, path: Path) -> StereoRig:
         try:
             fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
         except (cv2.error, SystemError) as exc:  # the binding raises SystemError on parse errors
@@ -482,21 +563,20 @@ class StereoRig:
         xy1, xy2 = self.normalized(uv_left, uv_right)
         if xy1.shape[0] == 0:
             return np.zeros((0, 3))
+        X = self._triangulate_normalized(xy1, xy2)
+        _check_triangulated(X, uv_left, uv_right)
+        return X
+
+    def _triangulate_normalized(
+        self, xy1: NDArray[np.float64], xy2: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """``cv2.triangulatePoints`` of normalised coordinates; rows may be non-finite or behind."""
         P1 = np.hstack([np.eye(3), np.zeros((3, 1))])
         P2 = np.hstack([self.R, self.T.reshape(3, 1)])
         Xh = cv2.triangulatePoints(P1, P2, xy1.T.copy(), xy2.T.copy()).astype(np.float64)
         w = Xh[3]
         with np.errstate(divide="ignore", invalid="ignore"):
-            X = (Xh[:3] / w).T
-        bad = ~np.all(np.isfinite(X), axis=1) | (X[:, 2] <= 0)
-        if np.any(bad):
-            i = int(np.flatnonzero(bad)[0])
-            raise BehindCameraError(
-                f"pixel pair {i} (uv_left {np.asarray(uv_left, dtype=float)[i].tolist()}, uv_right "
-                f"{np.asarray(uv_right, dtype=float)[i].tolist()}) triangulates to {X[i].tolist()}, "
-                "at infinity or behind the camera"
-            )
-        return X
+            return (Xh[:3] / w).T
 
     @guard
     def rectify(self, alpha: float = -1.0) -> Rectification:

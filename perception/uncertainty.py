@@ -215,14 +215,43 @@ def triangulation_covariance(
         raise ShapeError(f"pixel_sigma must be a scalar or shape (4,), got shape {s.shape}")
     if np.any(s > 1e100):
         raise NonPositiveSigmaError(f"pixel_sigma must be at most 1e100 pixels, got {s.tolist()}")
-    J = triangulation_jacobian(rig, uv_left, uv_right)
-    with np.errstate(over="ignore", invalid="ignore"):
-        C = np.einsum("nik,k,njk->nij", J, s**2, J)
-    bad = ~np.all(np.isfinite(C), axis=(1, 2))
-    if np.any(bad):
-        i = int(np.flatnonzero(bad)[0])
-        raise NonFiniteError(f"the covariance of pixel pair {i} overflows (pixel_sigma {s.tolist()})")
+    from .errors import BehindCameraError
+    from .stereo import StereoRig, _check_triangulated, _points
+
+    if not isinstance(rig, StereoRig):
+        raise ShapeError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    u1 = _points("uv_left", uv_left, 2)
+    u2 = _points("uv_right", uv_right, 2)
+    if u1.shape != u2.shape:
+        raise ShapeError(f"uv_left and uv_right must have the same shape, got {u1.shape} and {u2.shape}")
+    n = u1.shape[0]
+    # The cheap check first (one triangulation per pair, chunk by chunk): a pair at infinity or
+    # behind the camera is reported before the 8 perturbed triangulations of every pair.
+    for a in range(0, n, COVARIANCE_CHUNK):
+        b = min(n, a + COVARIANCE_CHUNK)
+        xy1, xy2 = rig.normalized(u1[a:b], u2[a:b])
+        _check_triangulated(rig._triangulate_normalized(xy1, xy2), u1[a:b], u2[a:b], offset=a)
+    C = np.empty((n, 3, 3))
+    for a in range(0, n, COVARIANCE_CHUNK):  # chunks keep the 8 perturbed copies' memory bounded
+        b = min(n, a + COVARIANCE_CHUNK)
+        try:
+            J = triangulation_jacobian(rig, u1[a:b], u2[a:b])
+        except BehindCameraError as exc:
+            raise BehindCameraError(
+                f"pixel pairs {a}..{b - 1}: a pair moved by the differentiation step (1e-3 px) triangulates "
+                f"at infinity or behind the camera (disparity too small): {exc}"
+            ) from exc
+        with np.errstate(over="ignore", invalid="ignore"):
+            C[a:b] = np.einsum("nik,k,njk->nij", J, s**2, J)
+        bad = ~np.all(np.isfinite(C[a:b]), axis=(1, 2))
+        if np.any(bad):
+            i = a + int(np.flatnonzero(bad)[0])
+            raise NonFiniteError(f"the covariance of pixel pair {i} overflows (pixel_sigma {s.tolist()})")
     return C
+
+
+#: Pixel pairs processed at once by :func:`triangulation_covariance` (bounds its working memory).
+COVARIANCE_CHUNK = 65_536
 
 
 @guard

@@ -64,7 +64,9 @@ def _clean_percepts(idx=range(8), sigma=0.02, seed=1, shift=None) -> list[Percep
     R, t = POSE[:3, :3], POSE[:3, 3]
     out = []
     for i in idx:
-        x = R.T @ (WORLD.positions[i] - t) + sigma * rng.standard_normal(3)
+        # the noise draw is capped at 1 m so that an extreme sigma (1e300) still gives positions
+        # inside perception's 1e9 m bound: the sigma itself is what the tests exercise
+        x = R.T @ (WORLD.positions[i] - t) + min(sigma, 1.0) * rng.standard_normal(3)
         if shift is not None:
             x = x + shift
         out.append(Percept(WORLD.objects[i].type, x, sigma))

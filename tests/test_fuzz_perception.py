@@ -269,7 +269,7 @@ def test_fuzz_train_classifier(arg: str, data: st.DataObject) -> None:
 @settings(max_examples=40)
 @given(
     sigma=st.sampled_from([1e-300, 1e-160, 1e-150, 1e-20, 1.0, 1e20, 1e150, 1e160, 1e300]),
-    shift=st.sampled_from([0.0, 1e6, 1e100, 1e154, 1e300]),
+    shift=st.sampled_from([0.0, 1e6, 1e8, 1e9 - 1.0]),  # positions are capped at 1e9 m
     bandwidth=st.sampled_from([1e-300, 1e-100, 0.1, 1e100, 1e300]),
 )
 def test_fuse_extreme_scales(sigma: float, shift: float, bandwidth: float) -> None:
