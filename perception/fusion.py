@@ -59,12 +59,14 @@ minute of work at most); beyond it the bandwidth is too large for the points' de
 points inside one kernel) and :class:`TooManyNeighboursError` is raised instead of running for
 hours (the exact kernel sums cost the square of the points in one kernel)."""
 _AHEAD = 20
-"""Iterations a mean-shift run is assumed to still need at its start: before iteration ``k`` the
-strided-sample estimate of the pairs of one iteration, times ``max(1, min(_AHEAD, max_iter) - k)``,
-must fit in what is left of :data:`MAX_KERNEL_PAIRS`, so a run whose single iteration costs more
-than about a twentieth of the budget is refused at once instead of after many iterations (runs
-from every point rarely converge in fewer iterations: 50,000 normal points at bandwidth 0.3 run
-more than 14 iterations, each of 2 to 6 million pairs)."""
+"""Iterations a mean-shift run is assumed to still need when it does not shrink: from the second
+iteration on, the strided-sample estimate of the next iteration's pairs is multiplied by the
+iterations the run still needs at the rate its cost shrank by in the last one (at most
+``min(_AHEAD, max_iter) - k``; ``1 / (1 - r)`` when the cost fell by the factor ``r < 1``), and
+the product must fit in what is left of :data:`MAX_KERNEL_PAIRS`.  A run that collapses onto its
+modes (cost falling fast) goes on; one whose cost stays flat -- thousands of points per kernel,
+say 50,000 normal points at bandwidth 0.3, 2 to 6 million pairs an iteration for more than 14
+iterations -- is refused after its first iteration instead of after many."""
 
 
 def _bandwidth_factor(name: str, value: Any, d: int) -> NDArray[np.float64] | float:
@@ -165,7 +167,7 @@ def _spend(budget: list[int], pairs: float, crowd: int, n: int) -> None:
 
 def _neighbour_means(
     tree: cKDTree, Z: NDArray[np.float64], w: NDArray[np.float64], Y: NDArray[np.float64], radius: float,
-    budget: list[int] | None = None, ahead: int = 1,
+    budget: list[int] | None = None, ahead: float = 1.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Weighted sums ``sum w_j Z_j`` and ``sum w_j`` over ``|Z_j - Y_i| < radius``, per row of ``Y``.
 
@@ -290,6 +292,7 @@ def mean_shift_modes(
     Y = Z.copy()
     active = np.ones(n, dtype=bool)
     budget = [MAX_KERNEL_PAIRS]
+    ahead, last_cost = 1.0, 0
     for it in range(max_iter):
         idx = np.flatnonzero(active)
         if idx.size == 0:
@@ -297,7 +300,13 @@ def mean_shift_modes(
         # Coincident positions (common once a cluster has collapsed) share one query.
         uniq, inv = np.unique(Y[idx], axis=0, return_inverse=True)
         inv = np.asarray(inv).reshape(-1)
-        num, den = _neighbour_means(tree, Z, w, uniq, 1.0, budget, max(1, min(_AHEAD, max_iter) - it))
+        before = budget[0]
+        num, den = _neighbour_means(tree, Z, w, uniq, 1.0, budget, ahead)
+        cost = before - budget[0]
+        left = max(1.0, float(min(_AHEAD, max_iter) - it - 1))
+        ratio = cost / last_cost if last_cost > 0 else 1.0
+        ahead = min(left, 1.0 / (1.0 - ratio)) if ratio < 1.0 else left
+        last_cost = cost
         num, den = num[inv], den[inv]
         empty = den <= 0  # no point strictly inside the kernel: y is a fixed point
         with np.errstate(invalid="ignore", divide="ignore"):
