@@ -169,14 +169,7 @@ def triangulation_jacobian(
     -------
     (N, 3, 4) float
     """
-    from .stereo import StereoRig, _points
-
-    if not isinstance(rig, StereoRig):
-        raise ShapeError(f"rig must be a StereoRig, got {type(rig).__name__}")
-    u1 = _points("uv_left", uv_left, 2)
-    u2 = _points("uv_right", uv_right, 2)
-    if u1.shape != u2.shape:
-        raise ShapeError(f"uv_left and uv_right must have the same shape, got {u1.shape} and {u2.shape}")
+    u1, u2 = _matched_pixels(rig, uv_left, uv_right)
     h = real_scalar("step", step, positive=True)
     if not 1e-9 <= h <= 10.0:
         raise PerceptionError(f"step must lie in [1e-9, 10] pixels, got {h!r}")
@@ -188,6 +181,20 @@ def triangulation_jacobian(
     X = rig.triangulate(pert[:, :2], pert[:, 2:]).reshape(8, n, 3)
     J = (X[:4] - X[4:]) / (2.0 * h)  # (4, N, 3)
     return np.transpose(J, (1, 2, 0))
+
+
+def _matched_pixels(rig: object, uv_left: ArrayLike, uv_right: ArrayLike
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(N, 2)`` left and right pixels of ``rig`` (a StereoRig), checked and of equal shape."""
+    from .stereo import StereoRig, _points
+
+    if not isinstance(rig, StereoRig):
+        raise ShapeError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    u1 = _points("uv_left", uv_left, 2)
+    u2 = _points("uv_right", uv_right, 2)
+    if u1.shape != u2.shape:
+        raise ShapeError(f"uv_left and uv_right must have the same shape, got {u1.shape} and {u2.shape}")
+    return u1, u2
 
 
 @guard
@@ -216,14 +223,9 @@ def triangulation_covariance(
     if np.any(s > 1e100):
         raise NonPositiveSigmaError(f"pixel_sigma must be at most 1e100 pixels, got {s.tolist()}")
     from .errors import BehindCameraError
-    from .stereo import StereoRig, _check_triangulated, _points
+    from .stereo import _check_triangulated
 
-    if not isinstance(rig, StereoRig):
-        raise ShapeError(f"rig must be a StereoRig, got {type(rig).__name__}")
-    u1 = _points("uv_left", uv_left, 2)
-    u2 = _points("uv_right", uv_right, 2)
-    if u1.shape != u2.shape:
-        raise ShapeError(f"uv_left and uv_right must have the same shape, got {u1.shape} and {u2.shape}")
+    u1, u2 = _matched_pixels(rig, uv_left, uv_right)
     n = u1.shape[0]
     # The cheap check first (one triangulation per pair, chunk by chunk): a pair at infinity or
     # behind the camera is reported before the 8 perturbed triangulations of every pair.
