@@ -38,7 +38,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
@@ -240,7 +239,7 @@ class NearestObjects:
         self.k = k
         self.groups = {t: np.array([i for i, s in enumerate(types) if s == t]) for t in sorted(set(types))}
         self.objects = {t: world.type_index[t] for t in self.groups}
-        self.trees = {t: cKDTree(world.positions[o]) for t, o in self.objects.items()}
+        self.trees = {t: world.type_tree(t) for t in self.objects}  # kept with the world
 
     def query(self, world_from_ego: NDArray, ego: NDArray, covs: NDArray, pose_covariance: NDArray | None
               ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]:
