@@ -542,6 +542,14 @@ def _shared_sandwich(L: NDArray[np.float64], shared: Sequence[Sequence[tuple[int
     return sum((g @ g.T for g in G.values()), np.zeros((d, d))) - own
 
 
+def _rotation_terms(R: NDArray, ego: NDArray, w: NDArray
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``A_i = skew(R x_i)``, ``M = sum_i w_i A_i^T A_i`` and ``S = sum_i w_i A_i`` of the rotation
+    fitted with the translation fixed (:func:`rotation_only_covariance`)."""
+    A = _skew(ego @ R.T)
+    return A, np.einsum("k,kai,kaj->ij", w, A, A), np.einsum("k,kij->ij", w, A)
+
+
 def shared_range_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray, centers: NDArray,
                             sigmas: NDArray, weights: NDArray,
                             shared: Sequence[Sequence[tuple[int, NDArray]]]) -> NDArray[np.float64]:
@@ -578,9 +586,7 @@ def shared_range_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray
         return out
     u = toward / dist[:, None]
     H = np.einsum("k,ka,kb->ab", 1.0 / sig**2, u, u)
-    A = _skew(ego @ R.T)
-    M = np.einsum("k,kai,kaj->ij", w, A, A)
-    S = np.einsum("k,kij->ij", w, A)
+    A, M, S = _rotation_terms(R, ego, w)
     try:
         Hi, Mi = np.linalg.inv(H), np.linalg.inv(M)
     except np.linalg.LinAlgError:
@@ -613,9 +619,7 @@ def rotation_only_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArra
         raise PoseError(f"weights[{i}] must be >= 0, got {w[i]!r}")
     position_covariance = _matrix_or_unknown("position_covariance", position_covariance, 3)
     R = world_from_ego[:3, :3]
-    A = _skew(ego @ R.T)
-    M = np.einsum("k,kai,kaj->ij", w, A, A)
-    S = np.einsum("k,kij->ij", w, A)
+    A, M, S = _rotation_terms(R, ego, w)
     RC = np.einsum("ij,kjl,ml->kim", R, covs, R)
     N = np.einsum("k,kai,kab,kbj->ij", w**2, A, RC, A)
     St = np.asarray(position_covariance, dtype=np.float64)
