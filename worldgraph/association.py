@@ -687,11 +687,20 @@ def _is_far(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: flo
             tol: AssociationTolerances, objects: list[NDArray[np.intp]]) -> bool:
     """The percept pair lies beyond the link table and its types are too many for all pairs:
     its candidates come from k-d tree queries (and may be computed for some of p's objects)."""
-    d = float(np.linalg.norm(percepts[q].position - percepts[p].position))
+    *_, covered = _pair_reach(world, percepts, p, q, tau, tol)
+    return not (covered or len(objects[p]) * len(objects[q]) <= tol.dense_pair_limit)
+
+
+def _pair_reach(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
+                tol: AssociationTolerances) -> tuple[NDArray[np.float64], float, float, float, bool]:
+    """``(diff, d, ztol, reach, covered)`` of the percept pair: the offset from p to q and its
+    length, the height tolerance, how far a model distance may differ from ``d`` (``tau``, plus
+    ``ztol`` when gravity-aligned), and whether the link table holds every pair within reach."""
+    diff = percepts[q].position - percepts[p].position
+    d = float(np.linalg.norm(diff))
     ztol = tau if tol.height_tolerance is None else float(tol.height_tolerance)
     reach = tau + (ztol if tol.gravity_aligned else 0.0)
-    return not (d + reach < world.max_link_length + world.link_margin
-                or len(objects[p]) * len(objects[q]) <= tol.dense_pair_limit)
+    return diff, d, ztol, reach, d + reach < world.max_link_length + world.link_margin
 
 
 def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
@@ -701,14 +710,9 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
     """Model pairs consistent with the percept pair (p, q): local indices ``(a, b)`` into
     ``objects[p]`` and ``objects[q]``.  ``rows`` (local indices into ``objects[p]``; used for far
     pairs, see :func:`_is_far`) restricts p's side to those objects."""
-    xp, xq = percepts[p].position, percepts[q].position
     tp, tq = percepts[p].type, percepts[q].type
     op, oq = objects[p], objects[q]
-    diff = xq - xp
-    d = float(np.linalg.norm(diff))
-    ztol = tau if tol.height_tolerance is None else float(tol.height_tolerance)
-    reach = tau + (ztol if tol.gravity_aligned else 0.0)
-    covered = d + reach < world.max_link_length + world.link_margin
+    diff, d, ztol, reach, covered = _pair_reach(world, percepts, p, q, tau, tol)
     sub = op if rows is None else op[rows]
     if covered:
         i, j, _ = world.link_lengths(tp, tq, d - reach, d + reach)
