@@ -9,7 +9,9 @@ percept in the visible region.  ``localize`` runs with every default (``--gravit
 association's ``gravity_aligned`` invariants).
 
 Then :func:`worldgraph.active_localize` looks at most twice while the status is in
-``--look-on`` (default "ambiguous" and "weak", as ``active_localize``), with three ways of choosing the gaze:
+``--look-on`` (default "ambiguous" and "weak", as ``active_localize``) or while an "ok" answer's
+3-sigma rotation bound exceeds ``--goal-rotation-deg`` (default 2, as ``active_localize``), with
+three ways of choosing the gaze:
 
 * ``plan_view``: :func:`worldgraph.plan_view` (fov 60 deg, range 8 m, the four percept types);
 * ``random``: a level direction at a uniformly random azimuth;
@@ -44,7 +46,7 @@ from scipy.spatial.transform import Rotation
 
 from perception.simulate import simulate_percepts
 from worldgraph import scenes
-from worldgraph.active import active_localize, plan_view
+from worldgraph.active import GOAL_ROTATION_3SIGMA, active_localize, plan_view
 from worldgraph.association import AssociationTolerances, discriminator
 from worldgraph.localize import LocalizationResult
 
@@ -131,7 +133,7 @@ def run(args: argparse.Namespace) -> tuple[list[str], list[float]]:
                         return d if np.linalg.norm(d) > 0 else np.array([1.0, 0.0, 0.0])
 
                     look = _looker(types, pos, pose, np.random.default_rng([look_seed, 99]))
-                    out = _loop(world, percepts, look, planner, tol, args.look_on)
+                    out = _loop(world, percepts, look, planner, tol, args.look_on, args.goal)
                     for k in range(3):
                         res = out.results[min(k, len(out.results) - 1)]
                         counts[strategy][k, verdicts.index(_judge(res, pose))] += 1
@@ -148,9 +150,9 @@ def run(args: argparse.Namespace) -> tuple[list[str], list[float]]:
     return rows, plan_times
 
 
-def _loop(world, percepts, look, planner, tol, look_on):
+def _loop(world, percepts, look, planner, tol, look_on, goal):
     return active_localize(world, percepts, look, max_looks=2, planner=planner, tolerances=tol,
-                           look_while=look_on)
+                           look_while=look_on, goal_rotation_3sigma=goal)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -161,13 +163,18 @@ def main(argv: list[str] | None = None) -> None:
                     help="percepts per trial, one of them false (5 = 4 true + 1 false)")
     ap.add_argument("--look-on", nargs="+", default=["ambiguous", "weak"],
                     help="statuses that get looks (add 'weak' to look at unique but weak poses too)")
+    ap.add_argument("--goal-rotation-deg", type=float, default=math.degrees(GOAL_ROTATION_3SIGMA),
+                    help="also look while an 'ok' answer's 3-sigma rotation bound is wider (degrees; "
+                         "0 = no such looks)")
     args = ap.parse_args(argv)
     args.look_on = tuple(args.look_on)
+    args.goal = math.radians(args.goal_rotation_deg) if args.goal_rotation_deg > 0 else None
     t0 = time.perf_counter()
     rows, plan_times = run(args)
     ms = 1e3 * np.array(plan_times)
     print(f"kitchen (753 objects), percept types {PERCEPT_TYPES}, looks: fov {FOV_DEG:g} deg, range "
-          f"{MAX_RANGE:g} m, at most 2, while the status is in {args.look_on}; seed {args.seed}, "
+          f"{MAX_RANGE:g} m, at most 2, while the status is in {args.look_on} or an 'ok' answer's 3-sigma "
+          f"rotation bound exceeds {args.goal_rotation_deg:g} deg; seed {args.seed}, "
           f"{args.trials} trials per row; {time.perf_counter() - t0:.0f} s\n")
     print("| percepts | gravity | gaze | trials | before any look: unique-correct / ambiguous / unique-wrong "
           "(%) | after 1 look | after 2 looks | other after 2 (weak, failed) % |")

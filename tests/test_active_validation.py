@@ -338,3 +338,36 @@ def test_bad_world_result_and_loop_arguments():
         wg.active_localize(world, percepts, lambda d: ["door"])
     with pytest.raises(OutOfRangeError, match="zero direction"):
         wg.active_localize(world, percepts, look, planner=lambda r: np.zeros(3))
+
+
+def _rotation_3sigma_deg(res: LocalizationResult) -> float:
+    return 3.0 * math.degrees(math.sqrt(np.linalg.eigvalsh(res.pose_covariance[3:, 3:])[-1]))
+
+
+def test_an_ok_answer_with_a_wide_rotation_bound_gets_a_look():
+    # room 1 alone: four handles seen with 1 cm noise pin the pose uniquely ("ok") but the rotation
+    # only to about 2.5 deg (3 sigma); a look that finds the door and the knobs narrows it
+    world = wg.WorldModel.from_arrays(["handle"] * 4 + ["knob", "door", "knob"],
+                                      np.vstack([HANDLES, KNOB, DOOR_A, SIDE_KNOB]), max_link_length=8.0,
+                                      link_margin=0.5)
+    s = 0.01
+    percepts = [pc.Percept("handle", h, s, covariance=s**2 * np.eye(3)) for h in HANDLES]
+    looked = []
+
+    def look(d: np.ndarray) -> list[pc.Percept]:
+        looked.append(d)
+        return [pc.Percept(t, x, 0.002, covariance=0.002**2 * np.eye(3))
+                for t, x in (("knob", KNOB), ("door", DOOR_A), ("knob", SIDE_KNOB))]
+
+    first = wg.localize(world, percepts)
+    assert first.status == "ok" and 2.0 < _rotation_3sigma_deg(first) < 5.0
+    assert wg.active_localize(world, percepts, look, goal_rotation_3sigma=None).looks == 0
+    assert looked == []
+    assert wg.active_localize(world, percepts, look, goal_rotation_3sigma=math.radians(3.0)).looks == 0
+    out = wg.active_localize(world, percepts, look)  # default goal: 2 degrees
+    assert out.looks == 1 and len(looked) == 1 and out.result.status == "ok"
+    assert _rotation_3sigma_deg(out.result) < 2.0
+    with pytest.raises(OutOfRangeError, match="goal_rotation_3sigma.*degrees"):
+        wg.active_localize(world, percepts, look, goal_rotation_3sigma=5.0)
+    with pytest.raises(NonPositiveError, match="goal_rotation_3sigma"):
+        wg.active_localize(world, percepts, look, goal_rotation_3sigma=0.0)
