@@ -16,7 +16,8 @@ from perception.simulate import simulate_percepts
 from worldgraph.association import (
     AssociationTolerances,
     _Graph,
-    _prune,
+    _prune_by_pairs,
+    _prune_vectorised,
     associate,
     discriminator,
     is_ambiguous,
@@ -130,10 +131,13 @@ def test_maximum_cliques_match_networkx(graph, near: int, min_size: int, form: s
     assert set(res.cliques) == expected
 
 
-@given(kpartite(), st.integers(1, 6))
-def test_prune_matches_node_by_node_reference_on_networkx(graph, need: int) -> None:
+@pytest.mark.parametrize("prune", [_prune_by_pairs, _prune_vectorised])
+@given(graph=kpartite(), need=st.integers(1, 6), start=st.integers(0, 2**32 - 1))
+def test_prune_matches_node_by_node_reference_on_networkx(prune, graph, need: int, start: int) -> None:
     """The vectorised pruning equals the obvious loop: drop, until nothing changes, every vertex
-    whose alive neighbours lie in fewer than ``need - 1`` distinct other parts."""
+    whose alive neighbours lie in fewer than ``need - 1`` distinct other parts.  Both forms of
+    the pruning; started from every vertex, and from the reference's survivors plus a random
+    subset of the others (a superset of the answer gives the same answer)."""
     sizes, adjacency = graph
     g = to_networkx(sizes, adjacency)
     alive = set(g.nodes)
@@ -147,8 +151,14 @@ def test_prune_matches_node_by_node_reference_on_networkx(graph, need: int) -> N
                 changed = True
     edges = {key: (None if mat is None else tuple(np.nonzero(mat))) for key, mat in adjacency.items()}
     objects = [np.arange(s, dtype=np.intp) for s in sizes]
-    got = _prune(_Graph(objects, edges), need)
+    got = prune(_Graph(objects, edges), need)
     assert [a.shape for a in got] == [(s,) for s in sizes]
+    assert {(p, a) for p, al in enumerate(got) for a in np.flatnonzero(al)} == alive
+    rng = np.random.default_rng(start)
+    superset = [rng.random(s) < 0.5 for s in sizes]
+    for p, a in alive:
+        superset[p][a] = True
+    got = prune(_Graph(objects, edges), need, superset)
     assert {(p, a) for p, al in enumerate(got) for a in np.flatnonzero(al)} == alive
 
 

@@ -57,7 +57,7 @@ from .errors import (
     WorldGraphError,
 )
 from .model import WorldModel
-from .pose import invert_transformation, rotation_angle, weighted_kabsch_batch
+from .pose import invert_transformation, weighted_kabsch_batch
 
 __all__ = [
     "ASSOCIATION_METHODS",
@@ -760,6 +760,13 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
     return _local(op, i), _local(oq, j)
 
 
+#: The far pairs of :class:`_LazyGraph` are filled in rounds, cheapest first: each round takes the
+#: pairs with at most this many times the rows of the cheapest (counted as at least
+#: ``FAR_ROUND_MIN_ROWS``), then prunes.
+FAR_ROUND_FACTOR = 2
+FAR_ROUND_MIN_ROWS = 64
+
+
 class _LazyGraph:
     """The consistency graph with the far percept pairs (:func:`_is_far`) filled on demand.
 
@@ -788,30 +795,60 @@ class _LazyGraph:
         self._graph: _Graph | None = None if self.far else self.free
 
     def graph(self, need: int) -> _Graph:
-        """A graph whose pruning for ``need`` (or any larger size) equals the full graph's."""
+        """A graph whose pruning for ``need`` (or any larger size) equals the full graph's.
+
+        Far pairs are filled in rounds, those with the fewest rows to query first, and the graph
+        is pruned again after each round: a far pair counts as unconstrained while some alive
+        vertex of its p side has not been queried, and as constrained once all have, so every
+        intermediate pruning keeps a superset of the exact one (see the class docstring) while
+        the rows left to query shrink with each constraint added."""
+        return self.prune(need)[0]
+
+    def prune(self, need: int) -> tuple[_Graph, list[NDArray[np.bool_]]]:
+        """:meth:`graph` and its pruning for ``need``."""
         if not self.far:
-            return self.free
-        alive = _prune(self.free, need)
-        grown = False
-        for (p, q), (tau, done, a_parts, b_parts) in self.far.items():
-            todo = np.flatnonzero(alive[p] & ~done)
-            if todo.size:
+            return self.free, _prune(self.free, need)
+        graph = self._current()
+        alive = _prune(graph, need)
+        while True:
+            pending = sorted((int(np.count_nonzero(alive[key[0]] & ~done)), key)
+                             for key, (_, done, _, _) in self.far.items())
+            pending = [(n, key) for n, key in pending if n]
+            if not pending:
+                # every far pair is queried for every alive vertex: constrain them all
+                final = self._current(alive)
+                return final, _prune(final, need, alive)
+            # this round: the cheapest pairs, up to FAR_ROUND_FACTOR times the cheapest one's rows
+            limit = FAR_ROUND_FACTOR * max(pending[0][0], FAR_ROUND_MIN_ROWS)
+            for n, (p, q) in pending:
+                if n > limit:
+                    break
+                tau, done, a_parts, b_parts = self.far[(p, q)]
+                todo = np.flatnonzero(alive[p] & ~done)
                 a, b = _pair_candidates(self.world, self.percepts, p, q, tau, self.tol, self.objects, todo)
                 a_parts.append(a)
                 b_parts.append(b)
                 done[todo] = True
-                grown = True
-        if grown or self._graph is None:
-            edges = dict(self.near)
-            for key, (_, _, a_parts, b_parts) in self.far.items():
-                edges[key] = (np.concatenate(a_parts) if a_parts else np.zeros(0, np.intp),
-                              np.concatenate(b_parts) if b_parts else np.zeros(0, np.intp))
-            self._graph = _Graph(self.objects, dict(sorted(edges.items())))
-        return self._graph
+            self._graph = None
+            graph = self._current(alive)
+            alive = _prune(graph, need, alive)
 
-    def prune(self, need: int) -> tuple[_Graph, list[NDArray[np.bool_]]]:
-        graph = self.graph(need)
-        return graph, _prune(graph, need)
+    def _current(self, alive: list[NDArray[np.bool_]] | None = None) -> _Graph:
+        """The near pairs plus the far pairs whose p side is queried for every alive vertex
+        (``alive`` None: every vertex queried so far); the other far pairs unconstrained."""
+        if alive is None and self._graph is not None:
+            return self._graph
+        edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None] = dict(self.near)
+        for key, (_, done, a_parts, b_parts) in self.far.items():
+            complete = bool(done.all()) if alive is None else not np.any(alive[key[0]] & ~done)
+            if a_parts and complete:
+                edges[key] = (np.concatenate(a_parts), np.concatenate(b_parts))
+            else:
+                edges[key] = None
+        graph = _Graph(self.objects, dict(sorted(edges.items())))
+        if alive is None:
+            self._graph = graph
+        return graph
 
 
 def _consistency_graph(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances) -> _Graph:
@@ -824,16 +861,68 @@ def _consistency_graph(world: WorldModel, percepts: list[Percept], tol: Associat
     return _Graph(objects, edges)
 
 
-def _prune(graph: _Graph, need: int) -> list[NDArray[np.bool_]]:
+#: :func:`_prune` loops over the part pairs up to this many pairs (16 percepts) and works on all
+#: edges at once beyond (the loop costs a few numpy calls per pair and iteration; the vectorised
+#: form sorts every edge once per graph).
+PRUNE_LOOP_MAX_PAIRS = 120
+
+
+def _prune(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | None = None
+           ) -> list[NDArray[np.bool_]]:
     """Vertices that have compatible vertices in at least ``need - 1`` other parts (iterated).
 
-    Vectorised over all edges at once (see :meth:`_Graph.support_index`): a vertex's support is
-    the number of distinct other parts holding an alive neighbour, plus the unconstrained part
-    pairs whose other part still has an alive vertex.
+    A vertex's support is the number of distinct other parts holding an alive neighbour, plus
+    the unconstrained part pairs whose other part still has an alive vertex.  ``alive`` (per part)
+    starts the pruning from a set known to hold the result (the result is the largest subset of
+    the start that passes, so any superset of it gives the same answer).
     """
+    if len(graph.edges) <= PRUNE_LOOP_MAX_PAIRS:
+        return _prune_by_pairs(graph, need, alive)
+    return _prune_vectorised(graph, need, alive)
+
+
+def _prune_by_pairs(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | None = None
+                    ) -> list[NDArray[np.bool_]]:
+    """:func:`_prune` with a loop over the part pairs; each pair's edges shrink to the alive ones."""
+    k = len(graph.objects)
+    cur = [np.ones(len(o), dtype=bool) for o in graph.objects] if alive is None else [a.copy() for a in alive]
+    edges = dict(graph.edges)
+    while True:
+        support = [np.zeros(len(a), dtype=np.int64) for a in cur]
+        has = [bool(a.any()) for a in cur]
+        for (p, q), e in edges.items():
+            if e is None:
+                if has[q]:
+                    support[p] += 1
+                if has[p]:
+                    support[q] += 1
+                continue
+            a, b = e
+            keep = cur[p][a] & cur[q][b]
+            a, b = a[keep], b[keep]
+            edges[(p, q)] = (a, b)
+            hit = np.zeros(len(cur[p]), dtype=bool)
+            hit[a] = True
+            support[p] += hit
+            hit = np.zeros(len(cur[q]), dtype=bool)
+            hit[b] = True
+            support[q] += hit
+        changed = False
+        for p in range(k):
+            new = cur[p] & (support[p] >= need - 1)
+            if np.count_nonzero(new) != np.count_nonzero(cur[p]):
+                cur[p], changed = new, True
+        if not changed:
+            return cur
+
+
+def _prune_vectorised(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | None = None
+                      ) -> list[NDArray[np.bool_]]:
+    """:func:`_prune` over all edges at once (see :meth:`_Graph.support_index`)."""
     ix = graph.support_index
     k, off = len(graph.objects), ix.offsets
-    alive = np.ones(int(off[-1]), dtype=bool)
+    alive = np.ones(int(off[-1]), dtype=bool) if alive is None else np.concatenate(
+        [np.asarray(a, dtype=bool) for a in alive] + [np.zeros(0, dtype=bool)])
     while True:
         keep = alive[ix.u] & alive[ix.v]
         support = np.zeros(len(alive), dtype=np.int64)
@@ -1097,8 +1186,12 @@ def same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
 
 
 def _same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
-    return (float(np.linalg.norm(a[:3, 3] - b[:3, 3])) < tol.distinct_translation
-            and rotation_angle(a, b) < tol.distinct_angle)
+    """:func:`same_pose` of checked transforms (no checks: it runs for every pair of ranked
+    hypotheses); the angle as :func:`~worldgraph.pose.rotation_angle`."""
+    if float(np.linalg.norm(a[:3, 3] - b[:3, 3])) >= tol.distinct_translation:
+        return False
+    c = (float(np.sum(a[:3, :3] * b[:3, :3])) - 1.0) / 2.0  # trace(Ra^T Rb)
+    return math.acos(min(max(c, -1.0), 1.0)) < tol.distinct_angle
 
 
 def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: int
