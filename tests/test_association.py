@@ -402,12 +402,27 @@ def test_ball_query_path_equals_brute_force_path(seed: int) -> None:
     assert tree[0].pairs == tuple((p, int(o)) for p, o in enumerate(truth))
 
 
+@pytest.mark.parametrize("index", [True, False], ids=["far-pair index", "k-d trees"])
 @settings(max_examples=8)
-@given(seeds, st.booleans())
-def test_tree_pair_candidates_equal_all_pairs_also_across_storeys(seed: int, gravity: bool) -> None:
-    """Every percept pair's model candidates beyond the link table: the k-d tree queries (plain, and
-    with z scaled for gravity-aligned worlds) give exactly the pairs an all-pairs test gives, on a
-    three-storey world where other storeys hold pairs of the same 3D length."""
+@given(seed=seeds, gravity=st.booleans())
+def test_tree_pair_candidates_equal_all_pairs_also_across_storeys(index: bool, seed: int,
+                                                                  gravity: bool) -> None:
+    """Every percept pair's model candidates beyond the link table: the world's far-pair index
+    (sorted distances, or horizontal distances and dz) and the k-d tree queries (plain, and with
+    z scaled for gravity-aligned worlds; forced by a zero index budget) give exactly the pairs an
+    all-pairs test gives, on a three-storey world where other storeys hold pairs of the same 3D
+    length (percept pairs up to 17 m apart and 3.5 m in z: some beyond the index's reach)."""
+    import worldgraph.model as model
+
+    saved = model.FAR_PAIR_MAX_PAIRS
+    model.FAR_PAIR_MAX_PAIRS = saved if index else 0
+    try:
+        _check_pair_candidates(seed, gravity, index)
+    finally:
+        model.FAR_PAIR_MAX_PAIRS = saved
+
+
+def _check_pair_candidates(seed: int, gravity: bool, index: bool) -> None:
     from worldgraph.association import _consistency_graph
 
     rng = np.random.default_rng(seed)
@@ -426,6 +441,8 @@ def test_tree_pair_candidates_equal_all_pairs_also_across_storeys(seed: int, gra
     for key, e in brute.edges.items():
         got = tree.edges[key]
         assert {tuple(x) for x in np.column_stack(e)} == {tuple(x) for x in np.column_stack(got)}, key
+    built = [x for x in world._far_pairs.values() if x is not None]
+    assert bool(built) == index  # the path under test was taken
 
 
 @settings(max_examples=10)

@@ -524,3 +524,46 @@ def test_type_tree_holds_one_types_positions_in_index_order_and_is_kept() -> Non
     assert np.all(before < world.positions.min(axis=0))
     with pytest.raises(wg.UnknownTypeError, match="type_name = 'sofa'"):
         world.type_tree("sofa")
+
+
+@pytest.mark.parametrize("gravity", [False, True])
+def test_far_pairs_hold_exactly_the_pairs_within_reach(gravity: bool) -> None:
+    """WorldModel.far_pairs against all pairs by brute force: the same ordered pairs (no object
+    with itself), sorted keys equal to the distances (or horizontal distances and dz), for both
+    orders of the types."""
+    from worldgraph.model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE
+
+    rng = np.random.default_rng(3)
+    n = 400
+    pos = np.column_stack([rng.uniform(0, 40, n), rng.uniform(0, 30, n), rng.uniform(0, 9, n)])
+    types = rng.choice(["door", "knob", "lamp"], n)
+    world = WorldModel.from_arrays(types, pos, max_link_length=2.0)
+    for a, b in [("door", "knob"), ("knob", "door"), ("lamp", "lamp")]:
+        idx = world.far_pairs(a, b, gravity)
+        ia, ib = np.flatnonzero(types == a), np.flatnonzero(types == b)
+        expected = set()
+        for i in ia:
+            for j in ib:
+                if i == j:
+                    continue
+                v = pos[j] - pos[i]
+                if gravity:
+                    if math.hypot(v[0], v[1]) <= FAR_PAIR_RANGE and abs(v[2]) <= FAR_PAIR_HEIGHT:
+                        expected.add((i, j))
+                elif np.linalg.norm(v) <= FAR_PAIR_RANGE:
+                    expected.add((i, j))
+        got = list(zip(idx.i.tolist(), idx.j.tolist(), strict=True))
+        assert len(got) == len(set(got)) and set(got) == expected
+        assert np.all(np.diff(idx.key) >= 0)
+        v = pos[idx.j] - pos[idx.i]
+        key = np.hypot(v[:, 0], v[:, 1]) if gravity else np.linalg.norm(v, axis=1)
+        assert np.allclose(idx.key, key, atol=1e-5)
+        if gravity:
+            assert np.allclose(idx.dz, v[:, 2], atol=1e-5)
+        window = idx.window(10.0, 10.5)
+        inside = np.flatnonzero((key >= 10.0) & (key <= 10.5))
+        assert window.start <= inside.min() and window.stop > inside.max()
+    with pytest.raises(wg.UnknownTypeError, match="type_b"):
+        world.far_pairs("door", "sofa")
+    with pytest.raises(wg.ArgumentTypeError, match="gravity_aligned"):
+        world.far_pairs("door", "knob", "yes")

@@ -56,7 +56,7 @@ from .errors import (
     UnknownTypeError,
     WorldGraphError,
 )
-from .model import WorldModel
+from .model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE, FAR_PAIR_SLACK, FarPairIndex, WorldModel
 from .pose import invert_transformation, weighted_kabsch_batch
 
 __all__ = [
@@ -703,6 +703,17 @@ def _pair_reach(world: WorldModel, percepts: list[Percept], p: int, q: int, tau:
     return diff, d, ztol, reach, d + reach < world.max_link_length + world.link_margin
 
 
+def _far_index(world: WorldModel, tp: str, tq: str, diff: NDArray[np.float64], d: float, ztol: float,
+               tau: float, reach: float, tol: AssociationTolerances) -> FarPairIndex | None:
+    """The world's far-pair index of the two types when it covers the percept pair's window."""
+    if tol.gravity_aligned:
+        if math.hypot(diff[0], diff[1]) + tau >= FAR_PAIR_RANGE or abs(diff[2]) + ztol >= FAR_PAIR_HEIGHT:
+            return None
+    elif d + reach >= FAR_PAIR_RANGE:
+        return None
+    return world.far_pairs(tp, tq, tol.gravity_aligned)
+
+
 def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
                      tol: AssociationTolerances, objects: list[NDArray[np.intp]],
                      rows: NDArray[np.intp] | None = None,
@@ -727,6 +738,25 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
+    elif (index := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
+        # beyond the link table, within the world's far-pair index: the pairs in the key window
+        # (3D distance, or gravity-aligned horizontal distance and dz), then the exact tests
+        h = math.hypot(diff[0], diff[1])
+        w = index.window(h - tau, h + tau) if tol.gravity_aligned else index.window(d - reach, d + reach)
+        i, j = index.i[w], index.j[w]
+        if tol.gravity_aligned:
+            keep = np.abs(index.dz[w] - diff[2]) < ztol + FAR_PAIR_SLACK
+            i, j = i[keep], j[keep]
+        if rows is not None:
+            mine = np.zeros(len(world), dtype=bool)
+            mine[sub] = True
+            keep = mine[i]
+            i, j = i[keep], j[keep]
+        i, j = i.astype(np.intp), j.astype(np.intp)
+        if not tol.gravity_aligned:
+            dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
+            keep = np.abs(dm - d) < reach
+            i, j = i[keep], j[keep]
     elif tol.gravity_aligned:
         # beyond the link table, z up: p's objects raised by dz, against q's tree, both with z
         # scaled by GRAVITY_Z_SCALE: the partners lie on a horizontal ring of radius h, thin in

@@ -294,6 +294,76 @@ def _name_list(name: str, value: Any, n: int, error: type[WorldGraphError]) -> l
 MAX_LINKS = 40_000_000
 
 
+#: :meth:`WorldModel.far_pairs` holds the pairs up to this far apart (m): two 8 m sensor ranges.
+FAR_PAIR_RANGE = 16.0
+#: ... and, gravity-aligned, up to this far apart in z (m): the objects of one storey.
+FAR_PAIR_HEIGHT = 4.0
+#: One far-pair index holds at most this many pairs (about 16 bytes each) ...
+FAR_PAIR_MAX_PAIRS = 30_000_000
+#: ... and the indices of one world at most this many together (beyond: k-d tree queries).
+FAR_PAIR_BUDGET = 120_000_000
+
+
+@dataclass(frozen=True)
+class FarPairIndex:
+    """Ordered pairs ``(i[k], j[k])`` (global indices of a type-a and a type-b object, no object
+    with itself) sorted by ``key``: the distance, or gravity-aligned the horizontal distance
+    with ``dz = z[j] - z[i]``.  float32 keys: callers widen their windows by
+    :data:`FAR_PAIR_SLACK` and test the candidates again in float64."""
+
+    key: NDArray[np.float32]
+    i: NDArray[np.int32]
+    j: NDArray[np.int32]
+    dz: NDArray[np.float32] | None
+    gravity_aligned: bool
+
+    def window(self, lo: float, hi: float) -> slice:
+        """The slice of the pairs with ``lo - slack <= key <= hi + slack``."""
+        # float32 bounds: a float64 one would make numpy convert the whole key array
+        a = int(np.searchsorted(self.key, np.float32(lo - FAR_PAIR_SLACK), side="left"))
+        b = int(np.searchsorted(self.key, np.float32(hi + FAR_PAIR_SLACK), side="right"))
+        return slice(a, max(a, b))
+
+
+#: Window slack of :meth:`FarPairIndex.window` (m), well above float32 rounding at 16 m (1e-6 m).
+FAR_PAIR_SLACK = 1e-4
+
+
+def _build_far_pairs(world: WorldModel, a: str, b: str, gravity: bool,
+                     cache: dict[tuple[str, str, bool], FarPairIndex | None]) -> FarPairIndex | None:
+    """The :class:`FarPairIndex` of types ``a <= b`` (see :meth:`WorldModel.far_pairs`)."""
+    # gravity: z scaled so that the ball of radius R sqrt(2) holds every pair with horizontal
+    # distance <= R and |dz| <= H; then the exact box is kept
+    scale = FAR_PAIR_RANGE / FAR_PAIR_HEIGHT if gravity else 1.0
+    radius = FAR_PAIR_RANGE * (math.sqrt(2.0) if gravity else 1.0) * (1.0 + 1e-9)
+    ta, tb = world.type_tree(a, scale), world.type_tree(b, scale)
+    ia, ib = world.indices_of(a), world.indices_of(b)
+    # estimate the count from a strided sample of a's objects before building
+    stride = max(1, len(ia) // 2000)
+    sample = cKDTree(ta.data[::stride])
+    estimate = float(sample.count_neighbors(tb, radius)) * stride
+    used = sum(len(x.key) for x in cache.values() if x is not None)
+    if estimate > FAR_PAIR_MAX_PAIRS or used + estimate > FAR_PAIR_BUDGET:
+        return None
+    pairs = ta.sparse_distance_matrix(tb, radius, output_type="ndarray")
+    gi, gj = ia[pairs["i"]], ib[pairs["j"]]
+    pos = world.positions
+    if gravity:
+        dv = pos[gj] - pos[gi]
+        key = np.hypot(dv[:, 0], dv[:, 1])
+        keep = (key <= FAR_PAIR_RANGE) & (np.abs(dv[:, 2]) <= FAR_PAIR_HEIGHT) & (gi != gj)
+        dz = dv[keep, 2]
+    else:
+        key = pairs["v"]
+        keep = gi != gj
+        dz = None
+    key = key[keep]
+    order = np.argsort(key, kind="stable")
+    return FarPairIndex(key=key[order].astype(np.float32), i=gi[keep][order].astype(np.int32),
+                        j=gj[keep][order].astype(np.int32),
+                        dz=None if dz is None else dz[order].astype(np.float32), gravity_aligned=gravity)
+
+
 def _check_path(path: Any) -> str:
     """A file path as ``str`` (:func:`worldgraph._checks.file_path`)."""
     return _checks.file_path("path", path)
@@ -972,6 +1042,36 @@ class WorldModel:
 
     @cached_property
     def _type_trees(self) -> dict[tuple[str, float], cKDTree]:
+        return {}
+
+    def far_pairs(self, type_a: str, type_b: str, gravity_aligned: bool = False) -> FarPairIndex | None:
+        """The pairs of ``type_a`` and ``type_b`` objects up to :data:`FAR_PAIR_RANGE` apart,
+        sorted by distance (:class:`FarPairIndex`), for percept pairs beyond the link table.
+
+        ``gravity_aligned``: keyed by the horizontal distance and holding the pairs up to
+        :data:`FAR_PAIR_HEIGHT` apart in z (the same storey), else by the 3D distance.  Built on
+        first use for the (unordered) type pair and kept with the world; ``None`` when the pairs
+        would exceed :data:`FAR_PAIR_MAX_PAIRS` (estimated from a sample before building), or the
+        world's indices together :data:`FAR_PAIR_BUDGET`: the caller then queries k-d trees.
+        """
+        self._check_known_type(type_a, "type_a")
+        self._check_known_type(type_b, "type_b")
+        if not isinstance(gravity_aligned, bool | np.bool_):
+            raise ArgumentTypeError(f"gravity_aligned must be a bool, got {_checks._short(gravity_aligned)}")
+        flip = type_a > type_b
+        a, b = (type_b, type_a) if flip else (type_a, type_b)
+        cache = self._far_pairs
+        key = (a, b, bool(gravity_aligned))
+        if key not in cache:
+            cache[key] = _build_far_pairs(self, a, b, bool(gravity_aligned), cache)
+        index = cache[key]
+        if index is None or not flip:
+            return index
+        return FarPairIndex(key=index.key, i=index.j, j=index.i, dz=None if index.dz is None else -index.dz,
+                            gravity_aligned=index.gravity_aligned)
+
+    @cached_property
+    def _far_pairs(self) -> dict[tuple[str, str, bool], FarPairIndex | None]:
         return {}
 
     def indices_of(self, type_name: str) -> NDArray[np.intp]:
