@@ -431,22 +431,24 @@ def maximum_cliques(
             mat = mat if p < q else mat.T
             packed[d][e] = np.packbits(mat, axis=1, bitorder="little") if mat.shape[1] else 0
     cache: dict[tuple[int, int], list[int]] = {}
+    # per part, its rows by kind: constants (int), packed bit rows, CSR rows
+    fixed = [[(e, pk) for e, pk in enumerate(packed[d]) if isinstance(pk, int)] for d in range(k)]
+    bit_rows = [[(e, pk) for e, pk in enumerate(packed[d]) if isinstance(pk, np.ndarray)] for d in range(k)]
+    csr_rows = [[(e, pk) for e, pk in enumerate(packed[d]) if isinstance(pk, tuple)] for d in range(k)]
 
     def rows_of(d: int, a: int) -> list[int]:
         got = cache.get((d, a))
         if got is None:
-            got = []
-            for e in range(k):
-                pk = packed[d][e]
-                if isinstance(pk, int):
-                    got.append(pk)
-                elif isinstance(pk, tuple):  # sparse: (indptr, cols, size of the other part)
-                    indptr, cols, n_other = pk
-                    row = np.zeros(n_other, dtype=bool)
-                    row[cols[indptr[a]:indptr[a + 1]]] = True
-                    got.append(int.from_bytes(np.packbits(row, bitorder="little").tobytes(), "little"))
-                else:
-                    got.append(int.from_bytes(pk[a].tobytes(), "little"))
+            got = [0] * k
+            for e, pk in fixed[d]:
+                got[e] = pk
+            for e, pk in bit_rows[d]:
+                got[e] = int.from_bytes(pk[a].tobytes(), "little")
+            for e, (indptr, cols, _) in csr_rows[d]:  # sparse: (indptr, cols, size of the other part)
+                row = 0
+                for c in cols[indptr[a]:indptr[a + 1]].tolist():
+                    row |= 1 << c
+                got[e] = row
             cache[(d, a)] = got
         return got
 
