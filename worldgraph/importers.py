@@ -24,7 +24,8 @@ Formats, chosen by the file suffix (or ``file_format``):
 
   - ``"bodies"`` (default): every named body but the world body, its node holding the
     body's own geoms (not its children's) in the body frame (``data.xpos``, ``data.xmat``);
-    a body without geoms is a single point at its origin;
+    a body without geoms is a single point at its origin; and every named geom of the world
+    body (static geometry such as a ``floor`` plane, which gives the room) as its own node;
   - ``"geoms"``: every geom, its node in the geom frame (``data.geom_xpos``,
     ``data.geom_xmat``), named by the geom's name, or ``f"{body}:{k}"`` for an unnamed geom,
     the ``k``-th geom of its body in file order (the node names of
@@ -251,7 +252,8 @@ def scene_from_file(path: str | os.PathLike[str], *, file_format: str | None = N
     """
     text = _checks.file_path("path", path)
     if not isinstance(mjcf_objects, str) or mjcf_objects not in MJCF_OBJECTS:
-        raise ArgumentTypeError(f"mjcf_objects must be one of {MJCF_OBJECTS}, got {_checks._short(mjcf_objects)}")
+        raise ArgumentTypeError(f"mjcf_objects must be one of {MJCF_OBJECTS}, got "
+                                f"{_checks._short(mjcf_objects)}")
     kind = _file_kind(text, file_format)
     if not os.path.isfile(text):
         raise MalformedFileError(f"{text}: no such file" if not os.path.exists(text)
@@ -420,7 +422,8 @@ def _geom_shape(mujoco: Any, model: Any, g: int) -> tuple[trimesh.Trimesh, NDArr
             geom_from_mesh[:3, 3] = -rot.T @ pos
         return trimesh.Trimesh(vertices=verts, faces=faces, process=False), geom_from_mesh
     # height fields, SDFs, ...: the geom's bounding box
-    centre, half = np.asarray(model.geom_aabb[g][:3], np.float64), np.asarray(model.geom_aabb[g][3:], np.float64)
+    aabb = np.asarray(model.geom_aabb[g], dtype=np.float64)
+    centre, half = aabb[:3], aabb[3:]
     box = trimesh.creation.box(extents=2.0 * half)
     box.apply_translation(centre)
     return box, eye
@@ -456,6 +459,13 @@ def _mjcf_scene(path: str, mjcf_objects: str) -> trimesh.Scene:
             world = _pose(data.geom_xpos[g], data.geom_xmat[g]) @ geom_from_mesh
             scene.add_geometry(mesh, node_name=node, geom_name=node, transform=world)
         return scene
+    first = int(model.body_geomadr[0])  # named geoms of the world body: their own nodes
+    for g in range(first, first + int(model.body_geomnum[0])):
+        shape = _geom_shape(mujoco, model, g)
+        if model.geom(g).name and shape is not None:
+            node = _unique(model.geom(g).name, used)
+            world = _pose(data.geom_xpos[g], data.geom_xmat[g]) @ shape[1]
+            scene.add_geometry(shape[0], node_name=node, geom_name=node, transform=world)
     for b in range(1, model.nbody):
         name = model.body(b).name
         if not name:
@@ -464,13 +474,14 @@ def _mjcf_scene(path: str, mjcf_objects: str) -> trimesh.Scene:
         body_from_world = np.linalg.inv(world_from_body)
         pieces = []
         start, count = int(model.body_geomadr[b]), int(model.body_geomnum[b])
-        for g in range(start, start + count) if start >= 0 else ():
+        for g in range(start, start + count):  # count 0 when start is -1
             shape = _geom_shape(mujoco, model, g)
             if shape is None:
                 continue
             mesh, geom_from_mesh = shape
             mesh = mesh.copy()
-            mesh.apply_transform(body_from_world @ _pose(data.geom_xpos[g], data.geom_xmat[g]) @ geom_from_mesh)
+            world_from_geom = _pose(data.geom_xpos[g], data.geom_xmat[g])
+            mesh.apply_transform(body_from_world @ world_from_geom @ geom_from_mesh)
             pieces.append(mesh)
         geometry: Any
         if pieces:
