@@ -169,6 +169,17 @@ def test_glb_round_trip(tmp_path):
     assert "knob_9" in world.scene.graph.nodes_geometry
 
 
+def test_single_mesh_ply_is_named_after_the_file(tmp_path):
+    mesh = trimesh.creation.box(extents=(0.5, 0.1, 2.0))
+    mesh.apply_translation((3.0, -1.0, 1.0))
+    path = tmp_path / "door_7.ply"
+    mesh.export(path)
+    world = wg.WorldModel.from_file(path)
+    assert list(world.types) == ["door"]
+    np.testing.assert_allclose(world.positions[0], [3.0, -1.0, 1.0], atol=1e-6)
+    np.testing.assert_allclose(world.objects[0].size, [0.5, 0.1, 2.0], atol=1e-6)
+
+
 # ----------------------------------------------------------------------------------------------
 # MJCF
 # ----------------------------------------------------------------------------------------------
