@@ -931,6 +931,16 @@ class WorldModel:
         return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
                    link_margin=link_margin, room=room)
 
+    @classmethod
+    def from_file(cls, path: str | os.PathLike[str], type_of: Any = None, **options: Any) -> WorldModel:
+        """World model from a scene file: GLB/GLTF/OBJ/PLY/STL/OFF/DAE through trimesh, MJCF through
+        MuJoCo (``mjcf`` extra); see :func:`worldgraph.importers.world_from_file` for ``type_of``
+        (``None``, a callable ``name -> type or None``, or a mapping ``regex -> type``) and
+        ``options`` (``max_link_length``, ``link_margin``, ``room``, ``mjcf_objects``, ``file_format``)."""
+        from .importers import world_from_file
+
+        return world_from_file(path, type_of, world_class=cls, **options)
+
     # -- derived data ----------------------------------------------------------------------------
     @property
     def types(self) -> NDArray[np.str_]:
