@@ -264,3 +264,24 @@ def test_missing_yourdfpy_names_the_extra(tmp_path: Path, monkeypatch: pytest.Mo
     with pytest.raises(MissingExtraError, match=r"pip install gaussian-spheres\[urdf\]") as info:
         KinematicChain.from_urdf(urdf, "base", "left_eye")
     assert isinstance(info.value, ImportError) and isinstance(info.value, PerceptionError)
+
+
+def test_gaze_angles_keep_the_urdf_limits() -> None:
+    from worldgraph.active import gaze_angles
+    from worldgraph.errors import OutOfRangeError
+
+    chain = KinematicChain.from_urdf(ICUB, "chest", "head")
+    lower, upper = chain.limits.T
+    q_true = np.array([-0.3, 0.2, 0.5])
+    target = (chain.ego_from_camera(q_true) @ [0.0, 0.0, 2.0, 1.0])[:3]  # 2 m along the optical axis
+    q, err, within = gaze_angles(chain, target)
+    assert err < 1e-4 and within is True
+    assert np.all((q >= lower) & (q <= upper))
+    behind = (chain.ego_from_camera(np.zeros(3)) @ [0.0, 0.0, -2.0, 1.0])[:3]  # out of reach
+    q, err, within = gaze_angles(chain, behind)
+    assert err > 1.0 and within is True
+    assert np.all((q >= lower) & (q <= upper))
+    q, _, _ = gaze_angles(chain, target, joint_limits={"neck_yaw": (-0.1, 0.1)})
+    assert -0.1 <= q[2] <= 0.1
+    with pytest.raises(OutOfRangeError, match=r"neck_yaw.*\[5\.0, 6\.0\] does not meet"):
+        gaze_angles(chain, target, joint_limits={"neck_yaw": (5.0, 6.0)})
