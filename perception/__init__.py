@@ -13,7 +13,9 @@ from .errors import (
     CalibrationFileError,
     ImageFormatError,
     InvalidPoseError,
+    JointLimitError,
     KinematicsError,
+    MissingExtraError,
     NonFiniteError,
     NonPositiveSigmaError,
     NotFittedError,
@@ -21,6 +23,7 @@ from .errors import (
     ShapeError,
     TooManyNeighboursError,
     UnknownClassError,
+    URDFError,
 )
 from .fusion import fuse_percepts, mean_shift_modes
 from .percept import Percept
@@ -58,8 +61,10 @@ __all__ = [
     "ImageFormatError",
     "InvalidPoseError",
     "Joint",
+    "JointLimitError",
     "KinematicChain",
     "KinematicsError",
+    "MissingExtraError",
     "NonFiniteError",
     "NonPositiveSigmaError",
     "NotFittedError",
@@ -71,6 +76,7 @@ __all__ = [
     "StereoMatch",
     "StereoRig",
     "UnknownClassError",
+    "URDFError",
     "check_transform",
     "class_bandwidth",
     "default_head",

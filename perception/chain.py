@@ -8,6 +8,7 @@ Joint-encoder noise propagates to percept covariance through the chain's Jacobia
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -17,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._checks import guard, name_str, real_array, real_scalar, vector3
 from .errors import (
     InvalidPoseError,
+    JointLimitError,
     KinematicsError,
     NonFiniteError,
     NonPositiveSigmaError,
@@ -39,6 +41,21 @@ def _check_angle(joint: str, index: int | None, value: float) -> float:
             "radians; did you pass degrees? use np.radians"
         )
     return value
+
+
+def _check_limits(joint: Joint, index: int | None, value: float) -> float:
+    """``value`` if it lies within the joint's limits, else a :class:`JointLimitError`."""
+    lower = -np.inf if joint.lower is None else joint.lower
+    upper = np.inf if joint.upper is None else joint.upper
+    if not lower <= value <= upper:
+        where = "" if index is None else f" (index {index})"
+        raise JointLimitError(
+            f"angle of joint {joint.name!r}{where} = {value!r} lies outside the joint limits "
+            f"[{joint.lower!r}, {joint.upper!r}] rad"
+        )
+    return value
+
+
 MAX_TRANSLATION = 1e150
 """Largest translation (metres) of a rigid transform accepted."""
 # tip (x forward, y left, z up) from OpenCV camera (x right, y down, z forward)
@@ -106,11 +123,16 @@ class Joint:
         Rotation axis in the joint frame.
     origin : (4, 4) float
         ``parent_from_joint`` at zero angle; the joint transform is ``origin @ Rot(axis, q)``.
+    lower, upper : float or None, optional
+        Joint limits, radians (None: no limit on that side). An angle outside them raises
+        :class:`~perception.JointLimitError`.
     """
 
     name: str
     axis: str
     origin: NDArray[np.float64]
+    lower: float | None = None
+    upper: float | None = None
 
     @guard
     def __post_init__(self) -> None:
@@ -120,12 +142,24 @@ class Joint:
         M = check_transform(f"origin of joint {self.name!r}", self.origin)
         M.setflags(write=False)
         object.__setattr__(self, "origin", M)
+        for side in ("lower", "upper"):
+            value = getattr(self, side)
+            if value is not None:
+                try:
+                    value = real_scalar(f"{side} limit of joint {self.name!r}", value)
+                except PerceptionError as exc:
+                    raise JointLimitError(str(exc)) from exc
+                object.__setattr__(self, side, value)
+        if self.lower is not None and self.upper is not None and self.lower > self.upper:
+            raise JointLimitError(
+                f"joint {self.name!r}: lower limit {self.lower!r} exceeds upper limit {self.upper!r}"
+            )
 
     @guard
     def transform(self, angle: float) -> NDArray[np.float64]:
-        """``parent_from_joint`` at ``angle`` (radians)."""
+        """``parent_from_joint`` at ``angle`` (radians, within the joint limits)."""
         q = _check_angle(self.name, None, real_scalar(f"angle of joint {self.name!r}", angle))
-        return self.origin @ rotation(self.axis, q)
+        return self.origin @ rotation(self.axis, _check_limits(self, None, q))
 
 
 @dataclass(frozen=True)
@@ -176,6 +210,57 @@ class KinematicChain:
         object.__setattr__(self, "ego_from_base", E)
         object.__setattr__(self, "tip_from_camera", C)
 
+    @classmethod
+    def from_urdf(
+        cls,
+        path: str | os.PathLike[str],
+        base_link: str,
+        camera_link: str,
+        link_from_camera: ArrayLike = TIP_FROM_OPENCV,
+    ) -> KinematicChain:
+        """The chain of a URDF robot from ``base_link`` (the ego frame) down to ``camera_link``.
+
+        Needs yourdfpy (``pip install gaussian-spheres[urdf]``). Revolute and continuous joints
+        become :class:`Joint` s with the URDF's limits (continuous joints have none); fixed joints
+        are folded into the next joint's origin (or, after the last joint, into
+        ``tip_from_camera``). A joint axis other than +x, +y or +z is carried by a constant rotation
+        folded into the joint's origin and undone in the next transform, so the forward
+        kinematics are the URDF's while the joint frames of :meth:`joint_frames` may be turned
+        about the axis.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The URDF file (meshes are not loaded).
+        base_link : str
+            Link whose frame is the ego frame (``ego_from_base`` is the identity).
+        camera_link : str
+            Link that carries the left camera; it must lie below ``base_link`` in the URDF tree.
+        link_from_camera : (4, 4) float, optional
+            Pose of the OpenCV camera (x right, y down, z forward) in ``camera_link``'s frame.
+            The default :data:`TIP_FROM_OPENCV` suits a camera link that follows ROS REP 103
+            (x forward, y left, z up), as the built-in head's eye frames; pass ``np.eye(4)`` for
+            an optical frame (z forward).
+
+        Returns
+        -------
+        KinematicChain
+            Without a ``right_eye``; :meth:`ego_from_camera` is ``base_from_camera_link @
+            link_from_camera``.
+
+        Raises
+        ------
+        MissingExtraError
+            yourdfpy is not installed.
+        URDFError
+            The file is missing or unreadable, a link is not in it, ``camera_link`` is not below
+            ``base_link``, no revolute joint lies between them, or a joint on the way is
+            prismatic, planar, floating or a mimic joint.
+        """
+        from .urdf import chain_from_urdf
+
+        return chain_from_urdf(path, base_link, camera_link, link_from_camera)
+
     @property
     def names(self) -> tuple[str, ...]:
         """Joint names: the serial joints, then the right eye (if any)."""
@@ -187,12 +272,21 @@ class KinematicChain:
         """Number of joints (including the right eye)."""
         return len(self.names)
 
+    @property
+    def limits(self) -> NDArray[np.float64]:
+        """Joint limits in the order of :attr:`names`, shape (n_joints, 2): ``(lower, upper)``
+        radians, ``-inf`` / ``inf`` where a joint has no limit."""
+        joints = self.joints + ((self.right_eye,) if self.right_eye is not None else ())
+        return np.array([[-np.inf if j.lower is None else j.lower, np.inf if j.upper is None else j.upper]
+                         for j in joints])
+
     @guard
     def angle_vector(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
         """Angles as a vector in the order of :attr:`names` (the right eye defaults to the left).
 
         ``angles`` is a dict ``name -> radians`` (every serial joint required) or an array of
-        length ``len(joints)`` or ``n_joints``.
+        length ``len(joints)`` or ``n_joints``. An angle outside its joint's limits raises
+        :class:`~perception.JointLimitError` naming the joint, its index and the angle.
         """
         n = len(self.joints)
         if isinstance(angles, Mapping):
@@ -219,6 +313,9 @@ class KinematicChain:
         if big.size:
             i = int(big[0])
             _check_angle(self.names[i], i, float(vec[i]))
+        joints = self.joints + ((self.right_eye,) if self.right_eye is not None else ())
+        for i, joint in enumerate(joints):
+            _check_limits(joint, i, float(vec[i]))
         return vec
 
     @guard

@@ -43,6 +43,19 @@ class InvalidPoseError(KinematicsError):
     """A 4x4 transform that is not a rigid motion (bad rotation block or last row)."""
 
 
+class JointLimitError(KinematicsError):
+    """A joint angle outside the joint's limits (or limits with lower > upper)."""
+
+
+class URDFError(KinematicsError):
+    """A URDF file that cannot be read, or whose links do not form a usable chain (a missing link,
+    no path from the base link down to the camera link, a joint type the chain cannot hold)."""
+
+
+class MissingExtraError(PerceptionError, ImportError):
+    """An optional dependency is not installed; the message names the extra to install."""
+
+
 class ImageFormatError(ShapeError):
     """An image has the wrong shape, number of channels or dtype."""
 

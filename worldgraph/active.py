@@ -124,8 +124,8 @@ class ViewPlan:
     gaze_reached : bool or None
         ``pointing_error <= 1 deg`` (within the joint limits, when given); None without a head.
     within_limits : bool or None
-        Whether ``joint_angles`` respect ``joint_limits``; **None when no limits were given**
-        (a :class:`perception.KinematicChain` carries none, so the angles are then unchecked).
+        Whether ``joint_angles`` respect ``joint_limits`` and the head's own joint limits;
+        **None when neither gives any** (the angles are then unchecked).
     candidates : int
         Number of candidate directions scored.
     """
@@ -237,8 +237,14 @@ def _gaze_fk(head: KinematicChain, q: NDArray[np.float64]) -> NDArray[np.float64
 
 
 def _check_limits(head: KinematicChain, joint_limits: object) -> tuple[NDArray, NDArray] | None:
+    """``(lower, upper)`` of the serial joints: the chain's own limits narrowed by ``joint_limits``;
+    None when neither gives any."""
+    n = len(head.joints)
+    own_lo, own_hi = head.limits[:n].T
     if joint_limits is None:
-        return None
+        if np.all(np.isinf(own_lo)) and np.all(np.isinf(own_hi)):
+            return None
+        return own_lo.copy(), own_hi.copy()
     if not isinstance(joint_limits, Mapping):
         raise ArgumentTypeError(f"joint_limits must be a mapping joint name -> (lower, upper) radians, got "
                                 f"{type(joint_limits).__name__}")
@@ -256,7 +262,10 @@ def _check_limits(head: KinematicChain, joint_limits: object) -> tuple[NDArray, 
                 raise OutOfRangeError(f"joint_limits[{name!r}] must be (lower, upper) with lower < upper, "
                                       f"got {pair.tolist()}")
             lo[i], hi[i] = pair
-    return lo, hi
+            if not max(lo[i], own_lo[i]) <= min(hi[i], own_hi[i]):
+                raise OutOfRangeError(f"joint_limits[{name!r}] = {pair.tolist()} does not meet the joint's "
+                                      f"own limits {[float(own_lo[i]), float(own_hi[i])]}")
+    return np.maximum(lo, own_lo), np.minimum(hi, own_hi)
 
 
 def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[str, Any] | None = None
@@ -275,7 +284,8 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
     target : (3,) float
         Ego point (m).
     joint_limits : mapping joint name -> (lower, upper), optional
-        Radians; joints not named are free.  A chain carries no limits of its own.
+        Radians; they narrow the chain's own limits (``head.limits``, e.g. from a URDF), and
+        joints named in neither are free.
 
     Returns
     -------
@@ -326,7 +336,7 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
             break
     assert best_q is not None
     within = None if bounds is None else bool(np.all((best_q >= lo - 1e-9) & (best_q <= hi + 1e-9)))
-    return head.angle_vector(best_q), best_err, within
+    return head.angle_vector(np.clip(best_q, lo, hi)), best_err, within
 
 
 @dataclass(frozen=True)
@@ -471,7 +481,7 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
         Two predicted same-type points closer than ``n_sigma sqrt(2) sigma + margin`` look the
         same; ``margin`` (m) covers the pose error of the hypotheses and the model's inaccuracy.
     joint_limits : mapping joint name -> (lower, upper), optional
-        Radians, for ``head``.
+        Radians, for ``head``; they narrow the head's own limits (``head.limits``).
 
     Returns
     -------
