@@ -417,7 +417,9 @@ def image_view(image: Any, detections: Sequence[Any] = (), *, ax: Any = None, bg
     ax.imshow(img[:, :, ::-1] if bgr else img)
     for t in sorted({d.type for d in dets}):
         uv = np.array([d.centroid_uv for d in dets if d.type == t])
-        ax.scatter(*uv.T, s=70, facecolors="none", edgecolors=colours[t], linewidths=1.8,
+        # a white halo under the coloured ring keeps it visible on a same-coloured region
+        ax.scatter(*uv.T, s=90, facecolors="none", edgecolors="white", linewidths=4.0)
+        ax.scatter(*uv.T, s=90, facecolors="none", edgecolors=colours[t], linewidths=2.0,
                    label=f"{t} detections ({len(uv)})", gid=f"detections:{t}")
     ax.set_xlim(-0.5, img.shape[1] - 0.5)
     ax.set_ylim(img.shape[0] - 0.5, -0.5)
