@@ -256,7 +256,7 @@ def test_top_view_rejects_bad_arguments():
 
 def test_missing_matplotlib_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)   # import now raises ImportError
-    with pytest.raises(wg.ImporterError, match=r"gaussian-spheres\[examples\]"):
+    with pytest.raises(wg.ImporterError, match=r"gaussian-spheres\[plots\]"):
         plots.top_view(_world())
     with pytest.raises(wg.WorldGraphError, match="matplotlib"):
         plots.covariance_ellipse([0, 0], np.eye(2))

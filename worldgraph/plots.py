@@ -1,10 +1,11 @@
 """Figures of a localisation: a top view of the world, the percepts, the hypotheses and the
 estimate with its 3-sigma ellipse; camera images with their detections.
 
-matplotlib is an optional dependency (``pip install gaussian-spheres[examples]``); it is
-imported inside the functions, so ``import worldgraph.plots`` costs nothing without it, and a
-call raises :class:`~worldgraph.errors.ImporterError` naming the extra when it is missing.
-Nothing here picks a backend: scripts that write files call ``matplotlib.use("Agg")`` first.
+matplotlib is an optional dependency (``pip install gaussian-spheres[plots]``, also in the
+``examples`` extra); it is imported inside the functions, so ``import worldgraph.plots`` costs
+nothing without it, and a call raises :class:`~worldgraph.errors.ImporterError` naming the
+extra when it is missing.  Nothing here picks a backend: scripts that write files call
+``matplotlib.use("Agg")`` first.
 
 Every type has one colour (:func:`type_colours`): the model objects of a type and the percepts
 of that type are drawn in it, in every panel of a figure.  Legends go outside the axes, to the
@@ -63,7 +64,8 @@ def _pyplot() -> Any:
         import matplotlib.pyplot as plt
     except ImportError as exc:
         raise ImporterError(
-            "worldgraph.plots needs matplotlib: pip install gaussian-spheres[examples]") from exc
+            "worldgraph.plots needs matplotlib: pip install gaussian-spheres[plots] "
+            "(the examples extra brings it too)") from exc
     return plt
 
 
