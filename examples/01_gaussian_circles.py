@@ -48,17 +48,22 @@ def main() -> None:
         (axes[1], product, "product density, eq. 14 (Fig. 13b)"),
     ):
         im = ax.imshow(field, origin="lower", extent=(xs[0], xs[-1], ys[0], ys[-1]), cmap="magma")
-        fig.colorbar(im, ax=ax, shrink=0.8)
+        fig.colorbar(im, ax=ax, shrink=0.8, label="density at z = 0")
         for c, r in zip(centers, radii, strict=True):
             ax.add_patch(plt.Circle(c[:2], r, fill=False, color="cyan", lw=0.8, ls="--"))
-            ax.plot(*c[:2], "c+")
-        ax.plot(*truth[:2], "wx", ms=9, label="truth")
+            ax.plot(*c[:2], "c+", label="circle centres, radii (dashed)")
+        ax.plot(*truth[:2], "X", mfc="white", mec="black", ms=9, label="truth")
         ax.plot(*best[:2], "o", mfc="none", mec="lime", ms=10, label="maximum (ML)")
         ax.set_title(title)
         ax.set_aspect("equal")
-        ax.legend(loc="upper right", fontsize=8)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        handles, labels = ax.get_legend_handles_labels()
+        unique = dict(zip(labels, handles, strict=True))
+        ax.legend(unique.values(), unique.keys(), loc="upper center", bbox_to_anchor=(0.5, -0.13),
+                  ncol=3, fontsize=8, frameon=False)
     path = args.out / "01_gaussian_circles.png"
-    fig.savefig(path, dpi=80)
+    fig.savefig(path, dpi=80, bbox_inches="tight")
     print(f"saved {path}")
 
 

@@ -41,7 +41,7 @@ def two_spheres(ax) -> None:
     ax.set(xlim=(0, 25), ylim=(0, 25), xlabel="r1 / sigma1", ylabel="r2 / sigma2",
            title="two spheres in Sd^2: K_meet shaded")
     ax.set_aspect("equal")
-    ax.legend(fontsize=7, loc="upper left")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, frameon=False)
 
 
 def three_spheres(ax, rng: np.random.Generator) -> None:
@@ -68,7 +68,7 @@ def three_spheres(ax, rng: np.random.Generator) -> None:
         ax.scatter(*(sol.radii / sig), marker=marker, s=120,
                    label=f"{method} (density {sol.density:.3f})")
     ax.set(xlabel="r1/s1", ylabel="r2/s2", zlabel="r3/s3", title="three spheres in Sd^3")
-    ax.legend(fontsize=7, loc="upper left")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=2, frameon=False)
 
 
 def main() -> None:
@@ -78,7 +78,7 @@ def main() -> None:
     two_spheres(fig.add_subplot(1, 2, 1))
     three_spheres(fig.add_subplot(1, 2, 2, projection="3d"), np.random.default_rng(args.seed))
     path = args.out / "02_radial_polytope.png"
-    fig.savefig(path, dpi=80)
+    fig.savefig(path, dpi=80, bbox_inches="tight")
     print(f"saved {path}")
 
 

@@ -134,43 +134,27 @@ def main() -> None:
 
 def save_figure(args, world: wg.WorldModel, seen: np.ndarray, fused: list, results: dict,
                 truth: np.ndarray) -> None:
+    """Top view of the kitchen with the fused percepts placed by the ML estimate, its 3-sigma
+    ellipse and near-best alternatives (worldgraph.plots), the paper method's estimate and the
+    true pose."""
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(9, 7.5), constrained_layout=True)
-    ax.scatter(*world.positions[:, :2].T, s=3, c="0.8", label="world objects")
-    colours = {"door": "tab:brown", "handle": "tab:gray", "drawer": "tab:olive", "knob": "tab:purple"}
-    for t, col in colours.items():
-        idx = seen[world.types[seen] == t]
-        ax.scatter(*world.positions[idx, :2].T, s=10, c=col, label=t)
+    fig, (ax, zoom) = plt.subplots(1, 2, figsize=(15, 7.5), width_ratios=[2.2, 1],
+                                   constrained_layout=True)
     est = results["ml"]
-    if np.all(np.isfinite(est.transformation)):
-        in_world = np.array([est.transformation[:3, :3] @ p.position + est.transformation[:3, 3]
-                             for p in fused])
-        ax.scatter(*in_world[:, :2].T, s=40, facecolors="none", edgecolors="tab:red",
-                   label="percepts (estimated pose)")
-        for h in est.hypotheses[1:6]:
-            if h.world_from_ego is not None:
-                ax.plot(*h.world_from_ego[:2, 3], "x", c="tab:orange", ms=8)
-        ax.plot([], [], "x", c="tab:orange", label="other hypotheses")
-        cov = est.covariance[:2, :2]
-        if np.all(np.isfinite(cov)):
-            w, V = np.linalg.eigh(cov)
-            angle = np.degrees(np.arctan2(V[1, 1], V[0, 1]))
-            scale = 3.0 * np.sqrt(np.maximum(w, 0.0))
-            ax.add_patch(plt.matplotlib.patches.Ellipse(
-                est.position[:2], 2 * max(scale[1], 0.02), 2 * max(scale[0], 0.02), angle=angle,
-                fill=False, color="tab:blue", lw=1.5, label="3-sigma CRLB (drawn >= 2 cm)"))
-    for name, res, mark in (("paper", results["paper"], "s"), ("ml", est, "o")):
-        if np.all(np.isfinite(res.position)):
-            ax.plot(*res.position[:2], mark, mfc="none", mec="tab:blue", ms=11, label=f"estimate ({name})")
-    heading = truth[:3, :3] @ np.array([0.6, 0.0, 0.0])
-    ax.arrow(*truth[:2, 3], *heading[:2], width=0.04, color="k", label="truth")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_title("kitchen, top view: world, fused percepts and the estimated pose")
-    ax.legend(loc="lower right", fontsize=7, ncol=2)
+    paper = results["paper"]
+    for a in (ax, zoom):
+        wg.plots.top_view(world, percepts=fused, result=est, ax=a, types=RECOGNISED, truth=truth,
+                          legend=False)
+        if np.all(np.isfinite(paper.position)):
+            a.plot(*paper.position[:2], "s", mfc="none", mec="tab:blue", mew=1.5, ms=12, ls="none",
+                   label=f"estimate, paper method ({paper.status})")
+    ax.set_title(f"kitchen, top view: fused percepts placed by the ML estimate ({est.status})")
+    zoom.set_xlim(truth[0, 3] - 0.25, truth[0, 3] + 0.25)
+    zoom.set_ylim(truth[1, 3] - 0.25, truth[1, 3] + 0.25)
+    zoom.set_title("0.5 m around the true pose")
+    wg.plots.legend_outside(zoom)
     path = args.out / "03_localize_kitchen.png"
-    fig.savefig(path, dpi=80)
+    fig.savefig(path, dpi=90, bbox_inches="tight")
     print(f"saved {path}")
 
 

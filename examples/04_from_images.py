@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import time
 
-import cv2
 import numpy as np
 from _common import parse_args_with, pyplot
 
@@ -110,37 +109,30 @@ def main() -> None:
             print(f"      {res.message}")
     else:
         print(f"no pose: {res.status}: {res.message}")
-    save_figure(args, world, truth, fused, res, shown)
+    save_figure(args, world, truth, fused, res, shown, classifier)
 
 
-def save_figure(args, world, truth, fused, res, shown) -> None:
+def save_figure(args, world, truth, fused, res, shown, classifier) -> None:
+    """The stereo pair with the most percepts, its detections marked by type, above a top view
+    of the hall (worldgraph.plots) with the fused percepts placed by the estimate."""
     plt = pyplot()
-    fig = plt.figure(figsize=(12, 7.5), constrained_layout=True)
-    grid = fig.add_gridspec(2, 2, height_ratios=[1.0, 1.1])
+    fig = plt.figure(figsize=(13, 9), constrained_layout=True)
+    grid = fig.add_gridspec(2, 2, height_ratios=[1.0, 1.0])
     left, right, found, k = shown
+    colours = wg.plots.type_colours(RECOGNISED)
     for col, (img, title) in enumerate(((left, "left"), (right, "right"))):
         ax = fig.add_subplot(grid[0, col])
-        ax.imshow(cv2.cvtColor(img, cv2.COLOR_BGR2RGB))
-        ax.set_title(f"view {k}, {title} image ({len(found)} percepts)")
-        ax.axis("off")
+        # the detections recognize() matched and triangulated into this view's percepts
+        wg.plots.image_view(img, pc.detect(img, classifier), ax=ax, colours=colours,
+                            title=f"view {k}, {title} image ({len(found)} percepts from the pair)")
     ax = fig.add_subplot(grid[1, :])
-    ax.scatter(*world.positions[:, :2].T, s=4, c="0.75", label="world objects")
-    for t, col in (("door", "tab:brown"), ("handle", "tab:gray")):
-        idx = world.indices_of(t)
-        ax.scatter(*world.positions[idx, :2].T, s=12, c=col, label=t)
-    pose = res.transformation if np.all(np.isfinite(res.transformation)) else truth
-    pts = np.array([pose[:3, :3] @ p.position + pose[:3, 3] for p in fused]).reshape(-1, 3)
-    ax.scatter(*pts[:, :2].T, s=50, facecolors="none", edgecolors="tab:red",
-               label="fused percepts (estimated pose)")
-    heading = truth[:3, :3] @ np.array([0.8, 0.0, 0.0])
-    ax.arrow(*truth[:2, 3], *heading[:2], width=0.05, color="k", label="truth")
-    if np.all(np.isfinite(res.position)):
-        ax.plot(*res.position[:2], "o", mfc="none", mec="tab:blue", ms=12, label="estimate (ml)")
-    ax.set_aspect("equal")
-    ax.legend(loc="upper left", fontsize=7, ncol=3)
-    ax.set_title("hall, top view")
+    have_pose = bool(np.all(np.isfinite(res.transformation)))
+    wg.plots.top_view(world, percepts=fused, result=res, pose=None if have_pose else truth, ax=ax,
+                      types=RECOGNISED, truth=truth,
+                      title="hall, top view: fused percepts placed by the "
+                            + (f"estimate ({res.status})" if have_pose else "true pose (no estimate)"))
     path = args.out / "04_from_images.png"
-    fig.savefig(path, dpi=70)
+    fig.savefig(path, dpi=75, bbox_inches="tight")
     print(f"saved {path}")
 
 

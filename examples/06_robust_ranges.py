@@ -56,7 +56,7 @@ def main() -> None:
     print(f"l2 vs project_radii (active set): {np.max(np.abs(rows[0][1].radii - exact.radii)):.1e} m")
 
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 3.4))
+    fig, ax = plt.subplots(figsize=(7.4, 3.4))
     width = 0.27
     for k, (objective, sol) in enumerate(rows):
         ax.bar(np.arange(n) + (k - 1) * width, sol.displacement, width, label=objective)
@@ -65,7 +65,8 @@ def main() -> None:
     ax.set_xlabel("range")
     ax.set_ylabel("displacement r' - r (m)")
     ax.set_title(f"one range wrong by {args.error:+.1f} m")
-    ax.legend()
+    ax.legend(title="objective", loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+              frameon=False)
     fig.tight_layout()
     path = args.out / "06_robust_ranges.png"
     fig.savefig(path, dpi=110)

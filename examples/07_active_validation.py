@@ -28,7 +28,6 @@ import worldgraph as wg
 from worldgraph.active import active_localize
 
 RECOGNISED = ("door", "handle", "drawer", "knob")
-COLOURS = {"door": "tab:brown", "handle": "tab:blue", "drawer": "tab:green", "knob": "tab:purple"}
 HYP_COLOURS = ("tab:red", "tab:orange", "gold", "tab:pink", "tab:cyan", "tab:olive", "tab:gray", "black")
 FOV_DEG, MAX_RANGE = 60.0, 8.0
 
@@ -88,14 +87,6 @@ def robot(ax, T: np.ndarray, colour: str, label: str, marker: str = "o", arrow: 
              length_includes_head=True)
 
 
-def draw_objects(ax, world: wg.WorldModel) -> None:
-    lo, hi = world.bounds
-    ax.plot([lo[0], hi[0], hi[0], lo[0], lo[0]], [lo[1], lo[1], hi[1], hi[1], lo[1]], color="0.4", lw=1)
-    for t in RECOGNISED:
-        xy = world.positions[world.types == t]
-        ax.plot(xy[:, 0], xy[:, 1], ".", color=COLOURS[t], ms=3, alpha=0.5, label=f"{t} (model)")
-
-
 def main() -> None:
     args = parse_args(__doc__.splitlines()[0])
     t_start = time.perf_counter()
@@ -137,9 +128,9 @@ def main() -> None:
     print(f"{len(out.percepts) - len(percepts)} new percepts from {out.looks} look(s)")
 
     plt = pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(14, 5.8), sharex=True, sharey=True)
+    fig, axes = plt.subplots(1, 2, figsize=(14, 6.6), sharex=True, sharey=True)
     ax = axes[0]
-    draw_objects(ax, world)
+    wg.plots.top_view(world, ax=ax, types=RECOGNISED, legend=False)
     for h, T in enumerate(plan.hypotheses):
         c = HYP_COLOURS[h % len(HYP_COLOURS)]
         heading = math.atan2(*(T[:3, :3] @ d)[1::-1])
@@ -149,7 +140,7 @@ def main() -> None:
         ax.plot(*world.positions[exp, :2].T, "x", color=c, ms=7, mew=1.5,
                 label=f"expected under {h}, absent under another")
     robot(ax, pose, "k", "true pose", marker="*")
-    zoom = fig.add_axes((0.80, 0.1, 0.17, 0.3))   # the poses, 1 m around the truth
+    zoom = fig.add_axes((0.81, 0.07, 0.15, 0.24))   # the poses, 1 m around the truth
     for h, T in enumerate(plan.hypotheses):
         robot(zoom, T, HYP_COLOURS[h % len(HYP_COLOURS)], f"hypothesis {h}", arrow=0.3)
     robot(zoom, pose, "k", "true pose", marker="*", arrow=0.3)
@@ -163,25 +154,23 @@ def main() -> None:
     ax.set_title(f"before: '{first.status}'; planned gaze (fov {FOV_DEG:g} deg, {MAX_RANGE:g} m) "
                  "under each pose")
     ax = axes[1]
-    draw_objects(ax, world)
     final = out.result
+    # every percept placed by the final pose in its type's colour, the estimate with its 3-sigma
+    # ellipse, the truth (worldgraph.plots); the first 5 percepts get a black square around them
+    wg.plots.top_view(world, percepts=out.percepts, result=final, ax=ax, types=RECOGNISED, truth=pose,
+                      n_hypotheses=0, legend=False)
     if np.all(np.isfinite(final.transformation)):
         T = final.transformation
-        new = np.array([p.position for p in out.percepts[len(percepts):]]).reshape(-1, 3)
         old = np.array([p.position for p in percepts])
-        ax.plot(*(old @ T[:3, :3].T + T[:3, 3])[:, :2].T, "o", mfc="none", mec="k", ms=8,
-                label="first 5 percepts (final pose)")
-        if len(new):
-            ax.plot(*(new @ T[:3, :3].T + T[:3, 3])[:, :2].T, "o", mfc="none", mec="tab:red", ms=6,
-                    label="percepts of the look (final pose)")
+        ax.plot(*(old @ T[:3, :3].T + T[:3, 3])[:, :2].T, "s", mfc="none", mec="k", ms=11, mew=1.2,
+                label="the first 5 percepts")
         wedge(ax, pose[:3, 3], math.atan2(*(pose[:3, :3] @ d)[1::-1]), "k", "the look (true pose)")
-        robot(ax, T, "tab:red", f"final pose ({final.status})")
-    robot(ax, pose, "k", "true pose", marker="*")
     ax.set_title(f"after {out.looks} look(s): '{final.status}'")
     for ax in axes:
         ax.set_xlabel("x (m)")
         ax.set_aspect("equal")
     axes[0].set_ylabel("y (m)")
+    axes[1].set_ylabel("")
     handles, labels = [], []
     for ax in axes:
         for hd, lb in zip(*ax.get_legend_handles_labels(), strict=True):

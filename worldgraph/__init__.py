@@ -1,6 +1,6 @@
 """worldgraph: world model graph, association and pose."""
 
-from . import scenes, tiles
+from . import plots, scenes, tiles
 from .active import ActiveLocalization, ViewPlan, active_localize, plan_view
 from .association import (
     ASSOCIATION_TOLERANCES,
@@ -59,6 +59,7 @@ __all__ = [
     "box_vertices",
     "franka_kitchen_path",
     "load_franka_kitchen",
+    "plots",
     "scenes",
     "tiles",
 ]
