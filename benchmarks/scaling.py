@@ -4,7 +4,9 @@ Worlds (``--worlds``, default all): ``kitchen`` (scenes.kitchen, 753 objects), `
 (scenes.floor(20000)), ``building`` (scenes.building_site: 5 storeys, 100k objects) and ``campus``
 (scenes.campus_site: 10 buildings x 5 storeys, 1M objects).  Every world runs in its own
 subprocess, so its peak memory (``VmHWM``, the ``ru_maxrss`` of this process alone) is its own:
-after the imports, after the build and at the end.
+after the imports, after the build and at the end.  After the world, the far-pair index
+(``WorldModel.build_far_pairs``, gravity-aligned with ``--gravity``) is built for every pair of
+types and timed apart (``--no-far-index``: built lazily during the first calls instead).
 
 For each of ``--poses`` random robot poses (kitchen: as in benchmarks/association.py, x, y
 uniform 0.5 m inside the room, z = 1.5 m, percept types door/handle/drawer/knob; the others: at a
@@ -225,9 +227,12 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
     t0 = time.perf_counter()
     world, site = _build(name, args.seed)
     build = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    far = world.build_far_pairs(args.gravity) if args.far_index else 0
+    index = time.perf_counter() - t0
     rss_build = _maxrss_mib()
-    print(f"{name}: {len(world)} objects built in {build:.1f} s, {rss_build:.0f} MiB", file=sys.stderr,
-          flush=True)
+    print(f"{name}: {len(world)} objects built in {build:.1f} s, far-pair index {far:,} pairs in "
+          f"{index:.1f} s, {rss_build:.0f} MiB", file=sys.stderr, flush=True)
     tol = AssociationTolerances(gravity_aligned=args.gravity)
     tiles = split(world, site.labels("storey" if name == "building" else "building")) if site else None
     draw = _drawer(name, world, site, args)
@@ -271,7 +276,8 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
     def stats(v: list[float]) -> list[float] | None:
         return [float(np.median(v)), float(np.percentile(v, 95))] if v else None
 
-    return {"world": name, "objects": len(world), "build": build, "rss_imports": rss_imports,
+    return {"world": name, "objects": len(world), "build": build, "index": index, "far_pairs": far,
+            "rss_imports": rss_imports,
             "rss_build": rss_build,
             "rss_peak": _maxrss_mib(), "poses": n, "associate": stats(t_assoc), "localize": stats(t_loc),
             "tiled": stats(t_tiled), "tiles": len(tiles) if tiles else 0,
@@ -290,7 +296,8 @@ def _ms(s: list[float] | None) -> str:
 
 def table(rows: list[dict]) -> str:
     kitchen = next((r for r in rows if r["world"] == "kitchen" and r.get("associate")), None)
-    out = ["| world | objects | build s | peak MiB (imports / build / end) | poses "
+    out = ["| world | objects | build s (world + far-pair index: pairs) "
+           "| peak MiB (imports / build / end) | poses "
            "| associate median / p95 ms | x kitchen | localize median / p95 ms | correct "
            "| ambiguous / wrong / failed | tiled localize median / p95 ms (tiles) | tiled correct |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -304,7 +311,8 @@ def table(rows: list[dict]) -> str:
         tc = f"{100 * r['tiled_correct']:.0f} %" if r["tiles"] else "-"
         kv = r.get("verdicts", {}).get("plain", {})
         awf = " / ".join(str(kv.get(k, 0)) for k in ("ambiguous", "wrong", "failed"))
-        out.append(f"| {r['world']} | {r['objects']:,} | {r['build']:.2f} | {r['rss_imports']:,.0f} / "
+        out.append(f"| {r['world']} | {r['objects']:,} | {r['build']:.2f} + {r['index']:.2f}: "
+                   f"{r['far_pairs'] / 1e6:.1f}M | {r['rss_imports']:,.0f} / "
                    f"{r['rss_build']:,.0f} / {r['rss_peak']:,.0f} | {r['poses']} | {_ms(r['associate'])} "
                    f"| {ratio} | {_ms(r['localize'])} | {100 * r['correct']:.0f} % | {awf} | {tiled} "
                    f"| {tc} |")
@@ -329,6 +337,8 @@ def main(argv: list[str] | None = None) -> None:
                     help="gravity-aligned invariants (the robot knows which way is up)")
     ap.add_argument("--max-seconds", type=float, default=900.0,
                     help="stop drawing poses for a world after this many seconds")
+    ap.add_argument("--no-far-index", dest="far_index", action="store_false",
+                    help="do not run WorldModel.build_far_pairs after the world (built lazily on first use)")
     ap.add_argument("--workers", type=int, default=None, help="processes of localize_tiled")
     ap.add_argument("--baselines", nargs="*", choices=("ransac", "open3d"), default=["ransac", "open3d"])
     ap.add_argument("--baseline-worlds", nargs="*", choices=WORLDS, default=["kitchen"])

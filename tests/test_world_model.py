@@ -567,3 +567,21 @@ def test_far_pairs_hold_exactly_the_pairs_within_reach(gravity: bool) -> None:
         world.far_pairs("door", "sofa")
     with pytest.raises(wg.ArgumentTypeError, match="gravity_aligned"):
         world.far_pairs("door", "knob", "yes")
+
+
+def test_build_far_pairs_builds_every_type_pair_within_the_budget(monkeypatch) -> None:
+    import worldgraph.model as model
+
+    rng = np.random.default_rng(5)
+    world = WorldModel.from_arrays(rng.choice(["door", "knob", "lamp"], 300), rng.uniform(0, 30, (300, 3)))
+    n = world.build_far_pairs()
+    held = [world.far_pairs(a, b) for a in ("door", "knob", "lamp") for b in ("door", "knob", "lamp")]
+    assert all(x is not None for x in held)
+    # door-knob and knob-door share their pairs: count each unordered type pair once
+    assert n == sum(len(world.far_pairs(a, b).key) for a, b in
+                    [("door", "door"), ("door", "knob"), ("door", "lamp"), ("knob", "knob"),
+                     ("knob", "lamp"), ("lamp", "lamp")]) > 0
+    # over the budget: no index, the association falls back to k-d tree queries
+    monkeypatch.setattr(model, "FAR_PAIR_BUDGET", 0)
+    fresh = WorldModel.from_arrays(rng.choice(["door", "knob"], 100), rng.uniform(0, 30, (100, 3)))
+    assert fresh.build_far_pairs() == 0 and fresh.far_pairs("door", "knob") is None

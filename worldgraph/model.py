@@ -49,6 +49,7 @@ without it read as ``room = None``.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -1083,6 +1084,13 @@ class WorldModel:
     @cached_property
     def _far_pairs(self) -> dict[tuple[str, str, bool], FarPairIndex | None]:
         return {}
+
+    def build_far_pairs(self, gravity_aligned: bool = False) -> int:
+        """Build :meth:`far_pairs` for every pair of types now (instead of on first use, during
+        the first localisations); returns the number of pairs held (within the budgets)."""
+        for a, b in itertools.combinations_with_replacement(self.type_names, 2):
+            self.far_pairs(a, b, gravity_aligned)
+        return sum(len(x.key) for x in self._far_pairs.values() if x is not None)
 
     def indices_of(self, type_name: str) -> NDArray[np.intp]:
         """Object indices of one type (``UnknownTypeError`` if absent)."""
