@@ -235,6 +235,11 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
           f"{index:.1f} s, {rss_build:.0f} MiB", file=sys.stderr, flush=True)
     tol = AssociationTolerances(gravity_aligned=args.gravity)
     tiles = split(world, site.labels("storey" if name == "building" else "building")) if site else None
+    if tiles and args.far_index:  # each tile's world has its own index (built here, before the fork)
+        t0 = time.perf_counter()
+        for tile in tiles:
+            tile.world.build_far_pairs(args.gravity)
+        index += time.perf_counter() - t0
     draw = _drawer(name, world, site, args)
     rng = np.random.default_rng(args.seed + 17)
     t_assoc, t_loc, t_tiled = [], [], []
