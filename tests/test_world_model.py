@@ -585,3 +585,13 @@ def test_build_far_pairs_builds_every_type_pair_within_the_budget(monkeypatch) -
     monkeypatch.setattr(model, "FAR_PAIR_BUDGET", 0)
     fresh = WorldModel.from_arrays(rng.choice(["door", "knob"], 100), rng.uniform(0, 30, (100, 3)))
     assert fresh.build_far_pairs() == 0 and fresh.far_pairs("door", "knob") is None
+
+
+def test_type_rank_is_the_position_in_the_type_index() -> None:
+    rng = np.random.default_rng(9)
+    types = rng.choice(["door", "knob", "lamp"], 200)
+    world = WorldModel.from_arrays(types, rng.uniform(0, 30, (200, 3)))
+    for k in range(200):
+        assert world.type_index[types[k]][world.type_rank[k]] == k
+    with pytest.raises(ValueError):
+        world.type_rank[0] = 5

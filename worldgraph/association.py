@@ -789,6 +789,9 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         keep = (np.abs(dv[:, 2] - diff[2]) < ztol) & \
             (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - math.hypot(diff[0], diff[1])) < tau)
         i, j = i[keep], j[keep]
+    if op is world.type_index[tp] and oq is world.type_index[tq]:  # the usual case: a gather
+        rank = world.type_rank
+        return rank[i], rank[j]
     return _local(op, i), _local(oq, j)
 
 

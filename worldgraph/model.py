@@ -964,6 +964,15 @@ class WorldModel:
         """Object indices of each type, ascending."""
         return self._type_index  # type: ignore[attr-defined,no-any-return]
 
+    @cached_property
+    def type_rank(self) -> NDArray[np.intp]:
+        """``(n,)``: the position of each object in its type's :attr:`type_index` array (read-only)."""
+        rank = np.empty(len(self.objects), dtype=np.intp)
+        for idx in self._type_index.values():  # type: ignore[attr-defined]
+            rank[idx] = np.arange(len(idx))
+        rank.setflags(write=False)
+        return rank
+
     @property
     def tree(self) -> cKDTree:
         """A :class:`scipy.spatial.cKDTree` over :attr:`positions`."""
