@@ -53,3 +53,41 @@ def test_guard_wraps_opencv_errors_without_importing_opencv():
     with pytest.raises(RuntimeError, match="not an argument error") as info:
         other()
     assert not isinstance(info.value, PerceptionError)
+
+
+def _pyproject() -> dict:
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10: the test extra installs tomli
+        import tomli as tomllib
+    with open(ROOT / "pyproject.toml", "rb") as fh:
+        return tomllib.load(fh)
+
+
+def test_version_matches_pyproject():
+    import perception
+    import radialopt
+    import worldgraph
+
+    expected = _pyproject()["project"]["version"]
+    assert [perception.__version__, worldgraph.__version__, radialopt.__version__] == [expected] * 3
+
+
+def test_version_fallback_without_installed_distribution():
+    # the source tree alone (no installed metadata) must report pyproject's version too
+    expected = _pyproject()["project"]["version"]
+    proc = _run("import importlib.metadata as md\n"
+                "def missing(name):\n"
+                "    raise md.PackageNotFoundError(name)\n"
+                "md.version = missing\n"
+                "import perception, radialopt, worldgraph\n"
+                "print(perception.__version__, worldgraph.__version__, radialopt.__version__)")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == [expected] * 3
+
+
+def test_licence_file_and_metadata_agree():
+    text = (ROOT / "LICENSE").read_text()
+    assert text.startswith("MIT License")
+    assert "Copyright (c) 2026 the gaussian-spheres developers" in text
+    assert _pyproject()["project"]["license"] == {"text": "MIT"}
