@@ -1,6 +1,8 @@
 """Package-level contracts: imports without OpenCV, versions, licence, status literals."""
 
+import ast
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -91,3 +93,124 @@ def test_licence_file_and_metadata_agree():
     assert text.startswith("MIT License")
     assert "Copyright (c) 2026 the gaussian-spheres developers" in text
     assert _pyproject()["project"]["license"] == {"text": "MIT"}
+
+
+# ---------------------------------------------------------------- statuses: Literal types
+
+def _consts(node):
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return {node.value}
+    if isinstance(node, ast.IfExp):
+        return _consts(node.body) | _consts(node.orelse)
+    return set()
+
+
+_TOKEN = re.compile(r"^[a-z][a-z_]*$")
+
+
+def _returned(node):
+    """Token-like string constants a return statement gives back, bare or in a tuple."""
+    value = node.value
+    elts = value.elts if isinstance(value, ast.Tuple) else [value]
+    out = set()
+    for e in elts:
+        out |= {v for v in _consts(e) if _TOKEN.match(v)}
+    return out
+
+
+#: Failure helpers and the position of their status argument.
+_FAILERS = {"_failed": 0, "failed": 0, "_nan_estimate": 1}
+
+
+def _returned_statuses(path):
+    """String literals ``path`` hands out as a status: ``status=`` keywords, assignments to
+    ``status``, the status argument of the failure helpers, token-like strings returned (bare or
+    in a tuple) and the values of a ``*_STATUS`` translation table; with their line numbers."""
+    tree = ast.parse((ROOT / path).read_text())
+    found = {}
+
+    def add(vals, node):
+        for v in vals:
+            found.setdefault(v, node.lineno)
+
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call):
+            for kw in node.keywords:
+                if kw.arg == "status":
+                    add(_consts(kw.value), node)
+            name = getattr(node.func, "id", getattr(node.func, "attr", None))
+            if name in _FAILERS and len(node.args) > _FAILERS[name]:
+                add(_consts(node.args[_FAILERS[name]]), node)
+        elif isinstance(node, ast.Return) and node.value is not None:
+            add(_returned(node), node)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            for t in targets:
+                first = t.elts[0] if isinstance(t, ast.Tuple) and t.elts else t
+                if isinstance(first, ast.Name) and first.id == "status" and node.value is not None:
+                    value = node.value.elts[0] if isinstance(node.value, ast.Tuple) else node.value
+                    add(_consts(value), node)
+                if isinstance(t, ast.Name) and t.id.endswith("_STATUS") and isinstance(node.value, ast.Dict):
+                    for v in node.value.values:
+                        add(_consts(v), node)
+    return found
+
+
+def _status_sets():
+    import sys as _sys
+
+    import radialopt
+    import radialopt.comparison
+    import worldgraph
+
+    localize_module = _sys.modules["worldgraph.localize"]  # worldgraph.localize is the function
+    return {
+        "worldgraph/localize.py": localize_module.LOCALIZE_STATUSES,
+        "worldgraph/tiles.py": localize_module.LOCALIZE_STATUSES,
+        "worldgraph/active.py": worldgraph.active.VIEW_STATUSES,
+        "radialopt/position.py": radialopt.POSITION_STATUSES,
+        "radialopt/projection.py": radialopt.STATUSES,
+        "radialopt/formulation.py": radialopt.STATUSES,
+        "radialopt/comparison.py": radialopt.comparison.RUN_STATUSES,
+    }
+
+
+@pytest.mark.parametrize("path", sorted(_status_sets()))
+def test_every_returned_status_is_listed_in_its_literal(path):
+    listed = set(_status_sets()[path])
+    returned = _returned_statuses(path)
+    unlisted = {s: line for s, line in returned.items() if s not in listed}
+    assert not unlisted, f"{path} returns statuses missing from its Literal: {unlisted}"
+
+
+def test_status_collector_finds_known_statuses():
+    # the collector above must see the statuses these modules are known (by reading them) to return
+    assert {"too_few_percepts", "no_association", "weak", "inconsistent", "degenerate"} <= set(
+        _returned_statuses("worldgraph/localize.py"))
+    assert {"too_few_spheres", "not_converged", "outside_region", "ambiguous"} <= set(
+        _returned_statuses("radialopt/position.py"))
+    assert {"optimal", "optimal_inaccurate", "infeasible", "error"} <= set(
+        _returned_statuses("radialopt/projection.py"))
+
+
+def test_status_subsets_derive_from_their_literals():
+    import sys as _sys
+
+    import radialopt
+    import worldgraph
+
+    L = _sys.modules["worldgraph.localize"]
+    assert L.LOCALIZE_STATUSES == ("ok", "weak", "ambiguous", "inconsistent", "no_association",
+                                   "too_few_percepts", "degenerate", "outside_region",
+                                   "degenerate_coplanar", "degenerate_collinear", "not_converged")
+    assert L.UNIQUE_STATUSES == ("ok", "weak")
+    assert L.POSE_STATUSES == ("ok", "weak", "ambiguous")
+    # the tiles' failure ranking orders exactly the statuses without a trusted pose
+    assert sorted(worldgraph.tiles.FAILURE_ORDER) == sorted(set(L.LOCALIZE_STATUSES) - set(L.POSE_STATUSES))
+    assert len(set(worldgraph.tiles.FAILURE_ORDER)) == len(worldgraph.tiles.FAILURE_ORDER)
+    assert set(worldgraph.active._LOOK_STATUSES) == {"ok", "weak", "ambiguous", "inconsistent",
+                                                    "outside_region"}
+    assert worldgraph.active.VIEW_STATUSES == ("ok", "not_discriminating", "single_hypothesis")
+    assert radialopt.POSITION_SUCCESS == ("ok", "ambiguous")
+    assert set(radialopt.POSITION_SUCCESS) < set(radialopt.POSITION_STATUSES)
+    assert radialopt.CERTIFICATE_METHODS == ("closed_form", "branch_and_bound", "sdp", "none")

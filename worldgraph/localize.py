@@ -89,7 +89,12 @@ __all__ = [
     "MAX_ROTATION_3SIGMA",
     "REGION_MARGIN",
     "LocalizationResult",
+    "FailureStatus",
     "LocalizeStatus",
+    "POSE_STATUSES",
+    "PoseStatus",
+    "UNIQUE_STATUSES",
+    "UniqueStatus",
     "default_region",
     "localize",
     "match_spheres",
@@ -123,10 +128,20 @@ MAX_VALIDATED = 8
 #: ... among at most this many association hypotheses.
 ASSOCIATION_CANDIDATES = 32
 
-LocalizeStatus = Literal[
+#: Statuses of a unique answer (:attr:`LocalizationResult.unique`).
+UniqueStatus = Literal[
     "ok",                    # a unique pose, well determined, consistent with its matches
     "weak",                  # unique and consistent, but a 3-sigma bound exceeds the tolerance
+]
+#: Statuses that come with a trusted pose: finite, rigid, with a finite covariance.
+PoseStatus = Literal[
+    UniqueStatus,
     "ambiguous",             # another association or position candidate is about as good
+]
+#: Statuses without a trusted pose (``"inconsistent"``, ``"outside_region"`` and the range-only
+#: ``"degenerate_coplanar"`` and ``"not_converged"`` still fill in the pose that failed, for
+#: diagnosis).
+FailureStatus = Literal[
     "inconsistent",          # the pose contradicts its own matches (chi-square self-check)
     "no_association",        # no consistent set of >= 3 percept-object pairs
     "too_few_percepts",      # fewer than 3 percepts of known types
@@ -136,8 +151,13 @@ LocalizeStatus = Literal[
     "degenerate_collinear",  # range-only methods: collinear landmarks
     "not_converged",         # range-only methods: the position estimator stopped at its iteration cap
 ]
+LocalizeStatus = Literal[PoseStatus, FailureStatus]
 #: Statuses of :class:`LocalizationResult`; only ``"ok"`` and ``"weak"`` are unique answers.
 LOCALIZE_STATUSES: tuple[str, ...] = get_args(LocalizeStatus)
+#: ``"ok"`` and ``"weak"``: the unique answers.
+UNIQUE_STATUSES: tuple[str, ...] = get_args(UniqueStatus)
+#: ``"ok"``, ``"weak"`` and ``"ambiguous"``: a finite rigid pose and covariance, checked.
+POSE_STATUSES: tuple[str, ...] = get_args(PoseStatus)
 
 
 @dataclass(frozen=True)
@@ -218,7 +238,7 @@ class LocalizationResult:
     @property
     def unique(self) -> bool:
         """A unique, consistent pose (status ``"ok"`` or ``"weak"``)."""
-        return self.status in ("ok", "weak")
+        return self.status in UNIQUE_STATUSES
 
 
 def _failed(status: LocalizeStatus, message: str, n: int, hyps: tuple = (), timings: dict | None = None,
@@ -383,7 +403,7 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
     if status not in LOCALIZE_STATUSES:
         return replace(result, status="degenerate", message=f"{result.message}; internal status {status!r} "
                        "is not a localisation status".lstrip("; "))
-    if status in ("ok", "weak", "ambiguous"):
+    if status in POSE_STATUSES:
         T = result.transformation
         finite = bool(np.all(np.isfinite(T)) and np.all(np.isfinite(result.pose_covariance))
                       and np.all(np.isfinite(result.covariance)))
