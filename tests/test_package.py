@@ -109,12 +109,12 @@ _TOKEN = re.compile(r"^[a-z][a-z_]*$")
 
 
 def _returned(node):
-    """Token-like string constants a return statement gives back, bare or in a tuple."""
-    value = node.value
-    elts = value.elts if isinstance(value, ast.Tuple) else [value]
+    """Token-like string constants a return statement gives back in a tuple (``return z,
+    "optimal"``; a bare string returned is more often text than a status)."""
     out = set()
-    for e in elts:
-        out |= {v for v in _consts(e) if _TOKEN.match(v)}
+    if isinstance(node.value, ast.Tuple):
+        for e in node.value.elts:
+            out |= {v for v in _consts(e) if _TOKEN.match(v)}
     return out
 
 
@@ -124,8 +124,8 @@ _FAILERS = {"_failed": 0, "failed": 0, "_nan_estimate": 1}
 
 def _returned_statuses(path):
     """String literals ``path`` hands out as a status: ``status=`` keywords, assignments to
-    ``status``, the status argument of the failure helpers, token-like strings returned (bare or
-    in a tuple) and the values of a ``*_STATUS`` translation table; with their line numbers."""
+    ``status``, the status argument of the failure helpers, token-like strings returned in a
+    tuple and the values of a ``*_STATUS`` translation table; with their line numbers."""
     tree = ast.parse((ROOT / path).read_text())
     found = {}
 
