@@ -1,5 +1,13 @@
 """perception: stereo camera, uncertainty model, ego chain, fusion and recognition."""
 
+from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
+from importlib.metadata import version as _distribution_version
+
+try:
+    __version__: str = _distribution_version("gaussian-spheres")
+except _PackageNotFoundError:  # run from a source tree that was never installed
+    __version__ = "0.1.0"  # keep equal to pyproject.toml's [project] version (a test checks)
+
 from .chain import (
     Joint,
     KinematicChain,

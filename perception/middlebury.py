@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -125,6 +124,7 @@ def sgbm_disparity(
     (h, w) float
         Disparity in pixels (sub-pixel, 1/16 steps).
     """
+    import cv2
     if left.shape != right.shape or left.ndim not in (2, 3):
         raise ShapeError(f"left and right must be images of one shape, got {left.shape} and {right.shape}")
     gl = cv2.cvtColor(left, cv2.COLOR_RGB2GRAY) if left.ndim == 3 else left

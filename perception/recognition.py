@@ -33,7 +33,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
@@ -479,6 +478,7 @@ def _draw_view(
     canvas: NDArray[Any],
 ) -> NDArray[Any]:
     """Fill the visible faces into ``canvas`` (colours per (box, face), or box index labels)."""
+    import cv2
     verts, normals, box_idx, face_idx = _visible_faces(boxes, camera_from_world)
     if len(verts) == 0:
         return canvas
@@ -635,6 +635,7 @@ def visible_mask(
     -------
     (m,) bool
     """
+    import cv2
     pose = check_transform("camera_from_world", camera_from_world)
     boxes = sequence("boxes", boxes, Box)
     min_area = real_scalar("min_area", min_area, nonnegative=True)
@@ -801,6 +802,7 @@ def _region_stats(
     NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]
 ]:
     """:func:`region_features` plus each region's pixel covariance (r, 2, 2), px^2 (u, v)."""
+    import cv2
     image = _check_image("image", image)
     min_area = integer("min_area", min_area, minimum=1, maximum=MAX_RENDER_PIXELS)
     if not isinstance(color_ranges, Mapping) or not all(
@@ -1227,6 +1229,7 @@ def _skew(t: NDArray[np.float64]) -> NDArray[np.float64]:
 def _undistort(
     uv: NDArray[np.float64], K: NDArray[np.float64], D: NDArray[np.float64]
 ) -> NDArray[np.float64]:
+    import cv2
     if len(uv) == 0 or not np.any(D):
         return uv
     return cv2.undistortPoints(uv.reshape(-1, 1, 2), K, D, P=K).reshape(-1, 2)

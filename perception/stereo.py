@@ -11,7 +11,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
-import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -43,8 +42,10 @@ MAX_FILE_DEPTH = 64
 indentation levels); OpenCV's recursive parser overflows its stack on deeply nested input."""
 
 _FILE_KEYS = ("K1", "D1", "K2", "D2", "R", "T", "image_size")
-# Iterative undistortion: OpenCV's default (5 iterations) is not enough for strong distortion.
-_UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-15)
+# Iterative undistortion: OpenCV's default (5 iterations) is not enough for strong distortion;
+# at most this many iterations, stopping earlier at a step below _UNDISTORT_EPS (normalised units).
+_UNDISTORT_ITERATIONS = 200
+_UNDISTORT_EPS = 1e-15
 
 
 class Rectification(NamedTuple):
@@ -312,6 +313,7 @@ class StereoRig:
         CalibrationFileError
             The file is missing, unreadable, or lacks a key or holds a non-matrix under it.
         """
+        import cv2
         path = _path(path)
         _check_file(path)
         try:
@@ -323,6 +325,7 @@ class StereoRig:
 
     @classmethod
     def _read(cls, path: Path) -> StereoRig:
+        import cv2
         try:
             fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
         except (cv2.error, SystemError) as exc:  # the binding raises SystemError on parse errors
@@ -374,6 +377,7 @@ class StereoRig:
 
         No distortion (an empty ``D``) is written as five zeros, which OpenCV treats alike.
         """
+        import cv2
         path = _path(path)
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
         if not fs.isOpened():
@@ -457,6 +461,7 @@ class StereoRig:
         BehindCameraError
             A point has depth <= 0 in the left or the right camera.
         """
+        import cv2
         X = _points("points_left", points_left, 3)
         X2 = X @ self.R.T + self.T
         for name, Z in (("left", X[:, 2]), ("right", X2[:, 2])):
@@ -528,11 +533,13 @@ class StereoRig:
     def _undistort(
         uv: NDArray[np.float64], K: NDArray[np.float64], D: NDArray[np.float64]
     ) -> NDArray[np.float64]:
+        import cv2
         src = uv.reshape(-1, 1, 2)
         if D.size == 0 or not np.any(D):
             out = cv2.undistortPoints(src, K, D)
         else:
-            out = cv2.undistortPoints(src, K, D, criteria=_UNDISTORT_CRITERIA)
+            out = cv2.undistortPoints(src, K, D, criteria=(
+                cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, _UNDISTORT_ITERATIONS, _UNDISTORT_EPS))
         return out.reshape(-1, 2).astype(np.float64)
 
     @guard
@@ -571,6 +578,7 @@ class StereoRig:
         self, xy1: NDArray[np.float64], xy2: NDArray[np.float64]
     ) -> NDArray[np.float64]:
         """``cv2.triangulatePoints`` of normalised coordinates; rows may be non-finite or behind."""
+        import cv2
         P1 = np.hstack([np.eye(3), np.zeros((3, 1))])
         P2 = np.hstack([self.R, self.T.reshape(3, 1)])
         Xh = cv2.triangulatePoints(P1, P2, xy1.T.copy(), xy2.T.copy()).astype(np.float64)
@@ -584,6 +592,7 @@ class StereoRig:
 
         ``alpha``: -1 (OpenCV's default scaling) or a free scaling parameter in [0, 1].
         """
+        import cv2
         alpha = real_scalar("alpha", alpha)
         if alpha != -1.0 and not 0.0 <= alpha <= 1.0:
             raise PerceptionError(f"alpha must be -1 or lie in [0, 1], got {alpha!r}")

@@ -61,7 +61,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -69,10 +69,17 @@ from numpy.typing import ArrayLike, NDArray
 from ._checks import integer, point3, real_scalar
 from .spheres import GaussianSphere, sphere_arrays
 
-__all__ = ["CERTIFICATE_METHODS", "Certificate", "certify_position", "closed_form_multiplier"]
+__all__ = [
+    "CERTIFICATE_METHODS",
+    "Certificate",
+    "CertificateMethod",
+    "certify_position",
+    "closed_form_multiplier",
+]
 
-#: Values of :attr:`Certificate.method`.
-CERTIFICATE_METHODS = ("closed_form", "branch_and_bound", "sdp", "none")
+#: Values of :attr:`Certificate.method`: the proof that certified, ``"none"`` without one.
+CertificateMethod = Literal["closed_form", "branch_and_bound", "sdp", "none"]
+CERTIFICATE_METHODS: tuple[str, ...] = get_args(CertificateMethod)
 
 _ROUND = 1e-11  # relative rounding margin subtracted from every computed lower bound
 
@@ -98,7 +105,7 @@ class Certificate:
     """
 
     certified: bool
-    method: Literal["closed_form", "branch_and_bound", "sdp", "none"]
+    method: CertificateMethod
     lower_bound: float
     gap: float
     solve_time: float

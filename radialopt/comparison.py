@@ -19,11 +19,12 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
 from .errors import RadialError, UnknownMethodError
-from .projection import _Problem, installed_cvxpy_solvers, project_radii
+from .projection import RadialStatus, _Problem, installed_cvxpy_solvers, project_radii
 from .spheres import TOLERANCES, GaussianSphere, make_spheres
 
 #: cvxpy solvers that accept a convex QP; others (LP-only, mixed-integer) are left out.
@@ -50,6 +51,12 @@ class Problem:
         return make_spheres(self.centers, self.radii, self.sigmas)
 
 
+#: Status of a :class:`Run`: the solver's :data:`~radialopt.projection.RadialStatus`, or
+#: ``"skipped"`` when the solver is not installed.
+RunStatus = Literal[RadialStatus, "skipped"]
+RUN_STATUSES: tuple[str, ...] = get_args(RunStatus)
+
+
 @dataclass(frozen=True)
 class Run:
     """The outcome of one solver on one problem."""
@@ -60,7 +67,7 @@ class Run:
     feasible: bool
     scaling: str
     success: bool
-    status: str
+    status: RunStatus
     time: float
     violation: float
     distance: float

@@ -72,6 +72,7 @@ __all__ = [
     "POSITION_STATUSES",
     "POSITION_SUCCESS",
     "PositionStatus",
+    "PositionSuccess",
     "EstimatorOptions",
     "PositionEstimate",
     "crlb",
@@ -80,10 +81,16 @@ __all__ = [
     "srls",
 ]
 
-#: Statuses of :class:`PositionEstimate`.
-PositionStatus = Literal[
+#: Statuses whose position is a usable answer (finite, converged, near the landmarks and inside
+#: the ``region`` when one is given).  ``"outside_region"`` is not one: its position violates the
+#: caller's region (worldgraph's ``localize`` treats it as a failure too).
+PositionSuccess = Literal[
     "ok",                    # a unique estimate
     "ambiguous",             # another candidate is about as likely (mirror image, ...)
+]
+#: Statuses of :class:`PositionEstimate`.
+PositionStatus = Literal[
+    PositionSuccess,
     "outside_region",        # no candidate inside the region; the best one (outside it) is
                              # returned for diagnosis: not a success (it violates the region)
     "degenerate_coplanar",   # coplanar centres and the estimate on their plane: J singular
@@ -95,10 +102,8 @@ PositionStatus = Literal[
     "not_converged",         # "ml" polish or "gradient" ascent hit its cap: best point found
 ]
 POSITION_STATUSES: tuple[str, ...] = get_args(PositionStatus)
-#: Statuses whose position is a usable answer (finite, converged, near the landmarks and inside
-#: the ``region`` when one is given).  ``"outside_region"`` is not one: its position violates the
-#: caller's region (worldgraph's ``localize`` treats it as a failure too).
-POSITION_SUCCESS = ("ok", "ambiguous")
+#: ``"ok"`` and ``"ambiguous"`` (:data:`PositionSuccess`).
+POSITION_SUCCESS: tuple[str, ...] = get_args(PositionSuccess)
 
 
 @dataclass(frozen=True)

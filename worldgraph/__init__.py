@@ -1,5 +1,13 @@
 """worldgraph: world model graph, association and pose."""
 
+from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
+from importlib.metadata import version as _distribution_version
+
+try:
+    __version__: str = _distribution_version("gaussian-spheres")
+except _PackageNotFoundError:  # run from a source tree that was never installed
+    __version__ = "0.1.0"  # keep equal to pyproject.toml's [project] version (a test checks)
+
 from . import plots, scenes, tiles
 from .active import ActiveLocalization, ViewPlan, active_localize, plan_view
 from .association import (

@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,7 +50,7 @@ from perception import KinematicChain, Percept
 from ._checks import as_list, float_array, generator, positive_float, strict_int
 from .association import ASSOCIATION_TOLERANCES, AssociationTolerances, check_world_and_percepts
 from .errors import ArgumentTypeError, NonFiniteError, OutOfRangeError, UnknownTypeError
-from .localize import LocalizationResult, localize
+from .localize import LocalizationResult, PoseStatus, localize
 from .model import WorldModel
 
 __all__ = [
@@ -58,6 +58,7 @@ __all__ = [
     "VIEW_STATUSES",
     "GOAL_ROTATION_3SIGMA",
     "ViewPlan",
+    "LookStatus",
     "ViewStatus",
     "active_localize",
     "gaze_angles",
@@ -72,7 +73,7 @@ ViewStatus = Literal[
     "not_discriminating",  # no candidate direction tells the hypotheses apart (score 0)
     "single_hypothesis",   # the result has one hypothesis: nothing to tell apart (score 0)
 ]
-VIEW_STATUSES: tuple[str, ...] = ("ok", "not_discriminating", "single_hypothesis")
+VIEW_STATUSES: tuple[str, ...] = get_args(ViewStatus)
 
 #: Fixed candidate directions spread over the sphere (Fibonacci lattice) added to the
 #: object directions.
@@ -81,8 +82,10 @@ N_FIXED_DIRECTIONS = 64
 N_RANDOM_DIRECTIONS = 32
 #: Largest pointing error (rad) of the head's optical axis at which ``gaze_reached`` is True.
 GAZE_TOLERANCE = math.radians(1.0)
-#: Localisation statuses that come with a pose to plan a view from.
-_POSED_STATUSES = ("ambiguous", "weak", "inconsistent", "outside_region", "ok")
+#: Localisation statuses that come with a pose to plan a view from (the trusted ones and the
+#: poses that failed their own check or the caller's region): what ``look_while`` may hold.
+LookStatus = Literal[PoseStatus, "inconsistent", "outside_region"]
+_LOOK_STATUSES: tuple[str, ...] = get_args(LookStatus)
 #: :func:`active_localize` also looks while an "ok" answer's 3-sigma rotation bound is wider than
 #: this (radians): 2 degrees, what a pose judged correct may be off by in the benchmarks.
 GOAL_ROTATION_3SIGMA = math.radians(2.0)
@@ -656,9 +659,9 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
             raise OutOfRangeError(f"goal_rotation_3sigma = {g!r} is an angle in radians and must be <= pi; "
                                   f"did you mean degrees? np.radians({g:g}) = {math.radians(g):.4g}")
     for i, st in enumerate(statuses):
-        if st not in _POSED_STATUSES:
+        if st not in _LOOK_STATUSES:
             raise OutOfRangeError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
-                                  f"choose among {_POSED_STATUSES}")
+                                  f"choose among {_LOOK_STATUSES}")
     tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
     current = check_world_and_percepts(world, percepts)
     result = localize(world, current, method, tolerances=tol)

@@ -49,7 +49,7 @@ from perception import Percept
 from . import _checks
 from .association import ASSOCIATION_TOLERANCES, AssociationHypothesis, AssociationTolerances
 from .errors import ArgumentTypeError, EmptyWorldError, ShapeError, UnknownTypeError, WorldGraphError
-from .localize import LOCALIZE_METHODS, LocalizationResult, localize
+from .localize import LOCALIZE_METHODS, POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult, localize
 from .model import WorldModel
 from .validation import CHI2_3_GATE, CHI2_6_GATE, NearestObjects, fit_hypothesis, percept_covariances
 
@@ -61,7 +61,7 @@ MAX_TILES = 100_000
 #: result of the first tile with the earliest status in this order is returned.
 FAILURE_ORDER = ("outside_region", "inconsistent", "degenerate_coplanar", "degenerate_collinear",
                  "degenerate", "not_converged", "no_association", "too_few_percepts")
-_WITH_POSE = ("ok", "weak", "ambiguous")
+_WITH_POSE = POSE_STATUSES
 
 
 @dataclass(frozen=True, eq=False)
@@ -256,7 +256,7 @@ def _combine(tiles: Sequence[Tile], answers: list[_TileAnswer], tol: Association
         gap = float(np.linalg.norm(first.result.transformation[:3, 3] - pose[:3, 3]))
         notes.append(f"tiles ambiguous: best robust cost {best.cost:.3g} in tile {tiles[best_k].label}, next "
                      f"{first.cost:.3g} in tile {tiles[runners[0]].label} at a pose {gap:.3g} m away")
-        if status in ("ok", "weak"):
+        if status in UNIQUE_STATUSES:
             status = "ambiguous"
     llr = res.log_likelihood_ratio
     if len(posed) > 1:
