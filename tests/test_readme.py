@@ -1,0 +1,123 @@
+"""README.md runs as written: every ```python block, in order, in one namespace (issue 15), and its
+two set-up commands are the ones .ci/run runs."""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import traceback
+from pathlib import Path
+
+import matplotlib
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+CI_RUN = ROOT / ".ci" / "run"
+FENCE = re.compile(r"^```(\w*)[ \t]*\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
+
+
+def fenced_blocks(text: str, language: str) -> list[tuple[int, str]]:
+    """``(line number, source)`` of every fenced block of ``language`` in a Markdown text, in order."""
+    return [(text.count("\n", 0, m.start()) + 1, m.group(2)) for m in FENCE.finditer(text)
+            if m.group(1) == language]
+
+
+def first_line(source: str) -> str:
+    """The first line of a block that is not blank."""
+    return next((line.strip() for line in source.splitlines() if line.strip()), "")
+
+
+def run_blocks(blocks: list[tuple[int, str]], namespace: dict) -> None:
+    """Execute the blocks in order in ``namespace``; fail naming the block number, its README line
+    and its first line when one raises."""
+    for number, (line, source) in enumerate(blocks, start=1):
+        code = compile(source, f"README.md python block {number} (line {line})", "exec")
+        try:
+            exec(code, namespace)  # noqa: S102 - running the README's own code is the point of this test
+        except Exception:  # noqa: BLE001 - any failure of the README's code fails the test, named
+            pytest.fail(f"README.md python block {number} (line {line}, starting {first_line(source)!r}) "
+                        f"raised:\n{traceback.format_exc()}", pytrace=False)
+
+
+def test_fence_parser_finds_blocks_in_order() -> None:
+    text = "intro\n```python\na = 1\n```\n\n```bash\nls\n```\n```python\nb = a + 1\n```\n"
+    assert fenced_blocks(text, "python") == [(2, "a = 1\n"), (9, "b = a + 1\n")]
+    assert fenced_blocks(text, "bash") == [(6, "ls\n")]
+
+
+def test_runner_names_the_failing_block() -> None:
+    blocks = [(3, "x = 1\n"), (10, "\n# second\ny = undefined_name\n")]
+    with pytest.raises(pytest.fail.Exception, match=r"(?s)block 2 \(line 10, starting '# second'\).*NameError"):
+        run_blocks(blocks, {})
+
+
+def test_readme_python_blocks_run_in_order(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    blocks = fenced_blocks(README.read_text(encoding="utf-8"), "python")
+    assert len(blocks) >= 5, "the API tour lost its python blocks"
+    matplotlib.use("Agg")
+    monkeypatch.chdir(tmp_path)  # the tour writes out/ and a temporary scene file
+    namespace: dict = {"__name__": "__readme__"}
+    try:
+        run_blocks(blocks, namespace)
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close("all")
+    # the tour saved its figure where it says
+    assert (tmp_path / "out" / "readme_top_view.png").stat().st_size > 0
+
+
+# ---- the set-up commands -------------------------------------------------------------------------
+def commands(text: str) -> list[list[str]]:
+    """Simple commands of a shell text: split on newlines, ``&&``, ``;`` and ``|``, comments dropped,
+    ``sudo`` and ``python -m`` prefixes removed (``python -m pip`` is ``pip``)."""
+    out = []
+    for line in text.splitlines():
+        words = shlex.split(line, comments=True)
+        cmd: list[str] = []
+        for w in [*words, "&&"]:
+            if w in ("&&", ";", "|", "||"):
+                if cmd:
+                    while cmd and cmd[0] == "sudo":
+                        cmd = cmd[1:]
+                    if cmd[:2] == ["python", "-m"] and len(cmd) > 2 and cmd[2] in ("pip", "pytest"):
+                        cmd = cmd[2:]
+                    out.append(cmd)
+                cmd = []
+            else:
+                cmd.append(w)
+    return out
+
+
+def setup_commands(kind: str, cmds: list[list[str]]) -> list[list[str]]:
+    """The ``pip install``, ``apt-get`` and ``pytest`` commands (the set-up and test run)."""
+    return [c for c in cmds if c[0] in ("pip", "pytest", "apt-get") and (kind != "pip" or c[0] == "pip")]
+
+
+def test_command_splitter() -> None:
+    assert commands('sudo apt-get update && python -m pip install -e ".[test]"  # note\npython -m pytest -q') == [
+        ["apt-get", "update"], ["pip", "install", "-e", ".[test]"], ["pytest", "-q"]]
+
+
+def test_readme_setup_commands_are_what_ci_runs() -> None:
+    bash = fenced_blocks(README.read_text(encoding="utf-8"), "bash")
+    assert len(bash) == 2, f"README.md has {len(bash)} bash blocks; the set-up has two commands"
+    install_and_example, tests = (commands(source) for _, source in bash)
+    ci = commands(CI_RUN.read_text(encoding="utf-8"))
+    # README command 2 is CI's job: the same apt-get, pip install and pytest lines, in the same order
+    assert setup_commands("all", tests) == setup_commands("all", ci)
+    assert any(c[0] == "pytest" for c in ci)
+    # README command 1 installs the same package from the same checkout with the examples extra
+    pip1 = setup_commands("pip", install_and_example)
+    assert pip1 == [["pip", "install", "-e", ".[examples]"]]
+    ci_pip = [c for c in setup_commands("pip", ci) if c[:3] == ["pip", "install", "-e"]]
+    assert [c[3].split("[")[0] for c in ci_pip] == ["."]
+    # and runs the example the README names, which exists
+    runs = [c for c in install_and_example if c[0] == "python"]
+    assert len(runs) == 1 and (ROOT / runs[0][1]).is_file()
+
+
+def test_ci_run_is_executable() -> None:
+    assert os.access(CI_RUN, os.X_OK)
