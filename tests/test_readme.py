@@ -49,7 +49,8 @@ def test_fence_parser_finds_blocks_in_order() -> None:
 
 def test_runner_names_the_failing_block() -> None:
     blocks = [(3, "x = 1\n"), (10, "\n# second\ny = undefined_name\n")]
-    with pytest.raises(pytest.fail.Exception, match=r"(?s)block 2 \(line 10, starting '# second'\).*NameError"):
+    expected = r"(?s)block 2 \(line 10, starting '# second'\).*NameError"
+    with pytest.raises(pytest.fail.Exception, match=expected):
         run_blocks(blocks, {})
 
 
@@ -91,29 +92,36 @@ def commands(text: str) -> list[list[str]]:
     return out
 
 
-def setup_commands(kind: str, cmds: list[list[str]]) -> list[list[str]]:
-    """The ``pip install``, ``apt-get`` and ``pytest`` commands (the set-up and test run)."""
-    return [c for c in cmds if c[0] in ("pip", "pytest", "apt-get") and (kind != "pip" or c[0] == "pip")]
+SETUP = ("apt-get", "pip", "pytest")
+
+
+def setup_commands(cmds: list[list[str]]) -> list[list[str]]:
+    """The set-up and test commands (``apt-get``, ``pip``, ``pytest``), in order."""
+    return [c for c in cmds if c[0] in SETUP]
 
 
 def test_command_splitter() -> None:
-    assert commands('sudo apt-get update && python -m pip install -e ".[test]"  # note\npython -m pytest -q') == [
-        ["apt-get", "update"], ["pip", "install", "-e", ".[test]"], ["pytest", "-q"]]
+    text = 'sudo apt-get update && python -m pip install -e ".[test]"  # note\npython -m pytest -q | cat'
+    assert commands(text) == [["apt-get", "update"], ["pip", "install", "-e", ".[test]"], ["pytest", "-q"],
+                              ["cat"]]
+    assert setup_commands(commands(text)) == commands(text)[:3]
 
 
 def test_readme_setup_commands_are_what_ci_runs() -> None:
-    bash = fenced_blocks(README.read_text(encoding="utf-8"), "bash")
-    assert len(bash) == 2, f"README.md has {len(bash)} bash blocks; the set-up has two commands"
+    text = README.read_text(encoding="utf-8")
+    setup = re.search(r"^## Set-up.*?(?=^## )", text, re.MULTILINE | re.DOTALL)
+    assert setup, "README.md has no '## Set-up' section"
+    bash = fenced_blocks(setup.group(0), "bash")
+    assert len(bash) == 2, f"README.md's set-up has {len(bash)} bash blocks, not its two commands"
     install_and_example, tests = (commands(source) for _, source in bash)
     ci = commands(CI_RUN.read_text(encoding="utf-8"))
     # README command 2 is CI's job: the same apt-get, pip install and pytest lines, in the same order
-    assert setup_commands("all", tests) == setup_commands("all", ci)
-    assert any(c[0] == "pytest" for c in ci)
+    assert setup_commands(tests) == setup_commands(ci)
+    assert [c[0] for c in setup_commands(ci)].count("pytest") == 1
     # README command 1 installs the same package from the same checkout with the examples extra
-    pip1 = setup_commands("pip", install_and_example)
-    assert pip1 == [["pip", "install", "-e", ".[examples]"]]
-    ci_pip = [c for c in setup_commands("pip", ci) if c[:3] == ["pip", "install", "-e"]]
-    assert [c[3].split("[")[0] for c in ci_pip] == ["."]
+    assert setup_commands(install_and_example) == [["pip", "install", "-e", ".[examples]"]]
+    editable = [c for c in setup_commands(ci) if c[:3] == ["pip", "install", "-e"]]
+    assert [c[3] for c in editable] == [".[test]"]
     # and runs the example the README names, which exists
     runs = [c for c in install_and_example if c[0] == "python"]
     assert len(runs) == 1 and (ROOT / runs[0][1]).is_file()
