@@ -234,7 +234,8 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
     print(f"{name}: {len(world)} objects built in {build:.1f} s, far-pair index {far:,} pairs in "
           f"{index:.1f} s, {rss_build:.0f} MiB", file=sys.stderr, flush=True)
     tol = AssociationTolerances(gravity_aligned=args.gravity)
-    tiles = split(world, site.labels("storey" if name == "building" else "building")) if site else None
+    tiles = split(world, site.labels("storey" if name == "building" else "building")) \
+        if site and args.tiled else None
     if tiles and args.far_index:  # each tile's world has its own index (built here, before the fork)
         t0 = time.perf_counter()
         for tile in tiles:
@@ -344,6 +345,8 @@ def main(argv: list[str] | None = None) -> None:
                     help="stop drawing poses for a world after this many seconds")
     ap.add_argument("--no-far-index", dest="far_index", action="store_false",
                     help="do not run WorldModel.build_far_pairs after the world (built lazily on first use)")
+    ap.add_argument("--no-tiled", dest="tiled", action="store_false",
+                    help="do not run localize_tiled (its tiles double the world's memory)")
     ap.add_argument("--workers", type=int, default=None, help="processes of localize_tiled")
     ap.add_argument("--baselines", nargs="*", choices=("ransac", "open3d"), default=["ransac", "open3d"])
     ap.add_argument("--baseline-worlds", nargs="*", choices=WORLDS, default=["kitchen"])
