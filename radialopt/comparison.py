@@ -48,6 +48,7 @@ class Problem:
     sigmas: np.ndarray
 
     def spheres(self) -> list[GaussianSphere]:
+        """The problem's Gaussian spheres, one per centre."""
         return make_spheres(self.centers, self.radii, self.sigmas)
 
 

@@ -728,7 +728,7 @@ def verify_solution(
 
 # ------------------------------------------------------------------------ exact check
 def _cdd_gmp():  # noqa: ANN202 - returns (cdd, cdd.gmp)
-    """pycddlib and its exact rational mode, or a clear error when the GMP mode is missing."""
+    """The pycddlib modules ``(cdd, cdd.gmp)``, or a clear error when the GMP mode is missing."""
     try:
         import cdd
         import cdd.gmp as gmp

@@ -228,6 +228,7 @@ class PoseFit:
 
     @property
     def inliers(self) -> int:
+        """Number of (percept, object) pairs in the fit."""
         return len(self.pairs)
 
 
