@@ -15,7 +15,7 @@ never an n x n array.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -85,7 +85,8 @@ def _bandwidth_factor(name: str, value: Any, d: int) -> NDArray[np.float64] | fl
     if not VARIANCE_RANGE[0] <= top <= VARIANCE_RANGE[1]:
         raise NonPositiveSigmaError(f"{name}: largest entry must lie in [{VARIANCE_RANGE[0]:g}, "
                                     f"{VARIANCE_RANGE[1]:g}], got {top!r}")
-    return np.linalg.cholesky(H)
+    # numpy's stubs widen the float64 factor to floating[Any]
+    return cast(NDArray[np.float64], np.linalg.cholesky(H))
 
 
 def _whiten(X: NDArray[np.float64], L: NDArray[np.float64] | float) -> NDArray[np.float64]:
@@ -109,7 +110,8 @@ def _sparse_sums(
         base = csum[start - 1] if start else 0
         stop = int(np.searchsorted(csum, base + _PAIR_BUDGET, side="right"))
         stop = min(max(stop, start + 1), m)
-        lists = tree.query_ball_point(Y[start:stop], radius * (1.0 + _SLACK))
+        # Y is 2-D, so one neighbour list per row (the stubs cannot tell the point count from the type)
+        lists = cast(list[list[int]], tree.query_ball_point(Y[start:stop], radius * (1.0 + _SLACK)))
         lens = np.fromiter((len(lst) for lst in lists), dtype=np.int64, count=stop - start)
         if lens.sum():
             flat = np.concatenate([np.asarray(lst, dtype=np.int64) for lst in lists])

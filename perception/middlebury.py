@@ -130,7 +130,7 @@ def sgbm_disparity(
     gl = cv2.cvtColor(left, cv2.COLOR_RGB2GRAY) if left.ndim == 3 else left
     gr = cv2.cvtColor(right, cv2.COLOR_RGB2GRAY) if right.ndim == 3 else right
     channels = 1
-    matcher = cv2.StereoSGBM_create(
+    matcher = cv2.StereoSGBM.create(
         minDisparity=0,
         numDisparities=int(num_disparities),
         blockSize=int(block_size),
@@ -193,8 +193,8 @@ def depth_error_table(
             raise PerceptionError("max_pixels needs an rng to draw the subset")
         keep = rng.choice(d_true.size, int(max_pixels), replace=False)
         d_true, d_est = d_true[keep], d_est[keep]
-    z_true = depth_from_disparity(d_true)
-    err = depth_from_disparity(d_est) - z_true
+    z_true = np.asarray(depth_from_disparity(d_true))
+    err = np.asarray(depth_from_disparity(d_est)) - z_true
     edges = np.quantile(z_true, np.linspace(0.0, 1.0, int(n_bins) + 1))
     which = np.clip(np.searchsorted(edges, z_true, side="right") - 1, 0, int(n_bins) - 1)
     meds, stds, rows = [], [], []

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -243,8 +243,9 @@ def scene_boxes(
             raise UnknownClassError(
                 f"no default size/colour for box type {kind!r}; known: {sorted(BOX_DEFAULTS)}"
             )
-        size = sizes[i] if sizes is not None else BOX_DEFAULTS[kind][0]
-        color = colors[i] if colors is not None else BOX_DEFAULTS[kind][1]
+        # Box.__post_init__ validates these and stores them as float arrays.
+        size: Any = sizes[i] if sizes is not None else BOX_DEFAULTS[kind][0]
+        color: Any = colors[i] if colors is not None else BOX_DEFAULTS[kind][1]
         try:
             boxes.append(Box(center=pos[i], size=size, rotation=rots[i], color=color, type=kind))
         except PerceptionError as exc:
@@ -1232,7 +1233,8 @@ def _undistort(
     import cv2
     if len(uv) == 0 or not np.any(D):
         return uv
-    return cv2.undistortPoints(uv.reshape(-1, 1, 2), K, D, P=K).reshape(-1, 2)
+    # float64 in, float64 out (OpenCV's stubs type the result as any real dtype)
+    return cast(NDArray[np.float64], cv2.undistortPoints(uv.reshape(-1, 1, 2), K, D, P=K).reshape(-1, 2))
 
 
 @guard

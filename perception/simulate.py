@@ -251,8 +251,8 @@ def scan_angles(
     pitch = _range_pair("pitch_deg", pitch_deg)
     Q = np.zeros((n_views, chain.n_joints))
     Q[:, names.index("neck_yaw")] = np.radians(np.linspace(yaw[0], yaw[1], n_views))
-    pitch = np.where(np.arange(n_views) % 2 == 0, pitch[0], pitch[1])
-    Q[:, names.index("neck_pitch")] = np.radians(pitch)
+    pitch_rows = np.where(np.arange(n_views) % 2 == 0, pitch[0], pitch[1])
+    Q[:, names.index("neck_pitch")] = np.radians(pitch_rows)
     return Q
 
 

@@ -320,7 +320,7 @@ class StereoRig:
             return cls._read(path)
         except CalibrationFileError:
             raise
-        except (PerceptionError, OSError, *_UNEXPECTED, cv2.error) as exc:
+        except (PerceptionError, OSError, cv2.error) + _UNEXPECTED as exc:
             raise CalibrationFileError(f"calibration file path={str(path)!r} is invalid: {exc}") from exc
 
     @classmethod
@@ -475,11 +475,11 @@ class StereoRig:
         if X.shape[0] == 0:
             return np.zeros((0, 2)), np.zeros((0, 2))
         obj = X.reshape(-1, 1, 3)
-        uv1, _ = cv2.projectPoints(obj, np.zeros(3), np.zeros(3), self.K1, self.D1)
+        proj1, _ = cv2.projectPoints(obj, np.zeros(3), np.zeros(3), self.K1, self.D1)
         rvec, _ = cv2.Rodrigues(self.R)
-        uv2, _ = cv2.projectPoints(obj, rvec, self.T, self.K2, self.D2)
-        uv1 = uv1.reshape(-1, 2).astype(np.float64)
-        uv2 = uv2.reshape(-1, 2).astype(np.float64)
+        proj2, _ = cv2.projectPoints(obj, rvec, self.T, self.K2, self.D2)
+        uv1 = proj1.reshape(-1, 2).astype(np.float64)
+        uv2 = proj2.reshape(-1, 2).astype(np.float64)
         bad = ~(np.all(np.isfinite(uv1), axis=1) & np.all(np.isfinite(uv2), axis=1))
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])

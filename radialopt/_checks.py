@@ -27,7 +27,7 @@ MAX_SIGMA = 1e100
 MIN_SIGMA_RELATIVE = 1e-12
 
 
-def _index(idx: tuple[int, ...]) -> str:
+def _index(idx: tuple[int | np.integer, ...]) -> str:
     return "[" + ", ".join(str(int(i)) for i in idx) + "]" if idx else ""
 
 
@@ -178,5 +178,5 @@ def dataclass_fields(obj: Any, ints: dict[str, tuple[int | None, int | None]],
     cls = type(obj).__name__
     for name, (lo, hi) in ints.items():
         object.__setattr__(obj, name, integer(getattr(obj, name), f"{cls}.{name}", lo, hi))
-    for name, (lo, hi, lo_open) in floats.items():
-        object.__setattr__(obj, name, real_scalar(getattr(obj, name), f"{cls}.{name}", lo, hi, lo_open))
+    for name, (flo, fhi, lo_open) in floats.items():
+        object.__setattr__(obj, name, real_scalar(getattr(obj, name), f"{cls}.{name}", flo, fhi, lo_open))

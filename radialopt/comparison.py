@@ -19,7 +19,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
-from typing import Literal, get_args
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -48,6 +48,7 @@ class Problem:
     sigmas: np.ndarray
 
     def spheres(self) -> list[GaussianSphere]:
+        """The problem's Gaussian spheres, one per centre."""
         return make_spheres(self.centers, self.radii, self.sigmas)
 
 
@@ -162,7 +163,7 @@ def solve_with(name: str, spheres: Sequence[GaussianSphere]):  # noqa: ANN201
 def run_one(solver: str, problem: Problem, max_vertices_n: int = 6) -> Run:
     """Solve one problem with one solver and measure it against the exact answer."""
     spheres = problem.spheres()
-    base = dict(solver=solver, problem=problem.name, n=problem.n, feasible=problem.feasible,
+    base: dict[str, Any] = dict(solver=solver, problem=problem.name, n=problem.n, feasible=problem.feasible,
                 scaling=problem.scaling)
     if solver == "vertices" and problem.n > max_vertices_n:
         return Run(**base, success=False, status="skipped", time=math.nan, violation=math.nan,

@@ -125,7 +125,8 @@ class RadialProblem:
         elif self.objective == "l1":
             cost = cp.norm1(resid)
         else:
-            cost = cp.sum(cp.huber(resid, self.huber_delta))
+            # cvxpy annotates huber's M as int, but it takes any positive number (its docs).
+            cost = cp.sum(cp.huber(resid, self.huber_delta))  # type: ignore[arg-type]
         constraints = [self.A @ x <= par["b"]]
         for fn in self._extra:
             constraints += _as_constraints(fn(x))

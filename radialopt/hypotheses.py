@@ -238,7 +238,7 @@ def generate_hypotheses(
             for idx, t in enumerate(triples):
                 code = MeetStatus(int(pb.status[idx]))
                 if code in kept:
-                    point_pairs.append((tuple(int(v) for v in t),  # type: ignore[misc]
+                    point_pairs.append(((int(t[0]), int(t[1]), int(t[2])),
                                         PointPair(pb.points[idx], pb.center[idx], pb.axis[idx],
                                                   float(pb.half_distance_sq[idx]), code.label)))
     pair_keys = {k for k, _ in point_pairs}
@@ -252,7 +252,7 @@ def generate_hypotheses(
             for idx, q in enumerate(quads):
                 code = MeetStatus(int(qb.status[idx]))
                 if code in (MeetStatus.REAL, MeetStatus.INEXACT):
-                    points.append((tuple(int(v) for v in q),  # type: ignore[misc]
+                    points.append(((int(q[0]), int(q[1]), int(q[2]), int(q[3])),
                                    Point(qb.position[idx], float(qb.residual[idx]), code.label)))
     with_descendants = {t for q, _ in points for t in combinations(q, 3)}
 
@@ -263,8 +263,8 @@ def generate_hypotheses(
         distinct = pp.status == "real"
         for pt in (pp.points if distinct else pp.points[:1]):
             raw.append((pt, key, 2, pp.status, pp.half_distance_sq))
-    for key, p in points:
-        raw.append((p.position, key, 3, p.status, p.residual))
+    for quad, p in points:
+        raw.append((p.position, quad, 3, p.status, p.residual))
     hypotheses: list[Hypothesis] = []
     if raw:
         pos = np.stack([r[0] for r in raw])
@@ -272,7 +272,7 @@ def generate_hypotheses(
         for row, r in enumerate(raw):
             used[row, list(r[1])] = True
         total, vdens, vres = validate_positions(centers, radii, sigmas, pos, used)
-        inside = np.ones(len(raw), dtype=bool) if region is None else region.contains(pos)
+        inside = np.ones(len(raw), dtype=bool) if region is None else np.asarray(region.contains(pos))
         for row, r in enumerate(raw):
             hypotheses.append(Hypothesis(pos[row], r[1], r[2], r[3], float(r[4]),
                                          float(total[row]), float(vdens[row]), float(vres[row]),

@@ -174,7 +174,7 @@ class RestrictionPolytope:
         """Human-readable names of the rows that ``x`` violates, e.g. ``"chi(0,2)"``."""
         s = self.slack(x)
         tol = real_scalar(tol, "tol", 0.0)
-        return [self.row_name(k) for k in np.flatnonzero(s < -tol)]
+        return [self.row_name(int(k)) for k in np.flatnonzero(s < -tol)]
 
     def row_name(self, k: int) -> str:
         """Name of row ``k``: kind and sphere pair, e.g. ``"beta(1,3)"``."""

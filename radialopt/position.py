@@ -835,7 +835,7 @@ def estimate_position(
     costs = _costs(raw, centers, radii, sigmas)
     cand, cost = _distinct(raw, costs, options.distinct_tol * frame.spread)
     inside = (np.ones(len(cand), dtype=bool) if region is None
-              else region.contains(cand, tol=options.region_tol))
+              else np.asarray(region.contains(cand, tol=options.region_tol)))
     order = np.lexsort((cost, ~inside))
     cand, cost, inside = cand[order], cost[order], inside[order]
     status, message = "ok", ""

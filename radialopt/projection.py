@@ -64,7 +64,7 @@ from fractions import Fraction
 from functools import cached_property, lru_cache
 from itertools import combinations
 from math import comb
-from typing import Literal, get_args
+from typing import Literal, cast, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -324,11 +324,12 @@ def _solve_small(M: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np
         det = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
         if abs(det) > 1e-12 * (M[0, 0] * M[1, 1]):
             return np.array([M[1, 1] * rhs[0] - M[0, 1] * rhs[1],
-                             M[0, 0] * rhs[1] - M[1, 0] * rhs[0]]) / det
+                             M[0, 0] * rhs[1] - M[1, 0] * rhs[0]], dtype=np.float64) / float(det)
+    # numpy's stubs widen float64 results of linalg to floating[Any]
     try:
-        return np.linalg.solve(M, rhs)
+        return cast(NDArray[np.float64], np.linalg.solve(M, rhs))
     except np.linalg.LinAlgError:
-        return np.linalg.lstsq(M, rhs, rcond=None)[0]
+        return cast(NDArray[np.float64], np.linalg.lstsq(M, rhs, rcond=None)[0])
 
 
 def _solve_active_set(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
@@ -673,7 +674,7 @@ def project_radii_batch(
     h = b - r @ A.T
     G = A[None, :, :] * sg[:, None, :]
     z = np.zeros_like(r)
-    for k in np.flatnonzero(h.min(axis=1) < 0):
+    for k in map(int, np.flatnonzero(h.min(axis=1) < 0)):
         zk, status = least_distance(G[k], h[k])
         if status != "optimal" or not np.all(np.isfinite(zk)):
             raise SolverError(f"instance {k}: no feasible radii (status {status!r})")
@@ -727,7 +728,7 @@ def verify_solution(
 
 # ------------------------------------------------------------------------ exact check
 def _cdd_gmp():  # noqa: ANN202 - returns (cdd, cdd.gmp)
-    """pycddlib and its exact rational mode, or a clear error when the GMP mode is missing."""
+    """The pycddlib modules ``(cdd, cdd.gmp)``, or a clear error when the GMP mode is missing."""
     try:
         import cdd
         import cdd.gmp as gmp
@@ -803,9 +804,9 @@ def _exact_kkt_point(
     if not S:
         return list(r)
     AS = [A[j] for j in S]
-    M = [[sum(AS[i][t] * s2[t] * AS[j][t] for t in range(n)) for j in range(len(S))]
+    M = [[sum((AS[i][t] * s2[t] * AS[j][t] for t in range(n)), Fraction(0)) for j in range(len(S))]
          for i in range(len(S))]
-    rhs = [b[j] - sum(A[j][t] * r[t] for t in range(n)) for j in S]
+    rhs = [b[j] - sum((A[j][t] * r[t] for t in range(n)), Fraction(0)) for j in S]
     y = _solve_rational(M, rhs)
     if y is None:
         return None

@@ -438,7 +438,7 @@ def _double_description(
                 Z[i, j // 64] |= np.uint64(1) << np.uint64(j % 64)
     in_basis = np.zeros(m + 1, dtype=bool)
     in_basis[basis] = True
-    for j in np.flatnonzero(~in_basis):
+    for j in map(int, np.flatnonzero(~in_basis)):
         s = R @ H[j]
         pos = s > eps
         neg = s < -eps

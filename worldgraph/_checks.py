@@ -58,7 +58,7 @@ def _short(value: Any, limit: int = 200) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def _index(idx: tuple[int, ...]) -> str:
+def _index(idx: tuple[int | np.integer, ...]) -> str:
     return "[" + ", ".join(str(int(i)) for i in idx) + "]"
 
 

@@ -311,7 +311,7 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
         M = _gaze_fk(head, q)
         ray = tgt - M[:3, 3]
         norm = np.linalg.norm(ray)
-        return np.concatenate([M[:3, 2] - ray / max(norm, 1e-12), 1e-3 * q])
+        return np.concatenate([M[:3, 2] - ray / max(float(norm), 1e-12), 1e-3 * q])
 
     starts = [np.zeros(n)]
     axes = [j.axis for j in head.joints]
@@ -509,7 +509,7 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
         _check_limits(head, joint_limits)
     pred = _predict(world, result, types, max_range, depth_factor, min_sigma, n_sigma, margin)
     H = len(pred.poses)
-    disc = pred.tells.any(axis=1)                        # (H, n): tells h from some j
+    disc = np.asarray(pred.tells.any(axis=1))                        # (H, n): tells h from some j
     dirs = [_FIXED, extra] + [pred.unit[h][disc[h] & pred.in_range[h]] for h in range(H)]
     if rng is not None:
         dirs.append(_unit_rows(rng.standard_normal((N_RANDOM_DIRECTIONS, 3))))
@@ -665,11 +665,13 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
     current = check_world_and_percepts(world, percepts)
     result = localize(world, current, method, tolerances=tol)
-    results, plans, directions = [result], [], []
+    results, plans = [result], []
+    directions: list[NDArray[np.float64]] = []
     while len(directions) < max_looks and (result.status in statuses
                                            or _imprecise(result, goal_rotation_3sigma)):
         if planner is None:
-            plan = plan_view(world, result, fov_deg=fov_deg, max_range=max_range, types=types, head=head)
+            plan: ViewPlan | NDArray[np.float64] = plan_view(world, result, fov_deg=fov_deg,
+                                                             max_range=max_range, types=types, head=head)
         else:
             plan = planner(result)
         if isinstance(plan, ViewPlan):

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
@@ -333,7 +333,8 @@ def _csr(key: tuple[int, int], pairs: tuple, sizes: list[int], forward: bool
 
 def maximum_cliques(
     sizes: Sequence[int],
-    adjacency: dict[tuple[int, int], NDArray[np.bool_] | None],
+    adjacency: Mapping[tuple[int, int],
+                       NDArray[np.bool_] | tuple[NDArray[np.integer], NDArray[np.integer]] | None],
     min_size: int = 1,
     near_maximum: int = 0,
     max_nodes: int = 1_000_000,
@@ -406,7 +407,8 @@ def maximum_cliques(
     order = [p for p in order if start[p]] + [p for p in order if not start[p]]
     # packed[d][e]: rows of vertex a of part order[d] against part order[e], packed little-endian
     # (or an int for "all" / "none"); turned into Python-int bitsets lazily, per visited vertex
-    packed: list[list[NDArray[np.uint8] | int]] = [[0] * k for _ in range(k)]
+    packed: list[list[NDArray[np.uint8] | int | tuple[NDArray[np.intp], NDArray[np.intp], int]]] = [
+        [0] * k for _ in range(k)]
     for d, p in enumerate(order):
         for e, q in enumerate(order):
             if p == q:
@@ -442,8 +444,8 @@ def maximum_cliques(
             got = [0] * k
             for e, pk in fixed[d]:
                 got[e] = pk
-            for e, pk in bit_rows[d]:
-                got[e] = int.from_bytes(pk[a].tobytes(), "little")
+            for e, bits in bit_rows[d]:
+                got[e] = int.from_bytes(bits[a].tobytes(), "little")
             for e, (indptr, cols, _) in csr_rows[d]:  # sparse: (indptr, cols, size of the other part)
                 row = 0
                 for c in cols[indptr[a]:indptr[a + 1]].tolist():
@@ -676,7 +678,7 @@ class _Graph:
         return objects, adjacency
 
 
-def _local(objects: NDArray[np.intp], glob: NDArray[np.intp]) -> NDArray[np.intp]:
+def _local(objects: NDArray[np.intp], glob: NDArray[np.integer]) -> NDArray[np.intp]:
     return np.searchsorted(objects, glob)
 
 
@@ -727,6 +729,8 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
     op, oq = objects[p], objects[q]
     diff, d, ztol, reach, covered = _pair_reach(world, percepts, p, q, tau, tol)
     sub = op if rows is None else op[rows]
+    i: NDArray[np.integer]  # intp from the link tables and trees, int32 from the far-pair index
+    j: NDArray[np.integer]
     if covered:
         i, j, _ = world.link_lengths(tp, tq, d - reach, d + reach)
         if tp == tq:
@@ -747,7 +751,8 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         w = index.window(h - tau, h + tau) if tol.gravity_aligned else index.window(d - reach, d + reach)
         i, j = index.i[w], index.j[w]
         if tol.gravity_aligned:
-            keep = np.abs(index.dz[w] - diff[2]) < ztol + FAR_PAIR_SLACK
+            # dz is None only in an index built without gravity alignment; _far_index asked for one with it
+            keep = np.abs(index.dz[w] - diff[2]) < ztol + FAR_PAIR_SLACK  # type: ignore[index]
             i, j = i[keep], j[keep]
         if rows is not None:
             mine = np.zeros(len(world), dtype=bool)
@@ -777,8 +782,8 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         # (dual tree, in C); the shell |d_model - d| < reach, with the distances computed as in
         # the other branches, keeps the candidates
         wide = reach * (1.0 + 1e-9) + 1e-12
-        mine = world.type_tree(tp) if rows is None else cKDTree(world.positions[sub])
-        pairs = mine.sparse_distance_matrix(world.type_tree(tq), d + wide, output_type="ndarray")
+        tree_p = world.type_tree(tp) if rows is None else cKDTree(world.positions[sub])
+        pairs = tree_p.sparse_distance_matrix(world.type_tree(tq), d + wide, output_type="ndarray")
         shell = pairs["v"] > d - wide
         i, j = sub[pairs["i"][shell]], oq[pairs["j"][shell]]
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
@@ -951,13 +956,13 @@ def _prune_by_pairs(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | N
             return cur
 
 
-def _prune_vectorised(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | None = None
+def _prune_vectorised(graph: _Graph, need: int, start: list[NDArray[np.bool_]] | None = None
                       ) -> list[NDArray[np.bool_]]:
     """:func:`_prune` over all edges at once (see :meth:`_Graph.support_index`)."""
     ix = graph.support_index
     k, off = len(graph.objects), ix.offsets
-    alive = np.ones(int(off[-1]), dtype=bool) if alive is None else np.concatenate(
-        [np.asarray(a, dtype=bool) for a in alive] + [np.zeros(0, dtype=bool)])
+    alive = np.ones(int(off[-1]), dtype=bool) if start is None else np.concatenate(
+        [np.asarray(a, dtype=bool) for a in start] + [np.zeros(0, dtype=bool)])
     while True:
         keep = alive[ix.u] & alive[ix.v]
         support = np.zeros(len(alive), dtype=np.int64)
@@ -1088,7 +1093,7 @@ class _Nearest:
             pts = pred[:, idx].reshape(-1, 3)
             bound = float(math.sqrt(cap) * scale[idx].max())
             dist, j = self.trees[t].query(pts, k=1, distance_upper_bound=bound)
-            dist = dist.reshape(h, len(idx))
+            dist = dist.reshape(h, len(idx))  # type: ignore[union-attr]  # pts is 2-D: arrays, not floats
             j = j.reshape(h, len(idx))
             found = np.isfinite(dist)
             d2 = np.where(found, dist, 0.0) ** 2 / scale[idx] ** 2
@@ -1307,7 +1312,8 @@ def proximity_filter(world: WorldModel, percepts: Sequence[Percept],
 
 
 def _sparse(objects: list[NDArray[np.intp]], adjacency: dict) -> _Graph:
-    return _Graph(objects, {key: np.nonzero(m) for key, m in adjacency.items()})
+    # each m is 2-D, so np.nonzero gives the (rows, cols) pair
+    return _Graph(objects, {key: np.nonzero(m) for key, m in adjacency.items()})  # type: ignore[misc]
 
 
 def _filtered(world: WorldModel, objects: list[NDArray[np.intp]], adjacency: dict,
@@ -1386,7 +1392,7 @@ def consistency_graph(world: WorldModel, percepts: Sequence[Percept],
     need = tolerances.min_clique_size if min_size is None else strict_int("min_size", min_size, minimum=1)
     graph = _consistency_graph(world, percepts, tolerances)
     alive = _prune(graph, need)
-    g = nx.Graph()
+    g: nx.Graph[tuple[int, int]] = nx.Graph()
     for p, (objs, al) in enumerate(zip(graph.objects, alive, strict=True)):
         g.add_nodes_from(((p, int(o)), {"percept": p, "object": int(o), "type": percepts[p].type})
                          for o in objs[al])

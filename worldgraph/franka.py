@@ -370,7 +370,7 @@ def _geometry(g: _Geom, model: _Model, cache: dict[str, trimesh.Trimesh]) -> tup
         if key not in cache:
             if g.mesh not in model.meshes:
                 raise MalformedFileError(f"geom of body {g.body!r} refers to unknown mesh {g.mesh!r}")
-            file, scale = model.meshes[g.mesh]  # type: ignore[index]
+            file, scale = model.meshes[g.mesh]
             if not file.is_file():
                 raise MalformedFileError(f"mesh file {file} of mesh {g.mesh!r} is missing")
             mesh = trimesh.load_mesh(file)

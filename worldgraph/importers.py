@@ -195,7 +195,7 @@ def type_rule(type_of: Any) -> Callable[[str], str | None]:
 
         return by_pattern
     if callable(type_of):
-        return type_of  # type: ignore[no-any-return]
+        return type_of
     raise ArgumentTypeError("type_of must be None, a callable name -> type or None, or a mapping of regex "
                             f"patterns to types, got {_checks._short(type_of)}")
 

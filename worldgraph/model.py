@@ -54,10 +54,10 @@ import json
 import math
 import os
 import warnings
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import networkx as nx
 import numpy as np
@@ -209,7 +209,8 @@ def _geometry_nodes(scene: trimesh.Scene) -> Iterable[tuple[str, NDArray[np.floa
             raise WorldGraphError(f"scene node {node!r} refers to geometry {geom_name!r}, "
                                   "which the scene lacks")
         m = _checks.float_array(f"transform of scene node {node!r}", matrix, (4, 4), max_abs=MAX_COORDINATE)
-        yield node, m, geom_name, geometry
+        # trimesh types a node's geometry name Hashable | None; it is a key of scene.geometry here (str)
+        yield node, m, geom_name, geometry  # type: ignore[misc]
 
 
 def _vertex_bounds(name: str, geometry: Any) -> NDArray[np.float64] | None:
@@ -646,6 +647,12 @@ class WorldModel:
     scene: Any = None
     link_margin: float = 0.0
     room: radialopt.Region | None = None
+    if TYPE_CHECKING:  # derived data __post_init__ sets on the frozen instance; for the type checker only
+        _types: NDArray[np.str_] = field(init=False)
+        _positions: NDArray[np.float64] = field(init=False)
+        _type_index: dict[str, NDArray[np.intp]] = field(init=False)
+        _links: _LinkTables = field(init=False)
+        _tree: cKDTree = field(init=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "room", _check_room(self.room))
@@ -723,7 +730,8 @@ class WorldModel:
             k = int(np.argmax(same))
             raise self._coincident(order[k], order[k + 1], 0.0)
         lifted = np.column_stack([pos, codes.astype(np.float64) * (4.0 * MAX_COORDINATE)])
-        dist, idx = cKDTree(lifted).query(lifted, k=2, distance_upper_bound=2 * COINCIDENT_TOLERANCE)
+        dist, idx = cast(tuple[NDArray[np.float64], NDArray[np.intp]],  # k=2: arrays, not scalars
+                         cKDTree(lifted).query(lifted, k=2, distance_upper_bound=2 * COINCIDENT_TOLERANCE))
         hit = dist[:, 1] <= COINCIDENT_TOLERANCE
         if hit.any():
             a = int(np.argmax(hit))
@@ -946,29 +954,29 @@ class WorldModel:
     @property
     def types(self) -> NDArray[np.str_]:
         """Object types ``(n,)``."""
-        return self._types  # type: ignore[attr-defined,no-any-return]
+        return self._types
 
     @property
     def positions(self) -> NDArray[np.float64]:
         """Object positions ``(n, 3)`` (read-only)."""
-        return self._positions  # type: ignore[attr-defined,no-any-return]
+        return self._positions
 
     @property
     def links(self) -> Mapping[tuple[str, str], LinkTable]:
         """Link tables keyed by the sorted type pair: a read-only mapping over the linked pairs;
         another sorted pair of the model's types reads as an empty table."""
-        return self._links  # type: ignore[attr-defined,no-any-return]
+        return self._links
 
     @property
     def type_index(self) -> dict[str, NDArray[np.intp]]:
         """Object indices of each type, ascending."""
-        return self._type_index  # type: ignore[attr-defined,no-any-return]
+        return self._type_index
 
     @cached_property
     def type_rank(self) -> NDArray[np.intp]:
         """``(n,)``: the position of each object in its type's :attr:`type_index` array (read-only)."""
         rank = np.empty(len(self.objects), dtype=np.intp)
-        for idx in self._type_index.values():  # type: ignore[attr-defined]
+        for idx in self._type_index.values():
             rank[idx] = np.arange(len(idx))
         rank.setflags(write=False)
         return rank
@@ -976,18 +984,18 @@ class WorldModel:
     @property
     def tree(self) -> cKDTree:
         """A :class:`scipy.spatial.cKDTree` over :attr:`positions`."""
-        return self._tree  # type: ignore[attr-defined,no-any-return]
+        return self._tree
 
     @property
     def type_names(self) -> tuple[str, ...]:
         """Sorted distinct types."""
-        return tuple(self._type_index)  # type: ignore[attr-defined]
+        return tuple(self._type_index)
 
     @cached_property
     def graph(self) -> nx.Graph:
         """Proximity graph: node = object index (attributes id, type, position, size), edge =
         pair closer than ``max_link_length`` (attribute ``length``)."""
-        g = nx.Graph()
+        g: nx.Graph[int] = nx.Graph()
         g.add_nodes_from((k, {"id": o.id, "type": o.type, "position": self._positions[k], "size": o.size})
                          for k, o in enumerate(self.objects))
         for table in self._links.values():
@@ -1007,8 +1015,9 @@ class WorldModel:
             return False
         if (self.room is None) != (other.room is None):
             return False
-        if self.room is not None and not (np.array_equal(self.room.lower, other.room.lower)
-                                          and np.array_equal(self.room.upper, other.room.upper)):
+        if self.room is not None and other.room is not None and not (
+                np.array_equal(self.room.lower, other.room.lower)
+                and np.array_equal(self.room.upper, other.room.upper)):
             return False
         if self.class_vertices.keys() != other.class_vertices.keys():
             return False
@@ -1023,7 +1032,7 @@ class WorldModel:
     def _check_known_type(self, t: str, what: str = "type") -> None:
         if not isinstance(t, str):
             raise UnknownTypeError(f"{what} must be a type name (str), got {_checks._short(t)}")
-        if t not in self._type_index:  # type: ignore[attr-defined]
+        if t not in self._type_index:
             raise UnknownTypeError(f"{what} = {t!r} is not in the world model; "
                                    f"known types: {list(self.type_index)}")
 
@@ -1042,8 +1051,8 @@ class WorldModel:
         lo = _checks.real_float("lo", lo)
         hi = _checks.real_float("hi", hi)
         if type_a <= type_b:
-            return self._links[(type_a, type_b)].in_range(lo, hi)  # type: ignore[attr-defined,no-any-return]
-        i, j, length = self._links[(type_b, type_a)].in_range(lo, hi)  # type: ignore[attr-defined]
+            return self._links[(type_a, type_b)].in_range(lo, hi)
+        i, j, length = self._links[(type_b, type_a)].in_range(lo, hi)
         return j, i, length
 
     def type_tree(self, type_name: str, z_scale: float = 1.0) -> cKDTree:
@@ -1056,7 +1065,7 @@ class WorldModel:
         trees = self._type_trees
         key = (type_name, z_scale)
         if key not in trees:
-            pts = self._positions[self._type_index[type_name]]  # type: ignore[attr-defined]
+            pts = self._positions[self._type_index[type_name]]
             trees[key] = cKDTree(pts if z_scale == 1.0 else pts * np.array([1.0, 1.0, z_scale]))
         return trees[key]
 
@@ -1104,7 +1113,7 @@ class WorldModel:
     def indices_of(self, type_name: str) -> NDArray[np.intp]:
         """Object indices of one type (``UnknownTypeError`` if absent)."""
         self._check_known_type(type_name, "type_name")
-        return self._type_index[type_name]  # type: ignore[attr-defined,no-any-return]
+        return self._type_index[type_name]
 
     @property
     def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -1146,7 +1155,7 @@ class WorldModel:
         if (types is None or isinstance(types, bytes | Mapping) or not isinstance(types, Iterable)
                 or (isinstance(types, np.ndarray) and types.ndim == 0)):
             raise ArgumentTypeError(f"types must be an iterable of type names, got {_checks._short(types)}")
-        keep = list(types)
+        keep: Collection[str] = list(types)
         for k, t in enumerate(keep):
             self._check_known_type(t, f"types[{k}]")
         keep = set(keep)
@@ -1283,7 +1292,7 @@ class WorldModel:
                 objs.append(ObjectModel(entry["id"], entry["type"], pose, size, entry["geometry"]))
             except WorldGraphError as exc:
                 raise bad(f"{name}: {exc}") from exc
-        room = data.get("room")
+        room: Any = data.get("room")  # the JSON value, then the (lower, upper) pair WorldModel checks
         if room is not None:
             if not isinstance(room, dict) or set(room) != {"lower", "upper"}:
                 raise bad("room must be null or an object with keys 'lower' and 'upper', "

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 from numpy.typing import NDArray
@@ -182,7 +182,7 @@ def _percept_list(percepts: Any) -> list[Any]:
     return items
 
 
-def _finite_pose(value: Any) -> bool:
+def _finite_pose(value: Any) -> TypeGuard[NDArray[np.float64]]:
     return value is not None and bool(np.all(np.isfinite(value)))
 
 
@@ -342,7 +342,7 @@ def _draw_result(ax: Any, result: LocalizationResult, n_hypotheses: int, n_sigma
         for a in alts:
             _heading_arrow(ax, a, 0.4, color=_HYPOTHESIS_COLOUR)
             drawn.append(a[:3, 3])
-    others = []
+    others: list[NDArray[np.float64]] = []
     for h in result.hypotheses:
         if len(others) == n_hypotheses:
             break

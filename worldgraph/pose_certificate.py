@@ -95,9 +95,9 @@ def _constraints() -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     mats, rhs = [_sym(9, 9)], [1.0]
     for a in range(3):
         for b in range(a, 3):
-            mats.append(sum(_sym(_m(k, a), _m(k, b)) for k in range(3)))  # M^T M = I
+            mats.append(sum((_sym(_m(k, a), _m(k, b)) for k in range(3)), np.zeros((10, 10))))  # M^T M = I
             rhs.append(float(a == b))
-            mats.append(sum(_sym(_m(a, k), _m(b, k)) for k in range(3)))  # M M^T = I
+            mats.append(sum((_sym(_m(a, k), _m(b, k)) for k in range(3)), np.zeros((10, 10))))  # M M^T = I
             rhs.append(float(a == b))
     for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):  # m_a x m_b = m_c
         for k in range(3):
@@ -339,7 +339,8 @@ def _solve_global(x: NDArray, y: NDArray, C: NDArray, solver: str) -> tuple[NDAr
         u_, _, vt = np.linalg.svd(vec[:9].reshape(3, 3, order="F"))
         d = 1.0 if np.linalg.det(u_ @ vt) > 0 else -1.0
         starts.append(u_ @ np.diag([1.0, 1.0, d]) @ vt)  # M = R^T on SO(3)
-    best, best_f = None, np.inf
+    best: NDArray[np.float64] | None = None
+    best_f = np.inf
     for M in starts:
         yv = np.concatenate([M.reshape(-1, order="F"), [1.0]])
         u = -WinvG @ yv  # the optimal centred translation term for this rotation
@@ -352,6 +353,8 @@ def _solve_global(x: NDArray, y: NDArray, C: NDArray, solver: str) -> tuple[NDAr
             f = _cost(x, y, Cinv, T)
             if f < best_f:
                 best, best_f = T, f
+    if best is None:  # every candidate's cost was NaN
+        raise PoseError("solve_pose_sdp: no candidate rotation has a finite cost")
     cands = [] if lam is None else [lam, _polish(Q, lam, _lift(best[:3, :3]))]
     lb = max([0.0] + [_bound(Q, c, scale, best_f) for c in cands])
     return best, float(min(lb, best_f))

@@ -30,6 +30,7 @@ World frame: z up, the floor at z = 0, the room in ``[0, 10] x [0, 8] x [0, 3]``
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -169,7 +170,8 @@ class _Builder:
     surfaces: list[tuple[NDArray[np.float64], tuple[float, float], tuple[float, float], float]] = field(
         default_factory=list)
 
-    def _geometry(self, key: str, make: object, primitive: str) -> str:
+    def _geometry(self, key: str, make: trimesh.Trimesh | Callable[[], trimesh.Trimesh],
+                  primitive: str) -> str:
         if key not in self.scene.geometry:
             mesh = make() if callable(make) else make
             mesh.metadata["primitive"] = primitive
@@ -211,7 +213,8 @@ class _Builder:
         """Axis-aligned box between corners ``lo`` and ``hi`` of a run frame."""
         lo_a, hi_a = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
         c = 0.5 * (lo_a + hi_a)
-        return self.box(typ, tuple(hi_a - lo_a), run @ _translate(*c), key)  # type: ignore[arg-type]
+        size = (float(hi_a[0] - lo_a[0]), float(hi_a[1] - lo_a[1]), float(hi_a[2] - lo_a[2]))
+        return self.box(typ, size, run @ _translate(*c), key)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -507,11 +510,11 @@ def kitchen_scene(seed: int = 0) -> trimesh.Scene:
         for sy in (-1, 1):
             b.cylinder("table_leg", 0.025, 0.72, _translate(tc[0] + sx * 0.72, tc[1] + sy * 0.38, 0.36))
     for k in range(6):
-        sx = (k % 3 - 1) * 0.5
-        sy = -0.7 if k < 3 else 0.7
-        cx, cy = tc[0] + sx + rng.uniform(-0.05, 0.05), tc[1] + sy + rng.uniform(-0.05, 0.05)
+        off_x = (k % 3 - 1) * 0.5
+        off_y = -0.7 if k < 3 else 0.7
+        cx, cy = tc[0] + off_x + rng.uniform(-0.05, 0.05), tc[1] + off_y + rng.uniform(-0.05, 0.05)
         b.box("chair", (0.42, 0.42, 0.04), _translate(cx, cy, 0.45), key="chair_seat")
-        by = cy + (0.2 if sy > 0 else -0.2)
+        by = cy + (0.2 if off_y > 0 else -0.2)
         b.box("chair_back", (0.42, 0.03, 0.45), _translate(cx, by, 0.7))
         for lx in (-0.18, 0.18):
             for ly in (-0.18, 0.18):
@@ -922,7 +925,7 @@ _FLOOR_SIZES = {
 }
 
 
-def _columns(x: NDArray[np.float64], y: float | NDArray[np.float64], z: float | NDArray[np.float64],
+def _columns(x: NDArray[np.floating], y: float | NDArray[np.floating], z: float | NDArray[np.floating],
              ) -> NDArray[np.float64]:
     """Stack coordinates into ``(k, 3)`` points, broadcasting scalars."""
     x = np.asarray(x, dtype=np.float64)

@@ -229,31 +229,32 @@ def _globalised(result: LocalizationResult, tile: Tile) -> LocalizationResult:
 
 def _combine(tiles: Sequence[Tile], answers: list[_TileAnswer], tol: AssociationTolerances,
              t_start: float) -> LocalizationResult:
-    with_pose = [k for k, a in enumerate(answers) if a.result is not None and a.result.status in _WITH_POSE]
+    results = {k: a.result for k, a in enumerate(answers) if a.result is not None}
+    with_pose = [k for k, r in results.items() if r.status in _WITH_POSE]
     posed = sorted(with_pose, key=lambda k: (answers[k].cost, k))
     if not posed:
-        failed = [k for k, a in enumerate(answers) if a.result is not None]
+        failed = list(results)
         if not failed:
             errors = [a.error for a in answers if a.error is not None]
             raise UnknownTypeError(f"no tile has a type of the percepts: {errors[0]}")
         rank = {s: i for i, s in enumerate(FAILURE_ORDER)}
-        k = min(failed, key=lambda j: (rank.get(answers[j].result.status, len(rank)), j))
-        res = _globalised(answers[k].result, tiles[k])
+        k = min(failed, key=lambda j: (rank.get(results[j].status, len(rank)), j))
+        res = _globalised(results[k], tiles[k])
         timings = dict(res.timings, tiles_total=time.perf_counter() - t_start)
         return replace(res, message=f"no tile found a pose ({len(tiles)} tiles); tile {tiles[k].label}: "
                        f"{res.message}", timings=timings)
     best_k = posed[0]
     best = answers[best_k]
-    res = _globalised(best.result, tiles[best_k])
+    res = _globalised(results[best_k], tiles[best_k])
     pose = res.transformation
     runners = [k for k in posed[1:] if answers[k].cost - best.cost < tol.ambiguity_margin
-               and _nees(pose, best.fit_covariance, answers[k].result.transformation) > CHI2_6_GATE]
+               and _nees(pose, best.fit_covariance, results[k].transformation) > CHI2_6_GATE]
     notes = [res.message] if res.message else []
     notes.append(f"tile {tiles[best_k].label} of {len(tiles)} (robust cost {best.cost:.3g})")
     status = res.status
     if runners:
         first = answers[runners[0]]
-        gap = float(np.linalg.norm(first.result.transformation[:3, 3] - pose[:3, 3]))
+        gap = float(np.linalg.norm(results[runners[0]].transformation[:3, 3] - pose[:3, 3]))
         notes.append(f"tiles ambiguous: best robust cost {best.cost:.3g} in tile {tiles[best_k].label}, next "
                      f"{first.cost:.3g} in tile {tiles[runners[0]].label} at a pose {gap:.3g} m away")
         if status in UNIQUE_STATUSES:
@@ -261,8 +262,8 @@ def _combine(tiles: Sequence[Tile], answers: list[_TileAnswer], tol: Association
     llr = res.log_likelihood_ratio
     if len(posed) > 1:
         llr = min(llr, 0.5 * (answers[posed[1]].cost - best.cost))
-    others = tuple(h for k in posed[1:] for h in _globalised(answers[k].result, tiles[k]).hypotheses)
-    alternatives = res.alternatives + tuple(answers[k].result.transformation.copy() for k in runners)
+    others = tuple(h for k in posed[1:] for h in _globalised(results[k], tiles[k]).hypotheses)
+    alternatives = res.alternatives + tuple(results[k].transformation.copy() for k in runners)
     timings = dict(res.timings, tiles_total=time.perf_counter() - t_start)
     return replace(res, status=status, ambiguous=res.ambiguous or bool(runners), alternatives=alternatives,
                    hypotheses=res.hypotheses + others, log_likelihood_ratio=llr, message="; ".join(notes),

@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -77,7 +78,13 @@ _ROS = np.array([3, 4, 5, 0, 1, 2])
 _ABSENT = object()  # world_points not taken by the caller (None is an invalid value, not "absent")
 
 
-def _inputs(world_from_ego: object, ego: object, covs: object, world_points: object = _ABSENT,
+@overload
+def _inputs(world_from_ego: Any, ego: Any, covs: Any, world_points: Any,
+            pose_name: str = ...) -> tuple[NDArray, NDArray, NDArray, NDArray]: ...
+@overload
+def _inputs(world_from_ego: Any, ego: Any, covs: Any, *,
+            pose_name: str = ...) -> tuple[NDArray, NDArray, NDArray, None]: ...
+def _inputs(world_from_ego: Any, ego: Any, covs: Any, world_points: Any = _ABSENT,
             pose_name: str = "world_from_ego") -> tuple[NDArray, NDArray, NDArray, NDArray | None]:
     """Validated ``(world_from_ego (4, 4) rigid, ego (k, 3), covs (k, 3, 3) SPD, world_points (k, 3))``."""
     T = rigid_transform(pose_name, world_from_ego, max_translation=MAX_POSE_COORDINATE)
@@ -221,6 +228,7 @@ class PoseFit:
 
     @property
     def inliers(self) -> int:
+        """Number of (percept, object) pairs in the fit."""
         return len(self.pairs)
 
 
@@ -313,10 +321,10 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
     for _ in range(max_rounds):
         if len(current) < 3:
             break
-        p = np.array([a for a, _ in current])
-        o = np.array([b for _, b in current])
+        p_rows = np.array([a for a, _ in current])
+        o_rows = np.array([b for _, b in current])
         try:
-            T_new, info = refine_pose(ego[p], world.positions[o], covs[p], T)
+            T_new, info = refine_pose(ego[p_rows], world.positions[o_rows], covs[p_rows], T)
             cov6 = ros_pose_covariance(info)
         except PoseError:
             break
