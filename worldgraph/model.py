@@ -302,8 +302,9 @@ FAR_PAIR_RANGE = 16.0
 FAR_PAIR_HEIGHT = 4.0
 #: One far-pair index holds at most this many pairs (about 16 bytes each) ...
 FAR_PAIR_MAX_PAIRS = 30_000_000
-#: ... and the indices of one world at most this many together (beyond: k-d tree queries).
-FAR_PAIR_BUDGET = 120_000_000
+#: ... and the indices of one world at most this many together (about 770 MB; beyond: k-d tree
+#: queries): a 100k-object building holds all its type pairs (34M pairs), a 1M campus a part.
+FAR_PAIR_BUDGET = 48_000_000
 
 
 @dataclass(frozen=True)
