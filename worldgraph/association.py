@@ -718,6 +718,42 @@ def _far_index(world: WorldModel, tp: str, tq: str, diff: NDArray[np.float64], d
     return world.far_pairs(tp, tq, tol.gravity_aligned)
 
 
+def _indexed_candidates(world: WorldModel, index: FarPairIndex, diff: NDArray[np.float64], d: float,
+                        ztol: float, tau: float, reach: float, sub: NDArray[np.intp] | None
+                        ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Far percept pair candidates from the world's far-pair index: the pairs in the key window
+    (3D distance, or gravity-aligned horizontal distance and dz) whose p object is in ``sub``
+    (all when None), tested exactly as the other branches of :func:`_pair_candidates` do.  The
+    float32 keys are within :data:`FAR_PAIR_SLACK` of the float64 values, so pairs that pass by
+    more than the slack pass the exact test and only the pairs near the edge are computed again
+    from the positions."""
+    h = math.hypot(diff[0], diff[1])
+    gravity = index.dz is not None
+    centre, half = (h, tau) if gravity else (d, reach)
+    w = index.window(centre - half, centre + half)
+    i, j, key = index.i[w], index.j[w], index.key[w]
+    keep = np.ones(len(i), dtype=bool)
+    if sub is not None:
+        mine = np.zeros(len(world), dtype=bool)
+        mine[sub] = True
+        keep &= mine[i]
+    off = np.abs(key - centre)
+    inner = off < half - FAR_PAIR_SLACK
+    if index.dz is not None:
+        offz = np.abs(index.dz[w] - diff[2])
+        keep &= offz < ztol + FAR_PAIR_SLACK
+        inner &= offz < ztol - FAR_PAIR_SLACK
+    edge = np.flatnonzero(keep & ~inner)
+    if edge.size:  # the exact tests of _pair_candidates, in float64 from the positions
+        dv = world.positions[j[edge]] - world.positions[i[edge]]
+        if gravity:
+            ok = (np.abs(dv[:, 2] - diff[2]) < ztol) & (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - h) < tau)
+        else:
+            ok = np.abs(np.linalg.norm(dv, axis=1) - d) < reach
+        keep[edge[~ok]] = False
+    return i[keep].astype(np.intp), j[keep].astype(np.intp)
+
+
 def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
                      tol: AssociationTolerances, objects: list[NDArray[np.intp]],
                      rows: NDArray[np.intp] | None = None,
@@ -729,6 +765,7 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
     op, oq = objects[p], objects[q]
     diff, d, ztol, reach, covered = _pair_reach(world, percepts, p, q, tau, tol)
     sub = op if rows is None else op[rows]
+    exact = False  # the far-pair index branch applies the final tests itself
     i: NDArray[np.integer]  # intp from the link tables and trees, int32 from the far-pair index
     j: NDArray[np.integer]
     if covered:
@@ -745,25 +782,8 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
     elif (index := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
-        # beyond the link table, within the world's far-pair index: the pairs in the key window
-        # (3D distance, or gravity-aligned horizontal distance and dz), then the exact tests
-        h = math.hypot(diff[0], diff[1])
-        w = index.window(h - tau, h + tau) if tol.gravity_aligned else index.window(d - reach, d + reach)
-        i, j = index.i[w], index.j[w]
-        if tol.gravity_aligned:
-            # dz is None only in an index built without gravity alignment; _far_index asked for one with it
-            keep = np.abs(index.dz[w] - diff[2]) < ztol + FAR_PAIR_SLACK  # type: ignore[index]
-            i, j = i[keep], j[keep]
-        if rows is not None:
-            mine = np.zeros(len(world), dtype=bool)
-            mine[sub] = True
-            keep = mine[i]
-            i, j = i[keep], j[keep]
-        i, j = i.astype(np.intp), j.astype(np.intp)
-        if not tol.gravity_aligned:
-            dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
-            keep = np.abs(dm - d) < reach
-            i, j = i[keep], j[keep]
+        i, j = _indexed_candidates(world, index, diff, d, ztol, tau, reach, sub if rows is not None else None)
+        exact = True
     elif tol.gravity_aligned:
         # beyond the link table, z up: p's objects raised by dz, against q's tree, both with z
         # scaled by GRAVITY_Z_SCALE: the partners lie on a horizontal ring of radius h, thin in
@@ -789,7 +809,7 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
-    if tol.gravity_aligned and len(i):
+    if tol.gravity_aligned and len(i) and not exact:
         dv = world.positions[j] - world.positions[i]
         keep = (np.abs(dv[:, 2] - diff[2]) < ztol) & \
             (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - math.hypot(diff[0], diff[1])) < tau)
