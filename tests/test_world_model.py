@@ -595,3 +595,41 @@ def test_type_rank_is_the_position_in_the_type_index() -> None:
         assert world.type_index[types[k]][world.type_rank[k]] == k
     with pytest.raises(ValueError):
         world.type_rank[0] = 5
+
+
+def test_gravity_aligned_flag_round_trips_and_drives_the_association_default(tmp_path) -> None:
+    from dataclasses import replace
+
+    from perception import Percept
+    from worldgraph import scenes
+    from worldgraph.association import ASSOCIATION_TOLERANCES, AssociationTolerances, consistency_graph
+
+    rng = np.random.default_rng(11)
+    # two storeys of the same plan 3.5 m apart: a percept pair seen on one storey has model pairs of
+    # the same 3D length across the storeys, which gravity-aligned association drops
+    plan = rng.uniform([0, 0, 0.5], [12, 10, 2.0], (60, 3))
+    pos = np.vstack([plan, plan + [0.0, 0.0, 3.5]])
+    types = list(rng.choice(["door", "knob", "lamp"], 60)) * 2
+    flat = WorldModel.from_arrays(types, pos)
+    level = WorldModel.from_arrays(types, pos, gravity_aligned=True)
+    assert not flat.gravity_aligned and level.gravity_aligned and flat != level
+    path = tmp_path / "w.json"
+    level.save(path)
+    assert WorldModel.load(path).gravity_aligned and WorldModel.load(path) == level
+    flat.save(path)
+    assert not WorldModel.load(path).gravity_aligned
+    assert ASSOCIATION_TOLERANCES.gravity_aligned is None
+    percepts = [Percept(t, x - plan[0], 0.01) for t, x in zip(types[:5], plan[:5], strict=True)]
+
+    def edges(world: WorldModel, tol: AssociationTolerances) -> int:
+        return consistency_graph(world, percepts, tol, min_size=1).number_of_edges()
+
+    # None follows the world; an explicit value overrides it
+    on, off = (replace(ASSOCIATION_TOLERANCES, gravity_aligned=g) for g in (True, False))
+    assert edges(level, ASSOCIATION_TOLERANCES) == edges(flat, on)
+    assert edges(flat, ASSOCIATION_TOLERANCES) == edges(level, off)
+    assert edges(level, ASSOCIATION_TOLERANCES) < edges(flat, ASSOCIATION_TOLERANCES)
+    with pytest.raises(wg.ArgumentTypeError, match="gravity_aligned"):
+        WorldModel.from_arrays(types, pos, gravity_aligned="yes")
+    assert scenes.building_site(storeys=2, n_objects=2000).world.gravity_aligned
+    assert not scenes.kitchen().gravity_aligned

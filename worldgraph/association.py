@@ -98,9 +98,12 @@ class AssociationTolerances:
     mu_max : float or None
         Orientation filter, eq. 2: maximal length (m) of the signature difference; ``None``
         derives it per triple like ``tau`` from the three sigmas.
-    gravity_aligned : bool
+    gravity_aligned : bool or None
         The ego z axis is the world z axis (REP 103 ego with a levelled base): compare the
-        horizontal distance and the height difference of pairs separately.
+        horizontal distance and the height difference of pairs separately, so pairs across
+        storeys drop out.  ``None`` (default) follows the world's
+        :attr:`~worldgraph.model.WorldModel.gravity_aligned` (the building and campus scenes set
+        it; the kitchen and ``from_*`` worlds do not unless asked).
     height_tolerance : float or None
         Gate (m) of the height difference when ``gravity_aligned``; ``None`` uses ``tau``.
     cost_cap : float
@@ -144,7 +147,7 @@ class AssociationTolerances:
     min_tolerance: float = 0.01
     kappa_max: float = math.radians(20.0)
     mu_max: float | None = None
-    gravity_aligned: bool = False
+    gravity_aligned: bool | None = None
     height_tolerance: float | None = None
     cost_cap: float = 9.0
     residual_factor: float = math.sqrt(2.0)
@@ -179,10 +182,11 @@ class AssociationTolerances:
             v = getattr(self, name)
             if v is not None:
                 put(name, positive_float(f"AssociationTolerances.{name}", v, maximum=1e12))
-        if not isinstance(self.gravity_aligned, bool | np.bool_):
-            raise ArgumentTypeError(f"AssociationTolerances.gravity_aligned must be a bool, "
-                                    f"got {self.gravity_aligned!r}")
-        put("gravity_aligned", bool(self.gravity_aligned))
+        if self.gravity_aligned is not None:
+            if not isinstance(self.gravity_aligned, bool | np.bool_):
+                raise ArgumentTypeError(f"AssociationTolerances.gravity_aligned must be a bool or None, "
+                                        f"got {self.gravity_aligned!r}")
+            put("gravity_aligned", bool(self.gravity_aligned))
         put("min_clique_size", strict_int("AssociationTolerances.min_clique_size", self.min_clique_size,
                                           minimum=2, maximum=64))
         put("max_search_percepts", strict_int("AssociationTolerances.max_search_percepts",
@@ -567,9 +571,14 @@ def check_world_and_percepts(world: WorldModel, percepts: Sequence[Percept]) -> 
     return percepts
 
 
-def _check_tolerances(tolerances: object, name: str = "tolerances") -> AssociationTolerances:
+def _check_tolerances(tolerances: object, name: str = "tolerances", world: WorldModel | None = None
+                      ) -> AssociationTolerances:
+    """The tolerances, with ``gravity_aligned=None`` resolved to the world's flag when a world is
+    given."""
     if not isinstance(tolerances, AssociationTolerances):
         raise ArgumentTypeError(f"{name} must be an AssociationTolerances, got {type(tolerances).__name__}")
+    if world is not None and tolerances.gravity_aligned is None:
+        return replace(tolerances, gravity_aligned=bool(world.gravity_aligned))
     return tolerances
 
 
@@ -715,7 +724,7 @@ def _far_index(world: WorldModel, tp: str, tq: str, diff: NDArray[np.float64], d
             return None
     elif d + reach >= FAR_PAIR_RANGE:
         return None
-    return world.far_pairs(tp, tq, tol.gravity_aligned)
+    return world.far_pairs(tp, tq, bool(tol.gravity_aligned))
 
 
 def _indexed_candidates(world: WorldModel, index: FarPairIndex, diff: NDArray[np.float64], d: float,
@@ -1312,7 +1321,7 @@ def proximity_filter(world: WorldModel, percepts: Sequence[Percept],
         (:func:`filtered_graph_view`).
     """
     percepts = _check_inputs(world, percepts)
-    _check_tolerances(tolerances)
+    tolerances = _check_tolerances(tolerances, world=world)
     objects = [world.type_index[p.type] for p in percepts]
     k = len(percepts)
     sig = np.array([p.sigma for p in percepts])
@@ -1408,7 +1417,7 @@ def consistency_graph(world: WorldModel, percepts: Sequence[Percept],
     search in :func:`maximum_cliques` finds the largest of them without building this graph).
     """
     percepts = _check_inputs(world, percepts)
-    _check_tolerances(tolerances)
+    tolerances = _check_tolerances(tolerances, world=world)
     need = tolerances.min_clique_size if min_size is None else strict_int("min_size", min_size, minimum=1)
     graph = _consistency_graph(world, percepts, tolerances)
     alive = _prune(graph, need)
@@ -1491,7 +1500,7 @@ def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity
         Same layout as :func:`proximity_filter`.
     """
     percepts = _check_inputs(world, percepts)
-    _check_tolerances(tolerances)
+    tolerances = _check_tolerances(tolerances, world=world)
     k = len(percepts)
     objects, adj = _check_proximity(world, percepts, proximity)
     x = np.array([p.position for p in percepts])
@@ -1593,7 +1602,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     if not isinstance(method, str) or method not in ASSOCIATION_METHODS:
         raise WorldGraphError(f"method must be one of {ASSOCIATION_METHODS}, got {method!r}")
     percepts = _check_inputs(world, percepts)
-    tol = _check_tolerances(tolerances)
+    tol = _check_tolerances(tolerances, world=world)
     k = len(percepts)
     if k < tol.min_clique_size:
         raise TooFewPerceptsError(f"association needs at least {tol.min_clique_size} percepts, got {k}")

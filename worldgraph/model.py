@@ -630,6 +630,12 @@ class WorldModel:
         The room's free space (the robot is inside it): an axis-aligned box, finite, ``lower <=
         upper``; a ``(lower, upper)`` pair is turned into a Region.  Room structure (floor,
         walls, ceiling) need not be objects of the model when the room is known this way.
+    gravity_aligned : bool
+        The robots localised in this world report percepts in a levelled ego frame (REP 103:
+        base z up, along the world's z): association then compares the horizontal distance and
+        the height difference of percept pairs separately, so pairs across storeys drop out
+        (``AssociationTolerances.gravity_aligned=None``, the default, follows this flag).
+        Default False.
 
     Attributes
     ----------
@@ -648,6 +654,7 @@ class WorldModel:
     scene: Any = None
     link_margin: float = 0.0
     room: radialopt.Region | None = None
+    gravity_aligned: bool = False
     if TYPE_CHECKING:  # derived data __post_init__ sets on the frozen instance; for the type checker only
         _types: NDArray[np.str_] = field(init=False)
         _positions: NDArray[np.float64] = field(init=False)
@@ -657,6 +664,10 @@ class WorldModel:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "room", _check_room(self.room))
+        if not isinstance(self.gravity_aligned, bool | np.bool_):
+            raise ArgumentTypeError(f"gravity_aligned must be a bool, "
+                                    f"got {_checks._short(self.gravity_aligned)}")
+        object.__setattr__(self, "gravity_aligned", bool(self.gravity_aligned))
         if isinstance(self.objects, str | bytes | Mapping) or not isinstance(self.objects, Iterable):
             raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
                                     f"{_checks._short(self.objects)}")
@@ -793,7 +804,7 @@ class WorldModel:
     @classmethod
     def from_arrays(cls, types: Sequence[str] | ArrayLike, positions: ArrayLike, max_link_length: float = 5.0,
                     ids: Sequence[str] | None = None, sizes: ArrayLike | None = None,
-                    link_margin: float = 0.0, room: Any = None) -> WorldModel:
+                    link_margin: float = 0.0, room: Any = None, gravity_aligned: bool = False) -> WorldModel:
         """World model from bare typed positions.
 
         Parameters
@@ -806,6 +817,8 @@ class WorldModel:
         max_link_length, link_margin : float
             See :class:`WorldModel`.
         room : radialopt.Region or (lower, upper), optional
+            See :class:`WorldModel`.
+        gravity_aligned : bool
             See :class:`WorldModel`.
         ids : (n,) str, optional
             Unique non-empty strings without NUL characters; default ``f"{type}_{k}"`` with ``k``
@@ -856,7 +869,7 @@ class WorldModel:
         objs = [ObjectModel._trusted(id_list[k], type_list[k], poses[k], sz[k], type_list[k])
                 for k in range(n)]
         return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices,
-                   link_margin=link_margin, room=room)
+                   link_margin=link_margin, room=room, gravity_aligned=gravity_aligned)
 
     @classmethod
     def from_trimesh(cls, scene: trimesh.Scene, type_of: Callable[[str, Any], str | None] | None = None,
@@ -1012,7 +1025,7 @@ class WorldModel:
         if not isinstance(other, WorldModel):
             return NotImplemented
         if (self.max_link_length != other.max_link_length or self.link_margin != other.link_margin
-                or self.objects != other.objects):
+                or self.gravity_aligned != other.gravity_aligned or self.objects != other.objects):
             return False
         if (self.room is None) != (other.room is None):
             return False
@@ -1181,6 +1194,8 @@ class WorldModel:
         }
         if self.room is not None:
             out["room"] = {"lower": self.room.lower.tolist(), "upper": self.room.upper.tolist()}
+        if self.gravity_aligned:
+            out["gravity_aligned"] = True
         return out
 
     def save(self, path: str | os.PathLike[str]) -> None:
@@ -1299,7 +1314,11 @@ class WorldModel:
                 raise bad("room must be null or an object with keys 'lower' and 'upper', "
                           f"got {_checks._short(room)}")
             room = (array(room["lower"], (3,), "room.lower"), array(room["upper"], (3,), "room.upper"))
+        gravity = data.get("gravity_aligned", False)
+        if not isinstance(gravity, bool):
+            raise bad(f"gravity_aligned must be true or false, got {_checks._short(gravity)}")
         try:
-            return cls(tuple(objs), max_link_length=mll, class_vertices=cv, link_margin=margin, room=room)
+            return cls(tuple(objs), max_link_length=mll, class_vertices=cv, link_margin=margin, room=room,
+                       gravity_aligned=gravity)
         except WorldGraphError as exc:
             raise bad(str(exc)) from exc

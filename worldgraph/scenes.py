@@ -1179,8 +1179,9 @@ def _building_arrays(rng: np.random.Generator, storeys: int, n_objects: int, hei
 def _site_world(codes: NDArray[np.intp], pts: NDArray[np.float64], max_link_length: float,
                 link_margin: float) -> WorldModel:
     names = np.array(_BUILDING_TYPES, dtype=object)[codes]
+    # the robots of a building localise with a levelled base: storey-aware association by default
     return WorldModel.from_arrays(names, pts, max_link_length=max_link_length, sizes=_SIZE_TABLE[codes],
-                                  link_margin=link_margin)
+                                  link_margin=link_margin, gravity_aligned=True)
 
 
 def building_site(storeys: int = 5, n_objects: int = 100_000, seed: int = 0, storey_height: float = 3.5,
@@ -1194,7 +1195,8 @@ def building_site(storeys: int = 5, n_objects: int = 100_000, seed: int = 0, sto
     cabinet), a double-window office (door shifted) or a store room (no window, no table, a
     cabinet).  Corridors have ceiling lamps every 3.6 m and four fire extinguishers; both ends
     of every corridor hold a stair core (two stair landings, an elevator door with its button,
-    a storey sign).  Storey ``s`` stands at ``z = s * storey_height`` (world z up, REP 103);
+    a storey sign).  Storey ``s`` stands at ``z = s * storey_height`` (world z up, REP 103; the
+    world is ``gravity_aligned``, so association is storey-aware by default);
     each storey's module kinds copy the storey below with probability 0.9, its furniture is
     drawn anew.  The top storey is cut (its last corridors) to exactly ``n_objects`` objects.
 
