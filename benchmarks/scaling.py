@@ -228,7 +228,8 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
     world, site = _build(name, args.seed)
     build = time.perf_counter() - t0
     t0 = time.perf_counter()
-    far = world.build_far_pairs(args.gravity) if args.far_index else 0
+    gravity = world.gravity_aligned if args.gravity is None else args.gravity
+    far = world.build_far_pairs(gravity) if args.far_index else 0
     index = time.perf_counter() - t0
     rss_build = _maxrss_mib()
     print(f"{name}: {len(world)} objects built in {build:.1f} s, far-pair index {far:,} pairs in "
@@ -239,7 +240,7 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
     if tiles and args.far_index:  # each tile's world has its own index (built here, before the fork)
         t0 = time.perf_counter()
         for tile in tiles:
-            tile.world.build_far_pairs(args.gravity)
+            tile.world.build_far_pairs(gravity)
         index += time.perf_counter() - t0
     draw = _drawer(name, world, site, args)
     rng = np.random.default_rng(args.seed + 17)
@@ -339,8 +340,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--worlds", nargs="+", choices=WORLDS, default=list(WORLDS))
     ap.add_argument("--poses", type=int, default=50)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--gravity", action="store_true",
-                    help="gravity-aligned invariants (the robot knows which way is up)")
+    ap.add_argument("--gravity", action="store_true", default=None,
+                    help="gravity-aligned invariants in every world (the robot knows which way is up); "
+                         "default: each world's WorldModel.gravity_aligned (the building and campus)")
     ap.add_argument("--max-seconds", type=float, default=900.0,
                     help="stop drawing poses for a world after this many seconds")
     ap.add_argument("--no-far-index", dest="far_index", action="store_false",
@@ -380,8 +382,9 @@ def main(argv: list[str] | None = None) -> None:
         else:
             rows.append(json.loads(lines[-1]))
         print(table(rows[-1:]), file=sys.stderr, flush=True)
+    gravity = "each world's flag" if args.gravity is None else args.gravity
     print(f"{N_TRUE} true + {N_FALSE} false percepts, sigma = rho^2/{args.depth_factor:g}, max_range "
-          f"{args.max_range:g} m, gravity_aligned={args.gravity}, seed {args.seed}\n")
+          f"{args.max_range:g} m, gravity_aligned={gravity}, seed {args.seed}\n")
     print(table(rows))
 
 
