@@ -118,7 +118,8 @@ def depth_sigma(
         The paper's empirical factor (its ζ), > 0, in 1/metres.
     min_sigma : float
         Floor of the result, metres (finite, >= 0): ``max(min_sigma, rho^2 / depth_factor)``.
-        The paper has none; simulations use one so that near percepts keep a usable sigma.
+        The paper has none; simulations use one so that near percepts keep a usable sigma
+        (docs/design.md#perception).
         With a positive floor a depth of 0 is allowed (its sigma is the floor).
 
     Returns
