@@ -123,7 +123,7 @@ def world_units_hint(world: WorldModel) -> str | None:
     sizes = sizes[sizes > 0]
     if sizes.size == 0:
         return None
-    dist, _ = world.tree.query(world.positions[pick], k=2)
+    dist = np.asarray(world.tree.query(world.positions[pick], k=2)[0], dtype=np.float64).reshape(-1, 2)
     gaps = dist[:, 1][dist[:, 1] > 0]
     if gaps.size == 0:
         return None
