@@ -30,6 +30,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 import radialopt as ro
+from perception import depth_sigma
 
 CHI2_3_THREE_SIGMA = 14.1564  # chi^2_3 quantile at 0.9973 (two-sided 3 sigma)
 CLIPS = (9.0, 25.0)  # (3 sd)^2 and (5 sd)^2 in units of trace(CRLB)
@@ -44,7 +45,7 @@ def make_scene(rng: np.random.Generator, n: int, df_range: tuple[float, float]):
     truth = rng.uniform(0.0, 10.0, size=3)
     depth_factor = float(np.exp(rng.uniform(np.log(df_range[0]), np.log(df_range[1]))))
     rho = np.linalg.norm(centers - truth, axis=1)
-    sigmas = np.maximum(rho**2 / depth_factor, 1e-6)
+    sigmas = depth_sigma(rho, depth_factor, min_sigma=1e-6)  # eq. 6
     radii = np.abs(rho + sigmas * rng.standard_normal(n))
     return centers, truth, radii, sigmas
 

@@ -22,6 +22,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import radialopt as ro  # noqa: E402
+from perception import depth_sigma  # noqa: E402
 from radialopt.projection import (  # noqa: E402
     _Problem,
     fresh_cvxpy_problem,
@@ -37,7 +38,7 @@ def instances(rng: np.random.Generator, n: int, count: int) -> list[list[ro.Gaus
         centers = rng.uniform(-2, 2, size=(n, 3))
         robot = rng.uniform(-2, 2, size=3)
         rho = np.linalg.norm(centers - robot, axis=1)
-        sig = np.maximum(rho**2 / 20.0, 1e-3)
+        sig = depth_sigma(rho, 20.0, min_sigma=1e-3)  # eq. 6
         radii = np.abs(rho + 3 * sig * rng.standard_normal(n))
         if not ro.RestrictionPolytope.from_centers(centers).contains(radii):
             out.append(ro.make_spheres(centers, radii, sig))

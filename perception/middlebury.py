@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import PerceptionError, ShapeError
+from .uncertainty import depth_sigma
 
 FOCAL_PX = 994.978
 BASELINE_M = 0.193001
@@ -206,7 +207,7 @@ def depth_error_table(
         stats = (meds[-1], int(m.sum()), float(np.median(e)), stds[-1])
         rows.append((float(edges[k]), float(edges[k + 1]), *stats))
     df = fit_depth_factor(np.array(meds), np.array(stds))
-    table_rows = tuple(DepthErrorRow(*r, model_sigma=r[2] ** 2 / df) for r in rows)
+    table_rows = tuple(DepthErrorRow(*r, model_sigma=float(depth_sigma(r[2], df))) for r in rows)
     derr = d_est - d_true
     return DepthErrorTable(
         rows=table_rows,

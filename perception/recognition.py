@@ -53,7 +53,7 @@ from .errors import (
 )
 from .percept import Percept
 from .stereo import _matrix as _as_float_array
-from .uncertainty import triangulation_jacobian
+from .uncertainty import depth_sigma, triangulation_jacobian
 
 __all__ = [
     "BOX_DEFAULTS",
@@ -1488,7 +1488,8 @@ def recognize(
             continue
         try:
             percepts.append(
-                Percept(type=dets_l[m.left].type, position=p, sigma=float(r**2 / depth_factor), covariance=c)
+                Percept(type=dets_l[m.left].type, position=p,
+                        sigma=float(depth_sigma(float(r), depth_factor)), covariance=c)
             )
         except PerceptionError:  # degenerate geometry (e.g. a singular covariance): no percept
             continue

@@ -17,6 +17,7 @@ from .chain import KinematicChain, check_transform, default_head
 from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
 from .percept import Percept
 from .stereo import StereoRig
+from .uncertainty import depth_sigma
 
 MAX_COORD = 1e150
 """Largest world coordinate accepted, metres."""
@@ -65,14 +66,29 @@ def _rng(rng: np.random.Generator) -> np.random.Generator:
     return check_rng("rng", rng)
 
 
+def _sigma_range_error(value: float) -> NonPositiveSigmaError:
+    return NonPositiveSigmaError(
+        f"simulated sigma {value!r} (from depth_factor, min_sigma and max_range) lies outside "
+        "[1e-150, 1e150] m; choose depth_factor, min_sigma and max_range so that it does not"
+    )
+
+
 def _sigmas(sig: NDArray[np.float64]) -> None:
     """Simulated sigmas must have representable variances (for the covariance ``sigma^2 I``)."""
     bad = np.flatnonzero(~((sig >= 1e-150) & (sig <= 1e150)))
     if bad.size:
-        raise NonPositiveSigmaError(
-            f"simulated sigma {sig[bad[0]]!r} (from depth_factor, min_sigma and max_range) lies outside "
-            "[1e-150, 1e150] m; choose depth_factor, min_sigma and max_range so that it does not"
-        )
+        raise _sigma_range_error(sig[bad[0]])
+
+
+def _simulated_sigmas(rho: NDArray[np.float64], depth_factor: float, min_sigma: float) -> NDArray[np.float64]:
+    """``max(min_sigma, rho^2 / depth_factor)`` (eq. 6, :func:`depth_sigma`) of the depths ``rho (k,)``,
+    checked by :func:`_sigmas` (an overflow is reported as a sigma outside the range, as before)."""
+    try:
+        sig = np.asarray(depth_sigma(rho, depth_factor, min_sigma=min_sigma), dtype=np.float64)
+    except NonFiniteError as exc:
+        raise _sigma_range_error(np.inf) from exc
+    _sigmas(sig)
+    return sig
 
 
 def _bounded_positions(pos: NDArray[np.float64]) -> None:
@@ -169,9 +185,7 @@ def simulate_percepts(
         visible &= np.abs(np.arctan2(P[:, 1], P[:, 0])) <= half_fov
     kept = visible & (rng.random(X.shape[0]) >= miss_rate)
     idx = np.flatnonzero(kept)
-    with np.errstate(over="ignore"):
-        sig = np.maximum(min_sigma, rho[idx] ** 2 / depth_factor)
-    _sigmas(sig)
+    sig = _simulated_sigmas(rho[idx], depth_factor, min_sigma)
     noisy = P[idx] + rng.standard_normal((idx.size, 3)) * sig[:, None]
 
     pool = _false_type_pool(false_types, tps)
@@ -179,9 +193,7 @@ def simulate_percepts(
         raise UnknownClassError("n_false > 0 needs false_types or at least one object type, got none")
     fpos = _uniform_visible(rng, n_false, max_range, half_fov)
     ftype = [pool[int(k)] for k in rng.integers(0, len(pool), n_false)] if n_false else []
-    with np.errstate(over="ignore"):
-        fsig = np.maximum(min_sigma, np.linalg.norm(fpos, axis=1) ** 2 / depth_factor)
-    _sigmas(fsig)
+    fsig = _simulated_sigmas(np.linalg.norm(fpos, axis=1), depth_factor, min_sigma)
 
     all_types = [tps[i] for i in idx] + ftype
     all_pos = np.vstack([noisy, fpos])
@@ -364,9 +376,7 @@ def simulate_scan(
         depth = rng.uniform(min(0.5, max_range), max_range, n_false)
         F = (uv @ Kinv.T) * depth[:, None]
         cam = np.vstack([P[detected], F])
-        with np.errstate(over="ignore"):
-            sig = np.maximum(min_sigma, cam[:, 2] ** 2 / depth_factor)
-        _sigmas(sig)
+        sig = _simulated_sigmas(cam[:, 2], depth_factor, min_sigma)
         noisy = cam + rng.standard_normal(cam.shape) * sig[:, None]
         ego = noisy @ ego_from_cam[:3, :3].T + ego_from_cam[:3, 3]
         out_types += [tps[i] for i in detected] + [pool[int(k)] for k in rng.integers(0, len(pool), n_false)]

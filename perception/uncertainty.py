@@ -38,6 +38,17 @@ def _positive(name: str, value: ArrayLike) -> NDArray[np.float64]:
     return arr
 
 
+def _non_negative(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    arr = _finite(name, value)
+    bad = np.argwhere(~(np.atleast_1d(arr) >= 0))
+    if bad.size:
+        if arr.ndim == 0:
+            raise NonPositiveSigmaError(f"{name} must be >= 0, got {float(arr)!r}")
+        idx = tuple(bad[0])
+        raise NonPositiveSigmaError(f"{name}[{', '.join(map(str, idx))}] must be >= 0, got {arr[idx]!r}")
+    return arr
+
+
 def _scalar_or_vector(name: str, arr: NDArray[np.float64]) -> NDArray[np.float64]:
     if arr.ndim > 1:
         raise ShapeError(f"{name} must be a scalar or shape (N,), got shape {arr.shape}")
@@ -94,20 +105,46 @@ def perception_depth(
 
 
 @guard
-def depth_sigma(rho: ArrayLike, depth_factor: float) -> NDArray[np.float64] | float:
+def depth_sigma(
+    rho: ArrayLike, depth_factor: float, *, min_sigma: float = 0.0
+) -> NDArray[np.float64] | float:
     """Standard deviation of a percept at perception depth ``rho``: ``rho^2 / depth_factor`` (eq. 6).
 
     Parameters
     ----------
     rho : float or (N,) float
-        Perception depth, metres (finite, > 0).
+        Perception depth, metres (finite, > 0; >= 0 when ``min_sigma > 0``).
     depth_factor : float
         The paper's empirical factor (its ζ), > 0, in 1/metres.
+    min_sigma : float
+        Floor of the result, metres (finite, >= 0): ``max(min_sigma, rho^2 / depth_factor)``.
+        The paper has none; simulations use one so that near percepts keep a usable sigma
+        (docs/design.md#perception).
+        With a positive floor a depth of 0 is allowed (its sigma is the floor).
+
+    Returns
+    -------
+    float or (N,) float
+        A float for a scalar ``rho``, else an array of the shape of ``rho``.
+
+    Raises
+    ------
+    NonPositiveSigmaError
+        A depth that is not > 0 (not >= 0 with a positive floor), a ``depth_factor`` <= 0,
+        a negative ``min_sigma``.
+    NonFiniteError
+        A NaN or infinite input, or ``rho^2 / depth_factor`` that overflows.
     """
-    r = _scalar_or_vector("rho", _positive("rho", rho))
+    floor = real_scalar("min_sigma", min_sigma, nonnegative=True)
+    if floor > 0:
+        r = _scalar_or_vector("rho", _non_negative("rho", rho))
+    else:
+        r = _scalar_or_vector("rho", _positive("rho", rho))
     df = real_scalar("depth_factor", depth_factor, positive=True)
     with np.errstate(over="ignore"):
         out = r**2 / df
+    if floor > 0:
+        out = np.maximum(floor, out)
     return _out(_result("rho**2 / depth_factor", out, "rho", r))
 
 

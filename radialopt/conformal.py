@@ -1,7 +1,7 @@
 """The meet of spheres in the conformal model, computed with plain linear algebra.
 
 Spheres are conformal 5-vectors ``S = X + 1/2 (|X|^2 - r^2) e_inf + e0`` (paper eq. 4 with
-its squares, DESIGN.md item 1); the squared radius may be negative (an imaginary sphere).
+its squares, docs/design.md#m1); the squared radius may be negative (an imaginary sphere).
 The meet of two spheres is a :class:`Circle`, of three a :class:`PointPair`, of four a
 :class:`Point` (paper section 2.3, Fig. 6).  Instead of the outer-product algebra the meet is
 computed from radical planes: for spheres i and j, ``S_i - S_j`` (both normalised to an

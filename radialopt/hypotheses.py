@@ -190,7 +190,7 @@ def generate_hypotheses(
     keep_imaginary : bool
         Keep imaginary circles and point pairs (the point pair then contributes its foot
         point, the closest real point, on the plane of the centres).  With noisy radii three
-        spheres often miss each other even when every pair meets (DESIGN.md item 3); without
+        spheres often miss each other even when every pair meets (docs/design.md#m3); without
         this the paper's real-only rule can leave no hypothesis at all.
     tol : MeetTolerances
 

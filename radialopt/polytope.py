@@ -1,4 +1,4 @@
-"""The restriction polytope in radial space (paper sections 4.3-4.4, DESIGN.md items 2-3).
+"""The restriction polytope in radial space (paper sections 4.3-4.4, docs/design.md#m2, #m3).
 
 For spheres i < j with centre distance ``d = |X_i - X_j|`` the radii ``r`` of a configuration
 in which the two spheres meet satisfy three half-spaces (the restriction lines of Fig. 14):

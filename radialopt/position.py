@@ -1,4 +1,4 @@
-"""Position estimation from Gaussian spheres (paper sections 2.3, 4.1-4.5; DESIGN.md 7-8).
+"""Position estimation from Gaussian spheres (paper sections 2.3, 4.1-4.5; docs/design.md#m7, #m8).
 
 Maximising the total density eq. 20 over the position x is sigma-weighted range least
 squares: minimise ``sum_i ((|x - X_i| - r_i) / sigma_i)^2``.  Four estimators share one entry

@@ -1,4 +1,4 @@
-"""The normalised radial projection (paper section 4.4, DESIGN.md items 4-6).
+"""The normalised radial projection (paper section 4.4, docs/design.md#m4, #m5, #m6).
 
 Given measured radii ``r`` (ranges of the percepts) that do not make every pair of spheres
 meet, find the adjusted radii ``r'`` in the restriction polytope ``A r' <= b`` that lose the
@@ -93,7 +93,7 @@ from .spheres import (
 RadialStatus = Literal["optimal", "optimal_inaccurate", "infeasible", "error"]
 STATUSES: tuple[str, ...] = get_args(RadialStatus)
 
-#: Clarabel settings that make the QP agree with the exact answer (DESIGN practical notes).
+#: Clarabel settings that make the QP agree with the exact answer (docs/design.md#solver-tolerances).
 CLARABEL_TIGHT = {
     "tol_gap_abs": 1e-10,
     "tol_gap_rel": 1e-10,

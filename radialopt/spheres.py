@@ -239,7 +239,7 @@ def radial_density(radii: ArrayLike, measured: ArrayLike, sigmas: ArrayLike) -> 
     return float(np.exp(-0.5 * float(z @ z)))
 
 
-# --- conformal model (DESIGN.md item 1) ---------------------------------------------------
+# --- conformal model (docs/design.md#m1) ---------------------------------------------------
 # A conformal vector is stored as the 5 coefficients (e1, e2, e3, e0, e_inf) with the metric
 # e_i . e_i = 1, e0 . e0 = e_inf . e_inf = 0, e0 . e_inf = -1.
 #: Largest magnitude of a conformal coordinate accepted (|X|^2 / 2 of a MAX_LENGTH point is 5e17).

@@ -1,4 +1,4 @@
-"""Vertex enumeration of the restriction polyhedron and projection in V-form (DESIGN.md item 6).
+"""Vertex enumeration of the restriction polyhedron and projection in V-form (docs/design.md#m6).
 
 A pointed polyhedron ``P = {x : A x <= b}`` is ``conv(V) + cone(R)`` (Minkowski-Weyl): ``V``
 its vertices, ``R`` its extreme rays.  The restriction polyhedron of the paper (eq. 16,
@@ -676,7 +676,7 @@ def project_vform(
     """Sigma-weighted projection of ``target`` onto ``conv(vertices) + cone(rays)``.
 
     Minimises ``sum(((x - target) / sigmas)**2)`` over ``x = V^T lam + R^T mu``, ``lam >= 0``,
-    ``sum(lam) = 1``, ``mu >= 0`` (DESIGN.md item 6) with Wolfe's minimum-norm-point algorithm
+    ``sum(lam) = 1``, ``mu >= 0`` (docs/design.md#m6) with Wolfe's minimum-norm-point algorithm
     (1976) in whitened coordinates: points ``w_k = (v_k - target) / sigmas``, directions
     ``d_l / sigmas`` whose weights are ``>= 0`` and outside the simplex sum.  Each minor cycle
     solves the affine minimisation on the current support exactly (a small KKT system).

@@ -168,7 +168,7 @@ def test_tangent_point_pair_and_design_counterexample():
     tangent = ro.meet(*[ro.GaussianSphere(c, rt, 1.0) for c in centers])
     assert tangent.status == "tangent"
     np.testing.assert_allclose(tangent.points, [circum, circum], atol=1e-12)
-    # DESIGN.md item 3: side 2, radii 1.1: every pair meets, the three do not
+    # docs/design.md#m3: side 2, radii 1.1: every pair meets, the three do not
     cex = ro.meet(*[ro.GaussianSphere(c, 1.1, 1.0) for c in centers])
     assert cex.status == "imaginary"
     assert cex.half_distance_sq == pytest.approx(1.21 - 4 / 3, rel=1e-12)

@@ -1,4 +1,4 @@
-"""The restriction polytope (eq. 16, DESIGN item 2) and the exact common-point test (item 3)."""
+"""The restriction polytope (eq. 16, docs/design.md#m2) and the exact common-point test (#m3)."""
 
 import itertools
 import math
@@ -71,7 +71,7 @@ def test_row_labels_name_kind_and_pair():
 
 
 def test_polytope_is_only_necessary_counterexample():
-    # DESIGN item 3: equilateral triangle of side 2, all radii 1.1
+    # docs/design.md#m3: equilateral triangle of side 2, all radii 1.1
     c = np.array([[0, 0, 0], [2, 0, 0], [1, math.sqrt(3), 0]], dtype=float)
     spheres = ro.make_spheres(c, [1.1] * 3, 0.1)
     assert ro.RestrictionPolytope.from_spheres(spheres).contains([1.1] * 3)

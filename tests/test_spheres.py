@@ -1,4 +1,4 @@
-"""GaussianSphere, densities (eqs. 11-14, 18-20) and the conformal sphere (eq. 4, DESIGN item 1)."""
+"""GaussianSphere, densities (eqs. 11-14, 18-20) and the conformal sphere (eq. 4, docs/design.md#m1)."""
 
 import math
 

@@ -32,7 +32,7 @@ TOL = {
     "projection": 1e-7,  # V-form projection vs an independent solver (metres)
     "certificate": 1e-7,  # certify_projection tolerance
     "projection_near_degenerate": 1e-5,  # V-form of a nearly degenerate P (see the test)
-    "clarabel": 1e-4,  # raw Clarabel, tight tolerances (DESIGN practical notes)
+    "clarabel": 1e-4,  # raw Clarabel, tight tolerances (docs/design.md#solver-tolerances)
 }
 
 # ---------------------------------------------------------------------------------------------
@@ -385,7 +385,7 @@ def projection_problems(draw, min_n: int = 3, max_n: int = 6):
 
 
 def hform_projection(P: RestrictionPolytope, target: np.ndarray, sigmas: np.ndarray) -> np.ndarray:
-    """Independent: Clarabel on the whitened H-form QP (DESIGN item 4), tight tolerances."""
+    """Independent: Clarabel on the whitened H-form QP (docs/design.md#m4), tight tolerances."""
     z = cp.Variable(P.dim)
     prob = cp.Problem(cp.Minimize(cp.sum_squares(z)), [(P.A * sigmas) @ z <= P.b - P.A @ target])
     try:

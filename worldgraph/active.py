@@ -45,7 +45,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.spatial import cKDTree
 
-from perception import KinematicChain, Percept
+from perception import KinematicChain, Percept, PerceptionError, depth_sigma
 
 from ._checks import as_list, float_array, generator, positive_float, strict_int
 from .association import ASSOCIATION_TOLERANCES, AssociationTolerances, check_world_and_percepts
@@ -197,7 +197,11 @@ def _check_types(world: WorldModel, types: object, result: LocalizationResult) -
 def _gate(rho: NDArray[np.float64], depth_factor: float, min_sigma: float, n_sigma: float,
           margin: float) -> NDArray[np.float64]:
     """Distance (m) within which two predicted points of one type look the same at range rho."""
-    return n_sigma * math.sqrt(2.0) * np.maximum(min_sigma, rho**2 / depth_factor) + margin
+    try:
+        sigma = np.asarray(depth_sigma(rho, depth_factor, min_sigma=min_sigma), dtype=np.float64)
+    except PerceptionError as exc:  # a predicted range the eq. 6 model refuses (NaN, overflow)
+        raise NonFiniteError(f"predicted percept sigma (eq. 6) failed: {exc}") from exc
+    return n_sigma * math.sqrt(2.0) * sigma + margin
 
 
 def tells_apart(ego: Sequence[NDArray[np.float64]], type_codes: NDArray[np.intp],

@@ -1,4 +1,4 @@
-"""Data association: percepts (ego frame) to world-model objects (paper section 2.2, DESIGN.md).
+"""Data association: percepts (ego frame) to world-model objects (paper 2.2, docs/design.md#association).
 
 Two methods share :func:`associate`:
 

@@ -67,6 +67,7 @@ from .errors import ArgumentTypeError, OutOfRangeError, PoseError, UnknownTypeEr
 from .model import WorldModel
 from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
 from .pose_certificate import certify_pose, solve_pose_sdp
+from .units import percept_units_hint, world_units_hint
 from .validation import (
     CHI2_3_GATE,
     CHI2_6_GATE,
@@ -590,6 +591,12 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
     return result
 
 
+def _units_hints(world: WorldModel, used: list[Percept]) -> list[str]:
+    """Sentences for the message when positions look like millimetres (docs/design.md#units)."""
+    hint = percept_units_hint(world, used)
+    return [hint] if hint else [h for h in (world_units_hint(world),) if h]
+
+
 def _localize(world: WorldModel, percepts: list[Percept], method: str, tol: AssociationTolerances,
               region: ro.Region | None, rng: np.random.Generator | None, pos_tol: float, rot_tol: float,
               solver_name: str, check: bool, certify: bool, t_start: float) -> LocalizationResult:
@@ -602,6 +609,7 @@ def _localize(world: WorldModel, percepts: list[Percept], method: str, tol: Asso
     notes = [f"ignored {int((~known).sum())} percept(s) of unknown type(s) {unknown}"] if unknown else []
     idx = np.flatnonzero(known)
     used = [percepts[i] for i in idx]
+    notes += _units_hints(world, used)
     timings = {"association": 0.0, "validation": 0.0, "radial": 0.0, "position": 0.0, "orientation": 0.0}
     if len(used) < max(3, tol.min_clique_size):
         timings["total"] = time.perf_counter() - t_start
