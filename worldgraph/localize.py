@@ -40,8 +40,9 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field, fields, replace
 from typing import Any, Literal, get_args
 
 import numpy as np
@@ -512,15 +513,42 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         Unknown method, something other than Percepts, a bad region or bound.
     """
     t_start = time.perf_counter()
+    percepts, settings = _check_arguments(world, percepts, method, tolerances, region, rng,
+                                          max_position_3sigma, max_rotation_3sigma, solver, check, certify)
+    with _raised_as_worldgraph_errors(settings.method):
+        result = _localize(world, percepts, settings, t_start)
+    return _sane(result, len(percepts))
+
+
+@dataclass(frozen=True)
+class _Settings:
+    """The checked arguments of one :func:`localize` call (all but the world and the percepts)."""
+
+    method: str
+    tol: AssociationTolerances
+    region: ro.Region | None  # the caller's region; None: the default region
+    rng: np.random.Generator | None
+    pos_tol: float  # max_position_3sigma, metres
+    rot_tol: float  # max_rotation_3sigma, radians
+    solver: str  # "active_set" or an installed cvxpy solver's name, upper case
+    check: bool
+    certify: bool
+
+
+def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str,
+                     tolerances: AssociationTolerances | None, region: object, rng: object,
+                     max_position_3sigma: float, max_rotation_3sigma: float, solver: object, check: object,
+                     certify: object) -> tuple[list[Percept], _Settings]:
+    """Step 1: every argument of :func:`localize` checked (specific errors), as the percepts and
+    the call's settings."""
     if not isinstance(method, str) or method not in LOCALIZE_METHODS:
         raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
-    percepts = check_world_and_percepts(world, percepts)
+    checked = check_world_and_percepts(world, percepts)
     tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
     if not isinstance(tol, AssociationTolerances):
         raise ArgumentTypeError(f"tolerances must be AssociationTolerances, got {type(tol).__name__}")
-    region = _check_region(region)
-    if rng is not None:
-        rng = generator("rng", rng)
+    box = _check_region(region)
+    gen = None if rng is None else generator("rng", rng)
     if not isinstance(solver, str):
         raise ArgumentTypeError(f"solver must be 'active_set' or a cvxpy solver name, got {solver!r}")
     solver_name = solver if solver == "active_set" else solver.upper()
@@ -540,9 +568,15 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     if not big <= MAX_COORDINATE:
         raise OutOfRangeError(f"world positions reach {big:.3g} m; localize handles coordinates up to "
                               f"{MAX_COORDINATE:g} m (shift the world's origin)")
+    return checked, _Settings(method, tol, box, gen, pos_tol, rot_tol, solver_name, bool(check),
+                              bool(certify))
+
+
+@contextmanager
+def _raised_as_worldgraph_errors(method: str) -> Iterator[None]:
+    """Failures of the numerical steps (radialopt's, numpy's) raised as WorldGraphError."""
     try:
-        result = _localize(world, percepts, method, tol, region, rng, pos_tol, rot_tol, solver_name,
-                           bool(check), bool(certify), t_start)
+        yield
     except WorldGraphError:
         raise
     except ro.VerificationError as exc:
@@ -553,7 +587,6 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     except (ArithmeticError, ValueError, TypeError, IndexError, np.linalg.LinAlgError) as exc:
         raise WorldGraphError(f"localize failed numerically on these percepts (method={method!r}): "
                               f"{type(exc).__name__}: {exc}") from exc
-    return _sane(result, len(percepts))
 
 
 def _check_region(region: object) -> ro.Region | None:
@@ -590,10 +623,62 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
     return result
 
 
-def _localize(world: WorldModel, percepts: list[Percept], method: str, tol: AssociationTolerances,
-              region: ro.Region | None, rng: np.random.Generator | None, pos_tol: float, rot_tol: float,
-              solver_name: str, check: bool, certify: bool, t_start: float) -> LocalizationResult:
-    n_all = len(percepts)
+def _localize(world: WorldModel, percepts: list[Percept], settings: _Settings, t_start: float
+              ) -> LocalizationResult:
+    """The pipeline on checked arguments: known percepts, association, measurements, then the
+    validated pose (or the paper's)."""
+    call = _known_percepts_step(world, percepts, settings, t_start)
+    need = max(3, settings.tol.min_clique_size)
+    if len(call.used) < need:
+        return call.failed("too_few_percepts", f"localisation needs at least {need} percepts of known types, "
+                           f"got {len(call.used)}")
+    hyps_local = _associate_step(call)
+    if not hyps_local:
+        return call.failed("no_association",
+                           "no consistent association of >= 3 percepts with the world model")
+    ctx = _measurement_step(call)
+    if settings.method == "paper":
+        return _paper(ctx, hyps_local)
+    return _validated(ctx, hyps_local)
+
+
+@dataclass
+class _Call:
+    """One call's settings, its percepts of known types and what it has noted and timed so far."""
+
+    world: WorldModel
+    settings: _Settings
+    used: list[Percept]
+    idx: NDArray[np.intp]               # used -> index in the percepts passed in
+    n_all: int
+    notes: list[str]
+    timings: dict[str, float]
+    t_start: float
+
+    def remap(self, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
+        return tuple((int(self.idx[p]), int(o)) for p, o in pairs)
+
+    def failed(self, status: LocalizeStatus, message: str, hyps: tuple = (), ambiguous: bool = False
+               ) -> LocalizationResult:
+        self.timings["total"] = time.perf_counter() - self.t_start
+        return _failed(status, "; ".join(self.notes + [message]), self.n_all, hyps, self.timings, ambiguous)
+
+
+@dataclass
+class _Context(_Call):
+    """A call with the measurements its steps share: the region, the percept positions and
+    covariances in the ego frame and the nearest-object index."""
+
+    region: ro.Region
+    explicit_region: bool
+    ego: NDArray[np.float64]
+    covs: NDArray[np.float64]
+    nearest: NearestObjects
+
+
+def _known_percepts_step(world: WorldModel, percepts: list[Percept], settings: _Settings, t_start: float
+                         ) -> _Call:
+    """Step 2: the percepts of types the world has (the others are named in a note)."""
     known = np.array([p.type in world.type_index for p in percepts], dtype=bool)
     unknown = sorted({p.type for p, ok in zip(percepts, known, strict=True) if not ok})
     if percepts and not known.any():
@@ -601,63 +686,32 @@ def _localize(world: WorldModel, percepts: list[Percept], method: str, tol: Asso
                                f"world types {list(world.type_index)}")
     notes = [f"ignored {int((~known).sum())} percept(s) of unknown type(s) {unknown}"] if unknown else []
     idx = np.flatnonzero(known)
-    used = [percepts[i] for i in idx]
     timings = {"association": 0.0, "validation": 0.0, "radial": 0.0, "position": 0.0, "orientation": 0.0}
-    if len(used) < max(3, tol.min_clique_size):
-        timings["total"] = time.perf_counter() - t_start
-        return _failed("too_few_percepts", "; ".join(notes + [
-            f"localisation needs at least {max(3, tol.min_clique_size)} percepts of known types, "
-            f"got {len(used)}"]), n_all, timings=timings)
+    return _Call(world, settings, [percepts[i] for i in idx], idx, len(percepts), notes, timings, t_start)
 
+
+def _associate_step(call: _Call) -> list[AssociationHypothesis]:
+    """Step 3: association hypotheses (the paper's filters for ``"paper"``, else typed cliques)."""
     t0 = time.perf_counter()
-    hyps_local = associate(world, used, tol, method="paper" if method == "paper" else "clique",
-                           max_hypotheses=max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES))
-    timings["association"] = time.perf_counter() - t0
-    if not hyps_local:
-        timings["total"] = time.perf_counter() - t_start
-        return _failed("no_association", "; ".join(notes + [
-            "no consistent association of >= 3 percepts with the world model"]), n_all, timings=timings)
-
-    explicit = region is not None
-    reg = region if region is not None else default_region(world, used)
-    ego = np.array([p.position for p in used])
-    covs = percept_covariances(used)
-    nearest = NearestObjects(world, [p.type for p in used])
-    ctx = _Context(world, used, ego, covs, nearest, idx, n_all, reg, explicit, tol, pos_tol, rot_tol,
-                   notes, timings, t_start, solver_name, check, certify)
-    if method == "paper":
-        return _paper(ctx, hyps_local)
-    return _validated(ctx, hyps_local, method, rng)
+    tol = call.settings.tol
+    how = "paper" if call.settings.method == "paper" else "clique"
+    hyps = associate(call.world, call.used, tol, method=how,
+                     max_hypotheses=max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES))
+    call.timings["association"] = time.perf_counter() - t0
+    return hyps
 
 
-@dataclass
-class _Context:
-    world: WorldModel
-    used: list[Percept]
-    ego: NDArray[np.float64]
-    covs: NDArray[np.float64]
-    nearest: NearestObjects
-    idx: NDArray[np.intp]               # used -> index in the percepts passed in
-    n_all: int
-    region: ro.Region
-    explicit_region: bool
-    tol: AssociationTolerances
-    pos_tol: float
-    rot_tol: float
-    notes: list[str]
-    timings: dict[str, float]
-    t_start: float
-    solver: str = "active_set"
-    check: bool = False
-    certify: bool = False
-
-    def remap(self, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
-        return tuple((int(self.idx[p]), int(o)) for p, o in pairs)
-
-    def failed(self, status: LocalizeStatus, message: str, hyps: tuple, ambiguous: bool = False
-               ) -> LocalizationResult:
-        self.timings["total"] = time.perf_counter() - self.t_start
-        return _failed(status, "; ".join(self.notes + [message]), self.n_all, hyps, self.timings, ambiguous)
+def _measurement_step(call: _Call) -> _Context:
+    """Step 4: the region (the caller's or :func:`default_region`) and the percepts' positions,
+    covariances and nearest same-type objects, shared by the steps after it."""
+    given = call.settings.region
+    explicit = given is not None
+    region = given if given is not None else default_region(call.world, call.used)
+    ego = np.array([p.position for p in call.used])
+    covs = percept_covariances(call.used)
+    nearest = NearestObjects(call.world, [p.type for p in call.used])
+    return _Context(**{f.name: getattr(call, f.name) for f in fields(_Call)}, region=region,
+                    explicit_region=explicit, ego=ego, covs=covs, nearest=nearest)
 
 
 def _distinct_centres(world: WorldModel, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
@@ -674,11 +728,28 @@ def _distinct_centres(world: WorldModel, pairs: Sequence[tuple[int, int]]) -> tu
     return tuple(sorted(p for p, k in zip(pairs, keep, strict=True) if k))
 
 
-def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: str,
-               rng: np.random.Generator | None) -> LocalizationResult:
-    """Validate the best hypotheses by ML fits, choose, then the pose of ``method``."""
+def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> LocalizationResult:
+    """Validate the best hypotheses by ML fits, rank and choose, then the pose of the method."""
+    fits = _fit_step(ctx, hyps_local)
+    distinct, hyps = _range_step(ctx, hyps_local, fits)
+    incomplete = not hyps_local[0].complete
+    if not distinct:
+        return ctx.failed("degenerate", "no hypothesis has 3 inliers that fix a 6D pose (collinear "
+                          "landmarks)", hyps, incomplete)
+    choice = _choose_step(ctx, distinct, incomplete)
+    if ctx.settings.method == "ml":
+        return _ml_pose_step(ctx, choice, hyps)
+    return _range_only_pose_step(ctx, choice, hyps)
+
+
+_Fits = dict[tuple[tuple[int, int], ...], tuple[PoseFit, int]]
+"""Validated fits by their inlier pairs, each with the index of the hypothesis it came from."""
+
+
+def _fit_step(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> _Fits:
+    """Step 5: ML fits of the best hypotheses (at most :data:`MAX_VALIDATED` distinct ones)."""
     t0 = time.perf_counter()
-    fits: dict[tuple[tuple[int, int], ...], tuple[PoseFit, int]] = {}
+    fits: _Fits = {}
     for h_i, h in enumerate(hyps_local):
         if len(fits) >= MAX_VALIDATED:
             break
@@ -693,6 +764,13 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
             if fit is not None and fit.pairs not in fits:  # converged to the same inliers: one answer
                 fits[fit.pairs] = (fit, h_i)
     ctx.timings["validation"] = time.perf_counter() - t0
+    return fits
+
+
+def _range_step(ctx: _Context, hyps_local: list[AssociationHypothesis], fits: _Fits
+                ) -> tuple[list[tuple[PoseFit, int]], tuple[AssociationHypothesis, ...]]:
+    """Step 6: the fits whose ranges meet, best first, and every hypothesis with its radial
+    solution (the ranked ones first)."""
     # the card's convex problem for every validated hypothesis: the Gaussian spheres of its
     # matches (clique and validated percepts, one per distinct centre) projected
     # onto their restriction polytope; a displacement beyond the chi-square gate means ranges
@@ -710,14 +788,27 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     sol_of = {h_i: radial[f.pairs] for f, h_i in fits.values()}
     hyps = tuple(replace(_remap(hyps_local[i], ctx.idx), radial=sol_of[i]) for i in order) + tuple(
         replace(_remap(h, ctx.idx), radial=sol_of.get(i)) for i, h in enumerate(hyps_local) if i not in order)
-    incomplete = not hyps_local[0].complete
-    if not distinct:
-        return ctx.failed("degenerate", "no hypothesis has 3 inliers that fix a 6D pose (collinear "
-                          "landmarks)", hyps, incomplete)
+    return distinct, hyps
+
+
+@dataclass(frozen=True)
+class _Choice:
+    """The chosen fit and what the runners-up say about it."""
+
+    best: PoseFit
+    ambiguous: bool
+    alternatives: tuple[NDArray[np.float64], ...]
+    llr: float
+    near_best_costs: tuple[float, ...]
+
+
+def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete: bool) -> _Choice:
+    """Step 7: the best fit (inside the region when that costs little or the region is the
+    caller's), its runners-up within the ambiguity margin and its log-likelihood ratio."""
     inside = [f for f in distinct if _in_region(ctx.region, f[0].world_from_ego, f[0].pose_covariance)]
     if inside and len(inside) < len(distinct):
         worse_by = inside[0][0].cost - distinct[0][0].cost
-        if ctx.explicit_region or worse_by < ctx.tol.ambiguity_margin:
+        if ctx.explicit_region or worse_by < ctx.settings.tol.ambiguity_margin:
             if inside[0] is not distinct[0]:
                 ctx.notes.append(f"{len(distinct) - len(inside)} better-fitting pose(s) outside the region "
                                  "were set aside")
@@ -726,7 +817,7 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
             ctx.notes.append(f"the best fit lies outside the default region; the best pose inside it fits "
                              f"worse by a robust cost of {worse_by:.3g}, so it was not preferred")
     best = distinct[0][0]
-    runners = [f for f, _ in distinct[1:] if f.cost - best.cost < ctx.tol.ambiguity_margin
+    runners = [f for f, _ in distinct[1:] if f.cost - best.cost < ctx.settings.tol.ambiguity_margin
                and _pose_nees(best, f.world_from_ego) > CHI2_6_GATE]
     ambiguous = bool(runners) or incomplete
     if incomplete:
@@ -740,32 +831,46 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     llr = 0.5 * (distinct[1][0].cost - best.cost) if len(distinct) > 1 else math.inf
     alternatives = tuple(f.world_from_ego.copy() for f in runners)
     near_best_costs = (float(best.cost), *(float(f.cost) for f in runners))
+    return _Choice(best, ambiguous, alternatives, llr, near_best_costs)
+
+
+def _ml_pose_step(ctx: _Context, choice: _Choice, hyps: tuple[AssociationHypothesis, ...]
+                  ) -> LocalizationResult:
+    """Step 8 (``"ml"``): the validated 6D pose (or the rotation SDP's, when better) and its
+    calibrated covariance; then the checks of :func:`_finish`."""
+    best = choice.best
     pairs = best.pairs
     p_i = np.array([p for p, _ in pairs])
-    o_i = np.array([o for _, o in pairs])
-    centers = ctx.world.positions[o_i]
-    if method == "ml":
-        t0 = time.perf_counter()
-        pose = best.world_from_ego
-        if ctx.certify and len(pairs) <= 4:  # few matches: the rotation SDP is a global solver
-            sdp_pose, _ = solve_pose_sdp(ctx.ego[p_i], centers, ctx.covs[p_i])
-            if pose_cost(sdp_pose, ctx.ego[p_i], ctx.covs[p_i], centers) < \
-                    pose_cost(pose, ctx.ego[p_i], ctx.covs[p_i], centers) - 1e-12:
-                pose = sdp_pose
-                ctx.notes.append("the rotation SDP found a better pose than the local fit")
-        cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
-        shared = [ctx.used[i].shared for i in p_i]
-        if any(shared):  # errors common to the percepts of one view (head encoders)
-            cov6 = cov6 + shared_view_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], shared)
-        ctx.timings["position"] = time.perf_counter() - t0
-        return replace(_finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, None, check=False),
-                       near_best_costs=near_best_costs)
+    centers = ctx.world.positions[np.array([o for _, o in pairs])]
+    t0 = time.perf_counter()
+    pose = best.world_from_ego
+    if ctx.settings.certify and len(pairs) <= 4:  # few matches: the rotation SDP is a global solver
+        sdp_pose, _ = solve_pose_sdp(ctx.ego[p_i], centers, ctx.covs[p_i])
+        if pose_cost(sdp_pose, ctx.ego[p_i], ctx.covs[p_i], centers) < \
+                pose_cost(pose, ctx.ego[p_i], ctx.covs[p_i], centers) - 1e-12:
+            pose = sdp_pose
+            ctx.notes.append("the rotation SDP found a better pose than the local fit")
+    cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
+    shared = [ctx.used[i].shared for i in p_i]
+    if any(shared):  # errors common to the percepts of one view (head encoders)
+        cov6 = cov6 + shared_view_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], shared)
+    ctx.timings["position"] = time.perf_counter() - t0
+    return replace(_finish(ctx, pose, cov6, pairs, hyps, choice.ambiguous, choice.alternatives, choice.llr,
+                           None, check=False), near_best_costs=choice.near_best_costs)
 
-    # range-only methods on the validated matches
-    sph = _sphere_position(ctx, pairs, _SPHERE_ESTIMATOR[method], best.world_from_ego[:3, 3], rng)
+
+def _range_only_pose_step(ctx: _Context, choice: _Choice, hyps: tuple[AssociationHypothesis, ...]
+                          ) -> LocalizationResult:
+    """Step 8 (range-only methods): the position of the validated matches' Gaussian spheres,
+    then the weighted rotation and the two-stage covariance; then the checks of :func:`_finish`."""
+    best = choice.best
+    pairs = best.pairs
+    estimator = _SPHERE_ESTIMATOR[ctx.settings.method]
+    sph = _sphere_position(ctx, pairs, estimator, best.world_from_ego[:3, 3], ctx.settings.rng)
     sp, s_centers, sig, est, position, status, pos_cov = sph
     if status in ("degenerate", "degenerate_collinear"):
-        return ctx.failed(status, est.message or "the matched landmarks fix no position", hyps, ambiguous)
+        return ctx.failed(status, est.message or "the matched landmarks fix no position", hyps,
+                          choice.ambiguous)
     t0 = time.perf_counter()
     pos_var = float(np.trace(pos_cov)) / 3.0 if np.all(np.isfinite(pos_cov)) else float(np.max(sig) ** 2)
     w = 1.0 / (sig**2 + pos_var)
@@ -776,10 +881,9 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     if any(shared):  # errors common to the percepts of one view (head encoders)
         cov6 = cov6 + shared_range_covariance(pose, ctx.ego[sp], ctx.covs[sp], s_centers, sig, w, shared)
     ctx.timings["orientation"] = time.perf_counter() - t0
-    if status == "ambiguous":
-        ambiguous = True
-    return replace(_finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, est, check=True,
-                           status_hint=status), near_best_costs=near_best_costs)
+    ambiguous = choice.ambiguous or status == "ambiguous"
+    return replace(_finish(ctx, pose, cov6, pairs, hyps, ambiguous, choice.alternatives, choice.llr, est,
+                           check=True, status_hint=status), near_best_costs=choice.near_best_costs)
 
 
 def match_spheres(world: WorldModel, percepts: Sequence[Percept], pairs: Sequence[tuple[int, int]]
@@ -847,20 +951,20 @@ def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]]) -> ro.RadialSolutio
     """:func:`radialopt.project_radii` of the spheres of ``pairs`` (:func:`match_spheres`) with
     the solver asked for; None with fewer than two spheres."""
     p_i, o_i, spheres = _match_spheres(ctx.world, ctx.used, pairs)
-    limit = MAX_RADIAL_SPHERES if ctx.solver == "active_set" else MAX_CVXPY_SPHERES
+    limit = MAX_RADIAL_SPHERES if ctx.settings.solver == "active_set" else MAX_CVXPY_SPHERES
     _, _, spheres = _most_certain(ctx, p_i, o_i, spheres, limit)
     if len(spheres) < 2:
         return None
-    check = ctx.check
+    check = ctx.settings.check
     if check and len(spheres) > ro.MAX_VERTEX_SPHERES:  # enumeration would take minutes
         check = False
         note = (f"the vertex-enumeration check ran only on hypotheses of at most {ro.MAX_VERTEX_SPHERES} "
                 "spheres (radialopt.MAX_VERTEX_SPHERES); larger ones were solved unchecked")
         if note not in ctx.notes:
             ctx.notes.append(note)
-    if ctx.solver == "active_set":
+    if ctx.settings.solver == "active_set":
         return ro.project_radii(spheres, method="active_set", check=check)
-    return ro.project_radii(spheres, method="cvxpy", solver=ctx.solver, check=check)
+    return ro.project_radii(spheres, method="cvxpy", solver=ctx.settings.solver, check=check)
 
 
 def _radial_score(sol: ro.RadialSolution | None) -> float:
@@ -991,14 +1095,14 @@ def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int,
         else:
             pos3 = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(cov6[:3, :3])[-1]), 0.0))
             rot3 = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(cov6[3:, 3:])[-1]), 0.0))
-            if pos3 > ctx.pos_tol or rot3 > ctx.rot_tol:
+            if pos3 > ctx.settings.pos_tol or rot3 > ctx.settings.rot_tol:
                 status = "weak"
                 ctx.notes.append(f"weakly determined: 3-sigma bounds {pos3:.3g} m (tolerance "
-                                 f"{ctx.pos_tol:.3g})"
+                                 f"{ctx.settings.pos_tol:.3g})"
                                  f" and {math.degrees(rot3):.3g} deg (tolerance "
-                                 f"{math.degrees(ctx.rot_tol):.3g})")
+                                 f"{math.degrees(ctx.settings.rot_tol):.3g})")
     certificate = None
-    if ctx.certify:
+    if ctx.settings.certify:
         t0 = time.perf_counter()
         try:
             certificate = certify_pose(ctx.ego[p_i], centers, ctx.covs[p_i], pose)
@@ -1020,7 +1124,7 @@ def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Localizati
     t0 = time.perf_counter()
     hyps = tuple(replace(_remap(h, ctx.idx), radial=_radial(ctx, h.pairs + h.validated)) for h in hyps_local)
     ctx.timings["radial"] = time.perf_counter() - t0
-    ambiguous = is_ambiguous(hyps_local, ctx.tol) or not hyps_local[0].complete
+    ambiguous = is_ambiguous(hyps_local, ctx.settings.tol) or not hyps_local[0].complete
     best = hyps_local[0]
     if ambiguous and len(hyps_local) > 1:
         second = hyps_local[1]
