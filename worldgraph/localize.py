@@ -43,7 +43,7 @@ import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, fields, replace
-from typing import Any, Literal, get_args
+from typing import Any, Literal, cast, get_args
 
 import numpy as np
 from numpy.typing import NDArray
@@ -736,10 +736,15 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Locali
     if not distinct:
         return ctx.failed("degenerate", "no hypothesis has 3 inliers that fix a 6D pose (collinear "
                           "landmarks)", hyps, incomplete)
-    choice = _choose_step(ctx, distinct, incomplete)
+    best, choice = _choose_step(ctx, distinct, incomplete)
     if ctx.settings.method == "ml":
-        return _ml_pose_step(ctx, choice, hyps)
-    return _range_only_pose_step(ctx, choice, hyps)
+        return _finish(ctx, _ml_pose_step(ctx, best), hyps, choice)
+    answer = _range_only_pose_step(ctx, best)
+    if answer.status_hint in ("degenerate", "degenerate_collinear"):  # no position, so no pose
+        message = answer.est.message if answer.est is not None else ""
+        return ctx.failed(cast(LocalizeStatus, answer.status_hint),
+                          message or "the matched landmarks fix no position", hyps, choice.ambiguous)
+    return _finish(ctx, answer, hyps, choice)
 
 
 _Fits = dict[tuple[tuple[int, int], ...], tuple[PoseFit, int]]
@@ -793,16 +798,28 @@ def _range_step(ctx: _Context, hyps_local: list[AssociationHypothesis], fits: _F
 
 @dataclass(frozen=True)
 class _Choice:
-    """The chosen fit and what the runners-up say about it."""
+    """What the runners-up say about the chosen hypothesis."""
 
-    best: PoseFit
     ambiguous: bool
-    alternatives: tuple[NDArray[np.float64], ...]
-    llr: float
-    near_best_costs: tuple[float, ...]
+    alternatives: tuple[NDArray[np.float64], ...] = ()
+    llr: float = math.inf  # log-likelihood ratio to the second-best fit
+    near_best_costs: tuple[float, ...] = ()
 
 
-def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete: bool) -> _Choice:
+@dataclass(frozen=True)
+class _Answer:
+    """A pose step's pose, before the answer checks itself (:func:`_finish`)."""
+
+    pose: NDArray[np.float64]
+    cov6: NDArray[np.float64]
+    pairs: tuple[tuple[int, int], ...]  # matches behind the pose (used-percept, object)
+    est: ro.PositionEstimate | None = None  # the range-only position estimate, if any
+    self_check: bool = True  # run the chi-square self-check of the matches
+    status_hint: str = "ok"  # the position estimator's status
+
+
+def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete: bool
+                 ) -> tuple[PoseFit, _Choice]:
     """Step 7: the best fit (inside the region when that costs little or the region is the
     caller's), its runners-up within the ambiguity margin and its log-likelihood ratio."""
     inside = [f for f in distinct if _in_region(ctx.region, f[0].world_from_ego, f[0].pose_covariance)]
@@ -831,14 +848,12 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     llr = 0.5 * (distinct[1][0].cost - best.cost) if len(distinct) > 1 else math.inf
     alternatives = tuple(f.world_from_ego.copy() for f in runners)
     near_best_costs = (float(best.cost), *(float(f.cost) for f in runners))
-    return _Choice(best, ambiguous, alternatives, llr, near_best_costs)
+    return best, _Choice(ambiguous, alternatives, llr, near_best_costs)
 
 
-def _ml_pose_step(ctx: _Context, choice: _Choice, hyps: tuple[AssociationHypothesis, ...]
-                  ) -> LocalizationResult:
+def _ml_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
     """Step 8 (``"ml"``): the validated 6D pose (or the rotation SDP's, when better) and its
-    calibrated covariance; then the checks of :func:`_finish`."""
-    best = choice.best
+    calibrated covariance."""
     pairs = best.pairs
     p_i = np.array([p for p, _ in pairs])
     centers = ctx.world.positions[np.array([o for _, o in pairs])]
@@ -855,22 +870,20 @@ def _ml_pose_step(ctx: _Context, choice: _Choice, hyps: tuple[AssociationHypothe
     if any(shared):  # errors common to the percepts of one view (head encoders)
         cov6 = cov6 + shared_view_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], shared)
     ctx.timings["position"] = time.perf_counter() - t0
-    return replace(_finish(ctx, pose, cov6, pairs, hyps, choice.ambiguous, choice.alternatives, choice.llr,
-                           None, check=False), near_best_costs=choice.near_best_costs)
+    return _Answer(pose, cov6, pairs, self_check=False)
 
 
-def _range_only_pose_step(ctx: _Context, choice: _Choice, hyps: tuple[AssociationHypothesis, ...]
-                          ) -> LocalizationResult:
+def _range_only_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
     """Step 8 (range-only methods): the position of the validated matches' Gaussian spheres,
-    then the weighted rotation and the two-stage covariance; then the checks of :func:`_finish`."""
-    best = choice.best
+    then the weighted rotation and the two-stage covariance (no pose when the position is
+    degenerate: ``status_hint`` says so)."""
     pairs = best.pairs
     estimator = _SPHERE_ESTIMATOR[ctx.settings.method]
     sph = _sphere_position(ctx, pairs, estimator, best.world_from_ego[:3, 3], ctx.settings.rng)
     sp, s_centers, sig, est, position, status, pos_cov = sph
     if status in ("degenerate", "degenerate_collinear"):
-        return ctx.failed(status, est.message or "the matched landmarks fix no position", hyps,
-                          choice.ambiguous)
+        nan = np.full((4, 4), np.nan)
+        return _Answer(nan, np.full((6, 6), np.nan), pairs, est, status_hint=status)
     t0 = time.perf_counter()
     pos_var = float(np.trace(pos_cov)) / 3.0 if np.all(np.isfinite(pos_cov)) else float(np.max(sig) ** 2)
     w = 1.0 / (sig**2 + pos_var)
@@ -881,9 +894,7 @@ def _range_only_pose_step(ctx: _Context, choice: _Choice, hyps: tuple[Associatio
     if any(shared):  # errors common to the percepts of one view (head encoders)
         cov6 = cov6 + shared_range_covariance(pose, ctx.ego[sp], ctx.covs[sp], s_centers, sig, w, shared)
     ctx.timings["orientation"] = time.perf_counter() - t0
-    ambiguous = choice.ambiguous or status == "ambiguous"
-    return replace(_finish(ctx, pose, cov6, pairs, hyps, ambiguous, choice.alternatives, choice.llr, est,
-                           check=True, status_hint=status), near_best_costs=choice.near_best_costs)
+    return _Answer(pose, cov6, pairs, est, status_hint=status)
 
 
 def match_spheres(world: WorldModel, percepts: Sequence[Percept], pairs: Sequence[tuple[int, int]]
@@ -1052,36 +1063,68 @@ def _in_region(region: ro.Region, pose: NDArray, cov6: NDArray) -> bool:
     return bool(region.contains(pose[:3, 3], tol=1e-6 + slack))
 
 
-def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int, int], ...], hyps: tuple,
-            ambiguous: bool, alternatives: tuple, llr: float, est: ro.PositionEstimate | None, check: bool,
-            status_hint: str = "ok") -> LocalizationResult:
-    """Residuals, fitness, the self-check, the region and the weak-pose test; the result."""
-    world = ctx.world
-    p_i = np.array([p for p, _ in pairs])
-    centers = world.positions[np.array([o for _, o in pairs])]
-    status: str = "ok"
-    if check:
-        passed, _, msg = self_check(pose, ctx.ego[p_i], ctx.covs[p_i], centers, cov6)
+def _finish(ctx: _Context, answer: _Answer, hyps: tuple, choice: _Choice) -> LocalizationResult:
+    """Step 9: the answer checks itself (its matches' chi-square, its inliers, the region, how
+    well it is determined) and is certified when asked; the result."""
+    p_i = np.array([p for p, _ in answer.pairs])
+    centers = ctx.world.positions[np.array([o for _, o in answer.pairs])]
+    status = _self_check_step(ctx, answer, p_i, centers)
+    n_inl, rmse, residuals = _inlier_step(ctx, answer)
+    ambiguous = choice.ambiguous or answer.status_hint == "ambiguous"
+    status = _status_step(ctx, answer, status, n_inl, ambiguous)
+    certificate = _certificate_step(ctx, answer, p_i, centers)
+    ctx.timings["total"] = time.perf_counter() - ctx.t_start
+    pose, cov6 = answer.pose, answer.cov6
+    return LocalizationResult(
+        transformation=pose.copy(), position=pose[:3, 3].copy(), covariance=cov6[:3, :3].copy(),
+        correspondences=ctx.remap(answer.pairs), hypotheses=hyps,
+        ambiguous=ambiguous or status == "ambiguous",
+        status=status, message="; ".join(n for n in ctx.notes if n), timings=ctx.timings,  # type: ignore[arg-type]
+        position_estimate=answer.est, pose_covariance=cov6, fitness=n_inl / max(ctx.n_all, 1),
+        inlier_rmse=rmse, residuals=residuals, alternatives=choice.alternatives,
+        log_likelihood_ratio=choice.llr, certificate=certificate, near_best_costs=choice.near_best_costs)
+
+
+def _self_check_step(ctx: _Context, answer: _Answer, p_i: NDArray, centers: NDArray) -> str:
+    """``"inconsistent"`` when the matched percepts placed by the pose fail their chi-square test
+    (only when ``answer.self_check``), else ``"ok"``."""
+    status = "ok"
+    if answer.self_check:
+        passed, _, msg = self_check(answer.pose, ctx.ego[p_i], ctx.covs[p_i], centers, answer.cov6)
         if not passed:
             status = "inconsistent"
             ctx.notes.append(msg)
+    return status
+
+
+def _inlier_step(ctx: _Context, answer: _Answer) -> tuple[int, float, NDArray[np.float64]]:
+    """Every percept against its nearest same-type object under the pose: the number of inliers
+    (chi-square gate, 3 dof), their RMS distance (m) and every percept's Mahalanobis residual."""
+    pose, cov6 = answer.pose, answer.cov6
     finite_cov = np.all(np.isfinite(cov6))
     d2, obj, _ = ctx.nearest.query(pose, ctx.ego, ctx.covs, cov6 if finite_cov else None)
     inl = d2 <= CHI2_3_GATE
     pred = ctx.ego @ pose[:3, :3].T + pose[:3, 3]
-    dist = np.linalg.norm(pred[inl] - world.positions[obj[inl]], axis=1) if inl.any() else np.zeros(0)
+    dist = np.linalg.norm(pred[inl] - ctx.world.positions[obj[inl]], axis=1) if inl.any() else np.zeros(0)
     n_inl = int(inl.sum())
     residuals = np.full(ctx.n_all, np.nan)
     residuals[ctx.idx] = np.sqrt(d2)
+    return n_inl, float(np.sqrt(np.mean(dist**2))) if n_inl else math.nan, residuals
+
+
+def _status_step(ctx: _Context, answer: _Answer, status: str, n_inl: int, ambiguous: bool) -> str:
+    """The status: the self-check's, then too few inliers, the estimator's, ambiguity, the
+    region, and the 3-sigma bounds against the tolerances (``"weak"``), first failure wins."""
+    pose, cov6 = answer.pose, answer.cov6
     if status == "ok" and n_inl < 3:
         status = "inconsistent"
         ctx.notes.append(f"only {n_inl} percept(s) agree with the pose (3 needed)")
-    if status == "ok" and status_hint not in ("ok", "ambiguous"):
+    if status == "ok" and answer.status_hint not in ("ok", "ambiguous"):
         # a radialopt status that localize does not know is no success
-        status = status_hint if status_hint in LOCALIZE_STATUSES else "degenerate"
+        status = answer.status_hint if answer.status_hint in LOCALIZE_STATUSES else "degenerate"
     if status == "ok" and ambiguous:
         status = "ambiguous"
-    position = pose[:3, 3].copy()
+    position = pose[:3, 3]
     in_region = _in_region(ctx.region, pose, cov6)
     if status == "ok" and ctx.explicit_region and not in_region:
         status = "outside_region"
@@ -1089,7 +1132,7 @@ def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int,
     elif not in_region:
         ctx.notes.append(f"the pose {position.tolist()} lies outside the default region")
     if status == "ok":
-        if not finite_cov:
+        if not np.all(np.isfinite(cov6)):
             status = "weak"
             ctx.notes.append("the matched landmarks do not determine the pose (infinite covariance)")
         else:
@@ -1101,22 +1144,23 @@ def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int,
                                  f"{ctx.settings.pos_tol:.3g})"
                                  f" and {math.degrees(rot3):.3g} deg (tolerance "
                                  f"{math.degrees(ctx.settings.rot_tol):.3g})")
+    return status
+
+
+def _certificate_step(ctx: _Context, answer: _Answer, p_i: NDArray, centers: NDArray
+                      ) -> ro.Certificate | None:
+    """With ``certify=True``: the rotation SDP's certificate of the pose (None, with a note, when
+    the match set admits none)."""
+    if not ctx.settings.certify:
+        return None
     certificate = None
-    if ctx.settings.certify:
-        t0 = time.perf_counter()
-        try:
-            certificate = certify_pose(ctx.ego[p_i], centers, ctx.covs[p_i], pose)
-        except WorldGraphError as exc:  # e.g. a degenerate match set: no certificate, say why
-            ctx.notes.append(f"no certificate: {exc}")
-        ctx.timings["certificate"] = time.perf_counter() - t0
-    ctx.timings["total"] = time.perf_counter() - ctx.t_start
-    return LocalizationResult(
-        transformation=pose.copy(), position=position, covariance=cov6[:3, :3].copy(),
-        correspondences=ctx.remap(pairs), hypotheses=hyps, ambiguous=ambiguous or status == "ambiguous",
-        status=status, message="; ".join(n for n in ctx.notes if n), timings=ctx.timings,  # type: ignore[arg-type]
-        position_estimate=est, pose_covariance=cov6, fitness=n_inl / max(ctx.n_all, 1),
-        inlier_rmse=float(np.sqrt(np.mean(dist**2))) if n_inl else math.nan, residuals=residuals,
-        alternatives=alternatives, log_likelihood_ratio=llr, certificate=certificate)
+    t0 = time.perf_counter()
+    try:
+        certificate = certify_pose(ctx.ego[p_i], centers, ctx.covs[p_i], answer.pose)
+    except WorldGraphError as exc:  # e.g. a degenerate match set: no certificate, say why
+        ctx.notes.append(f"no certificate: {exc}")
+    ctx.timings["certificate"] = time.perf_counter() - t0
+    return certificate
 
 
 def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> LocalizationResult:
@@ -1146,8 +1190,8 @@ def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Localizati
     if status == "ambiguous":
         ambiguous = True
     alternatives = tuple(h.world_from_ego.copy() for h in hyps_local[1:2]) if ambiguous else ()
-    return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, math.inf, est, check=True,
-                   status_hint=status)
+    return _finish(ctx, _Answer(pose, cov6, pairs, est, status_hint=status), hyps,
+                   _Choice(ambiguous, alternatives))
 
 
 def _eq5_rotation(ego: NDArray, centers: NDArray, sigmas: NDArray, limit: int = 10
