@@ -36,18 +36,15 @@ from .errors import (
 from .fusion import fuse_percepts, mean_shift_modes
 from .percept import Percept
 from .recognition import (
-    Box,
     Detection,
     GaussianClassifier,
     StereoMatch,
     detect,
     match_stereo,
-    random_scene,
     recognize,
-    render_stereo,
-    scene_boxes,
     train_classifier,
 )
+from .render import Box, random_scene, render_stereo, scene_boxes
 from .simulate import simulate_percepts, simulate_scan
 from .stereo import Rectification, StereoRig
 from .uncertainty import (

@@ -561,3 +561,20 @@ def test_bad_boxes_and_parameters_raise_specific_errors(trained: GaussianClassif
         Detection(type="handle", centroid_uv=(1.0, 1.0), area=0.0, features=np.zeros(7))
     with pytest.raises(NotFittedError, match="'b'"):
         GaussianClassifier.fit(np.zeros((3, 2)) + np.arange(3)[:, None], ["a", "a", "b"])
+
+
+def test_renderer_names_stay_importable_from_recognition_and_the_package() -> None:
+    # The renderer lives in perception.render; code written against perception.recognition or
+    # the package root must keep getting the very same objects.
+    import perception
+    import perception.recognition as recognition
+    import perception.render as render
+
+    moved = ["BOX_DEFAULTS", "DEFAULT_BACKGROUND", "MAX_COORD", "MAX_RENDER_PIXELS", "Box",
+             "random_scene", "render_labels", "render_stereo", "scene_boxes", "visible_mask"]
+    for name in moved:
+        assert getattr(recognition, name) is getattr(render, name), name
+    for name in ["Box", "random_scene", "render_stereo", "scene_boxes"]:
+        assert getattr(perception, name) is getattr(render, name), name
+    assert set(render.__all__) <= set(moved)
+    assert {"render_labels", "render_stereo", "visible_mask", "Box"} <= set(recognition.__all__)

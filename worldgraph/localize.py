@@ -40,9 +40,10 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
-from typing import Any, Literal, get_args
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field, fields, replace
+from typing import Any, Literal, cast, get_args
 
 import numpy as np
 from numpy.typing import NDArray
@@ -513,15 +514,42 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         Unknown method, something other than Percepts, a bad region or bound.
     """
     t_start = time.perf_counter()
+    percepts, settings = _check_arguments(world, percepts, method, tolerances, region, rng,
+                                          max_position_3sigma, max_rotation_3sigma, solver, check, certify)
+    with _raised_as_worldgraph_errors(settings.method):
+        result = _localize(world, percepts, settings, t_start)
+    return _sane(result, len(percepts))
+
+
+@dataclass(frozen=True)
+class _Settings:
+    """The checked arguments of one :func:`localize` call (all but the world and the percepts)."""
+
+    method: str
+    tol: AssociationTolerances
+    region: ro.Region | None  # the caller's region; None: the default region
+    rng: np.random.Generator | None
+    pos_tol: float  # max_position_3sigma, metres
+    rot_tol: float  # max_rotation_3sigma, radians
+    solver: str  # "active_set" or an installed cvxpy solver's name, upper case
+    check: bool
+    certify: bool
+
+
+def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str,
+                     tolerances: AssociationTolerances | None, region: object, rng: object,
+                     max_position_3sigma: float, max_rotation_3sigma: float, solver: object, check: object,
+                     certify: object) -> tuple[list[Percept], _Settings]:
+    """Step 1: every argument of :func:`localize` checked (specific errors), as the percepts and
+    the call's settings."""
     if not isinstance(method, str) or method not in LOCALIZE_METHODS:
         raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
-    percepts = check_world_and_percepts(world, percepts)
+    checked = check_world_and_percepts(world, percepts)
     tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
     if not isinstance(tol, AssociationTolerances):
         raise ArgumentTypeError(f"tolerances must be AssociationTolerances, got {type(tol).__name__}")
-    region = _check_region(region)
-    if rng is not None:
-        rng = generator("rng", rng)
+    box = _check_region(region)
+    gen = None if rng is None else generator("rng", rng)
     if not isinstance(solver, str):
         raise ArgumentTypeError(f"solver must be 'active_set' or a cvxpy solver name, got {solver!r}")
     solver_name = solver if solver == "active_set" else solver.upper()
@@ -541,9 +569,15 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     if not big <= MAX_COORDINATE:
         raise OutOfRangeError(f"world positions reach {big:.3g} m; localize handles coordinates up to "
                               f"{MAX_COORDINATE:g} m (shift the world's origin)")
+    return checked, _Settings(method, tol, box, gen, pos_tol, rot_tol, solver_name, bool(check),
+                              bool(certify))
+
+
+@contextmanager
+def _raised_as_worldgraph_errors(method: str) -> Iterator[None]:
+    """Failures of the numerical steps (radialopt's, numpy's) raised as WorldGraphError."""
     try:
-        result = _localize(world, percepts, method, tol, region, rng, pos_tol, rot_tol, solver_name,
-                           bool(check), bool(certify), t_start)
+        yield
     except WorldGraphError:
         raise
     except ro.VerificationError as exc:
@@ -554,7 +588,6 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     except (ArithmeticError, ValueError, TypeError, IndexError, np.linalg.LinAlgError) as exc:
         raise WorldGraphError(f"localize failed numerically on these percepts (method={method!r}): "
                               f"{type(exc).__name__}: {exc}") from exc
-    return _sane(result, len(percepts))
 
 
 def _check_region(region: object) -> ro.Region | None:
@@ -597,10 +630,62 @@ def _units_hints(world: WorldModel, used: list[Percept]) -> list[str]:
     return [hint] if hint else [h for h in (world_units_hint(world),) if h]
 
 
-def _localize(world: WorldModel, percepts: list[Percept], method: str, tol: AssociationTolerances,
-              region: ro.Region | None, rng: np.random.Generator | None, pos_tol: float, rot_tol: float,
-              solver_name: str, check: bool, certify: bool, t_start: float) -> LocalizationResult:
-    n_all = len(percepts)
+def _localize(world: WorldModel, percepts: list[Percept], settings: _Settings, t_start: float
+              ) -> LocalizationResult:
+    """The pipeline on checked arguments: known percepts, association, measurements, then the
+    validated pose (or the paper's)."""
+    call = _known_percepts_step(world, percepts, settings, t_start)
+    need = max(3, settings.tol.min_clique_size)
+    if len(call.used) < need:
+        return call.failed("too_few_percepts", f"localisation needs at least {need} percepts of known types, "
+                           f"got {len(call.used)}")
+    hyps_local = _associate_step(call)
+    if not hyps_local:
+        return call.failed("no_association",
+                           "no consistent association of >= 3 percepts with the world model")
+    ctx = _measurement_step(call)
+    if settings.method == "paper":
+        return _paper(ctx, hyps_local)
+    return _validated(ctx, hyps_local)
+
+
+@dataclass
+class _Call:
+    """One call's settings, its percepts of known types and what it has noted and timed so far."""
+
+    world: WorldModel
+    settings: _Settings
+    used: list[Percept]
+    idx: NDArray[np.intp]               # used -> index in the percepts passed in
+    n_all: int
+    notes: list[str]
+    timings: dict[str, float]
+    t_start: float
+
+    def remap(self, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
+        return tuple((int(self.idx[p]), int(o)) for p, o in pairs)
+
+    def failed(self, status: LocalizeStatus, message: str, hyps: tuple = (), ambiguous: bool = False
+               ) -> LocalizationResult:
+        self.timings["total"] = time.perf_counter() - self.t_start
+        return _failed(status, "; ".join(self.notes + [message]), self.n_all, hyps, self.timings, ambiguous)
+
+
+@dataclass
+class _Context(_Call):
+    """A call with the measurements its steps share: the region, the percept positions and
+    covariances in the ego frame and the nearest-object index."""
+
+    region: ro.Region
+    explicit_region: bool
+    ego: NDArray[np.float64]
+    covs: NDArray[np.float64]
+    nearest: NearestObjects
+
+
+def _known_percepts_step(world: WorldModel, percepts: list[Percept], settings: _Settings, t_start: float
+                         ) -> _Call:
+    """Step 2: the percepts of types the world has (the others are named in a note)."""
     known = np.array([p.type in world.type_index for p in percepts], dtype=bool)
     unknown = sorted({p.type for p, ok in zip(percepts, known, strict=True) if not ok})
     if percepts and not known.any():
@@ -611,61 +696,31 @@ def _localize(world: WorldModel, percepts: list[Percept], method: str, tol: Asso
     used = [percepts[i] for i in idx]
     notes += _units_hints(world, used)
     timings = {"association": 0.0, "validation": 0.0, "radial": 0.0, "position": 0.0, "orientation": 0.0}
-    if len(used) < max(3, tol.min_clique_size):
-        timings["total"] = time.perf_counter() - t_start
-        return _failed("too_few_percepts", "; ".join(notes + [
-            f"localisation needs at least {max(3, tol.min_clique_size)} percepts of known types, "
-            f"got {len(used)}"]), n_all, timings=timings)
+    return _Call(world, settings, used, idx, len(percepts), notes, timings, t_start)
 
+
+def _associate_step(call: _Call) -> list[AssociationHypothesis]:
+    """Step 3: association hypotheses (the paper's filters for ``"paper"``, else typed cliques)."""
     t0 = time.perf_counter()
-    hyps_local = associate(world, used, tol, method="paper" if method == "paper" else "clique",
-                           max_hypotheses=max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES))
-    timings["association"] = time.perf_counter() - t0
-    if not hyps_local:
-        timings["total"] = time.perf_counter() - t_start
-        return _failed("no_association", "; ".join(notes + [
-            "no consistent association of >= 3 percepts with the world model"]), n_all, timings=timings)
-
-    explicit = region is not None
-    reg = region if region is not None else default_region(world, used)
-    ego = np.array([p.position for p in used])
-    covs = percept_covariances(used)
-    nearest = NearestObjects(world, [p.type for p in used])
-    ctx = _Context(world, used, ego, covs, nearest, idx, n_all, reg, explicit, tol, pos_tol, rot_tol,
-                   notes, timings, t_start, solver_name, check, certify)
-    if method == "paper":
-        return _paper(ctx, hyps_local)
-    return _validated(ctx, hyps_local, method, rng)
+    tol = call.settings.tol
+    how = "paper" if call.settings.method == "paper" else "clique"
+    hyps = associate(call.world, call.used, tol, method=how,
+                     max_hypotheses=max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES))
+    call.timings["association"] = time.perf_counter() - t0
+    return hyps
 
 
-@dataclass
-class _Context:
-    world: WorldModel
-    used: list[Percept]
-    ego: NDArray[np.float64]
-    covs: NDArray[np.float64]
-    nearest: NearestObjects
-    idx: NDArray[np.intp]               # used -> index in the percepts passed in
-    n_all: int
-    region: ro.Region
-    explicit_region: bool
-    tol: AssociationTolerances
-    pos_tol: float
-    rot_tol: float
-    notes: list[str]
-    timings: dict[str, float]
-    t_start: float
-    solver: str = "active_set"
-    check: bool = False
-    certify: bool = False
-
-    def remap(self, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
-        return tuple((int(self.idx[p]), int(o)) for p, o in pairs)
-
-    def failed(self, status: LocalizeStatus, message: str, hyps: tuple, ambiguous: bool = False
-               ) -> LocalizationResult:
-        self.timings["total"] = time.perf_counter() - self.t_start
-        return _failed(status, "; ".join(self.notes + [message]), self.n_all, hyps, self.timings, ambiguous)
+def _measurement_step(call: _Call) -> _Context:
+    """Step 4: the region (the caller's or :func:`default_region`) and the percepts' positions,
+    covariances and nearest same-type objects, shared by the steps after it."""
+    given = call.settings.region
+    explicit = given is not None
+    region = given if given is not None else default_region(call.world, call.used)
+    ego = np.array([p.position for p in call.used])
+    covs = percept_covariances(call.used)
+    nearest = NearestObjects(call.world, [p.type for p in call.used])
+    return _Context(**{f.name: getattr(call, f.name) for f in fields(_Call)}, region=region,
+                    explicit_region=explicit, ego=ego, covs=covs, nearest=nearest)
 
 
 def _distinct_centres(world: WorldModel, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
@@ -682,11 +737,33 @@ def _distinct_centres(world: WorldModel, pairs: Sequence[tuple[int, int]]) -> tu
     return tuple(sorted(p for p, k in zip(pairs, keep, strict=True) if k))
 
 
-def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: str,
-               rng: np.random.Generator | None) -> LocalizationResult:
-    """Validate the best hypotheses by ML fits, choose, then the pose of ``method``."""
+def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> LocalizationResult:
+    """Validate the best hypotheses by ML fits, rank and choose, then the pose of the method."""
+    fits = _fit_step(ctx, hyps_local)
+    distinct, hyps = _range_step(ctx, hyps_local, fits)
+    incomplete = not hyps_local[0].complete
+    if not distinct:
+        return ctx.failed("degenerate", "no hypothesis has 3 inliers that fix a 6D pose (collinear "
+                          "landmarks)", hyps, incomplete)
+    best, choice = _choose_step(ctx, distinct, incomplete)
+    if ctx.settings.method == "ml":
+        return _finish(ctx, _ml_pose_step(ctx, best), hyps, choice)
+    answer = _range_only_pose_step(ctx, best)
+    if answer.status_hint in ("degenerate", "degenerate_collinear"):  # no position, so no pose
+        message = answer.est.message if answer.est is not None else ""
+        return ctx.failed(cast(LocalizeStatus, answer.status_hint),
+                          message or "the matched landmarks fix no position", hyps, choice.ambiguous)
+    return _finish(ctx, answer, hyps, choice)
+
+
+_Fits = dict[tuple[tuple[int, int], ...], tuple[PoseFit, int]]
+"""Validated fits by their inlier pairs, each with the index of the hypothesis it came from."""
+
+
+def _fit_step(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> _Fits:
+    """Step 5: ML fits of the best hypotheses (at most :data:`MAX_VALIDATED` distinct ones)."""
     t0 = time.perf_counter()
-    fits: dict[tuple[tuple[int, int], ...], tuple[PoseFit, int]] = {}
+    fits: _Fits = {}
     for h_i, h in enumerate(hyps_local):
         if len(fits) >= MAX_VALIDATED:
             break
@@ -701,6 +778,13 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
             if fit is not None and fit.pairs not in fits:  # converged to the same inliers: one answer
                 fits[fit.pairs] = (fit, h_i)
     ctx.timings["validation"] = time.perf_counter() - t0
+    return fits
+
+
+def _range_step(ctx: _Context, hyps_local: list[AssociationHypothesis], fits: _Fits
+                ) -> tuple[list[tuple[PoseFit, int]], tuple[AssociationHypothesis, ...]]:
+    """Step 6: the fits whose ranges meet, best first, and every hypothesis with its radial
+    solution (the ranked ones first)."""
     # the card's convex problem for every validated hypothesis: the Gaussian spheres of its
     # matches (clique and validated percepts, one per distinct centre) projected
     # onto their restriction polytope; a displacement beyond the chi-square gate means ranges
@@ -718,14 +802,39 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     sol_of = {h_i: radial[f.pairs] for f, h_i in fits.values()}
     hyps = tuple(replace(_remap(hyps_local[i], ctx.idx), radial=sol_of[i]) for i in order) + tuple(
         replace(_remap(h, ctx.idx), radial=sol_of.get(i)) for i, h in enumerate(hyps_local) if i not in order)
-    incomplete = not hyps_local[0].complete
-    if not distinct:
-        return ctx.failed("degenerate", "no hypothesis has 3 inliers that fix a 6D pose (collinear "
-                          "landmarks)", hyps, incomplete)
+    return distinct, hyps
+
+
+@dataclass(frozen=True)
+class _Choice:
+    """What the runners-up say about the chosen hypothesis."""
+
+    ambiguous: bool
+    alternatives: tuple[NDArray[np.float64], ...] = ()
+    llr: float = math.inf  # log-likelihood ratio to the second-best fit
+    near_best_costs: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class _Answer:
+    """A pose step's pose, before the answer checks itself (:func:`_finish`)."""
+
+    pose: NDArray[np.float64]
+    cov6: NDArray[np.float64]
+    pairs: tuple[tuple[int, int], ...]  # matches behind the pose (used-percept, object)
+    est: ro.PositionEstimate | None = None  # the range-only position estimate, if any
+    self_check: bool = True  # run the chi-square self-check of the matches
+    status_hint: str = "ok"  # the position estimator's status
+
+
+def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete: bool
+                 ) -> tuple[PoseFit, _Choice]:
+    """Step 7: the best fit (inside the region when that costs little or the region is the
+    caller's), its runners-up within the ambiguity margin and its log-likelihood ratio."""
     inside = [f for f in distinct if _in_region(ctx.region, f[0].world_from_ego, f[0].pose_covariance)]
     if inside and len(inside) < len(distinct):
         worse_by = inside[0][0].cost - distinct[0][0].cost
-        if ctx.explicit_region or worse_by < ctx.tol.ambiguity_margin:
+        if ctx.explicit_region or worse_by < ctx.settings.tol.ambiguity_margin:
             if inside[0] is not distinct[0]:
                 ctx.notes.append(f"{len(distinct) - len(inside)} better-fitting pose(s) outside the region "
                                  "were set aside")
@@ -734,7 +843,7 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
             ctx.notes.append(f"the best fit lies outside the default region; the best pose inside it fits "
                              f"worse by a robust cost of {worse_by:.3g}, so it was not preferred")
     best = distinct[0][0]
-    runners = [f for f, _ in distinct[1:] if f.cost - best.cost < ctx.tol.ambiguity_margin
+    runners = [f for f, _ in distinct[1:] if f.cost - best.cost < ctx.settings.tol.ambiguity_margin
                and _pose_nees(best, f.world_from_ego) > CHI2_6_GATE]
     ambiguous = bool(runners) or incomplete
     if incomplete:
@@ -748,32 +857,42 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     llr = 0.5 * (distinct[1][0].cost - best.cost) if len(distinct) > 1 else math.inf
     alternatives = tuple(f.world_from_ego.copy() for f in runners)
     near_best_costs = (float(best.cost), *(float(f.cost) for f in runners))
+    return best, _Choice(ambiguous, alternatives, llr, near_best_costs)
+
+
+def _ml_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
+    """Step 8 (``"ml"``): the validated 6D pose (or the rotation SDP's, when better) and its
+    calibrated covariance."""
     pairs = best.pairs
     p_i = np.array([p for p, _ in pairs])
-    o_i = np.array([o for _, o in pairs])
-    centers = ctx.world.positions[o_i]
-    if method == "ml":
-        t0 = time.perf_counter()
-        pose = best.world_from_ego
-        if ctx.certify and len(pairs) <= 4:  # few matches: the rotation SDP is a global solver
-            sdp_pose, _ = solve_pose_sdp(ctx.ego[p_i], centers, ctx.covs[p_i])
-            if pose_cost(sdp_pose, ctx.ego[p_i], ctx.covs[p_i], centers) < \
-                    pose_cost(pose, ctx.ego[p_i], ctx.covs[p_i], centers) - 1e-12:
-                pose = sdp_pose
-                ctx.notes.append("the rotation SDP found a better pose than the local fit")
-        cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
-        shared = [ctx.used[i].shared for i in p_i]
-        if any(shared):  # errors common to the percepts of one view (head encoders)
-            cov6 = cov6 + shared_view_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], shared)
-        ctx.timings["position"] = time.perf_counter() - t0
-        return replace(_finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, None, check=False),
-                       near_best_costs=near_best_costs)
+    centers = ctx.world.positions[np.array([o for _, o in pairs])]
+    t0 = time.perf_counter()
+    pose = best.world_from_ego
+    if ctx.settings.certify and len(pairs) <= 4:  # few matches: the rotation SDP is a global solver
+        sdp_pose, _ = solve_pose_sdp(ctx.ego[p_i], centers, ctx.covs[p_i])
+        if pose_cost(sdp_pose, ctx.ego[p_i], ctx.covs[p_i], centers) < \
+                pose_cost(pose, ctx.ego[p_i], ctx.covs[p_i], centers) - 1e-12:
+            pose = sdp_pose
+            ctx.notes.append("the rotation SDP found a better pose than the local fit")
+    cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
+    shared = [ctx.used[i].shared for i in p_i]
+    if any(shared):  # errors common to the percepts of one view (head encoders)
+        cov6 = cov6 + shared_view_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], shared)
+    ctx.timings["position"] = time.perf_counter() - t0
+    return _Answer(pose, cov6, pairs, self_check=False)
 
-    # range-only methods on the validated matches
-    sph = _sphere_position(ctx, pairs, _SPHERE_ESTIMATOR[method], best.world_from_ego[:3, 3], rng)
+
+def _range_only_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
+    """Step 8 (range-only methods): the position of the validated matches' Gaussian spheres,
+    then the weighted rotation and the two-stage covariance (no pose when the position is
+    degenerate: ``status_hint`` says so)."""
+    pairs = best.pairs
+    estimator = _SPHERE_ESTIMATOR[ctx.settings.method]
+    sph = _sphere_position(ctx, pairs, estimator, best.world_from_ego[:3, 3], ctx.settings.rng)
     sp, s_centers, sig, est, position, status, pos_cov = sph
     if status in ("degenerate", "degenerate_collinear"):
-        return ctx.failed(status, est.message or "the matched landmarks fix no position", hyps, ambiguous)
+        nan = np.full((4, 4), np.nan)
+        return _Answer(nan, np.full((6, 6), np.nan), pairs, est, status_hint=status)
     t0 = time.perf_counter()
     pos_var = float(np.trace(pos_cov)) / 3.0 if np.all(np.isfinite(pos_cov)) else float(np.max(sig) ** 2)
     w = 1.0 / (sig**2 + pos_var)
@@ -784,10 +903,7 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis], method: s
     if any(shared):  # errors common to the percepts of one view (head encoders)
         cov6 = cov6 + shared_range_covariance(pose, ctx.ego[sp], ctx.covs[sp], s_centers, sig, w, shared)
     ctx.timings["orientation"] = time.perf_counter() - t0
-    if status == "ambiguous":
-        ambiguous = True
-    return replace(_finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, llr, est, check=True,
-                           status_hint=status), near_best_costs=near_best_costs)
+    return _Answer(pose, cov6, pairs, est, status_hint=status)
 
 
 def match_spheres(world: WorldModel, percepts: Sequence[Percept], pairs: Sequence[tuple[int, int]]
@@ -855,20 +971,20 @@ def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]]) -> ro.RadialSolutio
     """:func:`radialopt.project_radii` of the spheres of ``pairs`` (:func:`match_spheres`) with
     the solver asked for; None with fewer than two spheres."""
     p_i, o_i, spheres = _match_spheres(ctx.world, ctx.used, pairs)
-    limit = MAX_RADIAL_SPHERES if ctx.solver == "active_set" else MAX_CVXPY_SPHERES
+    limit = MAX_RADIAL_SPHERES if ctx.settings.solver == "active_set" else MAX_CVXPY_SPHERES
     _, _, spheres = _most_certain(ctx, p_i, o_i, spheres, limit)
     if len(spheres) < 2:
         return None
-    check = ctx.check
+    check = ctx.settings.check
     if check and len(spheres) > ro.MAX_VERTEX_SPHERES:  # enumeration would take minutes
         check = False
         note = (f"the vertex-enumeration check ran only on hypotheses of at most {ro.MAX_VERTEX_SPHERES} "
                 "spheres (radialopt.MAX_VERTEX_SPHERES); larger ones were solved unchecked")
         if note not in ctx.notes:
             ctx.notes.append(note)
-    if ctx.solver == "active_set":
+    if ctx.settings.solver == "active_set":
         return ro.project_radii(spheres, method="active_set", check=check)
-    return ro.project_radii(spheres, method="cvxpy", solver=ctx.solver, check=check)
+    return ro.project_radii(spheres, method="cvxpy", solver=ctx.settings.solver, check=check)
 
 
 def _radial_score(sol: ro.RadialSolution | None) -> float:
@@ -956,36 +1072,68 @@ def _in_region(region: ro.Region, pose: NDArray, cov6: NDArray) -> bool:
     return bool(region.contains(pose[:3, 3], tol=1e-6 + slack))
 
 
-def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int, int], ...], hyps: tuple,
-            ambiguous: bool, alternatives: tuple, llr: float, est: ro.PositionEstimate | None, check: bool,
-            status_hint: str = "ok") -> LocalizationResult:
-    """Residuals, fitness, the self-check, the region and the weak-pose test; the result."""
-    world = ctx.world
-    p_i = np.array([p for p, _ in pairs])
-    centers = world.positions[np.array([o for _, o in pairs])]
-    status: str = "ok"
-    if check:
-        passed, _, msg = self_check(pose, ctx.ego[p_i], ctx.covs[p_i], centers, cov6)
+def _finish(ctx: _Context, answer: _Answer, hyps: tuple, choice: _Choice) -> LocalizationResult:
+    """Step 9: the answer checks itself (its matches' chi-square, its inliers, the region, how
+    well it is determined) and is certified when asked; the result."""
+    p_i = np.array([p for p, _ in answer.pairs])
+    centers = ctx.world.positions[np.array([o for _, o in answer.pairs])]
+    status = _self_check_step(ctx, answer, p_i, centers)
+    n_inl, rmse, residuals = _inlier_step(ctx, answer)
+    ambiguous = choice.ambiguous or answer.status_hint == "ambiguous"
+    status = _status_step(ctx, answer, status, n_inl, ambiguous)
+    certificate = _certificate_step(ctx, answer, p_i, centers)
+    ctx.timings["total"] = time.perf_counter() - ctx.t_start
+    pose, cov6 = answer.pose, answer.cov6
+    return LocalizationResult(
+        transformation=pose.copy(), position=pose[:3, 3].copy(), covariance=cov6[:3, :3].copy(),
+        correspondences=ctx.remap(answer.pairs), hypotheses=hyps,
+        ambiguous=ambiguous or status == "ambiguous",
+        status=status, message="; ".join(n for n in ctx.notes if n), timings=ctx.timings,  # type: ignore[arg-type]
+        position_estimate=answer.est, pose_covariance=cov6, fitness=n_inl / max(ctx.n_all, 1),
+        inlier_rmse=rmse, residuals=residuals, alternatives=choice.alternatives,
+        log_likelihood_ratio=choice.llr, certificate=certificate, near_best_costs=choice.near_best_costs)
+
+
+def _self_check_step(ctx: _Context, answer: _Answer, p_i: NDArray, centers: NDArray) -> str:
+    """``"inconsistent"`` when the matched percepts placed by the pose fail their chi-square test
+    (only when ``answer.self_check``), else ``"ok"``."""
+    status = "ok"
+    if answer.self_check:
+        passed, _, msg = self_check(answer.pose, ctx.ego[p_i], ctx.covs[p_i], centers, answer.cov6)
         if not passed:
             status = "inconsistent"
             ctx.notes.append(msg)
+    return status
+
+
+def _inlier_step(ctx: _Context, answer: _Answer) -> tuple[int, float, NDArray[np.float64]]:
+    """Every percept against its nearest same-type object under the pose: the number of inliers
+    (chi-square gate, 3 dof), their RMS distance (m) and every percept's Mahalanobis residual."""
+    pose, cov6 = answer.pose, answer.cov6
     finite_cov = np.all(np.isfinite(cov6))
     d2, obj, _ = ctx.nearest.query(pose, ctx.ego, ctx.covs, cov6 if finite_cov else None)
     inl = d2 <= CHI2_3_GATE
     pred = ctx.ego @ pose[:3, :3].T + pose[:3, 3]
-    dist = np.linalg.norm(pred[inl] - world.positions[obj[inl]], axis=1) if inl.any() else np.zeros(0)
+    dist = np.linalg.norm(pred[inl] - ctx.world.positions[obj[inl]], axis=1) if inl.any() else np.zeros(0)
     n_inl = int(inl.sum())
     residuals = np.full(ctx.n_all, np.nan)
     residuals[ctx.idx] = np.sqrt(d2)
+    return n_inl, float(np.sqrt(np.mean(dist**2))) if n_inl else math.nan, residuals
+
+
+def _status_step(ctx: _Context, answer: _Answer, status: str, n_inl: int, ambiguous: bool) -> str:
+    """The status: the self-check's, then too few inliers, the estimator's, ambiguity, the
+    region, and the 3-sigma bounds against the tolerances (``"weak"``), first failure wins."""
+    pose, cov6 = answer.pose, answer.cov6
     if status == "ok" and n_inl < 3:
         status = "inconsistent"
         ctx.notes.append(f"only {n_inl} percept(s) agree with the pose (3 needed)")
-    if status == "ok" and status_hint not in ("ok", "ambiguous"):
+    if status == "ok" and answer.status_hint not in ("ok", "ambiguous"):
         # a radialopt status that localize does not know is no success
-        status = status_hint if status_hint in LOCALIZE_STATUSES else "degenerate"
+        status = answer.status_hint if answer.status_hint in LOCALIZE_STATUSES else "degenerate"
     if status == "ok" and ambiguous:
         status = "ambiguous"
-    position = pose[:3, 3].copy()
+    position = pose[:3, 3]
     in_region = _in_region(ctx.region, pose, cov6)
     if status == "ok" and ctx.explicit_region and not in_region:
         status = "outside_region"
@@ -993,34 +1141,35 @@ def _finish(ctx: _Context, pose: NDArray, cov6: NDArray, pairs: tuple[tuple[int,
     elif not in_region:
         ctx.notes.append(f"the pose {position.tolist()} lies outside the default region")
     if status == "ok":
-        if not finite_cov:
+        if not np.all(np.isfinite(cov6)):
             status = "weak"
             ctx.notes.append("the matched landmarks do not determine the pose (infinite covariance)")
         else:
             pos3 = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(cov6[:3, :3])[-1]), 0.0))
             rot3 = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(cov6[3:, 3:])[-1]), 0.0))
-            if pos3 > ctx.pos_tol or rot3 > ctx.rot_tol:
+            if pos3 > ctx.settings.pos_tol or rot3 > ctx.settings.rot_tol:
                 status = "weak"
                 ctx.notes.append(f"weakly determined: 3-sigma bounds {pos3:.3g} m (tolerance "
-                                 f"{ctx.pos_tol:.3g})"
+                                 f"{ctx.settings.pos_tol:.3g})"
                                  f" and {math.degrees(rot3):.3g} deg (tolerance "
-                                 f"{math.degrees(ctx.rot_tol):.3g})")
+                                 f"{math.degrees(ctx.settings.rot_tol):.3g})")
+    return status
+
+
+def _certificate_step(ctx: _Context, answer: _Answer, p_i: NDArray, centers: NDArray
+                      ) -> ro.Certificate | None:
+    """With ``certify=True``: the rotation SDP's certificate of the pose (None, with a note, when
+    the match set admits none)."""
+    if not ctx.settings.certify:
+        return None
     certificate = None
-    if ctx.certify:
-        t0 = time.perf_counter()
-        try:
-            certificate = certify_pose(ctx.ego[p_i], centers, ctx.covs[p_i], pose)
-        except WorldGraphError as exc:  # e.g. a degenerate match set: no certificate, say why
-            ctx.notes.append(f"no certificate: {exc}")
-        ctx.timings["certificate"] = time.perf_counter() - t0
-    ctx.timings["total"] = time.perf_counter() - ctx.t_start
-    return LocalizationResult(
-        transformation=pose.copy(), position=position, covariance=cov6[:3, :3].copy(),
-        correspondences=ctx.remap(pairs), hypotheses=hyps, ambiguous=ambiguous or status == "ambiguous",
-        status=status, message="; ".join(n for n in ctx.notes if n), timings=ctx.timings,  # type: ignore[arg-type]
-        position_estimate=est, pose_covariance=cov6, fitness=n_inl / max(ctx.n_all, 1),
-        inlier_rmse=float(np.sqrt(np.mean(dist**2))) if n_inl else math.nan, residuals=residuals,
-        alternatives=alternatives, log_likelihood_ratio=llr, certificate=certificate)
+    t0 = time.perf_counter()
+    try:
+        certificate = certify_pose(ctx.ego[p_i], centers, ctx.covs[p_i], answer.pose)
+    except WorldGraphError as exc:  # e.g. a degenerate match set: no certificate, say why
+        ctx.notes.append(f"no certificate: {exc}")
+    ctx.timings["certificate"] = time.perf_counter() - t0
+    return certificate
 
 
 def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> LocalizationResult:
@@ -1028,7 +1177,7 @@ def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Localizati
     t0 = time.perf_counter()
     hyps = tuple(replace(_remap(h, ctx.idx), radial=_radial(ctx, h.pairs + h.validated)) for h in hyps_local)
     ctx.timings["radial"] = time.perf_counter() - t0
-    ambiguous = is_ambiguous(hyps_local, ctx.tol) or not hyps_local[0].complete
+    ambiguous = is_ambiguous(hyps_local, ctx.settings.tol) or not hyps_local[0].complete
     best = hyps_local[0]
     if ambiguous and len(hyps_local) > 1:
         second = hyps_local[1]
@@ -1050,8 +1199,8 @@ def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Localizati
     if status == "ambiguous":
         ambiguous = True
     alternatives = tuple(h.world_from_ego.copy() for h in hyps_local[1:2]) if ambiguous else ()
-    return _finish(ctx, pose, cov6, pairs, hyps, ambiguous, alternatives, math.inf, est, check=True,
-                   status_hint=status)
+    return _finish(ctx, _Answer(pose, cov6, pairs, est, status_hint=status), hyps,
+                   _Choice(ambiguous, alternatives))
 
 
 def _eq5_rotation(ego: NDArray, centers: NDArray, sigmas: NDArray, limit: int = 10
