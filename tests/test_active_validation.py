@@ -17,7 +17,6 @@ import pytest
 import perception as pc
 import worldgraph as wg
 from worldgraph.active import gaze_angles, merge_percepts, tells_apart, view_scores
-from worldgraph.association import AssociationHypothesis, discriminator
 from worldgraph.errors import (
     ArgumentTypeError,
     NonFiniteError,
@@ -26,6 +25,8 @@ from worldgraph.errors import (
     ShapeError,
     UnknownTypeError,
 )
+from worldgraph.filters import discriminator
+from worldgraph.hypotheses import AssociationHypothesis
 from worldgraph.localize import LocalizationResult
 
 HANDLES = np.array([[3.0, -1.0, 0.0], [3.0, 0.0, 0.5], [3.0, 1.0, 0.0], [3.0, 0.5, -0.5]])

@@ -13,20 +13,14 @@ from scipy.spatial.transform import Rotation
 
 from perception import Percept
 from perception.simulate import simulate_percepts
-from worldgraph.association import (
-    AssociationTolerances,
-    _Graph,
-    _prune_by_pairs,
-    _prune_vectorised,
-    associate,
-    discriminator,
-    is_ambiguous,
-    maximum_cliques,
-    orientation_filter,
-    proximity_filter,
-)
+from worldgraph.association import associate
+from worldgraph.cliques import maximum_cliques
+from worldgraph.consistency import _Graph, _prune_by_pairs, _prune_vectorised
 from worldgraph.errors import TooFewPerceptsError, UnknownTypeError, WorldGraphError
+from worldgraph.filters import discriminator, orientation_filter, proximity_filter
+from worldgraph.hypotheses import is_ambiguous
 from worldgraph.model import WorldModel
+from worldgraph.tolerances import AssociationTolerances
 
 TYPES = ("door", "handle", "knob", "drawer")
 seeds = st.integers(0, 2**32 - 1)
@@ -106,7 +100,7 @@ def to_networkx(sizes, adjacency) -> nx.Graph:
 def test_maximum_cliques_match_networkx(graph, near: int, min_size: int, form: str) -> None:
     """Dense boolean matrices, or sparse (rows, cols) index pairs packed into bit rows up front or
     kept as CSR rows: the same cliques as networkx."""
-    import worldgraph.association as assoc
+    import worldgraph.cliques as assoc
 
     sizes, adjacency = graph
     g = to_networkx(sizes, adjacency)
@@ -423,7 +417,7 @@ def test_tree_pair_candidates_equal_all_pairs_also_across_storeys(index: bool, s
 
 
 def _check_pair_candidates(seed: int, gravity: bool, index: bool) -> None:
-    from worldgraph.association import _consistency_graph
+    from worldgraph.consistency import _consistency_graph
 
     rng = np.random.default_rng(seed)
     n = 240
@@ -450,7 +444,7 @@ def _check_pair_candidates(seed: int, gravity: bool, index: bool) -> None:
 def test_lazy_far_pairs_give_the_hypotheses_of_the_full_graph(seed: int, gravity: bool, n_false: int) -> None:
     """Far percept pairs filled only for the objects that survive the near pairs' pruning: the
     same hypotheses (pairs and costs) as the graph with every far pair computed up front."""
-    import worldgraph.association as assoc
+    import worldgraph.consistency as assoc
 
     rng = np.random.default_rng(seed)
     world = WorldModel.from_arrays(rng.choice(TYPES, 300), rng.uniform([0, 0, 0], [20, 16, 2.5], (300, 3)),

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 import perception as pc
 import worldgraph as wg
 from worldgraph import scenes
-from worldgraph.association import maximum_cliques
+from worldgraph.cliques import maximum_cliques
 from worldgraph.tiles import split
 from worldgraph.validation import shared_range_covariance
 

@@ -10,17 +10,12 @@ import numpy as np
 import pytest
 
 from perception import Percept
-from worldgraph.association import (
-    ASSOCIATION_TOLERANCES,
-    _consistency_graph,
-    _prune,
-    associate,
-    consistency_graph,
-    maximum_cliques,
-    orientation_filter,
-    proximity_filter,
-)
+from worldgraph.association import associate
+from worldgraph.cliques import maximum_cliques
+from worldgraph.consistency import _consistency_graph, _prune
+from worldgraph.filters import consistency_graph, orientation_filter, proximity_filter
 from worldgraph.model import WorldModel
+from worldgraph.tolerances import ASSOCIATION_TOLERANCES
 
 
 def scene(seed: int, n_objects: int = 45, n_true: int = 5, n_false: int = 1

@@ -10,15 +10,7 @@ except _PackageNotFoundError:  # run from a source tree that was never installed
 
 from . import plots, scenes, tiles
 from .active import ActiveLocalization, ViewPlan, active_localize, plan_view
-from .association import (
-    ASSOCIATION_TOLERANCES,
-    AssociationHypothesis,
-    AssociationTolerances,
-    associate,
-    discriminator,
-    orientation_filter,
-    proximity_filter,
-)
+from .association import associate
 from .errors import (
     ArgumentTypeError,
     CoincidentObjectsError,
@@ -36,11 +28,14 @@ from .errors import (
     UnknownTypeError,
     WorldGraphError,
 )
+from .filters import discriminator, orientation_filter, proximity_filter
 from .franka import franka_kitchen_path, load_franka_kitchen
+from .hypotheses import AssociationHypothesis
 from .localize import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
 from .model import LinkTable, ObjectModel, WorldModel, box_vertices
 from .pose import percept_frame, pose_from_frames, weighted_kabsch
 from .tiles import Tile, localize_tiled
+from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 
 __all__ = [
     "ActiveLocalization",

@@ -48,10 +48,11 @@ from scipy.spatial import cKDTree
 from perception import KinematicChain, Percept, PerceptionError, depth_sigma
 
 from ._checks import as_list, float_array, generator, positive_float, strict_int
-from .association import ASSOCIATION_TOLERANCES, AssociationTolerances, check_world_and_percepts
+from .consistency import check_world_and_percepts
 from .errors import ArgumentTypeError, NonFiniteError, OutOfRangeError, UnknownTypeError
 from .localize import LocalizationResult, PoseStatus, localize
 from .model import WorldModel
+from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 
 __all__ = [
     "ActiveLocalization",

@@ -55,19 +55,14 @@ import radialopt as ro
 from perception import Percept
 
 from ._checks import float_array, generator, positive_float, strict_int
-from .association import (
-    ASSOCIATION_TOLERANCES,
-    MAX_COORDINATE,
-    AssociationHypothesis,
-    AssociationTolerances,
-    associate,
-    check_world_and_percepts,
-    is_ambiguous,
-)
+from .association import associate
+from .consistency import MAX_COORDINATE, check_world_and_percepts
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, UnknownTypeError, WorldGraphError
+from .hypotheses import AssociationHypothesis, is_ambiguous
 from .model import WorldModel
 from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
 from .pose_certificate import certify_pose, solve_pose_sdp
+from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 from .units import percept_units_hint, world_units_hint
 from .validation import (
     CHI2_3_GATE,

@@ -47,10 +47,11 @@ from scipy.spatial.transform import Rotation
 from perception import Percept
 
 from . import _checks
-from .association import ASSOCIATION_TOLERANCES, AssociationHypothesis, AssociationTolerances
 from .errors import ArgumentTypeError, EmptyWorldError, ShapeError, UnknownTypeError, WorldGraphError
+from .hypotheses import AssociationHypothesis
 from .localize import LOCALIZE_METHODS, POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult, localize
 from .model import WorldModel
+from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 from .validation import CHI2_3_GATE, CHI2_6_GATE, NearestObjects, fit_hypothesis, percept_covariances
 
 __all__ = ["FAILURE_ORDER", "MAX_TILES", "Tile", "localize_tiled", "split"]

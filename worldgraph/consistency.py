@@ -1,0 +1,508 @@
+"""The typed consistency graph of the association: input checks, candidate model pairs of
+each percept pair (link tables, the far-pair index, k-d trees), lazy far pairs and pruning."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from perception import Percept
+
+from ._checks import as_list
+from .errors import (
+    ArgumentTypeError,
+    EmptyWorldError,
+    OutOfRangeError,
+    UnknownTypeError,
+)
+from .model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE, FAR_PAIR_SLACK, FarPairIndex, WorldModel
+from .tolerances import AssociationTolerances
+
+# ----------------------------------------------------------------------------------------------
+# input checks and the consistency graph
+# ----------------------------------------------------------------------------------------------
+#: Percept standard deviations (m) outside this range are rejected: their squares and inverse
+#: squares (the weights of every fit) would under- or overflow together with the coordinates.
+SIGMA_RANGE = (1e-12, 1e9)
+#: Largest percept coordinate (m) the pose computations accept.
+MAX_COORDINATE = 1e9
+
+
+def check_world_and_percepts(world: WorldModel, percepts: Sequence[Percept]) -> list[Percept]:
+    """A non-empty WorldModel and a sequence of Percepts whose scales the fits can handle.
+
+    Raises :class:`~worldgraph.errors.WorldGraphError` naming ``world``, ``percepts`` or
+    ``percepts[i]`` (the index of a wrong element, its sigma or covariance scale).
+    """
+    if not isinstance(world, WorldModel):
+        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+    if len(world) == 0:
+        raise EmptyWorldError("the world model has no objects")
+    percepts = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
+    lo, hi = SIGMA_RANGE
+    for k, p in enumerate(percepts):
+        if not isinstance(p, Percept):
+            raise ArgumentTypeError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
+    if not percepts:
+        return percepts
+    # one vectorised pass (a Percept is already validated: finite, SPD); loops only to name
+    sig = np.array([float(p.sigma) for p in percepts])
+    bad = np.flatnonzero(~((sig >= lo) & (sig <= hi)))
+    if bad.size:
+        k = int(bad[0])
+        raise OutOfRangeError(f"percepts[{k}].sigma = {sig[k]:.3g} m is outside [{lo:g}, {hi:g}] m, the "
+                              "range the association and pose fits can handle (covariance scale "
+                              f"{sig[k] ** 2:.3g} m^2)")
+    pos = np.array([p.position for p in percepts], dtype=np.float64)
+    bad = np.flatnonzero(~np.all(np.abs(pos) <= MAX_COORDINATE, axis=1))
+    if bad.size:
+        k = int(bad[0])
+        raise OutOfRangeError(f"percepts[{k}].position = {pos[k].tolist()} exceeds {MAX_COORDINATE:g} m")
+    with_cov = [k for k, p in enumerate(percepts) if p.covariance is not None]
+    if with_cov:
+        ev = np.linalg.eigvalsh(np.array([percepts[k].covariance for k in with_cov], dtype=np.float64))
+        bad = np.flatnonzero(~((ev[:, 0] >= lo * lo) & (ev[:, -1] <= hi * hi)))
+        if bad.size:
+            k, e = with_cov[int(bad[0])], ev[int(bad[0])]
+            raise OutOfRangeError(f"percepts[{k}].covariance has eigenvalues {e[0]:.3g}..{e[-1]:.3g} "
+                                  f"m^2, outside [{lo * lo:g}, {hi * hi:g}] m^2 (the range the fits "
+                                  "can handle)")
+    return percepts
+
+
+def _check_inputs(world: WorldModel, percepts: Sequence[Percept]) -> list[Percept]:
+    percepts = check_world_and_percepts(world, percepts)
+    for k, p in enumerate(percepts):
+        if p.type not in world.type_index:
+            raise UnknownTypeError(f"percepts[{k}] has type {p.type!r}, which is not in the world model; "
+                                   f"known types: {list(world.type_index)}")
+    return percepts
+
+
+@dataclass(frozen=True)
+class _SupportIndex:
+    """Edges of a :class:`_Graph` for vectorised pruning: global vertex ids ``u``/``v`` (vertex
+    ``a`` of part ``p`` is ``offsets[p] + a``); ``order`` sorts the ``2 E`` (vertex, other part)
+    keys of both edge ends, ``starts`` begins each distinct key and ``key_vertex`` is its vertex;
+    ``free_p``/``free_q`` are the unconstrained part pairs."""
+
+    offsets: NDArray[np.int64]
+    part_of: NDArray[np.int64]
+    u: NDArray[np.int64]
+    v: NDArray[np.int64]
+    order: NDArray[np.intp]
+    starts: NDArray[np.intp]
+    key_vertex: NDArray[np.int64]
+    free_p: NDArray[np.int64]
+    free_q: NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class _Graph:
+    """Consistency graph: part p = percept p, its vertices = objects of p's type.
+
+    ``edges[(p, q)]`` (p < q) holds local index arrays ``(a, b)``, or None when every pair is
+    compatible (the percepts are farther apart than the link table reaches).
+    """
+
+    objects: list[NDArray[np.intp]]          # per percept: global object indices (local -> global)
+    edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None]
+
+    @cached_property
+    def support_index(self) -> _SupportIndex:
+        """All constrained edges as global vertex ids, grouped by (vertex, other part) once, for
+        :func:`_prune` (which runs once per clique size tried)."""
+        k = len(self.objects)
+        sizes = np.array([len(o) for o in self.objects], dtype=np.int64)
+        off = np.concatenate([[0], np.cumsum(sizes)])
+        us, vs, pus, pvs, free = [], [], [], [], []
+        for (p, q), e in self.edges.items():
+            if e is None:
+                free.append((p, q))
+                continue
+            a, b = e
+            us.append(off[p] + np.asarray(a, dtype=np.int64))
+            vs.append(off[q] + np.asarray(b, dtype=np.int64))
+            pus.append(np.full(len(a), p, dtype=np.int64))
+            pvs.append(np.full(len(b), q, dtype=np.int64))
+
+        def cat(x: list[NDArray]) -> NDArray[np.int64]:
+            return np.concatenate(x) if x else np.zeros(0, dtype=np.int64)
+
+        u, v = cat(us), cat(vs)
+        keys = np.concatenate([u * k + cat(pvs), v * k + cat(pus)])
+        order = np.argsort(keys, kind="stable")
+        sk = keys[order]
+        starts = np.flatnonzero(np.concatenate([[True], sk[1:] != sk[:-1]])) if len(sk) else \
+            np.zeros(0, dtype=np.intp)
+        fr = np.array(free, dtype=np.int64).reshape(-1, 2)
+        return _SupportIndex(offsets=off, part_of=np.repeat(np.arange(k, dtype=np.int64), sizes), u=u, v=v,
+                             order=order, starts=starts, key_vertex=sk[starts] // k if len(sk) else sk,
+                             free_p=fr[:, 0], free_q=fr[:, 1])
+
+    def compact(self, alive: list[NDArray[np.bool_]]
+                ) -> tuple[list[NDArray[np.intp]], dict[tuple[int, int], tuple[NDArray, NDArray] | None]]:
+        """The subgraph of the alive vertices: compacted objects and sparse adjacency (the index
+        pairs of the compatible vertices, renumbered), as :func:`maximum_cliques` takes it."""
+        new_index = []
+        for al in alive:
+            idx = np.full(len(al), -1, dtype=np.intp)
+            idx[al] = np.arange(int(al.sum()))
+            new_index.append(idx)
+        objects = [o[al] for o, al in zip(self.objects, alive, strict=True)]
+        adjacency: dict[tuple[int, int], tuple[NDArray, NDArray] | None] = {}
+        for (p, q), e in self.edges.items():
+            if e is None:
+                adjacency[(p, q)] = None
+                continue
+            a, b = e
+            keep = alive[p][a] & alive[q][b]
+            adjacency[(p, q)] = (new_index[p][a[keep]], new_index[q][b[keep]])
+        return objects, adjacency
+
+    def dense(self, alive: list[NDArray[np.bool_]]
+              ) -> tuple[list[NDArray[np.intp]], dict[tuple[int, int], NDArray[np.bool_] | None]]:
+        """:meth:`compact` with boolean adjacency matrices (for the paper's filters)."""
+        objects, sparse = self.compact(alive)
+        adjacency: dict[tuple[int, int], NDArray[np.bool_] | None] = {}
+        for (p, q), e in sparse.items():
+            if e is None:
+                adjacency[(p, q)] = None
+                continue
+            mat = np.zeros((len(objects[p]), len(objects[q])), dtype=bool)
+            mat[e[0], e[1]] = True
+            adjacency[(p, q)] = mat
+        return objects, adjacency
+
+
+def _local(objects: NDArray[np.intp], glob: NDArray[np.integer]) -> NDArray[np.intp]:
+    return np.searchsorted(objects, glob)
+
+
+#: z scale of the k-d trees that gravity-aligned association queries beyond the link table: a
+#: height mismatch of 1 m weighs as 10 m sideways, so other storeys drop out of the query ball.
+GRAVITY_Z_SCALE = 10.0
+
+
+def _is_far(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
+            tol: AssociationTolerances, objects: list[NDArray[np.intp]]) -> bool:
+    """The percept pair lies beyond the link table and its types are too many for all pairs:
+    its candidates come from k-d tree queries (and may be computed for some of p's objects)."""
+    *_, covered = _pair_reach(world, percepts, p, q, tau, tol)
+    return not (covered or len(objects[p]) * len(objects[q]) <= tol.dense_pair_limit)
+
+
+def _pair_reach(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
+                tol: AssociationTolerances) -> tuple[NDArray[np.float64], float, float, float, bool]:
+    """``(diff, d, ztol, reach, covered)`` of the percept pair: the offset from p to q and its
+    length, the height tolerance, how far a model distance may differ from ``d`` (``tau``, plus
+    ``ztol`` when gravity-aligned), and whether the link table holds every pair within reach."""
+    diff = percepts[q].position - percepts[p].position
+    d = float(np.linalg.norm(diff))
+    ztol = tau if tol.height_tolerance is None else float(tol.height_tolerance)
+    reach = tau + (ztol if tol.gravity_aligned else 0.0)
+    return diff, d, ztol, reach, d + reach < world.max_link_length + world.link_margin
+
+
+def _far_index(world: WorldModel, tp: str, tq: str, diff: NDArray[np.float64], d: float, ztol: float,
+               tau: float, reach: float, tol: AssociationTolerances) -> FarPairIndex | None:
+    """The world's far-pair index of the two types when it covers the percept pair's window."""
+    if tol.gravity_aligned:
+        if math.hypot(diff[0], diff[1]) + tau >= FAR_PAIR_RANGE or abs(diff[2]) + ztol >= FAR_PAIR_HEIGHT:
+            return None
+    elif d + reach >= FAR_PAIR_RANGE:
+        return None
+    return world.far_pairs(tp, tq, bool(tol.gravity_aligned))
+
+
+def _indexed_candidates(world: WorldModel, index: FarPairIndex, diff: NDArray[np.float64], d: float,
+                        ztol: float, tau: float, reach: float, sub: NDArray[np.intp] | None
+                        ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Far percept pair candidates from the world's far-pair index: the pairs in the key window
+    (3D distance, or gravity-aligned horizontal distance and dz) whose p object is in ``sub``
+    (all when None), tested exactly as the other branches of :func:`_pair_candidates` do.  The
+    float32 keys are within :data:`FAR_PAIR_SLACK` of the float64 values, so pairs that pass by
+    more than the slack pass the exact test and only the pairs near the edge are computed again
+    from the positions."""
+    h = math.hypot(diff[0], diff[1])
+    gravity = index.dz is not None
+    centre, half = (h, tau) if gravity else (d, reach)
+    w = index.window(centre - half, centre + half)
+    i, j, key = index.i[w], index.j[w], index.key[w]
+    keep = np.ones(len(i), dtype=bool)
+    if sub is not None:
+        mine = np.zeros(len(world), dtype=bool)
+        mine[sub] = True
+        keep &= mine[i]
+    off = np.abs(key - centre)
+    inner = off < half - FAR_PAIR_SLACK
+    if index.dz is not None:
+        offz = np.abs(index.dz[w] - diff[2])
+        keep &= offz < ztol + FAR_PAIR_SLACK
+        inner &= offz < ztol - FAR_PAIR_SLACK
+    edge = np.flatnonzero(keep & ~inner)
+    if edge.size:  # the exact tests of _pair_candidates, in float64 from the positions
+        dv = world.positions[j[edge]] - world.positions[i[edge]]
+        if gravity:
+            ok = (np.abs(dv[:, 2] - diff[2]) < ztol) & (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - h) < tau)
+        else:
+            ok = np.abs(np.linalg.norm(dv, axis=1) - d) < reach
+        keep[edge[~ok]] = False
+    return i[keep].astype(np.intp), j[keep].astype(np.intp)
+
+
+def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
+                     tol: AssociationTolerances, objects: list[NDArray[np.intp]],
+                     rows: NDArray[np.intp] | None = None,
+                     ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Model pairs consistent with the percept pair (p, q): local indices ``(a, b)`` into
+    ``objects[p]`` and ``objects[q]``.  ``rows`` (local indices into ``objects[p]``; used for far
+    pairs, see :func:`_is_far`) restricts p's side to those objects."""
+    tp, tq = percepts[p].type, percepts[q].type
+    op, oq = objects[p], objects[q]
+    diff, d, ztol, reach, covered = _pair_reach(world, percepts, p, q, tau, tol)
+    sub = op if rows is None else op[rows]
+    exact = False  # the far-pair index branch applies the final tests itself
+    i: NDArray[np.integer]  # intp from the link tables and trees, int32 from the far-pair index
+    j: NDArray[np.integer]
+    if covered:
+        i, j, _ = world.link_lengths(tp, tq, d - reach, d + reach)
+        if tp == tq:
+            i, j = np.concatenate([i, j]), np.concatenate([j, i])
+        if rows is not None:
+            keep = np.isin(i, sub)
+            i, j = i[keep], j[keep]
+    elif len(op) * len(oq) <= tol.dense_pair_limit:
+        ii, jj = np.meshgrid(sub, oq, indexing="ij")
+        i, j = ii.ravel(), jj.ravel()
+        dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
+        keep = (np.abs(dm - d) < reach) & (i != j)
+        i, j = i[keep], j[keep]
+    elif (index := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
+        i, j = _indexed_candidates(world, index, diff, d, ztol, tau, reach, sub if rows is not None else None)
+        exact = True
+    elif tol.gravity_aligned:
+        # beyond the link table, z up: p's objects raised by dz, against q's tree, both with z
+        # scaled by GRAVITY_Z_SCALE: the partners lie on a horizontal ring of radius h, thin in
+        # z, and the other storeys far outside the query radius; the gravity test below is exact
+        s = GRAVITY_Z_SCALE
+        h = math.hypot(diff[0], diff[1])
+        raised = cKDTree((world.positions[sub] + [0.0, 0.0, diff[2]]) * [1.0, 1.0, s])
+        r_hi = math.hypot(h + tau, s * ztol) * (1.0 + 1e-9) + 1e-12
+        pairs = raised.sparse_distance_matrix(world.type_tree(tq, s), r_hi, output_type="ndarray")
+        shell = pairs["v"] >= (h - tau) * (1.0 - 1e-9)
+        i, j = sub[pairs["i"][shell]], oq[pairs["j"][shell]]
+        keep = i != j
+        i, j = i[keep], j[keep]
+    else:
+        # beyond the link table: the two types' k-d trees give every pair within d + reach
+        # (dual tree, in C); the shell |d_model - d| < reach, with the distances computed as in
+        # the other branches, keeps the candidates
+        wide = reach * (1.0 + 1e-9) + 1e-12
+        tree_p = world.type_tree(tp) if rows is None else cKDTree(world.positions[sub])
+        pairs = tree_p.sparse_distance_matrix(world.type_tree(tq), d + wide, output_type="ndarray")
+        shell = pairs["v"] > d - wide
+        i, j = sub[pairs["i"][shell]], oq[pairs["j"][shell]]
+        dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
+        keep = (np.abs(dm - d) < reach) & (i != j)
+        i, j = i[keep], j[keep]
+    if tol.gravity_aligned and len(i) and not exact:
+        dv = world.positions[j] - world.positions[i]
+        keep = (np.abs(dv[:, 2] - diff[2]) < ztol) & \
+            (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - math.hypot(diff[0], diff[1])) < tau)
+        i, j = i[keep], j[keep]
+    if op is world.type_index[tp] and oq is world.type_index[tq]:  # the usual case: a gather
+        rank = world.type_rank
+        return rank[i], rank[j]
+    return _local(op, i), _local(oq, j)
+
+
+#: The far pairs of :class:`_LazyGraph` are filled in rounds, cheapest first: each round takes the
+#: pairs with at most this many times the rows of the cheapest (counted as at least
+#: ``FAR_ROUND_MIN_ROWS``), then prunes.
+FAR_ROUND_FACTOR = 2
+FAR_ROUND_MIN_ROWS = 64
+
+
+class _LazyGraph:
+    """The consistency graph with the far percept pairs (:func:`_is_far`) filled on demand.
+
+    Pruning for a clique size ``need`` first treats every far pair as unconstrained; that keeps a
+    superset of the vertices the exact pruning keeps (pruning is monotone in the edges).  The far
+    pairs' candidates are then computed for those vertices only (p's side of each pair; later
+    calls add the vertices a smaller ``need`` revives), and the graph of the near pairs plus the
+    far candidates found so far is pruned again: exactly, because every vertex it can keep has
+    all its far candidates.  Far pairs cost queries for the few objects that fit the near
+    pairs, not for every object of their type.
+    """
+
+    def __init__(self, world: WorldModel, percepts: list[Percept], tol: AssociationTolerances) -> None:
+        self.world, self.percepts, self.tol = world, percepts, tol
+        self.objects = [world.type_index[p.type] for p in percepts]
+        sig = np.array([p.sigma for p in percepts])
+        self.near: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]]] = {}
+        self.far: dict[tuple[int, int], tuple[float, NDArray[np.bool_], list, list]] = {}
+        for p, q in itertools.combinations(range(len(percepts)), 2):
+            tau = float(tol.pair_tolerance(sig[p], sig[q]))
+            if _is_far(world, percepts, p, q, tau, tol, self.objects):
+                self.far[(p, q)] = (tau, np.zeros(len(self.objects[p]), dtype=bool), [], [])
+            else:
+                self.near[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tol, self.objects)
+        self.free = _Graph(self.objects, {**self.near, **dict.fromkeys(self.far)})
+        self._graph: _Graph | None = None if self.far else self.free
+
+    def graph(self, need: int) -> _Graph:
+        """A graph whose pruning for ``need`` (or any larger size) equals the full graph's.
+
+        Far pairs are filled in rounds, those with the fewest rows to query first, and the graph
+        is pruned again after each round: a far pair counts as unconstrained while some alive
+        vertex of its p side has not been queried, and as constrained once all have, so every
+        intermediate pruning keeps a superset of the exact one (see the class docstring) while
+        the rows left to query shrink with each constraint added."""
+        return self.prune(need)[0]
+
+    def prune(self, need: int) -> tuple[_Graph, list[NDArray[np.bool_]]]:
+        """:meth:`graph` and its pruning for ``need``."""
+        if not self.far:
+            return self.free, _prune(self.free, need)
+        graph = self._current()
+        alive = _prune(graph, need)
+        while True:
+            pending = sorted((int(np.count_nonzero(alive[key[0]] & ~done)), key)
+                             for key, (_, done, _, _) in self.far.items())
+            pending = [(n, key) for n, key in pending if n]
+            if not pending:
+                # every far pair is queried for every alive vertex: constrain them all
+                final = self._current(alive)
+                return final, _prune(final, need, alive)
+            # this round: the cheapest pairs, up to FAR_ROUND_FACTOR times the cheapest one's rows
+            limit = FAR_ROUND_FACTOR * max(pending[0][0], FAR_ROUND_MIN_ROWS)
+            for n, (p, q) in pending:
+                if n > limit:
+                    break
+                tau, done, a_parts, b_parts = self.far[(p, q)]
+                todo = np.flatnonzero(alive[p] & ~done)
+                a, b = _pair_candidates(self.world, self.percepts, p, q, tau, self.tol, self.objects, todo)
+                a_parts.append(a)
+                b_parts.append(b)
+                done[todo] = True
+            self._graph = None
+            graph = self._current(alive)
+            alive = _prune(graph, need, alive)
+
+    def _current(self, alive: list[NDArray[np.bool_]] | None = None) -> _Graph:
+        """The near pairs plus the far pairs whose p side is queried for every alive vertex
+        (``alive`` None: every vertex queried so far); the other far pairs unconstrained."""
+        if alive is None and self._graph is not None:
+            return self._graph
+        edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None] = dict(self.near)
+        for key, (_, done, a_parts, b_parts) in self.far.items():
+            complete = bool(done.all()) if alive is None else not np.any(alive[key[0]] & ~done)
+            if a_parts and complete:
+                edges[key] = (np.concatenate(a_parts), np.concatenate(b_parts))
+            else:
+                edges[key] = None
+        graph = _Graph(self.objects, dict(sorted(edges.items())))
+        if alive is None:
+            self._graph = graph
+        return graph
+
+
+def _consistency_graph(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances) -> _Graph:
+    objects = [world.type_index[p.type] for p in percepts]
+    sig = np.array([p.sigma for p in percepts])
+    edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None] = {}
+    for p, q in itertools.combinations(range(len(percepts)), 2):
+        tau = float(tol.pair_tolerance(sig[p], sig[q]))
+        edges[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tol, objects)
+    return _Graph(objects, edges)
+
+
+#: :func:`_prune` loops over the part pairs up to this many pairs (16 percepts) and works on all
+#: edges at once beyond (the loop costs a few numpy calls per pair and iteration; the vectorised
+#: form sorts every edge once per graph).
+PRUNE_LOOP_MAX_PAIRS = 120
+
+
+def _prune(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | None = None
+           ) -> list[NDArray[np.bool_]]:
+    """Vertices that have compatible vertices in at least ``need - 1`` other parts (iterated).
+
+    A vertex's support is the number of distinct other parts holding an alive neighbour, plus
+    the unconstrained part pairs whose other part still has an alive vertex.  ``alive`` (per part)
+    starts the pruning from a set known to hold the result (the result is the largest subset of
+    the start that passes, so any superset of it gives the same answer).
+    """
+    if len(graph.edges) <= PRUNE_LOOP_MAX_PAIRS:
+        return _prune_by_pairs(graph, need, alive)
+    return _prune_vectorised(graph, need, alive)
+
+
+def _prune_by_pairs(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | None = None
+                    ) -> list[NDArray[np.bool_]]:
+    """:func:`_prune` with a loop over the part pairs; each pair's edges shrink to the alive ones."""
+    k = len(graph.objects)
+    cur = [np.ones(len(o), dtype=bool) for o in graph.objects] if alive is None else [a.copy() for a in alive]
+    edges = dict(graph.edges)
+    while True:
+        support = [np.zeros(len(a), dtype=np.int64) for a in cur]
+        has = [bool(a.any()) for a in cur]
+        for (p, q), e in edges.items():
+            if e is None:
+                if has[q]:
+                    support[p] += 1
+                if has[p]:
+                    support[q] += 1
+                continue
+            a, b = e
+            keep = cur[p][a] & cur[q][b]
+            a, b = a[keep], b[keep]
+            edges[(p, q)] = (a, b)
+            hit = np.zeros(len(cur[p]), dtype=bool)
+            hit[a] = True
+            support[p] += hit
+            hit = np.zeros(len(cur[q]), dtype=bool)
+            hit[b] = True
+            support[q] += hit
+        changed = False
+        for p in range(k):
+            new = cur[p] & (support[p] >= need - 1)
+            if np.count_nonzero(new) != np.count_nonzero(cur[p]):
+                cur[p], changed = new, True
+        if not changed:
+            return cur
+
+
+def _prune_vectorised(graph: _Graph, need: int, start: list[NDArray[np.bool_]] | None = None
+                      ) -> list[NDArray[np.bool_]]:
+    """:func:`_prune` over all edges at once (see :meth:`_Graph.support_index`)."""
+    ix = graph.support_index
+    k, off = len(graph.objects), ix.offsets
+    alive = np.ones(int(off[-1]), dtype=bool) if start is None else np.concatenate(
+        [np.asarray(a, dtype=bool) for a in start] + [np.zeros(0, dtype=bool)])
+    while True:
+        keep = alive[ix.u] & alive[ix.v]
+        support = np.zeros(len(alive), dtype=np.int64)
+        if len(ix.starts):
+            hit = np.logical_or.reduceat(np.concatenate([keep, keep])[ix.order], ix.starts)
+            support += np.bincount(ix.key_vertex[hit], minlength=len(alive))
+        if len(ix.free_p):
+            has = np.zeros(k, dtype=bool)
+            has[ix.part_of[alive]] = True
+            free = np.bincount(ix.free_p, weights=has[ix.free_q], minlength=k) + \
+                np.bincount(ix.free_q, weights=has[ix.free_p], minlength=k)
+            support += free.astype(np.int64)[ix.part_of]
+        new = alive & (support >= need - 1)
+        if np.array_equal(new, alive):
+            break
+        alive = new
+    return [alive[off[p]:off[p + 1]].copy() for p in range(k)]
+
+
