@@ -599,10 +599,7 @@ def _imprecise(result: LocalizationResult, goal_rotation_3sigma: float | None) -
     """An "ok" result whose 3-sigma rotation bound exceeds the goal (or is not finite)."""
     if goal_rotation_3sigma is None or result.status != "ok":
         return False
-    block = np.asarray(result.pose_covariance, dtype=float)[3:, 3:]
-    if not np.all(np.isfinite(block)):
-        return True
-    return 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(block)[-1]), 0.0)) > goal_rotation_3sigma
+    return not result.rotation_3sigma <= goal_rotation_3sigma  # NaN: not finite
 
 
 def active_localize(world: WorldModel, percepts: Sequence[Percept],

@@ -269,7 +269,6 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
     op, oq = objects[p], objects[q]
     diff, d, ztol, reach, covered = _pair_reach(world, percepts, p, q, tau, tol)
     sub = op if rows is None else op[rows]
-    exact = False  # the far-pair index branch applies the final tests itself
     i: NDArray[np.integer]  # intp from the link tables and trees, int32 from the far-pair index
     j: NDArray[np.integer]
     if covered:
@@ -286,8 +285,9 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
     elif (index := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
+        # the far-pair index applies the final tests itself
         i, j = _indexed_candidates(world, index, diff, d, ztol, tau, reach, sub if rows is not None else None)
-        exact = True
+        return _renumber(world, tp, tq, op, oq, i, j)
     elif tol.gravity_aligned:
         # beyond the link table, z up: p's objects raised by dz, against q's tree, both with z
         # scaled by GRAVITY_Z_SCALE: the partners lie on a horizontal ring of radius h, thin in
@@ -313,11 +313,17 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
-    if tol.gravity_aligned and len(i) and not exact:
+    if tol.gravity_aligned and len(i):
         dv = world.positions[j] - world.positions[i]
         keep = (np.abs(dv[:, 2] - diff[2]) < ztol) & \
             (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - math.hypot(diff[0], diff[1])) < tau)
         i, j = i[keep], j[keep]
+    return _renumber(world, tp, tq, op, oq, i, j)
+
+
+def _renumber(world: WorldModel, tp: str, tq: str, op: NDArray[np.intp], oq: NDArray[np.intp],
+              i: NDArray[np.integer], j: NDArray[np.integer]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Global object indices ``i`` (of ``op``) and ``j`` (of ``oq``) as local indices."""
     if op is world.type_index[tp] and oq is world.type_index[tq]:  # the usual case: a gather
         rank = world.type_rank
         return rank[i], rank[j]
@@ -356,20 +362,16 @@ class _LazyGraph:
             else:
                 self.near[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tol, self.objects)
         self.free = _Graph(self.objects, {**self.near, **dict.fromkeys(self.far)})
-        self._graph: _Graph | None = None if self.far else self.free
 
-    def graph(self, need: int) -> _Graph:
-        """A graph whose pruning for ``need`` (or any larger size) equals the full graph's.
+    def prune(self, need: int) -> tuple[_Graph, list[NDArray[np.bool_]]]:
+        """A graph whose pruning for ``need`` (or any larger size) equals the full graph's, and
+        that pruning.
 
         Far pairs are filled in rounds, those with the fewest rows to query first, and the graph
         is pruned again after each round: a far pair counts as unconstrained while some alive
         vertex of its p side has not been queried, and as constrained once all have, so every
         intermediate pruning keeps a superset of the exact one (see the class docstring) while
         the rows left to query shrink with each constraint added."""
-        return self.prune(need)[0]
-
-    def prune(self, need: int) -> tuple[_Graph, list[NDArray[np.bool_]]]:
-        """:meth:`graph` and its pruning for ``need``."""
         if not self.far:
             return self.free, _prune(self.free, need)
         graph = self._current()
@@ -393,15 +395,12 @@ class _LazyGraph:
                 a_parts.append(a)
                 b_parts.append(b)
                 done[todo] = True
-            self._graph = None
             graph = self._current(alive)
             alive = _prune(graph, need, alive)
 
     def _current(self, alive: list[NDArray[np.bool_]] | None = None) -> _Graph:
         """The near pairs plus the far pairs whose p side is queried for every alive vertex
-        (``alive`` None: every vertex queried so far); the other far pairs unconstrained."""
-        if alive is None and self._graph is not None:
-            return self._graph
+        (``alive`` None: every vertex); the other far pairs unconstrained."""
         edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None] = dict(self.near)
         for key, (_, done, a_parts, b_parts) in self.far.items():
             complete = bool(done.all()) if alive is None else not np.any(alive[key[0]] & ~done)
@@ -409,10 +408,7 @@ class _LazyGraph:
                 edges[key] = (np.concatenate(a_parts), np.concatenate(b_parts))
             else:
                 edges[key] = None
-        graph = _Graph(self.objects, dict(sorted(edges.items())))
-        if alive is None:
-            self._graph = graph
-        return graph
+        return _Graph(self.objects, dict(sorted(edges.items())))
 
 
 def _consistency_graph(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances) -> _Graph:

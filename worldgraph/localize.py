@@ -63,7 +63,7 @@ from .model import WorldModel
 from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
 from .pose_certificate import certify_pose, solve_pose_sdp
 from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
-from .units import percept_units_hint, world_units_hint
+from .units import percept_units_hint
 from .validation import (
     CHI2_3_GATE,
     CHI2_6_GATE,
@@ -278,7 +278,7 @@ class LocalizationResult:
         block = self.pose_covariance[3:, 3:]
         if not np.all(np.isfinite(block)):
             return math.nan
-        return 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(block)[-1]), 0.0))
+        return _worst_3sigma(block)
 
     @property
     def n_near_best(self) -> int:
@@ -621,8 +621,8 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
 
 def _units_hints(world: WorldModel, used: list[Percept]) -> list[str]:
     """Sentences for the message when positions look like millimetres (docs/design.md#units)."""
-    hint = percept_units_hint(world, used)
-    return [hint] if hint else [h for h in (world_units_hint(world),) if h]
+    hint = percept_units_hint(world, used) or world.units_hint
+    return [hint] if hint else []
 
 
 def _localize(world: WorldModel, percepts: list[Percept], settings: _Settings, t_start: float
@@ -1057,13 +1057,18 @@ def _choose_candidate(ctx: _Context, est: ro.PositionEstimate, t_ref: NDArray) -
     return position, status
 
 
+def _worst_3sigma(block: NDArray[np.float64]) -> float:
+    """Three standard deviations along the worst axis of a finite (3, 3) covariance block."""
+    return 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(block)[-1]), 0.0))
+
+
 def _in_region(region: ro.Region, pose: NDArray, cov6: NDArray) -> bool:
     """Whether the pose's position lies in ``region`` up to its own 3-sigma uncertainty: a robot
     standing at the region's edge is not turned away because noise put its estimate just outside."""
     block = cov6[:3, :3]
     slack = 0.0
     if np.all(np.isfinite(block)):
-        slack = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(block)[-1]), 0.0))
+        slack = _worst_3sigma(block)
     return bool(region.contains(pose[:3, 3], tol=1e-6 + slack))
 
 
@@ -1140,8 +1145,7 @@ def _status_step(ctx: _Context, answer: _Answer, status: str, n_inl: int, ambigu
             status = "weak"
             ctx.notes.append("the matched landmarks do not determine the pose (infinite covariance)")
         else:
-            pos3 = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(cov6[:3, :3])[-1]), 0.0))
-            rot3 = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(cov6[3:, 3:])[-1]), 0.0))
+            pos3, rot3 = _worst_3sigma(cov6[:3, :3]), _worst_3sigma(cov6[3:, 3:])
             if pos3 > ctx.settings.pos_tol or rot3 > ctx.settings.rot_tol:
                 status = "weak"
                 ctx.notes.append(f"weakly determined: 3-sigma bounds {pos3:.3g} m (tolerance "

@@ -318,7 +318,11 @@ class FarPairIndex:
     i: NDArray[np.int32]
     j: NDArray[np.int32]
     dz: NDArray[np.float32] | None
-    gravity_aligned: bool
+
+    @property
+    def gravity_aligned(self) -> bool:
+        """Keyed by the horizontal distance (with ``dz``), not the 3D distance."""
+        return self.dz is not None
 
     def window(self, lo: float, hi: float) -> slice:
         """The slice of the pairs with ``lo - slack <= key <= hi + slack``."""
@@ -364,7 +368,7 @@ def _build_far_pairs(world: WorldModel, a: str, b: str, gravity: bool,
     order = np.argsort(key, kind="stable")
     return FarPairIndex(key=key[order].astype(np.float32), i=gi[keep][order].astype(np.int32),
                         j=gj[keep][order].astype(np.int32),
-                        dz=None if dz is None else dz[order].astype(np.float32), gravity_aligned=gravity)
+                        dz=None if dz is None else dz[order].astype(np.float32))
 
 
 def _check_path(path: Any) -> str:
@@ -1110,12 +1114,19 @@ class WorldModel:
         index = cache[key]
         if index is None or not flip:
             return index
-        return FarPairIndex(key=index.key, i=index.j, j=index.i, dz=None if index.dz is None else -index.dz,
-                            gravity_aligned=index.gravity_aligned)
+        return FarPairIndex(key=index.key, i=index.j, j=index.i, dz=None if index.dz is None else -index.dz)
 
     @cached_property
     def _far_pairs(self) -> dict[tuple[str, str, bool], FarPairIndex | None]:
         return {}
+
+    @cached_property
+    def units_hint(self) -> str | None:
+        """:func:`worldgraph.units.world_units_hint` of this world, computed once (``localize``
+        adds it to its message; it samples the world and queries its k-d tree)."""
+        from .units import world_units_hint  # units imports this module
+
+        return world_units_hint(self)
 
     def build_far_pairs(self, gravity_aligned: bool = False) -> int:
         """Build :meth:`far_pairs` for every pair of types now (instead of on first use, during
