@@ -79,6 +79,7 @@ from .errors import (
     MalformedFileError,
     WorldGraphError,
 )
+from .franka import _quat_matrix  # MuJoCo quaternion (w, x, y, z) -> rotation matrix
 
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
@@ -368,16 +369,6 @@ def _pose(position: NDArray[np.float64], xmat: NDArray[np.float64]) -> NDArray[n
     m[:3, :3] = np.asarray(xmat, dtype=np.float64).reshape(3, 3)
     m[:3, 3] = position
     return m
-
-
-def _quat_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Rotation matrix of a unit quaternion ``(w, x, y, z)`` (MuJoCo's order)."""
-    w, x, y, z = np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
 
 
 def _geom_shape(mujoco: Any, model: Any, g: int) -> tuple[trimesh.Trimesh, NDArray[np.float64]] | None:
