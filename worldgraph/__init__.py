@@ -32,7 +32,7 @@ from .filters import discriminator, orientation_filter, proximity_filter
 from .franka import franka_kitchen_path, load_franka_kitchen
 from .hypotheses import AssociationHypothesis
 from .localize import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
-from .model import LinkTable, ObjectModel, WorldModel, box_vertices
+from .model import LinkTable, ObjectModel, ObjectTable, WorldModel, box_vertices
 from .pose import percept_frame, pose_from_frames, weighted_kabsch
 from .tiles import Tile, localize_tiled
 from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
@@ -51,6 +51,7 @@ __all__ = [
     "OutOfRangeError",
     "PoseError",
     "ObjectModel",
+    "ObjectTable",
     "ShapeError",
     "TooFewPerceptsError",
     "UnknownGeometryError",

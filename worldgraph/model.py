@@ -457,6 +457,164 @@ class ObjectModel:
                 "geometry": self.geometry}
 
 
+class ObjectTable(Sequence[ObjectModel]):
+    """The objects of a world as arrays, without a Python object per landmark.
+
+    What :meth:`WorldModel.from_arrays` (and so the building and campus scenes) stores: typed
+    boxes with the identity rotation whose geometry key is their type.  Indexing makes the
+    :class:`ObjectModel` on demand (``table[k]``); iterating makes them all, so hot paths read
+    :attr:`codes`, :attr:`positions` and :attr:`sizes` instead.  An ``ObjectTable`` equals any
+    sequence of the same objects.
+
+    Parameters
+    ----------
+    type_names : sequence of str
+        The distinct types, sorted; non-empty strings without NUL characters.
+    codes : (n,) int
+        ``type_names[codes[k]]`` is object ``k``'s type.
+    positions, sizes : (n, 3) float
+        Box centres (metres, ``|x| <=`` :data:`MAX_COORDINATE`) and extents (``>= 0``).
+    ids : sequence of str, optional
+        Unique object ids; default ``f"{type}_{number}"`` with ``number`` from ``numbers``.
+    numbers : (n,) int, optional
+        Distinct non-negative numbers of the default ids (default ``0 .. n-1``); ignored when
+        ``ids`` is given.
+    """
+
+    __slots__ = ("type_names", "codes", "positions", "sizes", "_ids", "_numbers")
+    type_names: tuple[str, ...]
+    codes: NDArray[np.integer]
+    positions: NDArray[np.float64]
+    sizes: NDArray[np.float64]
+    _ids: tuple[str, ...] | None
+    _numbers: NDArray[np.int64] | None
+
+    def __init__(self, type_names: Sequence[str], codes: ArrayLike, positions: ArrayLike, sizes: ArrayLike,
+                 ids: Sequence[str] | None = None, numbers: ArrayLike | None = None) -> None:
+        if isinstance(type_names, str | bytes) or not isinstance(type_names, Sequence):
+            raise ArgumentTypeError(f"type_names must be a sequence of str, got {_checks._short(type_names)}")
+        names = tuple(type_names)
+        for k, t in enumerate(names):
+            _check_type_name(t, f"type_names[{k}]")
+        if list(names) != sorted(set(names)):
+            raise WorldGraphError(f"type_names must be sorted and distinct, got {_checks._short(names)}")
+        c = _checks.int_array("codes", codes, (None,), minimum=0)
+        n = len(c)
+        if n and int(c.max()) >= len(names):
+            k = int(np.argmax(c >= len(names)))
+            raise OutOfRangeError(f"codes[{k}] = {int(c[k])} must be < len(type_names) = {len(names)}")
+        pos = _checks.float_array("positions", positions, (n, 3), max_abs=MAX_COORDINATE)
+        sz = _checks.float_array("sizes", sizes, (n, 3), max_abs=MAX_COORDINATE)
+        if np.any(sz < 0):
+            bad = np.argwhere(sz < 0)[0]
+            raise NonPositiveError(f"sizes[{bad[0]}, {bad[1]}] must be >= 0, got {float(sz[tuple(bad)])!r}")
+        id_list: tuple[str, ...] | None = None
+        num = None
+        if ids is not None:
+            id_list = tuple(_name_list("ids", ids, n, WorldGraphError))
+            _check_unique_ids(list(id_list), "ids")
+        elif numbers is not None:
+            num = _checks.int_array("numbers", numbers, (n,), minimum=0)
+            if len(np.unique(num)) != n:
+                first = np.unique(num, return_index=True)[1]
+                k = int(np.setdiff1d(np.arange(n), first)[0])
+                raise WorldGraphError(f"numbers[{k}] = {int(num[k])} repeats an earlier number")
+        self._set(names, c, pos, sz, id_list, num)
+
+    def _set(self, names: tuple[str, ...], codes: NDArray[np.integer], positions: NDArray[np.float64],
+             sizes: NDArray[np.float64], ids: tuple[str, ...] | None,
+             numbers: NDArray[np.integer] | None) -> None:
+        codes = np.asarray(codes, dtype=np.int32 if len(names) < 2**31 else np.int64)
+        if ids is None and numbers is None:
+            numbers = np.arange(len(codes), dtype=np.int64)
+        arrays = [codes, positions, sizes] + ([] if numbers is None else [numbers])
+        for a in arrays:
+            a.setflags(write=False)
+        for name, value in (("type_names", names), ("codes", codes), ("positions", positions),
+                            ("sizes", sizes), ("_ids", ids), ("_numbers", numbers)):
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def _trusted(cls, names: tuple[str, ...], codes: NDArray[np.integer], positions: NDArray[np.float64],
+                 sizes: NDArray[np.float64], ids: tuple[str, ...] | None = None,
+                 numbers: NDArray[np.integer] | None = None) -> ObjectTable:
+        """Build without validation from arrays the caller has checked (copies are not made)."""
+        table = object.__new__(cls)
+        table._set(names, codes, np.asarray(positions, dtype=np.float64), np.asarray(sizes, dtype=np.float64),
+                   ids, None if numbers is None else np.asarray(numbers, dtype=np.int64))
+        return table
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(f"ObjectTable is read-only: cannot set {name!r}")
+
+    def __len__(self) -> int:
+        return len(self.codes)
+
+    def id(self, k: int) -> str:
+        """The id of object ``k``."""
+        if self._ids is not None:
+            return self._ids[k]
+        assert self._numbers is not None  # one of the two is always set
+        return f"{self.type_names[int(self.codes[k])]}_{int(self._numbers[k])}"
+
+    def __getitem__(self, key: Any) -> Any:
+        if isinstance(key, slice):
+            return self.take(np.arange(len(self))[key])
+        try:
+            k = int(key.__index__())
+        except (AttributeError, TypeError):
+            raise ArgumentTypeError(f"an ObjectTable index must be an int or a slice, "
+                                    f"got {_checks._short(key)}") from None
+        n = len(self)
+        if not -n <= k < n:
+            raise IndexError(f"object index {k} out of range for {n} objects")
+        k %= n
+        pose = np.eye(4)
+        pose[:3, 3] = self.positions[k]
+        pose.setflags(write=False)
+        size = self.sizes[k].copy()
+        size.setflags(write=False)
+        t = self.type_names[int(self.codes[k])]
+        return ObjectModel._trusted(self.id(k), t, pose, size, t)
+
+    def take(self, index: ArrayLike) -> ObjectTable:
+        """The objects at ``index`` (an int array, in that order) as a new table; ids kept."""
+        n = len(self)
+        idx = _checks.int_array("index", index, (None,), minimum=-n)
+        if idx.size and int(idx.max()) >= n:
+            k = int(np.argmax(idx >= n))
+            raise OutOfRangeError(f"index[{k}] = {int(idx[k])} must be < the number of objects, {n}")
+        idx = idx % max(n, 1)
+        ids = None if self._ids is None else tuple(self._ids[k] for k in idx.tolist())
+        numbers = None if self._numbers is None else self._numbers[idx]
+        return ObjectTable._trusted(self.type_names, self.codes[idx], self.positions[idx], self.sizes[idx],
+                                    ids, numbers)
+
+    @property
+    def types(self) -> NDArray[np.str_]:
+        """``(n,)`` the objects' types."""
+        return np.asarray(self.type_names, dtype=str)[self.codes]
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, ObjectTable):
+            if (len(self) != len(other) or not np.array_equal(self.positions, other.positions)
+                    or not np.array_equal(self.sizes, other.sizes)
+                    or not np.array_equal(self.types, other.types)):
+                return False
+            if self._ids is None and other._ids is None and self._numbers is not None \
+                    and other._numbers is not None:
+                return bool(np.array_equal(self._numbers, other._numbers))
+            return all(self.id(k) == other.id(k) for k in range(len(self)))
+        if isinstance(other, Sequence) and not isinstance(other, str | bytes):
+            return len(self) == len(other) and all(a == b for a, b in zip(self, other, strict=True))
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"ObjectTable({len(self)} objects of {len(self.type_names)} types)"
+
+
 # ----------------------------------------------------------------------------------------------
 # link table
 # ----------------------------------------------------------------------------------------------
@@ -521,6 +679,17 @@ class LinkTable:
         stop = int(np.searchsorted(self.length, hi, side="left"))
         stop = max(stop, start)
         return self.i[start:stop], self.j[start:stop], self.length[start:stop]
+
+
+def _pair_lengths(positions: NDArray[np.float64], i: NDArray[np.intp], j: NDArray[np.intp],
+                  chunk: int = 1 << 20) -> NDArray[np.float64]:
+    """``|positions[i] - positions[j]|`` in chunks, so that no ``(m, 3)`` temporary is made."""
+    out = np.empty(len(i))
+    for lo in range(0, len(i), chunk):
+        a, b = i[lo:lo + chunk], j[lo:lo + chunk]
+        d = positions[a] - positions[b]
+        out[lo:lo + chunk] = np.sqrt(np.einsum("ij,ij->i", d, d))
+    return out
 
 
 def _empty_table() -> LinkTable:
@@ -618,8 +787,9 @@ class WorldModel:
 
     Parameters
     ----------
-    objects : sequence of ObjectModel
-        Non-empty; ids unique; no two objects of one type at the same position.
+    objects : sequence of ObjectModel, or ObjectTable
+        Non-empty; ids unique; no two objects of one type at the same position.  An
+        :class:`ObjectTable` (what :meth:`from_arrays` gives) keeps large worlds in arrays.
     max_link_length : float
         Pairs closer than this (metres) are graph edges (the paper's ζ for links), ``> 0``;
         ``max_link_length + link_margin <=`` :data:`MAX_LINK_LENGTH`.
@@ -652,7 +822,7 @@ class WorldModel:
     graph : networkx.Graph (lazy)
     """
 
-    objects: tuple[ObjectModel, ...]
+    objects: Sequence[ObjectModel]
     max_link_length: float = 5.0
     class_vertices: Mapping[str, NDArray[np.float64]] = field(default_factory=dict)
     scene: Any = None
@@ -672,22 +842,28 @@ class WorldModel:
             raise ArgumentTypeError(f"gravity_aligned must be a bool, "
                                     f"got {_checks._short(self.gravity_aligned)}")
         object.__setattr__(self, "gravity_aligned", bool(self.gravity_aligned))
-        if isinstance(self.objects, str | bytes | Mapping) or not isinstance(self.objects, Iterable):
-            raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
-                                    f"{_checks._short(self.objects)}")
-        try:
-            objects = tuple(self.objects)
-        except TypeError as exc:
-            raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
-                                    f"{_checks._short(self.objects)}") from exc
-        if not objects:
+        table = self.objects if isinstance(self.objects, ObjectTable) else None
+        objects: Sequence[ObjectModel]
+        if table is not None:  # checked when the table was made
+            objects = table
+        else:
+            if isinstance(self.objects, str | bytes | Mapping) or not isinstance(self.objects, Iterable):
+                raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
+                                        f"{_checks._short(self.objects)}")
+            try:
+                objects = tuple(self.objects)
+            except TypeError as exc:
+                raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
+                                        f"{_checks._short(self.objects)}") from exc
+        if not len(objects):
             raise EmptyWorldError("objects must hold at least one object (an ObjectModel), got 0")
         if self.scene is not None:
             _check_scene(self.scene)
-        for k, obj in enumerate(objects):
-            if not isinstance(obj, ObjectModel):
-                raise ArgumentTypeError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
-        _check_unique_ids([o.id for o in objects], "objects")
+        if table is None:
+            for k, obj in enumerate(objects):
+                if not isinstance(obj, ObjectModel):
+                    raise ArgumentTypeError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
+            _check_unique_ids([o.id for o in objects], "objects")
         mll = _checks.positive_float("max_link_length", self.max_link_length, maximum=MAX_LINK_LENGTH)
         margin = _checks.positive_float("link_margin", self.link_margin, allow_zero=True,
                                         maximum=MAX_LINK_LENGTH)
@@ -704,17 +880,26 @@ class WorldModel:
                                     min_size=1)
             v.setflags(write=False)
             cv[key] = v
-        for obj in objects:
-            if obj.geometry not in cv:
-                raise UnknownGeometryError(f"object {obj.id!r} has geometry {obj.geometry!r}, which is not "
-                                           f"a key of class_vertices {sorted(cv)[:10]}")
+        if table is not None:  # a table's geometry keys are its types
+            missing = [(table.id(int(np.argmax(table.codes == c))), table.type_names[c])
+                       for c in np.unique(table.codes).tolist() if table.type_names[c] not in cv]
+        else:
+            missing = [(o.id, o.geometry) for o in objects if o.geometry not in cv]
+        if missing:
+            oid, geometry = missing[0]
+            raise UnknownGeometryError(f"object {oid!r} has geometry {geometry!r}, which is not "
+                                       f"a key of class_vertices {sorted(cv)[:10]}")
         object.__setattr__(self, "objects", objects)
         object.__setattr__(self, "max_link_length", mll)
         object.__setattr__(self, "link_margin", margin)
         object.__setattr__(self, "class_vertices", cv)
 
-        types = np.array([o.type for o in objects], dtype=str)
-        positions = np.array([o.pose[:3, 3] for o in objects], dtype=np.float64).reshape(len(objects), 3)
+        if table is not None:
+            types = table.types
+            positions = table.positions
+        else:
+            types = np.array([o.type for o in objects], dtype=str)
+            positions = np.array([o.pose[:3, 3] for o in objects], dtype=np.float64).reshape(len(objects), 3)
         types.setflags(write=False)
         positions.setflags(write=False)
         object.__setattr__(self, "_types", types)
@@ -781,22 +966,28 @@ class WorldModel:
                     f"{counts.mean() - 1:,.0f} within reach of each), more than {MAX_LINKS:,}: lower "
                     "max_link_length or thin the world")
         # query slightly wide, then filter with the exact strict test below
-        pairs = tree.query_pairs(radius * (1.0 + 1e-9), output_type="ndarray").astype(np.intp)
+        pairs = tree.query_pairs(radius * (1.0 + 1e-9), output_type="ndarray")
         if pairs.size == 0:
             pairs = np.zeros((0, 2), np.intp)
-        pi, pj = pairs[:, 0], pairs[:, 1]
-        length = np.sqrt(np.sum((positions[pi] - positions[pj]) ** 2, axis=1))
+        pi, pj = pairs[:, 0].astype(np.intp), pairs[:, 1].astype(np.intp)
+        del pairs
+        length = _pair_lengths(positions, pi, pj)
         keep = length < radius
-        pi, pj, length = pi[keep], pj[keep], length[keep]
+        if not keep.all():
+            pi, pj, length = pi[keep], pj[keep], length[keep]
+        del keep
         # orient rows: (type a, type b) with a < b, or i < j for one type
-        ci, cj = codes[pi], codes[pj]
+        nt = len(names)
+        small = codes.astype(np.int32)
+        ci, cj = small[pi], small[pj]
         swap = (ci > cj) | ((ci == cj) & (pi > pj))
         pi, pj = np.where(swap, pj, pi), np.where(swap, pi, pj)
-        ci, cj = np.minimum(ci, cj), np.maximum(ci, cj)
-        nt = len(names)
-        key = ci.astype(np.int64) * nt + cj
+        del swap
+        key = np.minimum(ci, cj).astype(np.int64) * nt + np.maximum(ci, cj)
+        del ci, cj
         order = np.lexsort((pj, pi, length, key))
         pi, pj, length, key = pi[order], pj[order], length[order], key[order]
+        del order
         present, first = np.unique(key, return_index=True)
         last = np.append(first[1:], len(key))[: len(first)]
         links = _LinkTables([str(t) for t in names], pi, pj, length, present.astype(np.int64),
@@ -850,11 +1041,10 @@ class WorldModel:
                 bad = np.argwhere(sz < 0)[0]
                 raise NonPositiveError(f"sizes[{bad[0]}, {bad[1]}] must be >= 0, "
                                        f"got {float(sz[tuple(bad)])!r}")
-        if ids is None:
-            id_list = [f"{t}_{k}" for k, t in enumerate(type_list)]
-        else:
-            id_list = _name_list("ids", ids, n, WorldGraphError)
-        _check_unique_ids(id_list, "ids")
+        id_list: tuple[str, ...] | None = None
+        if ids is not None:  # the default ids f"{type}_{k}" are unique: k is
+            id_list = tuple(_name_list("ids", ids, n, WorldGraphError))
+            _check_unique_ids(list(id_list), "ids")
         names, codes = np.unique(np.array(type_list, dtype=object), return_inverse=True)
         codes = codes.reshape(-1)
         by_type = np.argsort(codes, kind="stable")
@@ -864,15 +1054,9 @@ class WorldModel:
             rows = by_type[starts[c]:starts[c + 1]]
             class_vertices[t] = box_vertices(DEFAULT_SIZE * np.ones(3) if sizes is None
                                              else np.median(sz[rows], axis=0))
-        poses = np.zeros((n, 4, 4))
-        poses[:, [0, 1, 2, 3], [0, 1, 2, 3]] = 1.0
-        poses[:, :3, 3] = pos
-        sz = np.array(sz, dtype=np.float64)
-        poses.setflags(write=False)
-        sz.setflags(write=False)
-        objs = [ObjectModel._trusted(id_list[k], type_list[k], poses[k], sz[k], type_list[k])
-                for k in range(n)]
-        return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices,
+        table = ObjectTable._trusted(tuple(str(t) for t in names), codes, np.array(pos, dtype=np.float64),
+                                     np.array(sz, dtype=np.float64), id_list)
+        return cls(table, max_link_length=max_link_length, class_vertices=class_vertices,
                    link_margin=link_margin, room=room, gravity_aligned=gravity_aligned)
 
     @classmethod
@@ -1149,8 +1333,11 @@ class WorldModel:
 
     @cached_property
     def _bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        rot = np.array([o.pose[:3, :3] for o in self.objects])
-        half = np.einsum("nij,nj->ni", np.abs(rot), np.array([o.size for o in self.objects]) * 0.5)
+        if isinstance(self.objects, ObjectTable):  # identity rotations
+            half = self.objects.sizes * 0.5
+        else:
+            rot = np.array([o.pose[:3, :3] for o in self.objects])
+            half = np.einsum("nij,nj->ni", np.abs(rot), np.array([o.size for o in self.objects]) * 0.5)
         return (self.positions - half).min(axis=0), (self.positions + half).max(axis=0)
 
     def region(self, margin: float = 0.0) -> radialopt.Region:
@@ -1184,13 +1371,34 @@ class WorldModel:
         for k, t in enumerate(keep):
             self._check_known_type(t, f"types[{k}]")
         keep = set(keep)
-        objs = tuple(o for o in self.objects if o.type in keep)
-        if not objs:
+        index = np.flatnonzero(np.isin(self._types, sorted(keep)))
+        if not index.size:
             raise EmptyWorldError(f"types must name at least one type of the world, got "
                                   f"{_checks._short(types)}")
-        cv = {o.geometry: self.class_vertices[o.geometry] for o in objs}
+        return self.take(index)
+
+    def take(self, index: ArrayLike) -> WorldModel:
+        """A world model holding the objects at ``index`` (distinct ints, in that order) with the
+        same link settings, room and ``gravity_aligned`` flag; a table stays a table."""
+        n = len(self)
+        idx = _checks.int_array("index", index, (None,), minimum=0)
+        if idx.size and int(idx.max()) >= n:
+            k = int(np.argmax(idx >= n))
+            raise OutOfRangeError(f"index[{k}] = {int(idx[k])} must be < the number of objects, {n}")
+        if not idx.size:
+            raise EmptyWorldError("index must select at least one object, got 0")
+        if len(np.unique(idx)) != len(idx):
+            raise WorldGraphError(f"index must hold distinct object indices, got {_checks._short(index)}")
+        objs: Sequence[ObjectModel]
+        if isinstance(self.objects, ObjectTable):
+            objs = self.objects.take(idx)
+            geometries = set(np.unique(self._types[idx]).tolist())
+        else:
+            objs = tuple(self.objects[k] for k in idx.tolist())
+            geometries = {o.geometry for o in objs}
+        cv = {g: self.class_vertices[g] for g in sorted(geometries)}
         return WorldModel(objs, self.max_link_length, cv, scene=None, link_margin=self.link_margin,
-                          room=self.room)
+                          room=self.room, gravity_aligned=self.gravity_aligned)
 
     # -- files -----------------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:

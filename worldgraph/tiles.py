@@ -138,10 +138,7 @@ def split(world: WorldModel, labels: ArrayLike, halo: float = 0.0) -> tuple[Tile
         extra = _halo_members(world.positions, own, every[codes != c] if halo > 0 else every[:0], halo)
         index = np.union1d(own, extra).astype(np.intp)
         is_own = codes[index] == c
-        objs = tuple(world.objects[i] for i in index.tolist())
-        cv = {g: world.class_vertices[g] for g in {o.geometry for o in objs}}
-        sub = WorldModel(objs, world.max_link_length, cv, scene=None, link_margin=world.link_margin,
-                         room=world.room, gravity_aligned=world.gravity_aligned)
+        sub = world.take(index)
         index.setflags(write=False)
         is_own.setflags(write=False)
         tiles.append(Tile(sub, index, int(label), is_own))
