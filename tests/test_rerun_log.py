@@ -8,14 +8,18 @@ from collections import Counter
 
 import numpy as np
 import pytest
-import rerun as rr  # in the test extra: CI runs these tests, never skips them
-from rerun.chunk import RrdReader
 from scipy.spatial.transform import Rotation
 
 import perception as pc
 import worldgraph as wg
 from worldgraph.errors import ArgumentTypeError, ImporterError, NonPositiveError, WorldGraphError
 from worldgraph.rerun_log import log_rerun
+
+if sys.version_info < (3, 11):  # rerun-sdk >= 0.41 has no Python 3.10 wheel; the test extra skips it there
+    pytest.skip("rerun-sdk >= 0.41 needs Python >= 3.11", allow_module_level=True)
+
+import rerun as rr  # noqa: E402 - in the test extra from Python 3.11 on: CI runs these tests
+from rerun.chunk import RrdReader  # noqa: E402
 
 RECOGNISED = ("door", "handle", "drawer", "knob")
 
@@ -206,6 +210,13 @@ def test_missing_rerun_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "rerun", None)  # import rerun -> ImportError
     with pytest.raises(ImporterError, match=r"pip install gaussian-spheres\[rerun\]"):
         log_rerun(world)
+
+
+def test_a_too_old_rerun_names_the_version(monkeypatch):
+    world = wg.WorldModel.from_arrays(["door", "knob"], [[0, 0, 1], [1, 2, 1]])
+    monkeypatch.setattr(rr, "__version__", "0.23.4")
+    with pytest.raises(ImporterError, match=r"rerun-sdk >= 0.41, found 0.23.4"):
+        log_rerun(world, recording=rr.RecordingStream("gaussian_spheres_test"))
 
 
 def test_import_worldgraph_does_not_import_rerun():

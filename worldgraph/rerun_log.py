@@ -55,13 +55,23 @@ AXIS_LENGTH = 0.5
 _ESTIMATE_RGB = (214, 39, 40)  # the red of worldgraph.plots' estimate and ellipse
 
 
+#: Oldest rerun-sdk release :func:`log_rerun` is known to work with (pyproject's ``rerun`` extra).
+MIN_RERUN_VERSION = (0, 41)
+
+
 def _rerun() -> Any:
+    need = ".".join(map(str, MIN_RERUN_VERSION))
     try:
         import rerun
     except ImportError as exc:
         raise ImporterError(
-            "worldgraph.rerun_log.log_rerun needs rerun-sdk: pip install gaussian-spheres[rerun]"
-        ) from exc
+            "worldgraph.rerun_log.log_rerun needs rerun-sdk: pip install gaussian-spheres[rerun] "
+            f"(rerun-sdk >= {need}, which needs Python >= 3.11)") from exc
+    version = str(getattr(rerun, "__version__", "0"))
+    numbers = tuple(int(x) if x.isdigit() else 0 for x in version.split(".")[:2])
+    if numbers < MIN_RERUN_VERSION:
+        raise ImporterError(f"worldgraph.rerun_log.log_rerun needs rerun-sdk >= {need}, found {version}: "
+                            "pip install -U gaussian-spheres[rerun]")
     return rerun
 
 
