@@ -12,7 +12,14 @@ from scipy.spatial.transform import Rotation
 
 import perception as pc
 import worldgraph as wg
-from worldgraph.errors import ArgumentTypeError, ImporterError, NonPositiveError, WorldGraphError
+from worldgraph.errors import (
+    ArgumentTypeError,
+    ImporterError,
+    NonPositiveError,
+    NonRigidError,
+    ShapeError,
+    WorldGraphError,
+)
 from worldgraph.rerun_log import log_rerun
 
 if sys.version_info < (3, 11):  # rerun-sdk >= 0.41 has no Python 3.10 wheel; the test extra skips it there
@@ -146,9 +153,15 @@ def test_without_a_pose_the_percepts_stay_in_the_ego_frame(tmp_path):
     percepts = [pc.Percept("knob", np.array([1.0, 2.0, 0.5]), 0.01),
                 pc.Percept("door", np.array([-1.0, 0.5, 0.0]), 0.02),
                 pc.Percept("knob", np.array([4.0, -2.0, 0.25]), 0.01)]
-    paths, logged = _save_and_read(tmp_path, "ego.rrd", world=world, percepts=percepts, prefix="robot/map")
+    truth = np.array([[0.0, -1.0, 0.0, 2.0], [1.0, 0.0, 0.0, -1.0], [0.0, 0.0, 1.0, 1.5], [0, 0, 0, 1]])
+    paths, logged = _save_and_read(tmp_path, "ego.rrd", world=world, percepts=percepts, prefix="robot/map",
+                                   truth=truth)
     assert sorted(paths) == sorted(logged) == ["/robot/map/objects/door", "/robot/map/objects/knob",
-                                               "/robot/map/percepts_ego/door", "/robot/map/percepts_ego/knob"]
+                                               "/robot/map/percepts_ego/door", "/robot/map/percepts_ego/knob",
+                                               "/robot/map/truth"]
+    np.testing.assert_allclose(logged["/robot/map/truth"]["Transform3D:translation"], [[2.0, -1.0, 1.5]])
+    np.testing.assert_allclose(logged["/robot/map/truth"]["Transform3D:mat3x3"],
+                               [[0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0]])  # columns of R
     np.testing.assert_allclose(logged["/robot/map/percepts_ego/knob"]["Points3D:positions"],
                                [[1.0, 2.0, 0.5], [4.0, -2.0, 0.25]])
     np.testing.assert_allclose(logged["/robot/map/objects/door"]["Points3D:positions"],
@@ -190,6 +203,8 @@ def test_bad_input_names_the_argument():
         ({"world": world, "prefix": "a//b"}, ArgumentTypeError, r"'a//b' \(part 1 is empty\)"),
         ({"world": world, "result": result, "n_sigma": -1.0}, NonPositiveError,
          r"n_sigma must be > 0, got -1.0"),
+        ({"world": world, "truth": np.eye(3)}, ShapeError, r"truth"),
+        ({"world": world, "truth": np.diag([1.0, 1.0, -1.0, 1.0])}, NonRigidError, r"truth"),
     ]
     for kwargs, error, match in cases:
         kwargs.setdefault("recording", rec)

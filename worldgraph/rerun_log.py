@@ -21,6 +21,8 @@ The entities, under ``prefix`` (default ``"world"``), in world coordinates (metr
                                    ``TransformAxes3D``: the estimated pose as three axes
 ``/{prefix}/estimate_3sigma``      ``Ellipsoids3D``: the ``n_sigma`` ellipsoid of the
                                    estimate's position covariance
+``/{prefix}/truth``                ``Transform3D`` with ``TransformAxes3D``: the true pose,
+                                   when given
 =================================  ========================================================
 
 Type names are escaped as entity-path parts (``rerun.escape_entity_path_part``).  rerun stores
@@ -39,7 +41,7 @@ from scipy.spatial.transform import Rotation
 
 from perception import Percept
 
-from ._checks import _short, as_list, name_string, positive_float
+from ._checks import _short, as_list, name_string, positive_float, rigid_transform
 from .errors import ArgumentTypeError, ImporterError
 from .localize import LocalizationResult
 from .model import WorldModel
@@ -120,6 +122,7 @@ def log_rerun(
     recording: Any = None,
     prefix: str = "world",
     n_sigma: float = 3.0,
+    truth: Any = None,
 ) -> list[str]:
     """Log a world, its percepts and a pose estimate to a rerun recording.
 
@@ -148,6 +151,8 @@ def log_rerun(
         Entity path the entities go under, parts separated by ``/``.
     n_sigma : float
         Size of the position ellipsoid, ``> 0``.
+    truth : (4, 4) float, optional
+        True ``world_from_ego`` (simulations), logged as axes beside the estimate's.
 
     Returns
     -------
@@ -164,6 +169,8 @@ def log_rerun(
         ``recording`` omitted with no active recording, or a bad ``prefix``.
     NonPositiveError, NonFiniteError
         ``n_sigma`` not a positive finite number.
+    ShapeError, NonFiniteError, NonRigidError
+        ``truth`` not a finite rigid (4, 4) transform.
 
     Examples
     --------
@@ -182,6 +189,7 @@ def log_rerun(
         raise ArgumentTypeError(f"recording must be a rerun.RecordingStream or None, got {_short(recording)}")
     root = _prefix_path(prefix)
     n_sigma = positive_float("n_sigma", n_sigma)
+    truth_t = None if truth is None else rigid_transform("truth", truth)
     rec = rr.get_data_recording(recording)
     if rec is None:
         raise ArgumentTypeError(
@@ -236,4 +244,7 @@ def log_rerun(
             log(f"{root}/estimate_3sigma",
                 rr.Ellipsoids3D(centers=[pose[:3, 3]], half_sizes=[semi], quaternions=[quat],
                                 colors=[_ESTIMATE_RGB], labels=[label]))
+    if truth_t is not None:
+        log(f"{root}/truth", rr.Transform3D(translation=truth_t[:3, 3], mat3x3=truth_t[:3, :3]),
+            rr.TransformAxes3D(AXIS_LENGTH))
     return logged
