@@ -5,6 +5,7 @@ the result; bad input; rerun-sdk missing."""
 import subprocess
 import sys
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -232,6 +233,20 @@ def test_a_too_old_rerun_names_the_version(monkeypatch):
     monkeypatch.setattr(rr, "__version__", "0.23.4")
     with pytest.raises(ImporterError, match=r"rerun-sdk >= 0.41, found 0.23.4"):
         log_rerun(world, recording=rr.RecordingStream("gaussian_spheres_test"))
+
+
+def test_example_03_writes_a_recording(tmp_path, kitchen_log):
+    world = kitchen_log[0]  # the example's kitchen too (seed 0)
+    script = Path(__file__).resolve().parents[1] / "examples" / "03_localize_kitchen.py"
+    rrd = tmp_path / "rec" / "kitchen.rrd"
+    args = [sys.executable, str(script), "--smoke", "--out", str(tmp_path), "--rerun", str(rrd)]
+    done = subprocess.run(args, capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert f"saved {rrd}" in done.stdout
+    logged = _read_back(rrd)
+    assert {"/world/objects/door", "/world/percepts/door", "/world/truth"} <= set(logged)
+    for t, n in Counter(o.type for o in world.objects).items():
+        assert len(logged[f"/world/objects/{t}"]["Points3D:positions"]) == n, t
 
 
 def test_import_worldgraph_does_not_import_rerun():
