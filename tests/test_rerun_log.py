@@ -169,6 +169,13 @@ def test_without_a_pose_the_percepts_stay_in_the_ego_frame(tmp_path):
                                [[0, 0, 1], [3, 0, 1]])
 
 
+def test_type_names_are_escaped_as_one_path_part(tmp_path):
+    world = wg.WorldModel.from_arrays(["wall socket", "a/b", "a/b"], [[0, 0, 1], [1, 1, 1], [2, 1, 1]])
+    paths, logged = _save_and_read(tmp_path, "escaped.rrd", world=world)
+    assert sorted(paths) == sorted(logged) == ["/world/objects/a\\/b", "/world/objects/wall\\ socket"]
+    assert len(logged["/world/objects/a\\/b"]["Points3D:positions"]) == 2
+
+
 def test_the_active_recording_is_the_default(tmp_path):
     world = wg.WorldModel.from_arrays(["door", "knob", "knob"], [[0, 0, 1], [1, 2, 1], [2, 2, 1]])
     rec = rr.RecordingStream("gaussian_spheres_test")
