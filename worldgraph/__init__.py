@@ -8,7 +8,7 @@ try:
 except _PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "0.1.0"  # keep equal to pyproject.toml's [project] version (a test checks)
 
-from . import plots, scenes, tiles
+from . import plots, rerun_log, scenes, tiles
 from .active import ActiveLocalization, ViewPlan, active_localize, plan_view
 from .association import associate
 from .errors import (
@@ -64,6 +64,7 @@ __all__ = [
     "franka_kitchen_path",
     "load_franka_kitchen",
     "plots",
+    "rerun_log",
     "scenes",
     "tiles",
 ]
