@@ -52,7 +52,7 @@ from .consistency import check_world_and_percepts
 from .errors import ArgumentTypeError, NonFiniteError, OutOfRangeError, UnknownTypeError
 from .localize import LocalizationResult, PoseStatus, localize
 from .model import WorldModel
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
+from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _tol_argument
 
 __all__ = [
     "ActiveLocalization",
@@ -605,10 +605,11 @@ def _imprecise(result: LocalizationResult, goal_rotation_3sigma: float | None) -
 def active_localize(world: WorldModel, percepts: Sequence[Percept],
                     look: Callable[[NDArray[np.float64]], Sequence[Percept]], *, max_looks: int = 2,
                     planner: Callable[[LocalizationResult], NDArray[np.float64] | ViewPlan] | None = None,
-                    method: str = "ml", tolerances: AssociationTolerances | None = None,
+                    method: str = "ml", tol: AssociationTolerances | None = None,
                     fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
                     head: KinematicChain | None = None, look_while: Sequence[str] = ("ambiguous", "weak"),
-                    goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA) -> ActiveLocalization:
+                    goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA,
+                    tolerances: AssociationTolerances | None = None) -> ActiveLocalization:
     """Localise; while the status is in ``look_while`` (default ``"ambiguous"`` and ``"weak"``) and
     looks remain:
     plan a view, look, and localise again with the old and new percepts (:func:`merge_percepts`
@@ -626,7 +627,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         At most this many looks (>= 0).
     planner : callable result -> ViewPlan or (3,) direction, optional
         Default :func:`plan_view` with ``fov_deg``, ``max_range``, ``types`` and ``head``.
-    method, tolerances
+    method, tol
         Passed to :func:`~worldgraph.localize`.
     look_while : sequence of str
         Statuses that call for another look, among those that come with a pose (``"ambiguous"``,
@@ -639,6 +640,9 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         rotation bound (about the worst axis, from ``pose_covariance``) is wider than this also
         gets looks, to add landmarks that pin the rotation; the final status is still the one
         ``localize`` gives. ``None`` looks only while the status is in ``look_while``.
+    tolerances : AssociationTolerances, optional
+        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
+        :class:`~worldgraph.errors.ArgumentTypeError`).
 
     Returns
     -------
@@ -664,9 +668,10 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         if st not in _LOOK_STATUSES:
             raise OutOfRangeError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
                                   f"choose among {_LOOK_STATUSES}")
-    tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
+    tol = _tol_argument("active_localize", tol, tolerances)
+    tol = ASSOCIATION_TOLERANCES if tol is None else tol
     current = check_world_and_percepts(world, percepts)
-    result = localize(world, current, method, tolerances=tol)
+    result = localize(world, current, method, tol=tol)
     results, plans = [result], []
     directions: list[NDArray[np.float64]] = []
     while len(directions) < max_looks and (result.status in statuses
@@ -691,7 +696,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                                         f"got {type(p).__name__}")
         directions.append(d)
         current = merge_percepts(current, new)
-        result = localize(world, current, method, tolerances=tol)
+        result = localize(world, current, method, tol=tol)
         results.append(result)
     return ActiveLocalization(result=result, results=tuple(results), plans=tuple(plans),
                               directions=tuple(directions), percepts=tuple(current), looks=len(directions))

@@ -62,7 +62,7 @@ from .hypotheses import AssociationHypothesis, is_ambiguous
 from .model import WorldModel
 from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
 from .pose_certificate import certify_pose, solve_pose_sdp
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
+from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _tol_argument
 from .units import percept_units_hint
 from .validation import (
     CHI2_3_GATE,
@@ -446,10 +446,11 @@ def default_region(world: WorldModel, percepts: Sequence[Percept]) -> ro.Region:
 
 
 def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml", *,
-             tolerances: AssociationTolerances | None = None, region: ro.Region | None = None,
+             tol: AssociationTolerances | None = None, region: ro.Region | None = None,
              rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
              max_rotation_3sigma: float = MAX_ROTATION_3SIGMA, solver: str = "active_set",
-             check: bool = False, certify: bool = False) -> LocalizationResult:
+             check: bool = False, certify: bool = False,
+             tolerances: AssociationTolerances | None = None) -> LocalizationResult:
     """Pose of the robot (``world_from_ego``) from percepts of known world objects.
 
     Parameters
@@ -465,7 +466,8 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         origin, ranges survive them).  ``"paper"``: the paper's proximity + orientation filters,
         its radial-projection position and eq. 5; ``"srls"``, ``"gradient"``: other range-only
         estimators, for comparison.
-    tolerances : AssociationTolerances, optional
+    tol : AssociationTolerances, optional
+        Default :data:`~worldgraph.tolerances.ASSOCIATION_TOLERANCES`.
     region : radialopt.Region or (lower, upper), optional
         Valid robot positions (a box, metres; a pair of 3-vectors is turned into a Region);
         poses outside it are rejected.  Default :func:`default_region`.
@@ -490,6 +492,9 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         Fill ``certificate``: the rotation SDP's proof (or not) that the returned pose is the
         global minimum of the ML cost of its matched percepts.  With 3 or 4 matches the SDP is
         also the solver (``"ml"``).
+    tolerances : AssociationTolerances, optional
+        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
+        :class:`~worldgraph.errors.ArgumentTypeError`).
 
     Returns
     -------
@@ -509,7 +514,8 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         Unknown method, something other than Percepts, a bad region or bound.
     """
     t_start = time.perf_counter()
-    percepts, settings = _check_arguments(world, percepts, method, tolerances, region, rng,
+    tol = _tol_argument("localize", tol, tolerances)
+    percepts, settings = _check_arguments(world, percepts, method, tol, region, rng,
                                           max_position_3sigma, max_rotation_3sigma, solver, check, certify)
     with _raised_as_worldgraph_errors(settings.method):
         result = _localize(world, percepts, settings, t_start)
@@ -532,7 +538,7 @@ class _Settings:
 
 
 def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str,
-                     tolerances: AssociationTolerances | None, region: object, rng: object,
+                     tol: object, region: object, rng: object,
                      max_position_3sigma: float, max_rotation_3sigma: float, solver: object, check: object,
                      certify: object) -> tuple[list[Percept], _Settings]:
     """Step 1: every argument of :func:`localize` checked (specific errors), as the percepts and
@@ -540,9 +546,9 @@ def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str
     if not isinstance(method, str) or method not in LOCALIZE_METHODS:
         raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
     checked = check_world_and_percepts(world, percepts)
-    tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
+    tol = ASSOCIATION_TOLERANCES if tol is None else tol
     if not isinstance(tol, AssociationTolerances):
-        raise ArgumentTypeError(f"tolerances must be AssociationTolerances, got {type(tol).__name__}")
+        raise ArgumentTypeError(f"tol must be AssociationTolerances, got {type(tol).__name__}")
     box = _check_region(region)
     gen = None if rng is None else generator("rng", rng)
     if not isinstance(solver, str):

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -170,3 +172,24 @@ def _check_tolerances(tolerances: object, name: str = "tolerances", world: World
     return tolerances
 
 
+def _tol_argument(function: str, tol: AssociationTolerances | None, tolerances: object,
+                  stacklevel: int = 3) -> AssociationTolerances | None:
+    """The ``tol`` argument of a public function, given as ``tol=`` or as the deprecated
+    keyword ``tolerances=`` (a :class:`DeprecationWarning` naming ``tol``); both at once raise
+    :class:`~worldgraph.errors.ArgumentTypeError`.  ``None`` when neither was given."""
+    if tolerances is None:
+        return tol
+    if tol is not None:
+        raise ArgumentTypeError(f"{function}() got both tol and tolerances (the deprecated name of tol): "
+                                "pass tol only")
+    warnings.warn(f"{function}(tolerances=...) is deprecated: pass tol=... instead", DeprecationWarning,
+                  stacklevel=stacklevel)
+    return cast(AssociationTolerances, tolerances)
+
+
+def _resolved_tol(function: str, tol: AssociationTolerances | None, tolerances: object,
+                  world: WorldModel | None = None) -> AssociationTolerances:
+    """:func:`_tol_argument`, ``None`` as :data:`ASSOCIATION_TOLERANCES`, then checked (and
+    ``gravity_aligned`` resolved against ``world``) by :func:`_check_tolerances`."""
+    tol = _tol_argument(function, tol, tolerances, stacklevel=4)
+    return _check_tolerances(ASSOCIATION_TOLERANCES if tol is None else tol, "tol", world=world)
