@@ -179,9 +179,9 @@ SUPPORT_SLACK = 1e-9
 DUAL_FLOOR = 1e-12
 #: Projection (paper): KKT multipliers above this times the largest one are not of the right sign.
 KKT_RTOL = 1e-9
-#: Projection: an NNLS (Farkas) residual whose last entry (or norm) is at most this is zero, so
-#: the constraints are infeasible.
+#: Projection: the last entry of an NNLS (Farkas) residual at most this is zero: infeasible.
 FARKAS_LAST_ZERO = 1e-14
+#: Projection: an NNLS (Farkas) residual norm at most this is zero: infeasible.
 FARKAS_ZERO = 1e-12
 #: Vertex enumeration: a unit vector with a residual above this is independent of a basis.
 INDEPENDENT_RTOL = 1e-8
@@ -196,8 +196,9 @@ ON_CENTRE_RTOL = 1e-12
 FISHER_SINGULAR = 1e-13
 #: Position (LM): the Hessian is used when its smallest eigenvalue exceeds this times its scale.
 CONVEXITY_RTOL = 1e-9
-#: Position (LM): starting damping, and the floor the damping never shrinks below.
+#: Position (LM): starting damping (times the Gauss-Newton scale).
 LM_DAMPING_START = 1e-6
+#: Position (LM): the floor the damping never shrinks below.
 LM_DAMPING_MIN = 1e-12
 #: Position (SR-LS): the root bracket starts this fraction of its width inside the pole.
 POLE_OFFSET = 1e-12

@@ -25,7 +25,7 @@ from .errors import (
 from .hypotheses import AssociationHypothesis, _check_hypotheses
 from .model import WorldModel
 from .pose import invert_transformation
-from .tolerances import AssociationTolerances, _resolved_tol
+from .tolerances import COLLINEAR_TOL, TINY, AssociationTolerances, _resolved_tol
 
 
 # ----------------------------------------------------------------------------------------------
@@ -175,7 +175,7 @@ def _frames(a: NDArray, b: NDArray, c: NDArray) -> tuple[NDArray, NDArray]:
     d1 = ab / np.where(nab > 0, nab, 1.0)[:, None]
     cr = np.cross(d1, c - a)
     ncr = np.linalg.norm(cr, axis=1)
-    ok = (nab > 0) & (ncr > 1e-9 * np.maximum(nab, 1e-300))
+    ok = (nab > 0) & (ncr > COLLINEAR_TOL * np.maximum(nab, TINY))
     d2 = cr / np.where(ncr > 0, ncr, 1.0)[:, None]
     d3 = np.cross(d1, d2)
     return np.stack([d1, d2, d3], axis=2), ok
@@ -263,7 +263,7 @@ def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity
             rm, okm = _frames(Xu, Xv, Xw)
             vm = np.einsum("mji,mj->mi", rm, Xv - Xw)
             dist = np.linalg.norm(vm - vp, axis=1)
-            cosang = (vm @ vp) / np.maximum(np.linalg.norm(vm, axis=1) * np.linalg.norm(vp), 1e-300)
+            cosang = (vm @ vp) / np.maximum(np.linalg.norm(vm, axis=1) * np.linalg.norm(vp), TINY)
             acc = okm & (dist < mu) & (np.arccos(np.clip(cosang, -1, 1)) < tol.kappa_max)
             u, v, w = u[acc], v[acc], w[acc]
             support[(i, j)][u, v] = True

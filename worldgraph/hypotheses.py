@@ -20,7 +20,7 @@ from .errors import (
 )
 from .model import WorldModel
 from .pose import weighted_kabsch_batch
-from .tolerances import AssociationTolerances, _check_tolerances, _resolved_tol
+from .tolerances import PLANAR_RTOL, TINY, AssociationTolerances, _check_tolerances, _resolved_tol
 
 
 @dataclass(frozen=True)
@@ -211,7 +211,7 @@ def _fit_group(world: WorldModel, ego_all: NDArray, sig_all: NDArray, group: lis
     ego, wpts, sig = ego_all[pi], world.positions[oi], sig_all[pi]
     centred = wpts - wpts.mean(axis=1, keepdims=True)
     sv = np.linalg.svd(centred, compute_uv=False)
-    good = sv[:, 1] > 1e-6 * np.maximum(sv[:, 0], 1e-300)
+    good = sv[:, 1] > PLANAR_RTOL * np.maximum(sv[:, 0], TINY)
     mirror = np.zeros(len(group), dtype=bool)
     if chirality:  # in blocks: at most ~2e5 tetrahedra in memory at once
         per_set = len(_tetrahedra(wpts[:1])[0]) if m >= 4 and len(group) else 1

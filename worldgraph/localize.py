@@ -62,7 +62,16 @@ from .hypotheses import AssociationHypothesis, is_ambiguous
 from .model import WorldModel
 from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
 from .pose_certificate import certify_pose, solve_pose_sdp
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _tol_argument
+from .tolerances import (
+    ASSOCIATION_TOLERANCES,
+    COST_ROUNDING,
+    DUPLICATE_DISTANCE,
+    REGION_SLACK,
+    RIGID_TOLERANCE,
+    SIGNIFICANCE,
+    AssociationTolerances,
+    _tol_argument,
+)
 from .units import percept_units_hint
 from .validation import (
     CHI2_3_GATE,
@@ -616,7 +625,7 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
         T = result.transformation
         finite = bool(np.all(np.isfinite(T)) and np.all(np.isfinite(result.pose_covariance))
                       and np.all(np.isfinite(result.covariance)))
-        rigid = finite and bool(np.allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=1e-6)
+        rigid = finite and bool(np.allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=RIGID_TOLERANCE)
                                 and np.linalg.det(T[:3, :3]) > 0)
         if not rigid:
             why = "non-finite pose or covariance" if not finite else "a pose that is not rigid"
@@ -732,7 +741,7 @@ def _distinct_centres(world: WorldModel, pairs: Sequence[tuple[int, int]]) -> tu
         return tuple(sorted(pairs))
     pos = world.positions[np.array([o for _, o in pairs], dtype=np.intp)]
     keep = np.ones(len(pairs), dtype=bool)
-    for i, j in sorted(cKDTree(pos).query_pairs(1e-9)):
+    for i, j in sorted(cKDTree(pos).query_pairs(DUPLICATE_DISTANCE)):
         if keep[i]:
             keep[j] = False
     return tuple(sorted(p for p, k in zip(pairs, keep, strict=True) if k))
@@ -872,7 +881,7 @@ def _ml_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
     if ctx.settings.certify and len(pairs) <= 4:  # few matches: the rotation SDP is a global solver
         sdp_pose, _ = solve_pose_sdp(ctx.ego[p_i], centers, ctx.covs[p_i])
         if pose_cost(sdp_pose, ctx.ego[p_i], ctx.covs[p_i], centers) < \
-                pose_cost(pose, ctx.ego[p_i], ctx.covs[p_i], centers) - 1e-12:
+                pose_cost(pose, ctx.ego[p_i], ctx.covs[p_i], centers) - COST_ROUNDING:
             pose = sdp_pose
             ctx.notes.append("the rotation SDP found a better pose than the local fit")
     cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
@@ -993,7 +1002,7 @@ def _radial_score(sol: ro.RadialSolution | None) -> float:
     return 0.0 if sol is None else float(sol.normalized_displacement) ** 2
 
 
-def _range_consistent(sol: ro.RadialSolution | None, alpha: float = 1e-3) -> bool:
+def _range_consistent(sol: ro.RadialSolution | None, alpha: float = SIGNIFICANCE) -> bool:
     """The radial displacement is within the ``1 - alpha`` chi-square gate (n degrees of freedom)."""
     return sol is None or _radial_score(sol) <= float(chi2.ppf(1.0 - alpha, len(sol.radii)))
 
@@ -1075,7 +1084,7 @@ def _in_region(region: ro.Region, pose: NDArray, cov6: NDArray) -> bool:
     slack = 0.0
     if np.all(np.isfinite(block)):
         slack = _worst_3sigma(block)
-    return bool(region.contains(pose[:3, 3], tol=1e-6 + slack))
+    return bool(region.contains(pose[:3, 3], tol=REGION_SLACK + slack))
 
 
 def _finish(ctx: _Context, answer: _Answer, hyps: tuple, choice: _Choice) -> LocalizationResult:

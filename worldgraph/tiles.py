@@ -51,7 +51,7 @@ from .errors import ArgumentTypeError, EmptyWorldError, ShapeError, UnknownTypeE
 from .hypotheses import AssociationHypothesis
 from .localize import LOCALIZE_METHODS, POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult, localize
 from .model import WorldModel
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _tol_argument
+from .tolerances import ASSOCIATION_TOLERANCES, HALO_SLACK, AssociationTolerances, _tol_argument
 from .validation import CHI2_3_GATE, CHI2_6_GATE, NearestObjects, fit_hypothesis, percept_covariances
 
 __all__ = ["FAILURE_ORDER", "MAX_TILES", "Tile", "localize_tiled", "split"]
@@ -99,7 +99,7 @@ def _halo_members(positions: NDArray[np.float64], own: NDArray[np.intp], others:
     near = others[np.all((p >= lo) & (p <= hi), axis=1)]
     if not near.size:
         return near
-    dist, _ = cKDTree(p_own).query(positions[near], k=1, distance_upper_bound=halo * (1 + 1e-12))
+    dist, _ = cKDTree(p_own).query(positions[near], k=1, distance_upper_bound=halo * (1 + HALO_SLACK))
     return near[dist <= halo]
 
 
