@@ -82,8 +82,6 @@ __all__ = [
 CertificateMethod = Literal["closed_form", "branch_and_bound", "sdp", "none"]
 CERTIFICATE_METHODS: tuple[str, ...] = get_args(CertificateMethod)
 
-_ROUND = CERTIFICATE_ROUNDING
-
 
 @dataclass(frozen=True)
 class Certificate:
@@ -195,7 +193,7 @@ def _box_bounds(lo: NDArray, hi: NDArray, c: NDArray, r: NDArray, w: NDArray
         lb2[neg] = (fm[neg] - np.sum(np.abs(gm[neg]) * half[neg], axis=1)
                     + 0.5 * lam[neg] * np.sum(half[neg] ** 2, axis=1))
     lb = np.maximum(lb1, lb2)
-    lb = lb - _ROUND * (np.abs(lb) + fm) - TINY
+    lb = lb - CERTIFICATE_ROUNDING * (np.abs(lb) + fm) - TINY
     return np.maximum(lb, 0.0), fm
 
 
@@ -214,7 +212,7 @@ def _branch_and_bound(c: NDArray, r: NDArray, s: NDArray, w: NDArray, x: NDArray
     ball_lb = -np.inf
     if delta > 0:
         ball_lb = f_hat - min(gn * gn / (2.0 * mu), gn * delta)
-        ball_lb -= _ROUND * abs(f_hat) + TINY
+        ball_lb -= CERTIFICATE_ROUNDING * abs(f_hat) + TINY
         if ball_lb < threshold:
             delta = 0.0  # x_hat is too far from stationary for the ball to close
     lo, hi = lo0[None].copy(), hi0[None].copy()
@@ -305,7 +303,7 @@ def certify_arrays(centers: NDArray, radii: NDArray, sigmas: NDArray, position: 
     if f_hat <= tol:
         return done(True, "closed_form", 0.0, f"f(position) = {f_hat:.3g} <= tolerance; f >= 0")
     lb_cf, msg_cf = _closed_form(c, r, w, x, f_hat, g, d_hat)
-    lb_cf -= _ROUND * f_hat
+    lb_cf -= CERTIFICATE_ROUNDING * f_hat
     if f_hat - lb_cf <= tol:
         return done(True, "closed_form", lb_cf, f"{msg_cf}: the Shor relaxation is tight, "
                     f"gap {f_hat - lb_cf:.3g} <= {tol:.3g}")

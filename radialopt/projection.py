@@ -97,6 +97,7 @@ from .tolerances import (
     RADIUS_ROUNDING,
     RANK_RTOL,
     ROUNDING_RTOL,
+    SUPPORT_DUAL_RTOL,
     SUPPORT_SLACK,
     TINY,
 )
@@ -442,7 +443,7 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
     slack = hs - Gs @ w_raw
     if dual is not None:
         y = np.asarray(dual, dtype=np.float64)
-        support = (y > ACTIVE_SLACK * max(float(y.max()), DUAL_FLOOR)) | (slack <= SUPPORT_SLACK)
+        support = (y > SUPPORT_DUAL_RTOL * max(float(y.max()), DUAL_FLOOR)) | (slack <= SUPPORT_SLACK)
     else:
         support = slack <= ACTIVE_SLACK
     if hs.min() >= 0:  # the measured radii are feasible: the answer is exactly z = 0

@@ -175,6 +175,8 @@ E0_RELATIVE = 1e-14
 ACTIVE_SLACK = 1e-7
 #: Projection (cvxpy): a row with slack below this is in the support of the polished answer.
 SUPPORT_SLACK = 1e-9
+#: Projection (cvxpy): a row whose dual exceeds this times the largest dual is in the support.
+SUPPORT_DUAL_RTOL = 1e-7
 #: Projection (cvxpy): floor of the largest dual when duals decide the support.
 DUAL_FLOOR = 1e-12
 #: Projection (paper): KKT multipliers above this times the largest one are not of the right sign.
