@@ -151,7 +151,7 @@ def run(args: argparse.Namespace) -> tuple[list[str], list[float]]:
 
 
 def _loop(world, percepts, look, planner, tol, look_on, goal):
-    return active_localize(world, percepts, look, max_looks=2, planner=planner, tolerances=tol,
+    return active_localize(world, percepts, look, max_looks=2, planner=planner, tol=tol,
                            look_while=look_on, goal_rotation_3sigma=goal)
 
 

@@ -102,7 +102,7 @@ def kitchen_rows(args: argparse.Namespace) -> list[str]:
                 pose, percepts, truth = _draw(world, mask, rng, n_true, n_false, args,
                                               lambda r: _pose(r, lo, hi, 1.5))
                 for method in args.methods:  # every method on the same percepts
-                    res = localize(world, percepts, method=method, tolerances=args.tolerances)
+                    res = localize(world, percepts, method=method, tol=args.tolerances)
                     t_assoc[method].append(res.timings.get("association", np.nan))
                     t_total[method].append(res.timings.get("total", np.nan))
                     counts[method][_judge(res, pose)] += 1
@@ -140,7 +140,7 @@ def floor_rows(args: argparse.Namespace) -> list[str]:
             t0 = time.perf_counter()
             hyps = associate(world, percepts, args.tolerances)
             t_assoc.append(time.perf_counter() - t0)
-            res = localize(world, percepts, method=args.methods[0], tolerances=args.tolerances)
+            res = localize(world, percepts, method=args.methods[0], tol=args.tolerances)
             t_total.append(res.timings["total"])
             if res.status == "ok" and np.linalg.norm(res.position - pose[:3, 3]) < 0.2 and hyps:
                 good += _rot_err_deg(res.transformation, pose) <= 2.0

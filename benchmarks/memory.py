@@ -92,7 +92,7 @@ objs = world.objects
 pick = rng.choice(len(objs), size=min(100, len(objs)), replace=False)
 ps = [pc.Percept(objs[k].type, objs[k].position + rng.normal(0, 0.01, 3), 0.02) for k in pick]
 tol = wg.AssociationTolerances(max_search_percepts=N)
-res = wg.localize(world, ps, tolerances=tol, rng=rng)
+res = wg.localize(world, ps, tol=tol, rng=rng)
 result = f"status {res.status}"
 """,
     ),

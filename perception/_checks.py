@@ -14,11 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
-
-#: Relative floor of the smallest eigenvalue of a covariance (numerical positive definiteness).
-SPD_RTOL = 1e-14
-#: Relative tolerance of the symmetry check of a covariance, ``|C - C^T| <= SYM_RTOL max|C|``.
-SYM_RTOL = 1e-8
+from .tolerances import SPD_RTOL, SYM_RTOL
 
 
 def _short(value: Any) -> str:

@@ -25,6 +25,7 @@ from .errors import (
     PerceptionError,
     ShapeError,
 )
+from .tolerances import PSD_ATOL, RIGID_TOLERANCE, SYM_RTOL, TINY
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 MAX_ANGLE = 2.0 * np.pi
@@ -65,7 +66,7 @@ TIP_FROM_OPENCV = np.array(
 
 
 @guard
-def check_transform(name: str, value: ArrayLike, atol: float = 1e-6) -> NDArray[np.float64]:
+def check_transform(name: str, value: ArrayLike, atol: float = RIGID_TOLERANCE) -> NDArray[np.float64]:
     """Validate a 4x4 rigid transform and return it as float64.
 
     Raises
@@ -446,11 +447,11 @@ def percept_covariance(
         raise KinematicsError(f"chain must be a KinematicChain, got {type(chain).__name__}")
     C = real_array("point_cov_camera", point_cov_camera, (3, 3))
     scale = float(np.max(np.abs(C)))
-    if float(np.max(np.abs(C / max(scale, 1e-300) - C.T / max(scale, 1e-300)))) > 1e-8:
+    if float(np.max(np.abs(C / max(scale, TINY) - C.T / max(scale, TINY)))) > SYM_RTOL:
         raise NonPositiveSigmaError(f"point_cov_camera must be symmetric, got {C.tolist()}")
     if scale > 0:
         low = float(np.linalg.eigvalsh(0.5 * (C / scale) + 0.5 * (C.T / scale))[0])
-        if low < -1e-12:
+        if low < -PSD_ATOL:
             raise NonPositiveSigmaError(
                 f"point_cov_camera must be positive semidefinite (smallest eigenvalue {low * scale:.3g}), "
                 f"got {C.tolist()}"

@@ -31,6 +31,7 @@ from .errors import (
     UnknownClassError,
 )
 from .percept import Percept
+from .tolerances import MEAN_SHIFT_TOL, QUERY_SLACK, TINY
 
 DEFAULT_BANDWIDTH = 0.1
 """Default kernel radius, metres."""
@@ -52,7 +53,6 @@ MAX_ITER_LIMIT = 1_000_000
 
 _PAIR_BUDGET = 2_000_000  # neighbour pairs held at once per chunk of mean-shift queries
 _CROWDED = 256  # rows with more neighbours than this are summed in dense blocks per grid cell
-_SLACK = 1e-9  # the tree is queried slightly beyond the support; the exact test follows
 MAX_KERNEL_PAIRS = 100_000_000
 """Most (point, neighbour) pairs one mean-shift run evaluates over all its iterations (about half a
 minute of work at most); beyond it the bandwidth is too large for the points' density (thousands of
@@ -103,7 +103,7 @@ def _sparse_sums(
     m, d = Y.shape
     num = np.zeros((m, d))
     den = np.zeros(m)
-    counts = np.asarray(tree.query_ball_point(Y, radius * (1.0 + _SLACK), return_length=True))
+    counts = np.asarray(tree.query_ball_point(Y, radius * (1.0 + QUERY_SLACK), return_length=True))
     csum = np.cumsum(counts)
     start = 0
     while start < m:
@@ -111,7 +111,7 @@ def _sparse_sums(
         stop = int(np.searchsorted(csum, base + _PAIR_BUDGET, side="right"))
         stop = min(max(stop, start + 1), m)
         # Y is 2-D, so one neighbour list per row (the stubs cannot tell the point count from the type)
-        lists = cast(list[list[int]], tree.query_ball_point(Y[start:stop], radius * (1.0 + _SLACK)))
+        lists = cast(list[list[int]], tree.query_ball_point(Y[start:stop], radius * (1.0 + QUERY_SLACK)))
         lens = np.fromiter((len(lst) for lst in lists), dtype=np.int64, count=stop - start)
         if lens.sum():
             flat = np.concatenate([np.asarray(lst, dtype=np.int64) for lst in lists])
@@ -137,7 +137,7 @@ def _dense_sums(
     inv = np.asarray(inv).reshape(-1)
     order = np.argsort(inv, kind="stable")
     bounds = np.searchsorted(inv[order], np.arange(len(cells) + 1))
-    reach = radius * (0.5 * np.sqrt(d) + 1.0) * (1.0 + _SLACK)
+    reach = radius * (0.5 * np.sqrt(d) + 1.0) * (1.0 + QUERY_SLACK)
     for g, cell in enumerate(cells):
         rows = order[bounds[g] : bounds[g + 1]]
         cand = np.asarray(tree.query_ball_point((cell + 0.5) * radius, reach), dtype=np.int64)
@@ -185,10 +185,10 @@ def _neighbour_means(
     if m == 0:
         return num, den
     if budget is not None:  # a strided sample first: counting every pair is itself quadratic
-        sample = np.asarray(tree.query_ball_point(Y[:: max(1, m // 256)], radius * (1.0 + _SLACK),
+        sample = np.asarray(tree.query_ball_point(Y[:: max(1, m // 256)], radius * (1.0 + QUERY_SLACK),
                                                   return_length=True))
         _spend(budget, float(sample.mean()) * m * ahead, int(sample.max()), tree.n)
-    counts = np.asarray(tree.query_ball_point(Y, radius * (1.0 + _SLACK), return_length=True))
+    counts = np.asarray(tree.query_ball_point(Y, radius * (1.0 + QUERY_SLACK), return_length=True))
     if budget is not None:
         _spend(budget, float(counts.sum()), int(counts.max()), tree.n)
         budget[0] -= int(counts.sum())
@@ -215,7 +215,7 @@ def _first_rep_labels(Y: NDArray[np.float64], radius: float) -> NDArray[np.int64
         if labels[i] >= 0:
             continue
         labels[i] = k
-        nb = np.asarray(tree.query_ball_point(Y[i], radius * (1.0 + _SLACK)), dtype=np.int64)
+        nb = np.asarray(tree.query_ball_point(Y[i], radius * (1.0 + QUERY_SLACK)), dtype=np.int64)
         if nb.size:
             near = nb[(nb > i) & (labels[nb] < 0)]
             near = near[np.sum((Y[near] - Y[i]) ** 2, axis=1) < radius**2]
@@ -231,7 +231,7 @@ def mean_shift_modes(
     weights: ArrayLike | None = None,
     *,
     max_iter: int = 100,
-    tol: float = 1e-6,
+    tol: float = MEAN_SHIFT_TOL,
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Mean shift from every point with the Epanechnikov kernel of bandwidth matrix ``H``.
 
@@ -443,7 +443,7 @@ def fuse_percepts(
     bandwidth: float | ArrayLike | Mapping[str, float | ArrayLike] | None = None,
     min_views: int = 2,
     max_iter: int = 100,
-    tol: float = 1e-6,
+    tol: float = MEAN_SHIFT_TOL,
 ) -> list[Percept]:
     """Fuse raw percepts of several views into one percept per object (section 2.2).
 
@@ -518,7 +518,7 @@ def fuse_percepts(
         X = np.array([p.position for p in group])
         sig = np.array([p.sigma for p in group])
         with np.errstate(under="ignore"):
-            w = np.maximum((sig.min() / sig) ** 2, 1e-300)  # 1 / sigma^2 up to a common factor
+            w = np.maximum((sig.min() / sig) ** 2, TINY)  # 1 / sigma^2 up to a common factor
         name = "bandwidth" if not isinstance(bandwidth, Mapping) else f"bandwidth[{t!r}]"
         try:
             _, labels = mean_shift_modes(X, H[t], w, max_iter=max_iter, tol=tol)

@@ -9,6 +9,7 @@ from numpy.typing import NDArray
 
 from ._checks import guard, integer, name_str, real_array, real_scalar, spd, vector3
 from .errors import NonFiniteError, NonPositiveSigmaError, ShapeError, UnknownClassError
+from .tolerances import SHARED_RTOL
 
 #: Largest magnitude of a position component accepted, metres (as worldgraph/radialopt bound
 #: their coordinates); beyond it ranges and fused means overflow or lose all precision.
@@ -141,7 +142,7 @@ def _shared(value: object, covariance: NDArray[np.float64] | None, sigma: float
     total = np.eye(3) * sigma**2 if covariance is None else covariance
     part = sum(S @ S.T for _, S in out)
     gap = float(np.linalg.eigvalsh(total - part)[0])
-    if gap < -1e-9 * float(np.linalg.eigvalsh(total)[-1]):
+    if gap < -SHARED_RTOL * float(np.linalg.eigvalsh(total)[-1]):
         raise ShapeError(f"shared loadings exceed the covariance: covariance - sum S S^T has the "
                          f"eigenvalue {gap:.3g} (the covariance is the total error)")
     return tuple(out)

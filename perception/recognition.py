@@ -67,6 +67,7 @@ from .render import (  # the renderer moved to render.py; its names stay importa
 )
 from .render import MAX_COORD as MAX_COORD
 from .stereo import _matrix as _as_float_array
+from .tolerances import EIGENVALUE_FLOOR, PARALLEL_RAYS
 from .uncertainty import depth_sigma, triangulation_jacobian
 
 __all__ = [
@@ -285,7 +286,7 @@ def _region_stats(
         cxy = stat[5]
         half_tr = 0.5 * (cxx + cyy)
         root = np.sqrt(np.maximum((0.5 * (cxx - cyy)) ** 2 + cxy**2, 0.0))
-        l1, l2 = half_tr + root, np.maximum(half_tr - root, 1e-12)
+        l1, l2 = half_tr + root, np.maximum(half_tr - root, EIGENVALUE_FLOOR)
         theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)
         feats.append(
             np.column_stack(
@@ -723,7 +724,7 @@ def match_stereo(
         ata = np.einsum("pki,pkj->pij", A, A)
         atb = np.einsum("pki,k->pi", A, -T)
         det = ata[:, 0, 0] * ata[:, 1, 1] - ata[:, 0, 1] ** 2
-        good = det > 1e-15
+        good = det > PARALLEL_RAYS
         a = np.where(good, (ata[:, 1, 1] * atb[:, 0] - ata[:, 0, 1] * atb[:, 1]) / np.where(good, det, 1), -1)
         b = np.where(good, (ata[:, 0, 0] * atb[:, 1] - ata[:, 0, 1] * atb[:, 0]) / np.where(good, det, 1), -1)
         front = (a > _NEAR) & (b > _NEAR)

@@ -37,6 +37,7 @@ from .errors import (
     UnknownClassError,
 )
 from .stereo import _matrix as _as_float_array
+from .tolerances import PLANE_EPS, RIGID_TOLERANCE
 
 __all__ = [
     "BOX_DEFAULTS",
@@ -81,7 +82,7 @@ _FACE_NORMALS = np.array(
 )
 
 
-def _check_rotation(name: str, rot: NDArray[np.float64], atol: float = 1e-6) -> None:
+def _check_rotation(name: str, rot: NDArray[np.float64], atol: float = RIGID_TOLERANCE) -> None:
     if (
         np.max(np.abs(rot)) > 2.0
         or not np.allclose(rot @ rot.T, np.eye(3), atol=atol)
@@ -385,7 +386,7 @@ def _face_order(
     # dist[i, j, k]: signed distance of vertex k of face j to the plane of face i (camera side > 0)
     # (the camera at the origin has n.0 - offset = -offset > 0 because visible faces have n.c < 0)
     dist = np.einsum("id,jkd->ijk", normals, verts) - offsets[:, None, None]
-    eps = 1e-9
+    eps = PLANE_EPS
     behind = np.all(dist <= eps, axis=2)
     front = np.all(dist >= -eps, axis=2)
     coplanar = behind & front

@@ -17,6 +17,7 @@ from .chain import KinematicChain, check_transform, default_head
 from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
 from .percept import Percept
 from .stereo import StereoRig
+from .tolerances import TINY
 from .uncertainty import depth_sigma
 
 MAX_COORD = 1e150
@@ -393,7 +394,7 @@ def simulate_scan(
     percepts = []
     for t, p, s, sh in zip(out_types, pos, sigs, shared, strict=True):
         cov = s**2 * np.eye(3) + sum((S @ S.T for _, S in sh), np.zeros((3, 3)))
-        u = p / max(float(np.linalg.norm(p)), 1e-300)
+        u = p / max(float(np.linalg.norm(p)), TINY)
         range_sigma = float(np.sqrt(u @ cov @ u)) if sh else float(s)  # std of the range |p|
         percepts.append(Percept(t, p, range_sigma, covariance=cov, shared=sh))
     if return_truth:

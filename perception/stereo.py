@@ -23,6 +23,7 @@ from .errors import (
     PerceptionError,
     ShapeError,
 )
+from .tolerances import RIGID_TOLERANCE, UNDISTORT_EPS
 
 _DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
 MAX_IMAGE_SIDE = 100_000
@@ -43,9 +44,8 @@ indentation levels); OpenCV's recursive parser overflows its stack on deeply nes
 
 _FILE_KEYS = ("K1", "D1", "K2", "D2", "R", "T", "image_size")
 # Iterative undistortion: OpenCV's default (5 iterations) is not enough for strong distortion;
-# at most this many iterations, stopping earlier at a step below _UNDISTORT_EPS (normalised units).
+# at most this many iterations, stopping earlier at a step below UNDISTORT_EPS (normalised units).
 _UNDISTORT_ITERATIONS = 200
-_UNDISTORT_EPS = 1e-15
 
 
 class Rectification(NamedTuple):
@@ -236,7 +236,7 @@ class StereoRig:
         D2 = _distortion("D2", self.D2)
         R = _matrix("R", self.R, (3, 3))
         T = _matrix("T", self.T, (3,))
-        if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
+        if not np.allclose(R @ R.T, np.eye(3), atol=RIGID_TOLERANCE) or np.linalg.det(R) <= 0:
             raise CalibrationError(f"R must be a rotation matrix, got {R.tolist()}")
         if np.linalg.norm(T) <= 0:
             raise CalibrationError(f"T must be a non-zero baseline, got {T.tolist()}")
@@ -539,7 +539,7 @@ class StereoRig:
             out = cv2.undistortPoints(src, K, D)
         else:
             out = cv2.undistortPoints(src, K, D, criteria=(
-                cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, _UNDISTORT_ITERATIONS, _UNDISTORT_EPS))
+                cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, _UNDISTORT_ITERATIONS, UNDISTORT_EPS))
         return out.reshape(-1, 2).astype(np.float64)
 
     @guard

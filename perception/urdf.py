@@ -17,10 +17,9 @@ from numpy.typing import ArrayLike, NDArray
 from ._checks import file_path, guard, name_str
 from .chain import Joint, KinematicChain, check_transform
 from .errors import JointLimitError, MissingExtraError, PerceptionError, URDFError
+from .tolerances import AXIS_TOL
 
 _REVOLUTE = ("revolute", "continuous")
-_AXIS_TOL = 1e-9
-"""Largest deviation of a unit URDF axis from a frame axis that still counts as that axis."""
 
 
 def _load(path: Path) -> Any:
@@ -86,9 +85,9 @@ def _axis_frame(joint_name: str, index: int, axis: Any) -> tuple[str, NDArray[np
     e[i] = 1.0
     A = np.eye(4)
     c = float(e @ a)
-    if c > 1.0 - _AXIS_TOL:
+    if c > 1.0 - AXIS_TOL:
         return "xyz"[i], A
-    if c < -1.0 + _AXIS_TOL:
+    if c < -1.0 + AXIS_TOL:
         # half turn about the next frame axis: e -> -e
         k = (i + 1) % 3
         A[:3, :3] = -np.eye(3)

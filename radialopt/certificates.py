@@ -68,6 +68,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._checks import integer, point3, real_scalar
 from .spheres import GaussianSphere, sphere_arrays
+from .tolerances import CERTIFICATE_GAP, CERTIFICATE_ROUNDING, HESSIAN_ROUNDING, TINY
 
 __all__ = [
     "CERTIFICATE_METHODS",
@@ -80,8 +81,6 @@ __all__ = [
 #: Values of :attr:`Certificate.method`: the proof that certified, ``"none"`` without one.
 CertificateMethod = Literal["closed_form", "branch_and_bound", "sdp", "none"]
 CERTIFICATE_METHODS: tuple[str, ...] = get_args(CertificateMethod)
-
-_ROUND = 1e-11  # relative rounding margin subtracted from every computed lower bound
 
 
 @dataclass(frozen=True)
@@ -154,7 +153,7 @@ def _convex_ball(c: NDArray, r: NDArray, w: NDArray, x: NDArray, d_hat: NDArray
     u = (x - c) / d_hat[:, None]
     rho = r / d_hat
     H = 2.0 * (np.sum(w * (1.0 - rho)) * np.eye(3) + np.einsum("n,ni,nj->ij", w * rho, u, u))
-    lam0 = float(np.linalg.eigvalsh(H)[0]) - 1e-12 * float(np.abs(H).sum())
+    lam0 = float(np.linalg.eigvalsh(H)[0]) - HESSIAN_ROUNDING * float(np.abs(H).sum())
     if lam0 <= 0:
         return 0.0, 0.0
     deltas = d_hat.min() * 0.5 ** np.arange(1, 60)
@@ -194,7 +193,7 @@ def _box_bounds(lo: NDArray, hi: NDArray, c: NDArray, r: NDArray, w: NDArray
         lb2[neg] = (fm[neg] - np.sum(np.abs(gm[neg]) * half[neg], axis=1)
                     + 0.5 * lam[neg] * np.sum(half[neg] ** 2, axis=1))
     lb = np.maximum(lb1, lb2)
-    lb = lb - _ROUND * (np.abs(lb) + fm) - 1e-300
+    lb = lb - CERTIFICATE_ROUNDING * (np.abs(lb) + fm) - TINY
     return np.maximum(lb, 0.0), fm
 
 
@@ -213,7 +212,7 @@ def _branch_and_bound(c: NDArray, r: NDArray, s: NDArray, w: NDArray, x: NDArray
     ball_lb = -np.inf
     if delta > 0:
         ball_lb = f_hat - min(gn * gn / (2.0 * mu), gn * delta)
-        ball_lb -= _ROUND * abs(f_hat) + 1e-300
+        ball_lb -= CERTIFICATE_ROUNDING * abs(f_hat) + TINY
         if ball_lb < threshold:
             delta = 0.0  # x_hat is too far from stationary for the ball to close
     lo, hi = lo0[None].copy(), hi0[None].copy()
@@ -286,8 +285,8 @@ def _check_params(budget_s: float, max_nodes: int, rel_gap: float, abs_gap: floa
 
 
 def certify_arrays(centers: NDArray, radii: NDArray, sigmas: NDArray, position: NDArray, *,
-                   budget_s: float = 0.5, max_nodes: int = 200_000, rel_gap: float = 1e-6,
-                   abs_gap: float = 1e-6, batch: int = 256) -> Certificate:
+                   budget_s: float = 0.5, max_nodes: int = 200_000, rel_gap: float = CERTIFICATE_GAP,
+                   abs_gap: float = CERTIFICATE_GAP, batch: int = 256) -> Certificate:
     """:func:`certify_position` on arrays already validated (``(n, 3)``, ``(n,)``, ``(n,)``, ``(3,)``)."""
     t0 = time.perf_counter()
     c, r, s, x = centers, radii, sigmas, position
@@ -304,7 +303,7 @@ def certify_arrays(centers: NDArray, radii: NDArray, sigmas: NDArray, position: 
     if f_hat <= tol:
         return done(True, "closed_form", 0.0, f"f(position) = {f_hat:.3g} <= tolerance; f >= 0")
     lb_cf, msg_cf = _closed_form(c, r, w, x, f_hat, g, d_hat)
-    lb_cf -= _ROUND * f_hat
+    lb_cf -= CERTIFICATE_ROUNDING * f_hat
     if f_hat - lb_cf <= tol:
         return done(True, "closed_form", lb_cf, f"{msg_cf}: the Shor relaxation is tight, "
                     f"gap {f_hat - lb_cf:.3g} <= {tol:.3g}")
@@ -318,8 +317,8 @@ def certify_arrays(centers: NDArray, radii: NDArray, sigmas: NDArray, position: 
 
 
 def certify_position(spheres: Sequence[GaussianSphere], position: ArrayLike, *,
-                     budget_s: float = 0.5, max_nodes: int = 200_000, rel_gap: float = 1e-6,
-                     abs_gap: float = 1e-6, batch: int = 256) -> Certificate:
+                     budget_s: float = 0.5, max_nodes: int = 200_000, rel_gap: float = CERTIFICATE_GAP,
+                     abs_gap: float = CERTIFICATE_GAP, batch: int = 256) -> Certificate:
     """Prove that ``position`` minimises the ML range cost globally (see the module docstring).
 
     Parameters

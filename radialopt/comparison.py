@@ -26,6 +26,7 @@ import numpy as np
 from .errors import RadialError, UnknownMethodError
 from .projection import RadialStatus, _Problem, installed_cvxpy_solvers, project_radii
 from .spheres import TOLERANCES, GaussianSphere, make_spheres
+from .tolerances import COMPARISON_VIOLATION
 
 #: cvxpy solvers that accept a convex QP; others (LP-only, mixed-integer) are left out.
 QP_CAPABLE = ("CLARABEL", "OSQP", "SCS", "ECOS", "HIGHS", "PIQP", "PROXQP", "QOCO", "CVXOPT",
@@ -180,7 +181,7 @@ def run_one(solver: str, problem: Problem, max_vertices_n: int = 6) -> Run:
     violation = float(max(0.0, np.max(p.G @ ((sol.radii - p.radii) / p.sigmas) - p.h)))
     distance = float(np.max(np.abs(sol.radii - exact.radii)))
     # optimal_inaccurate is reported in its own column, never as a success
-    success = sol.status == "optimal" and violation <= 1e-6
+    success = sol.status == "optimal" and violation <= COMPARISON_VIOLATION
     return Run(**base, success=success, status=sol.status, time=elapsed, violation=violation,
                distance=distance)
 

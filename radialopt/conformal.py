@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import MAX_LENGTH, dataclass_fields, instance, real_array
+from ._checks import MAX_LENGTH, instance, real_array
 from .errors import (
     NonFiniteError,
     NotASphereError,
@@ -39,6 +39,7 @@ from .errors import (
     TooManySpheresError,
 )
 from .spheres import CONFORMAL_MAX, GaussianSphere
+from .tolerances import E0_RELATIVE, MEET_TOLERANCES, TINY, MeetTolerances
 
 __all__ = [
     "Circle",
@@ -84,42 +85,6 @@ class MeetStatus(IntEnum):
         return self.name.lower()
 
 
-@dataclass(frozen=True)
-class MeetTolerances:
-    """Tolerances of the meet, relative to the size ``L`` of the configuration.
-
-    ``L`` is the largest of the distances of the centres from their centroid and of the
-    absolute radii.
-
-    Attributes
-    ----------
-    tangent : float
-        A squared radius (circle, half point-pair distance) or a residual with absolute
-        value ``<= tangent * L**2`` counts as zero: tangent (or, for four spheres, real).
-    coincident : float
-        Two centres closer than ``coincident * L`` coincide.
-    collinear : float
-        Three centres are collinear when the sine of the angle at the first one is below
-        this (``|a x b| <= collinear |a| |b|``); also the singular-value ratio below which
-        four centres are collinear.
-    coplanar : float
-        Four centres are coplanar when the smallest singular value of the centred centres is
-        below ``coplanar`` times the largest.
-    """
-
-    tangent: float = 1e-10
-    coincident: float = 1e-12
-    collinear: float = 1e-9
-    coplanar: float = 1e-9
-
-    def __post_init__(self) -> None:
-        dataclass_fields(self, {}, {k: (0.0, 1.0, False) for k in
-                                    ("tangent", "coincident", "collinear", "coplanar")})
-
-
-MEET_TOLERANCES = MeetTolerances()
-
-
 # --- input -------------------------------------------------------------------------------
 
 def as_conformal(sphere: GaussianSphere | ArrayLike, name: str = "sphere"
@@ -152,7 +117,7 @@ def as_conformal(sphere: GaussianSphere | ArrayLike, name: str = "sphere"
         raise ShapeError(f"{name} must be a GaussianSphere or a conformal 5-vector, got shape "
                          f"{v.shape}: {v!r:.200}")
     w0 = v[3]
-    if abs(w0) <= 1e-300 or abs(w0) <= 1e-14 * np.max(np.abs(v)):
+    if abs(w0) <= TINY or abs(w0) <= E0_RELATIVE * np.max(np.abs(v)):
         raise NotASphereError(f"{name} = conformal vector {v.tolist()} has e0 coefficient {w0!r}: a plane "
                               "or the point at infinity, not a sphere")
     center = v[:3] / w0

@@ -37,6 +37,7 @@ from .conformal import (
 )
 from .errors import InvalidRegionError, ShapeError, TooManySpheresError
 from .spheres import GaussianSphere, as_points, sphere_arrays
+from .tolerances import REGION_SLACK
 
 #: Most spheres :func:`generate_hypotheses` accepts (C(12, 4) = 495 four-sphere meets).
 MAX_HYPOTHESIS_SPHERES = 12
@@ -68,7 +69,7 @@ class Region:
         object.__setattr__(self, "lower", lo)
         object.__setattr__(self, "upper", hi)
 
-    def contains(self, x: ArrayLike, tol: float = 1e-9) -> bool | NDArray[np.bool_]:
+    def contains(self, x: ArrayLike, tol: float = REGION_SLACK) -> bool | NDArray[np.bool_]:
         """Whether points ``(3,)`` or ``(k, 3)`` lie in the box (``tol`` metres of slack)."""
         pts, single = as_points(x)
         tol = real_scalar(tol, "tol", 0.0, MAX_LENGTH)

@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._checks import MAX_SIGMA, instance, integer, real_array, real_scalar, sigma_range
 from .errors import CoincidentCentersError, ShapeError, TooManySpheresError
 from .spheres import TOLERANCES, GaussianSphere, Tolerances, sphere_arrays
+from .tolerances import COMMON_POINT_TOL, DEGENERATE_CENTRES, RANK_RTOL, ROUNDING_RTOL, TINY
 
 #: Most spheres a restriction polytope is built for: it has 3 C(n, 2) dense rows of length n
 #: (n = 128: 24,384 x 128, 25 MB); beyond it :class:`TooManySpheresError` names n.
@@ -224,7 +225,7 @@ def _raise_if_coincident(
 
 
 def common_point_exists(
-    spheres: Sequence[GaussianSphere], tol: float = 1e-9
+    spheres: Sequence[GaussianSphere], tol: float = COMMON_POINT_TOL
 ) -> bool:
     """Exact test whether all spheres share a point (for 2, 3 and 4 spheres; any n >= 2 works).
 
@@ -241,7 +242,7 @@ def common_point_exists(
     centers, radii, _ = sphere_arrays(spheres, min_count=2)
     tol = real_scalar(tol, "tol", 0.0, 1.0)
     n = len(centers)
-    scale = max(float(np.max(radii)), float(np.ptp(centers, axis=0).max()), 1e-300)
+    scale = max(float(np.max(radii)), float(np.ptp(centers, axis=0).max()), TINY)
     atol = tol * scale**2
     if n == 2:
         d = float(np.linalg.norm(centers[0] - centers[1]))
@@ -256,12 +257,12 @@ def common_point_exists(
         # radical-plane reduction below.
         if n == 3:
             area2 = -base / 16.0
-            if area2 > (1e-12 * scale**2) ** 2:
+            if area2 > (DEGENERATE_CENTRES * scale**2) ** 2:
                 h2 = 0.5 * full / -base
                 return bool(h2 >= -atol)
         else:
             vol2 = base / 288.0
-            if vol2 > (1e-12 * scale**3) ** 2:
+            if vol2 > (DEGENERATE_CENTRES * scale**3) ** 2:
                 h2 = -0.5 * full / base
                 return bool(abs(h2) <= atol)
     return _common_point_linear(centers, radii, atol)
@@ -294,12 +295,12 @@ def _common_point_linear(
     D = 2.0 * c[1:]
     rhs = np.sum(c[1:] ** 2, axis=1) - radii[1:] ** 2 + radii[0] ** 2
     U, s, Vt = np.linalg.svd(D, full_matrices=True)
-    rank = int(np.sum(s > 1e-12 * max(s.max(), 1e-300)))
+    rank = int(np.sum(s > RANK_RTOL * max(s.max(), TINY)))
     coeff = U[:, :rank].T @ rhs / s[:rank]
     foot = Vt[:rank].T @ coeff
     resid = D @ foot - rhs
     # residual of the radical equations is in units of length^2
-    if np.any(np.abs(resid) > 4 * atol + 1e-12 * np.abs(rhs).max(initial=0.0)):
+    if np.any(np.abs(resid) > 4 * atol + ROUNDING_RTOL * np.abs(rhs).max(initial=0.0)):
         return False
     h2 = radii[0] ** 2 - float(foot @ foot)
     if rank == 3:

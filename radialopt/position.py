@@ -65,6 +65,20 @@ from .errors import (
 )
 from .hypotheses import Region, generate_hypotheses
 from .spheres import GaussianSphere, sphere_arrays
+from .tolerances import (
+    COLLINEAR_RTOL,
+    CONVEXITY_RTOL,
+    FISHER_SINGULAR,
+    LM_DAMPING_MIN,
+    LM_DAMPING_START,
+    ON_CENTRE_RTOL,
+    POLE_OFFSET,
+    POLISH_TOL,
+    RANK_RTOL,
+    ROOT_XTOL,
+    ROUNDING_RTOL,
+    TINY,
+)
 
 __all__ = [
     "ESTIMATOR_OPTIONS",
@@ -274,7 +288,7 @@ def _unit_directions(c: NDArray, x: NDArray) -> NDArray:
     diff = x - c
     d = np.linalg.norm(diff, axis=1)
     scale = max(float(np.max(np.abs(c - c.mean(axis=0)), initial=0.0)), 1.0)
-    if np.any(d <= 1e-12 * scale):
+    if np.any(d <= ON_CENTRE_RTOL * scale):
         i = int(np.argmin(d))
         raise SingularFisherError(f"position {x.tolist()} coincides with centre {i} "
                                   f"({c[i].tolist()}): the range is not differentiable there")
@@ -318,7 +332,7 @@ def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
             f"{len(c)} centers span too few dimensions (smallest eigenvalue {geometric[0]:.3g} <= "
             f"{rcond:g}); centers = {c.tolist()!r:.300}")
     w, V = np.linalg.eigh(J)
-    if not (np.all(np.isfinite(w)) and w[0] > 1e-13 * w[-1]):
+    if not (np.all(np.isfinite(w)) and w[0] > FISHER_SINGULAR * w[-1]):
         raise SingularFisherError(
             f"Fisher information at position = {x.tolist()} is numerically singular: eigenvalues "
             f"{w.tolist()} (condition beyond 1e13; sigmas span {float(s.min()):.3g} to "
@@ -356,7 +370,7 @@ def _levenberg_marquardt(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, spread
     """
     x = x0.copy()
     res, jac, cost = _residuals(x, c, r, s)
-    mu = np.full(len(x), 1e-6)
+    mu = np.full(len(x), LM_DAMPING_START)
     active = np.ones(len(x), dtype=bool)
     eye = np.eye(3)
     tiny = np.finfo(float).tiny
@@ -371,7 +385,7 @@ def _levenberg_marquardt(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, spread
         w = e / (s * np.maximum(e * s + r, tiny))  # res_i / (sigma_i d_i)
         H = A + w.sum(axis=1)[:, None, None] * eye - np.einsum("mn,mni,mnj->mij", w, u, u)
         scale = np.maximum(np.trace(A, axis1=1, axis2=2) / 3.0, tiny)
-        convex = np.linalg.eigvalsh(H)[:, 0] > 1e-9 * scale
+        convex = np.linalg.eigvalsh(H)[:, 0] > CONVEXITY_RTOL * scale
         M = np.where(convex[:, None, None], H, A)
         step = -np.linalg.solve(M + (mu[idx] * scale)[:, None, None] * eye, g[..., None])[..., 0]
         xn = x[idx] + step
@@ -379,12 +393,12 @@ def _levenberg_marquardt(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, spread
         better = cn <= cost[idx]
         acc = idx[better]
         x[acc], res[acc], jac[acc], cost[acc] = xn[better], rn[better], jn[better], cn[better]
-        mu[acc] = np.maximum(mu[acc] * 0.1, 1e-12)
+        mu[acc] = np.maximum(mu[acc] * 0.1, LM_DAMPING_MIN)
         rej = idx[~better]
         mu[rej] *= 10.0
         # converged: a step below the tolerance that did not raise the cost beyond rounding
         small = np.linalg.norm(step, axis=1) <= opts.lm_step_tol * spread
-        flat = cn <= cost[idx] * (1.0 + 1e-12) + 1e-300
+        flat = cn <= cost[idx] * (1.0 + ROUNDING_RTOL) + TINY
         done = (small & flat) | (mu[idx] > 1e12) | (better & (cn == 0.0))
         active[idx[done]] = False
     return x, cost
@@ -429,7 +443,7 @@ def _gtrs(a: NDArray, b: NDArray, w: NDArray) -> NDArray | None:
     f = np.r_[np.zeros(dim), -0.5]
     try:
         ev = np.linalg.eigvalsh(M)
-        if ev[0] <= 1e-12 * ev[-1]:
+        if ev[0] <= RANK_RTOL * ev[-1]:
             return None
         mu, V = eigh(D, M)  # D V = M V diag(mu), V^T M V = I
     except np.linalg.LinAlgError:
@@ -446,7 +460,7 @@ def _gtrs(a: NDArray, b: NDArray, w: NDArray) -> NDArray | None:
     mu_max = float(mu.max())
     lo = -1.0 / mu_max
     width = 1.0 / mu_max
-    lo_in = lo + 1e-12 * width
+    lo_in = lo + POLE_OFFSET * width
     if phi(lo_in) <= 0.0:  # hard case (or root next to the pole): take the boundary
         return y_of(lo_in)[:dim]
     hi = max(width, 1.0)
@@ -456,7 +470,7 @@ def _gtrs(a: NDArray, b: NDArray, w: NDArray) -> NDArray | None:
         hi *= 2.0
     else:
         return y_of(hi)[:dim]
-    lam = brentq(phi, lo_in, hi, xtol=1e-15 * max(1.0, abs(hi)), rtol=4 * np.finfo(float).eps,
+    lam = brentq(phi, lo_in, hi, xtol=ROOT_XTOL * max(1.0, abs(hi)), rtol=4 * np.finfo(float).eps,
                  maxiter=500)
     return y_of(lam)[:dim]
 
@@ -589,7 +603,7 @@ def _triple_mirrors(d: _Data, x: NDArray, limit: int) -> NDArray:
     p0 = d.centers[triples[:, 0]]
     nrm = np.cross(d.centers[triples[:, 1]] - p0, d.centers[triples[:, 2]] - p0)
     length = np.linalg.norm(nrm, axis=1)
-    keep = length > 1e-9 * d.frame.spread**2
+    keep = length > COLLINEAR_RTOL * d.frame.spread**2
     p0, nrm = p0[keep], nrm[keep] / length[keep, None]
     h = np.einsum("mtk,tk->mt", x[:, None, :] - p0[None], nrm)  # (m, t)
     out = x[:, None, :] - 2.0 * h[..., None] * nrm[None]
@@ -686,7 +700,7 @@ def _chart_polish(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, opts: Estimat
 
             try:
                 sol = least_squares(fun, np.array([0.0, 0.0, rho]), method="trf", x_scale="jac",
-                                    xtol=1e-15, ftol=1e-15, gtol=1e-15,
+                                    xtol=POLISH_TOL, ftol=POLISH_TOL, gtol=POLISH_TOL,
                                     max_nfev=opts.polish_max_nfev)
             except (ValueError, np.linalg.LinAlgError):
                 break

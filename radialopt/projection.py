@@ -88,18 +88,25 @@ from .spheres import (
     check_distinct_centers,
     sphere_arrays,
 )
+from .tolerances import (
+    ACTIVE_SLACK,
+    DUAL_FLOOR,
+    FARKAS_LAST_ZERO,
+    FARKAS_ZERO,
+    KKT_RTOL,
+    RADIUS_ROUNDING,
+    RANK_RTOL,
+    ROUNDING_RTOL,
+    SUPPORT_DUAL_RTOL,
+    SUPPORT_SLACK,
+    TINY,
+)
+from .tolerances import CLARABEL_TIGHT as CLARABEL_TIGHT  # re-exported: radialopt.projection.CLARABEL_TIGHT
+from .tolerances import SOLVER_OPTIONS as SOLVER_OPTIONS
 
 #: The shared status set every backend maps its native status onto.
 RadialStatus = Literal["optimal", "optimal_inaccurate", "infeasible", "error"]
 STATUSES: tuple[str, ...] = get_args(RadialStatus)
-
-#: Clarabel settings that make the QP agree with the exact answer (docs/design.md#solver-tolerances).
-CLARABEL_TIGHT = {
-    "tol_gap_abs": 1e-10,
-    "tol_gap_rel": 1e-10,
-    "tol_feas": 1e-10,
-    "tol_ktratio": 1e-8,
-}
 
 
 @dataclass(frozen=True)
@@ -179,7 +186,7 @@ class _Problem:
         A = pair_pattern(len(radii))[2]
         violation = float(np.max(A @ radii - self.b))
         L = max(float(np.max(self.b)) * np.sqrt(2.0), float(np.abs(radii).max()), 1.0)
-        rounding = 1e-15 * float(np.abs(self.radii).max())
+        rounding = RADIUS_ROUNDING * float(np.abs(self.radii).max())
         if not violation <= tol.agreement * L + rounding:
             raise SolverError(
                 f"method {method!r}: the radii violate A r <= b by {violation:.3g} m (tolerance "
@@ -197,7 +204,7 @@ class _Problem:
     ) -> RadialSolution:
         radii = self.radii + self.sigmas * z
         slack = self.h - self.G @ z
-        active = tuple(np.flatnonzero(np.abs(slack) <= 1e-7 * self.scale).tolist())
+        active = tuple(np.flatnonzero(np.abs(slack) <= ACTIVE_SLACK * self.scale).tolist())
         return RadialSolution(
             radii=radii,
             displacement=radii - self.radii,
@@ -227,7 +234,7 @@ def least_distance(G: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[NDAr
     if h.min() >= 0:
         return np.zeros(n), "optimal"
     if G.shape[0] > CONSTRAINT_GENERATION_ROWS:
-        tol = 1e-12 * max(float(np.abs(h).max()), 1.0)
+        tol = ROUNDING_RTOL * max(float(np.abs(h).max()), 1.0)
         rows = np.flatnonzero(h < 0)
         for _ in range(G.shape[0]):
             z, status = _least_distance_dense(G[rows], h[rows])
@@ -259,7 +266,7 @@ def _least_distance_dense(G: NDArray[np.float64], h: NDArray[np.float64]) -> tup
     e[n] = 1.0
     u, _ = nnls(M, e, maxiter=50 * M.shape[1])
     resid = M @ u - e
-    if abs(resid[n]) <= 1e-14 or np.linalg.norm(resid) <= 1e-12:
+    if abs(resid[n]) <= FARKAS_LAST_ZERO or np.linalg.norm(resid) <= FARKAS_ZERO:
         return np.full(n, np.nan), "infeasible"
     z = -resid[:n] / resid[n]
     return _polish(G, h, z, u > 0), "optimal"
@@ -287,7 +294,7 @@ def _polish_certified(
     returned ``z`` has multipliers ``>= 0`` on its working set and violates no row (to 1e-12
     of ``max|h|``), ``(z_in, False)`` when the loop did not settle.  An empty support with a
     feasible origin is the KKT point ``z = 0``."""
-    tol = 1e-12 * max(float(np.abs(h).max()), 1.0)
+    tol = ROUNDING_RTOL * max(float(np.abs(h).max()), 1.0)
     work = np.flatnonzero(support).tolist()
     if not work:
         work = [int(np.argmax(G @ np.zeros(G.shape[1]) - h))]
@@ -322,7 +329,7 @@ def _solve_small(M: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np
         return rhs / M[0, 0]
     if k == 2:
         det = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
-        if abs(det) > 1e-12 * (M[0, 0] * M[1, 1]):
+        if abs(det) > RANK_RTOL * (M[0, 0] * M[1, 1]):
             return np.array([M[1, 1] * rhs[0] - M[0, 1] * rhs[1],
                              M[0, 0] * rhs[1] - M[1, 0] * rhs[0]], dtype=np.float64) / float(det)
     # numpy's stubs widen float64 results of linalg to floating[Any]
@@ -374,16 +381,6 @@ _CVXPY_STATUS = {
     "unbounded_inaccurate": "error",
     "user_limit": "error",
     "solver_error": "error",
-}
-
-
-#: One table of per-solver options: tight tolerances, so that every solver is compared at the
-#: accuracy the exact methods reach (a solver not listed runs with its defaults).
-SOLVER_OPTIONS: dict[str, dict] = {
-    "CLARABEL": CLARABEL_TIGHT,
-    "OSQP": {"eps_abs": 1e-10, "eps_rel": 1e-10, "max_iter": 200_000, "polishing": True},
-    "SCS": {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 200_000},
-    "ECOS": {"abstol": 1e-10, "reltol": 1e-10, "feastol": 1e-10},
 }
 
 
@@ -446,9 +443,9 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
     slack = hs - Gs @ w_raw
     if dual is not None:
         y = np.asarray(dual, dtype=np.float64)
-        support = (y > 1e-7 * max(float(y.max()), 1e-12)) | (slack <= 1e-9)
+        support = (y > SUPPORT_DUAL_RTOL * max(float(y.max()), DUAL_FLOOR)) | (slack <= SUPPORT_SLACK)
     else:
-        support = slack <= 1e-7
+        support = slack <= ACTIVE_SLACK
     if hs.min() >= 0:  # the measured radii are feasible: the answer is exactly z = 0
         return np.zeros(p.G.shape[1]), status
     w_exact, certified = _polish_certified(Gs, hs, w_raw, support)
@@ -513,7 +510,7 @@ def _closest_feasible_on_flats(
         block = block.reshape(-1, k)
         As = Gn[block]  # (N, k, n)
         gram = np.einsum("skn,sjn->skj", As, As)
-        ok = np.abs(np.linalg.det(gram)) > 1e-12
+        ok = np.abs(np.linalg.det(gram)) > RANK_RTOL
         if np.any(ok):
             y = np.linalg.solve(gram[ok], hn[block[ok]][..., None])[..., 0]  # (N', k)
             pts = np.einsum("skn,sk->sn", As[ok], y)
@@ -525,7 +522,7 @@ def _closest_feasible_on_flats(
                     best, best_d = pts[feasible][i], d[i]
                     # KKT: z = -Gn_T^T lam with lam = -y >= 0 (to rounding)
                     ymax = float(np.max(y[feasible][i]))
-                    best_ok = ymax <= 1e-9 * max(float(np.abs(y[feasible][i]).max()), 1e-300)
+                    best_ok = ymax <= KKT_RTOL * max(float(np.abs(y[feasible][i]).max()), TINY)
         if block.shape[0] < chunk:
             break
     if best is None:

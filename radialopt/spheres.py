@@ -18,7 +18,6 @@ from scipy.spatial import cKDTree
 from ._checks import (
     MAX_LENGTH,
     MAX_SIGMA,
-    dataclass_fields,
     instance,
     point3,
     real_array,
@@ -32,33 +31,8 @@ from .errors import (
     ShapeError,
     TooFewSpheresError,
 )
-
-
-@dataclass(frozen=True)
-class Tolerances:
-    """Numerical tolerances of radialopt, in one place (metres unless said otherwise).
-
-    Attributes
-    ----------
-    coincident : float
-        Two centres closer than this are the same point.
-    feasibility : float
-        Slack allowed in ``A r <= b`` when testing membership.
-    agreement : float
-        Largest difference between an answer and the vertex-enumeration reference that
-        ``check=True`` accepts.
-    """
-
-    coincident: float = 1e-9
-    feasibility: float = 1e-9
-    agreement: float = 1e-6
-
-    def __post_init__(self) -> None:
-        dataclass_fields(self, {}, {"coincident": (0.0, 1.0, True), "feasibility": (0.0, 1.0, False),
-                                    "agreement": (0.0, 1.0, True)})
-
-
-TOLERANCES = Tolerances()
+from .tolerances import TOLERANCES as TOLERANCES  # re-exported: radialopt.spheres.TOLERANCES
+from .tolerances import Tolerances as Tolerances
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ._checks import MAX_SIGMA, dataclass_fields, instance, integer, real_array, real_scalar, sigma_range
+from ._checks import MAX_SIGMA, instance, integer, real_array, real_scalar, sigma_range
 from .errors import (
     RadialError,
     ShapeError,
@@ -41,6 +41,14 @@ from .errors import (
     UnknownMethodError,
 )
 from .polytope import RestrictionPolytope
+from .tolerances import (
+    INDEPENDENT_RTOL,
+    RANK_RTOL,
+    VERTEX_CERTIFICATE_TOL,
+    VERTEX_TOLERANCES,
+    VFORM_TOL,
+    VertexTolerances,
+)
 
 __all__ = [
     "ENUMERATION_METHODS",
@@ -95,38 +103,6 @@ class TooLargeError(RadialError):
 
 class EmptyPolyhedronError(RadialError):
     """An operation needs at least one vertex, but the polyhedron is empty."""
-
-
-@dataclass(frozen=True)
-class VertexTolerances:
-    """Tolerances of vertex enumeration, relative to the scale ``max(1, max |b_i| / |A_i|)``.
-
-    Attributes
-    ----------
-    feasibility : float
-        A point with ``A_i x <= b_i + feasibility * scale`` (unit rows) is feasible.
-    active : float
-        Row i is tight at x when ``|b_i - A_i x| <= active * scale`` (unit rows).
-    zero : float
-        Double description: ``|h . r| <= zero`` (unit h, unit r) counts as zero.
-    singular : float
-        Brute force: an n-subset of unit rows with ``|det| <= singular`` is singular.
-    merge : float
-        Vertices closer than ``merge * scale`` are one vertex.
-    """
-
-    feasibility: float = 1e-9
-    active: float = 1e-9
-    zero: float = 1e-10
-    singular: float = 1e-10
-    merge: float = 1e-10
-
-    def __post_init__(self) -> None:
-        dataclass_fields(self, {}, {k: (0.0, 1.0, False) for k in
-                                    ("feasibility", "active", "zero", "singular", "merge")})
-
-
-VERTEX_TOLERANCES = VertexTolerances()
 
 
 @dataclass(frozen=True)
@@ -398,7 +374,7 @@ def _initial_basis(H: NDArray[np.float64], tol: float) -> list[int]:
         r = h - Q.T @ (Q @ h)
         r = r - Q.T @ (Q @ r)  # re-orthogonalise
         nr = np.linalg.norm(r)
-        if nr > 1e-8:
+        if nr > INDEPENDENT_RTOL:
             basis.append(i)
             Q = np.vstack([Q, r / nr])
             if len(basis) == d:
@@ -614,7 +590,7 @@ def _polish_vertices(
     G = np.einsum("km,mi,mj->kij", tight, A, A)
     rhs = (tight * b) @ A
     # unit rows: det(G) <= |T|^n, and it is ~0 when the rows do not have rank n
-    good = np.abs(np.linalg.det(G)) > 1e-12
+    good = np.abs(np.linalg.det(G)) > RANK_RTOL
     out = points.copy()
     if np.any(good):
         out[good] = np.linalg.solve(G[good], rhs[good][..., None])[..., 0]
@@ -628,7 +604,7 @@ def _polish_rays(A: NDArray[np.float64], rays: NDArray[np.float64], atol: float)
         tight = np.abs(A @ r) <= atol
         if np.count_nonzero(tight) >= A.shape[1] - 1:
             _, sv, vt = np.linalg.svd(A[tight])
-            if sv.size >= A.shape[1] - 1 and (A.shape[1] == 1 or sv[A.shape[1] - 2] > 1e-8):
+            if sv.size >= A.shape[1] - 1 and (A.shape[1] == 1 or sv[A.shape[1] - 2] > INDEPENDENT_RTOL):
                 v = vt[-1]
                 out[i] = v if v @ r > 0 else -v
     return out / np.linalg.norm(out, axis=1)[:, None]
@@ -670,7 +646,7 @@ def project_vform(
     enumeration: VertexEnumeration,
     target: ArrayLike,
     sigmas: ArrayLike,
-    tol: float = 1e-14,
+    tol: float = VFORM_TOL,
     max_iter: int = 1000,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Sigma-weighted projection of ``target`` onto ``conv(vertices) + cone(rays)``.
@@ -804,7 +780,7 @@ def certify_projection(
     target: ArrayLike,
     sigmas: ArrayLike,
     point: ArrayLike,
-    tol: float = 1e-6,
+    tol: float = VERTEX_CERTIFICATE_TOL,
 ) -> tuple[bool, float, str]:
     """Exact optimality certificate of a projection, checked on the generators.
 

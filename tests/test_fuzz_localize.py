@@ -134,7 +134,7 @@ def test_localize_on_nasty_percepts(percepts, method) -> None:
 
 
 @settings(max_examples=40)
-@given(arg=st.sampled_from(["method", "tolerances", "region", "rng", "max_position_3sigma",
+@given(arg=st.sampled_from(["method", "tol", "region", "rng", "max_position_3sigma",
                             "max_rotation_3sigma", "solver", "check", "certify", "percepts", "world"]),
        value=st.one_of(nasty_scalar, st.sampled_from([
            (np.zeros(3), np.ones(3)), (np.ones(3), np.zeros(3)), (np.zeros(2),), [np.zeros(3), "x"],
@@ -198,7 +198,7 @@ def test_tolerances_fields(field, value) -> None:
             assert isinstance(v, bool | int | float) and not isinstance(v, complex)
             assert math.isfinite(float(v))
     assert tol.kappa_max <= math.pi
-    res = _call(wg.localize, ("percepts",), WORLD, CLEAN, tolerances=tol)
+    res = _call(wg.localize, ("percepts",), WORLD, CLEAN, tol=tol)
     if res is not None:
         _check_result(res)
 
@@ -224,13 +224,13 @@ def test_associate(percepts, method, max_hypotheses) -> None:
 @settings(max_examples=30)
 @given(percepts=percept_lists(), tol=st.sampled_from([wg.ASSOCIATION_TOLERANCES, None, "tol", 3]))
 def test_filters(percepts, tol) -> None:
-    prox = _call(wg.proximity_filter, ("percepts", "tolerances", "world"), WORLD, percepts, tol)
+    prox = _call(wg.proximity_filter, ("percepts", "tol", "world"), WORLD, percepts, tol)
     if prox is None:
         return
-    filt = _call(wg.orientation_filter, ("percepts", "tolerances"), WORLD, percepts, prox, tol)
+    filt = _call(wg.orientation_filter, ("percepts", "tol"), WORLD, percepts, prox, tol)
     if filt is not None:
         assert len(filt["candidates"]) == len(percepts)
-    _call(consistency_graph, ("percepts", "tolerances", "min_size"), WORLD, percepts, tol)
+    _call(consistency_graph, ("percepts", "tol", "min_size"), WORLD, percepts, tol)
 
 
 @given(proximity=st.sampled_from([None, {}, {"objects": [], "adjacency": {}}, "x", 3,

@@ -179,7 +179,7 @@ def test_bad_input() -> None:
     with pytest.raises(WorldGraphError, match="Percept"):
         localize(world, [np.array([1.0, 2.0, 3.0])])  # type: ignore[list-item]
     with pytest.raises(WorldGraphError, match="AssociationTolerances"):
-        localize(world, ok, tolerances={"n_sigma": 3})  # type: ignore[arg-type]
+        localize(world, ok, tol={"n_sigma": 3})  # type: ignore[arg-type]
 
 
 @pytest.fixture(scope="module")

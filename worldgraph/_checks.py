@@ -35,7 +35,6 @@ from .errors import (
 )
 
 __all__ = [
-    "RIGID_TOLERANCE",
     "finite_float",
     "float_array",
     "generator",
@@ -48,8 +47,6 @@ __all__ = [
     "strict_int",
 ]
 
-#: Largest allowed ``|R^T R - I|`` entry and ``|det R - 1|`` of a rigid transform's rotation.
-RIGID_TOLERANCE = 1e-6
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
@@ -201,15 +198,19 @@ def strict_int(name: str, value: Any, *, minimum: int | None = None, maximum: in
     return n
 
 
-def rigid_transform(name: str, value: Any, *, tol: float = RIGID_TOLERANCE,
+def rigid_transform(name: str, value: Any, *, tol: float | None = None,
                     max_translation: float | None = None) -> NDArray[np.float64]:
     """A (4, 4) rigid transform as a new float64 array.
 
     Finite, last row ``[0, 0, 0, 1]`` (within ``tol``, else :class:`ShapeError`), rotation block ``R`` with
     ``max |R^T R - I| <= tol`` and ``|det R - 1| <= tol``: scaled, sheared and reflected
     transforms raise :class:`NonRigidError` naming the determinant and the orthogonality error.
-    ``max_translation`` bounds ``|t_i|`` (:class:`OutOfRangeError`).
+    ``max_translation`` bounds ``|t_i|`` (:class:`OutOfRangeError`).  ``tol`` defaults to
+    :data:`~worldgraph.tolerances.RIGID_TOLERANCE`.
     """
+    if tol is None:
+        from .tolerances import RIGID_TOLERANCE  # not at the top: worldgraph.tolerances imports this module
+        tol = RIGID_TOLERANCE
     m = float_array(name, value, (4, 4))
     if np.abs(m[3] - _LAST_ROW).max() > tol:
         raise ShapeError(f"{name} last row must be [0, 0, 0, 1], got {m[3].tolist()}")

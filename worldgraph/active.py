@@ -52,7 +52,16 @@ from .consistency import check_world_and_percepts
 from .errors import ArgumentTypeError, NonFiniteError, OutOfRangeError, UnknownTypeError
 from .localize import LocalizationResult, PoseStatus, localize
 from .model import WorldModel
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
+from .tolerances import (
+    AIM_LSQ_TOL,
+    AIM_REGULARISATION,
+    ASSOCIATION_TOLERANCES,
+    COSINE_ROUNDING,
+    JOINT_LIMIT_MARGIN,
+    NORM_FLOOR,
+    AssociationTolerances,
+    _tol_argument,
+)
 
 __all__ = [
     "ActiveLocalization",
@@ -316,7 +325,7 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
         M = _gaze_fk(head, q)
         ray = tgt - M[:3, 3]
         norm = np.linalg.norm(ray)
-        return np.concatenate([M[:3, 2] - ray / max(float(norm), 1e-12), 1e-3 * q])
+        return np.concatenate([M[:3, 2] - ray / max(float(norm), NORM_FLOOR), AIM_REGULARISATION * q])
 
     starts = [np.zeros(n)]
     axes = [j.axis for j in head.joints]
@@ -330,20 +339,22 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
         starts.insert(0, q0)
     best_q, best_err = None, math.inf
     for q0 in starts:
-        q0 = np.clip(q0, np.where(np.isfinite(lo), lo + 1e-9, -np.inf),
-                     np.where(np.isfinite(hi), hi - 1e-9, np.inf))
-        sol = least_squares(residual, q0, bounds=(lo, hi), xtol=1e-10, ftol=1e-10, gtol=1e-10)
+        q0 = np.clip(q0, np.where(np.isfinite(lo), lo + JOINT_LIMIT_MARGIN, -np.inf),
+                     np.where(np.isfinite(hi), hi - JOINT_LIMIT_MARGIN, np.inf))
+        sol = least_squares(residual, q0, bounds=(lo, hi), xtol=AIM_LSQ_TOL, ftol=AIM_LSQ_TOL,
+                            gtol=AIM_LSQ_TOL)
         q = sol.x
         M = head.ego_from_camera(q)
         ray = tgt - M[:3, 3]
-        cosang = float(M[:3, 2] @ ray / max(np.linalg.norm(ray), 1e-12))
+        cosang = float(M[:3, 2] @ ray / max(np.linalg.norm(ray), NORM_FLOOR))
         err = math.acos(min(1.0, max(-1.0, cosang)))
         if err < best_err:
             best_q, best_err = q, err
         if best_err < 0.01 * GAZE_TOLERANCE:  # good enough: skip the other starts
             break
     assert best_q is not None
-    within = None if bounds is None else bool(np.all((best_q >= lo - 1e-9) & (best_q <= hi + 1e-9)))
+    within = None if bounds is None else bool(np.all((best_q >= lo - JOINT_LIMIT_MARGIN)
+                                                      & (best_q <= hi + JOINT_LIMIT_MARGIN)))
     return head.angle_vector(np.clip(best_q, lo, hi)), best_err, within
 
 
@@ -383,7 +394,7 @@ def _in_view(pred: _Prediction, h: int, directions: NDArray[np.float64], cos_hal
     # multithreaded OpenBLAS on a loaded 2-core machine
     u = pred.unit[h]
     cosines = directions[:, 0:1] * u[:, 0] + directions[:, 1:2] * u[:, 1] + directions[:, 2:3] * u[:, 2]
-    return (cosines >= cos_half - 1e-12) & pred.in_range[h]
+    return (cosines >= cos_half - COSINE_ROUNDING) & pred.in_range[h]
 
 
 def _score(pred: _Prediction, directions: NDArray[np.float64], cos_half: float, detection: float
@@ -605,10 +616,11 @@ def _imprecise(result: LocalizationResult, goal_rotation_3sigma: float | None) -
 def active_localize(world: WorldModel, percepts: Sequence[Percept],
                     look: Callable[[NDArray[np.float64]], Sequence[Percept]], *, max_looks: int = 2,
                     planner: Callable[[LocalizationResult], NDArray[np.float64] | ViewPlan] | None = None,
-                    method: str = "ml", tolerances: AssociationTolerances | None = None,
+                    method: str = "ml", tol: AssociationTolerances | None = None,
                     fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
                     head: KinematicChain | None = None, look_while: Sequence[str] = ("ambiguous", "weak"),
-                    goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA) -> ActiveLocalization:
+                    goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA,
+                    tolerances: AssociationTolerances | None = None) -> ActiveLocalization:
     """Localise; while the status is in ``look_while`` (default ``"ambiguous"`` and ``"weak"``) and
     looks remain:
     plan a view, look, and localise again with the old and new percepts (:func:`merge_percepts`
@@ -626,7 +638,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         At most this many looks (>= 0).
     planner : callable result -> ViewPlan or (3,) direction, optional
         Default :func:`plan_view` with ``fov_deg``, ``max_range``, ``types`` and ``head``.
-    method, tolerances
+    method, tol
         Passed to :func:`~worldgraph.localize`.
     look_while : sequence of str
         Statuses that call for another look, among those that come with a pose (``"ambiguous"``,
@@ -639,6 +651,9 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         rotation bound (about the worst axis, from ``pose_covariance``) is wider than this also
         gets looks, to add landmarks that pin the rotation; the final status is still the one
         ``localize`` gives. ``None`` looks only while the status is in ``look_while``.
+    tolerances : AssociationTolerances, optional
+        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
+        :class:`~worldgraph.errors.ArgumentTypeError`).
 
     Returns
     -------
@@ -664,9 +679,10 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         if st not in _LOOK_STATUSES:
             raise OutOfRangeError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
                                   f"choose among {_LOOK_STATUSES}")
-    tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
+    tol = _tol_argument("active_localize", tol, tolerances)
+    tol = ASSOCIATION_TOLERANCES if tol is None else tol
     current = check_world_and_percepts(world, percepts)
-    result = localize(world, current, method, tolerances=tol)
+    result = localize(world, current, method, tol=tol)
     results, plans = [result], []
     directions: list[NDArray[np.float64]] = []
     while len(directions) < max_looks and (result.status in statuses
@@ -691,7 +707,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                                         f"got {type(p).__name__}")
         directions.append(d)
         current = merge_percepts(current, new)
-        result = localize(world, current, method, tolerances=tol)
+        result = localize(world, current, method, tol=tol)
         results.append(result)
     return ActiveLocalization(result=result, results=tuple(results), plans=tuple(plans),
                               directions=tuple(directions), percepts=tuple(current), looks=len(directions))

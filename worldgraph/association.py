@@ -61,7 +61,7 @@ from .filters import (
 )
 from .hypotheses import AssociationHypothesis, _fit_all, _rank, is_ambiguous, same_pose
 from .model import WorldModel
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _check_tolerances
+from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _resolved_tol
 
 __all__ = [
     "ASSOCIATION_METHODS",
@@ -108,8 +108,9 @@ def _search_subset(percepts: list[Percept], limit: int) -> NDArray[np.intp]:
 
 
 def associate(world: WorldModel, percepts: Sequence[Percept],
-              tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES, method: str = "clique",
-              max_hypotheses: int | None = None) -> list[AssociationHypothesis]:
+              tol: AssociationTolerances | None = None, method: str = "clique",
+              max_hypotheses: int | None = None, *,
+              tolerances: AssociationTolerances | None = None) -> list[AssociationHypothesis]:
     """Ranked association hypotheses of ``percepts`` (ego frame) to the objects of ``world``.
 
     Parameters
@@ -118,11 +119,15 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     percepts : sequence of perception.Percept
         Every type must be a type of the world (filter unknown ones before; :func:`localize`
         does).
-    tolerances : AssociationTolerances
+    tol : AssociationTolerances, optional
+        Default :data:`~worldgraph.tolerances.ASSOCIATION_TOLERANCES`.
     method : {"clique", "paper"}
         See the module docstring.
     max_hypotheses : int, optional
-        Default ``tolerances.max_hypotheses``.
+        Default ``tol.max_hypotheses``.
+    tolerances : AssociationTolerances, optional
+        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
+        :class:`~worldgraph.errors.ArgumentTypeError`).
 
     Returns
     -------
@@ -141,7 +146,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     if not isinstance(method, str) or method not in ASSOCIATION_METHODS:
         raise WorldGraphError(f"method must be one of {ASSOCIATION_METHODS}, got {method!r}")
     percepts = _check_inputs(world, percepts)
-    tol = _check_tolerances(tolerances, world=world)
+    tol = _resolved_tol("associate", tol, tolerances, world=world)
     k = len(percepts)
     if k < tol.min_clique_size:
         raise TooFewPerceptsError(f"association needs at least {tol.min_clique_size} percepts, got {k}")

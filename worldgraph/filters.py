@@ -25,14 +25,14 @@ from .errors import (
 from .hypotheses import AssociationHypothesis, _check_hypotheses
 from .model import WorldModel
 from .pose import invert_transformation
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _check_tolerances
+from .tolerances import COLLINEAR_TOL, TINY, AssociationTolerances, _resolved_tol
 
 
 # ----------------------------------------------------------------------------------------------
 # the paper's filters
 # ----------------------------------------------------------------------------------------------
-def proximity_filter(world: WorldModel, percepts: Sequence[Percept],
-                     tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES) -> dict:
+def proximity_filter(world: WorldModel, percepts: Sequence[Percept], tol: AssociationTolerances | None = None,
+                     *, tolerances: AssociationTolerances | None = None) -> dict:
     """Proximity filtering (paper eq. 1 and the intersection ``psi_act``).
 
     For every percept pair (p, q) the model links of the same type pair whose length lies
@@ -51,7 +51,7 @@ def proximity_filter(world: WorldModel, percepts: Sequence[Percept],
         (:func:`filtered_graph_view`).
     """
     percepts = _check_inputs(world, percepts)
-    tolerances = _check_tolerances(tolerances, world=world)
+    tol = _resolved_tol("proximity_filter", tol, tolerances, world=world)
     objects = [world.type_index[p.type] for p in percepts]
     k = len(percepts)
     sig = np.array([p.sigma for p in percepts])
@@ -60,8 +60,8 @@ def proximity_filter(world: WorldModel, percepts: Sequence[Percept],
     for p, q in itertools.combinations(range(k), 2):
         theta = [s for s, t in zip(sig, types, strict=True) if t in (types[p], types[q])]
         smax = max(theta)
-        tau = float(tolerances.pair_tolerance(smax, smax))
-        edges[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tolerances, objects)
+        tau = float(tol.pair_tolerance(smax, smax))
+        edges[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tol, objects)
     graph = _Graph(objects, edges)
     alive = _prune(graph, k)
     compact, dense = graph.dense(alive)
@@ -135,21 +135,21 @@ def filtered_graph_view(world: WorldModel, candidates: Sequence[NDArray[np.intp]
 
 
 def consistency_graph(world: WorldModel, percepts: Sequence[Percept],
-                      tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES,
-                      min_size: int | None = None) -> nx.Graph:
+                      tol: AssociationTolerances | None = None, min_size: int | None = None, *,
+                      tolerances: AssociationTolerances | None = None) -> nx.Graph:
     """The typed consistency graph of :func:`associate` ("clique") as a networkx graph.
 
     A node ``(p, o)`` pairs percept ``p`` with an object ``o`` of its type (attributes
     ``percept``, ``object``, ``type``); an edge joins two pairs whose percept and model distances
     agree within the gate (and that use different percepts and objects).  Only the pairs that can
-    still be in a clique of ``min_size`` (default ``tolerances.min_clique_size``) are kept, as
+    still be in a clique of ``min_size`` (default ``tol.min_clique_size``) are kept, as
     :func:`associate` prunes them.  Its maximal cliques are the association candidates (the array
     search in :func:`maximum_cliques` finds the largest of them without building this graph).
     """
     percepts = _check_inputs(world, percepts)
-    tolerances = _check_tolerances(tolerances, world=world)
-    need = tolerances.min_clique_size if min_size is None else strict_int("min_size", min_size, minimum=1)
-    graph = _consistency_graph(world, percepts, tolerances)
+    tol = _resolved_tol("consistency_graph", tol, tolerances, world=world)
+    need = tol.min_clique_size if min_size is None else strict_int("min_size", min_size, minimum=1)
+    graph = _consistency_graph(world, percepts, tol)
     alive = _prune(graph, need)
     g: nx.Graph[tuple[int, int]] = nx.Graph()
     for p, (objs, al) in enumerate(zip(graph.objects, alive, strict=True)):
@@ -175,7 +175,7 @@ def _frames(a: NDArray, b: NDArray, c: NDArray) -> tuple[NDArray, NDArray]:
     d1 = ab / np.where(nab > 0, nab, 1.0)[:, None]
     cr = np.cross(d1, c - a)
     ncr = np.linalg.norm(cr, axis=1)
-    ok = (nab > 0) & (ncr > 1e-9 * np.maximum(nab, 1e-300))
+    ok = (nab > 0) & (ncr > COLLINEAR_TOL * np.maximum(nab, TINY))
     d2 = cr / np.where(ncr > 0, ncr, 1.0)[:, None]
     d3 = np.cross(d1, d2)
     return np.stack([d1, d2, d3], axis=2), ok
@@ -215,7 +215,8 @@ def _check_proximity(world: WorldModel, percepts: list[Percept], proximity: obje
 
 
 def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity: dict,
-                       tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES) -> dict:
+                       tol: AssociationTolerances | None = None, *,
+                       tolerances: AssociationTolerances | None = None) -> dict:
     """Orientation filtering (paper eqs. 2-3) of the output of :func:`proximity_filter`.
 
     For every non-collinear percept triple (i, j, k) the signature ``V = R_ijk^T (x_j - x_k)``
@@ -230,7 +231,7 @@ def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity
         Same layout as :func:`proximity_filter`.
     """
     percepts = _check_inputs(world, percepts)
-    tolerances = _check_tolerances(tolerances, world=world)
+    tol = _resolved_tol("orientation_filter", tol, tolerances, world=world)
     k = len(percepts)
     objects, adj = _check_proximity(world, percepts, proximity)
     x = np.array([p.position for p in percepts])
@@ -247,8 +248,8 @@ def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity
                 checked[key] = True
             vp = rp[0].T @ (x[j] - x[kk])
             spread = math.sqrt(sig[i] ** 2 + sig[j] ** 2 + sig[kk] ** 2)
-            mu = tolerances.mu_max if tolerances.mu_max is not None else float(
-                tolerances.n_sigma * tolerances.pair_factor * spread + tolerances.min_tolerance)
+            mu = tol.mu_max if tol.mu_max is not None else float(
+                tol.n_sigma * tol.pair_factor * spread + tol.min_tolerance)
             a_ij, a_ik, a_jk = adj[(i, j)], adj[(i, kk)], adj[(j, kk)]
             u, v = np.nonzero(a_ij)
             if len(u) == 0:
@@ -262,8 +263,8 @@ def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity
             rm, okm = _frames(Xu, Xv, Xw)
             vm = np.einsum("mji,mj->mi", rm, Xv - Xw)
             dist = np.linalg.norm(vm - vp, axis=1)
-            cosang = (vm @ vp) / np.maximum(np.linalg.norm(vm, axis=1) * np.linalg.norm(vp), 1e-300)
-            acc = okm & (dist < mu) & (np.arccos(np.clip(cosang, -1, 1)) < tolerances.kappa_max)
+            cosang = (vm @ vp) / np.maximum(np.linalg.norm(vm, axis=1) * np.linalg.norm(vp), TINY)
+            acc = okm & (dist < mu) & (np.arccos(np.clip(cosang, -1, 1)) < tol.kappa_max)
             u, v, w = u[acc], v[acc], w[acc]
             support[(i, j)][u, v] = True
             support[(i, kk)][u, w] = True

@@ -64,6 +64,7 @@ from numpy.typing import NDArray
 from . import _checks
 from .errors import ImporterError, MalformedFileError, WorldGraphError
 from .model import WorldModel
+from .tolerances import NORM_FLOOR, SIZE_MATCH, UPRIGHT_TOL
 
 __all__ = ["FRANKA_TYPE_RULES", "ROOM_HEIGHT", "franka_kitchen_path", "franka_kitchen_scene",
            "load_franka_kitchen"]
@@ -168,7 +169,7 @@ def _local_transform(el: ET.Element, comp: _Compiler, what: str) -> NDArray[np.f
         z = z / np.linalg.norm(z)
         ez = np.array([0.0, 0.0, 1.0])
         axis = np.cross(ez, z)
-        if np.linalg.norm(axis) < 1e-12:
+        if np.linalg.norm(axis) < NORM_FLOOR:
             m[:3, :3] = np.eye(3) if z[2] > 0 else np.diag([1.0, -1.0, -1.0])
         else:
             m[:3, :3] = _rodrigues(axis, math.acos(float(np.clip(z[2], -1.0, 1.0))))
@@ -313,7 +314,7 @@ def _walk(body: ET.Element, world_from_body: NDArray[np.float64], name: str, chi
             local[:3, 3] = 0.5 * (a + b)
             ez = np.array([0.0, 0.0, 1.0])
             rot_axis = np.cross(ez, axis)
-            if np.linalg.norm(rot_axis) > 1e-12:
+            if np.linalg.norm(rot_axis) > NORM_FLOOR:
                 local[:3, :3] = _rodrigues(rot_axis, math.acos(float(np.clip(axis[2] / length, -1, 1))))
             size = np.array([size[0], length / 2])
         rotated = any(geom.get(a) is not None for a in ("quat", "euler", "axisangle", "zaxis", "xyaxes"))
@@ -340,7 +341,7 @@ FRANKA_TYPE_RULES: tuple[tuple[str, Callable[[_Geom], bool], str], ...] = (
     (r"microdoorroot", lambda g: g.mesh == "microdoor", "door"),
     (r"microdoorroot", lambda g: g.kind == "capsule" and not g.rotated, "handle"),
     (r"microroot", lambda g: g.mesh == "micro", "microwave"),
-    (r"ovenroot|counters", lambda g: g.kind == "cylinder" and abs(g.size[0] - 0.022) < 1e-9, "handle"),
+    (r"ovenroot|counters", lambda g: g.kind == "cylinder" and abs(g.size[0] - 0.022) < SIZE_MATCH, "handle"),
     (r"knob \d+", lambda g: g.kind == "cylinder" and g.size[0] >= 0.04, "knob"),
     (r"Burner \d+", lambda g: g.kind == "cylinder", "burner"),
     (r"lightswitchroot", lambda g: g.kind == "capsule", "switch"),
@@ -404,7 +405,7 @@ def _floor_room(model: _Model) -> tuple[NDArray[np.float64], NDArray[np.float64]
     """``(lower, upper)`` of the room over the MJCF floor: the first upright plane geom of finite
     size (one named ``floor`` first), its x, y extent, from its height up :data:`ROOM_HEIGHT`."""
     planes = [g for g in model.geoms if g.kind == "plane" and g.size.size >= 2 and np.all(g.size[:2] > 0)
-              and g.world_from_geom[2, 2] > 1.0 - 1e-9]
+              and g.world_from_geom[2, 2] > 1.0 - UPRIGHT_TOL]
     planes.sort(key=lambda g: g.name != "floor")
     if not planes:
         return None

@@ -20,7 +20,7 @@ from .errors import (
 )
 from .model import WorldModel
 from .pose import weighted_kabsch_batch
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _check_tolerances
+from .tolerances import PLANAR_RTOL, TINY, AssociationTolerances, _check_tolerances, _resolved_tol
 
 
 @dataclass(frozen=True)
@@ -211,7 +211,7 @@ def _fit_group(world: WorldModel, ego_all: NDArray, sig_all: NDArray, group: lis
     ego, wpts, sig = ego_all[pi], world.positions[oi], sig_all[pi]
     centred = wpts - wpts.mean(axis=1, keepdims=True)
     sv = np.linalg.svd(centred, compute_uv=False)
-    good = sv[:, 1] > 1e-6 * np.maximum(sv[:, 0], 1e-300)
+    good = sv[:, 1] > PLANAR_RTOL * np.maximum(sv[:, 0], TINY)
     mirror = np.zeros(len(group), dtype=bool)
     if chirality:  # in blocks: at most ~2e5 tetrahedra in memory at once
         per_set = len(_tetrahedra(wpts[:1])[0]) if m >= 4 and len(group) else 1
@@ -341,18 +341,18 @@ def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: 
     return kept
 
 
-def is_ambiguous(hypotheses: Sequence[AssociationHypothesis],
-                 tolerances: AssociationTolerances = ASSOCIATION_TOLERANCES) -> bool:
+def is_ambiguous(hypotheses: Sequence[AssociationHypothesis], tol: AssociationTolerances | None = None, *,
+                 tolerances: AssociationTolerances | None = None) -> bool:
     """The best two hypotheses have costs within ``ambiguity_margin`` and poses that differ."""
     hypotheses = _check_hypotheses(hypotheses)
-    _check_tolerances(tolerances)
+    tol = _resolved_tol("is_ambiguous", tol, tolerances)
     if len(hypotheses) < 2:
         return False
     poses = [rigid_transform(f"hypotheses[{i}].world_from_ego", h.world_from_ego)
              for i, h in enumerate(hypotheses[:2])]
     costs = [finite_float(f"hypotheses[{i}].cost", h.cost) for i, h in enumerate(hypotheses[:2])]
-    return (costs[1] - costs[0] < tolerances.ambiguity_margin
-            and not _same_pose(poses[0], poses[1], tolerances))
+    return (costs[1] - costs[0] < tol.ambiguity_margin
+            and not _same_pose(poses[0], poses[1], tol))
 
 
 

@@ -62,7 +62,16 @@ from .hypotheses import AssociationHypothesis, is_ambiguous
 from .model import WorldModel
 from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
 from .pose_certificate import certify_pose, solve_pose_sdp
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
+from .tolerances import (
+    ASSOCIATION_TOLERANCES,
+    COST_ROUNDING,
+    DUPLICATE_DISTANCE,
+    REGION_SLACK,
+    RIGID_TOLERANCE,
+    SIGNIFICANCE,
+    AssociationTolerances,
+    _tol_argument,
+)
 from .units import percept_units_hint
 from .validation import (
     CHI2_3_GATE,
@@ -446,10 +455,11 @@ def default_region(world: WorldModel, percepts: Sequence[Percept]) -> ro.Region:
 
 
 def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml", *,
-             tolerances: AssociationTolerances | None = None, region: ro.Region | None = None,
+             tol: AssociationTolerances | None = None, region: ro.Region | None = None,
              rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
              max_rotation_3sigma: float = MAX_ROTATION_3SIGMA, solver: str = "active_set",
-             check: bool = False, certify: bool = False) -> LocalizationResult:
+             check: bool = False, certify: bool = False,
+             tolerances: AssociationTolerances | None = None) -> LocalizationResult:
     """Pose of the robot (``world_from_ego``) from percepts of known world objects.
 
     Parameters
@@ -465,7 +475,8 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         origin, ranges survive them).  ``"paper"``: the paper's proximity + orientation filters,
         its radial-projection position and eq. 5; ``"srls"``, ``"gradient"``: other range-only
         estimators, for comparison.
-    tolerances : AssociationTolerances, optional
+    tol : AssociationTolerances, optional
+        Default :data:`~worldgraph.tolerances.ASSOCIATION_TOLERANCES`.
     region : radialopt.Region or (lower, upper), optional
         Valid robot positions (a box, metres; a pair of 3-vectors is turned into a Region);
         poses outside it are rejected.  Default :func:`default_region`.
@@ -490,6 +501,9 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         Fill ``certificate``: the rotation SDP's proof (or not) that the returned pose is the
         global minimum of the ML cost of its matched percepts.  With 3 or 4 matches the SDP is
         also the solver (``"ml"``).
+    tolerances : AssociationTolerances, optional
+        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
+        :class:`~worldgraph.errors.ArgumentTypeError`).
 
     Returns
     -------
@@ -509,7 +523,8 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         Unknown method, something other than Percepts, a bad region or bound.
     """
     t_start = time.perf_counter()
-    percepts, settings = _check_arguments(world, percepts, method, tolerances, region, rng,
+    tol = _tol_argument("localize", tol, tolerances)
+    percepts, settings = _check_arguments(world, percepts, method, tol, region, rng,
                                           max_position_3sigma, max_rotation_3sigma, solver, check, certify)
     with _raised_as_worldgraph_errors(settings.method):
         result = _localize(world, percepts, settings, t_start)
@@ -532,7 +547,7 @@ class _Settings:
 
 
 def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str,
-                     tolerances: AssociationTolerances | None, region: object, rng: object,
+                     tol: object, region: object, rng: object,
                      max_position_3sigma: float, max_rotation_3sigma: float, solver: object, check: object,
                      certify: object) -> tuple[list[Percept], _Settings]:
     """Step 1: every argument of :func:`localize` checked (specific errors), as the percepts and
@@ -540,9 +555,9 @@ def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str
     if not isinstance(method, str) or method not in LOCALIZE_METHODS:
         raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
     checked = check_world_and_percepts(world, percepts)
-    tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
+    tol = ASSOCIATION_TOLERANCES if tol is None else tol
     if not isinstance(tol, AssociationTolerances):
-        raise ArgumentTypeError(f"tolerances must be AssociationTolerances, got {type(tol).__name__}")
+        raise ArgumentTypeError(f"tol must be AssociationTolerances, got {type(tol).__name__}")
     box = _check_region(region)
     gen = None if rng is None else generator("rng", rng)
     if not isinstance(solver, str):
@@ -610,7 +625,7 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
         T = result.transformation
         finite = bool(np.all(np.isfinite(T)) and np.all(np.isfinite(result.pose_covariance))
                       and np.all(np.isfinite(result.covariance)))
-        rigid = finite and bool(np.allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=1e-6)
+        rigid = finite and bool(np.allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=RIGID_TOLERANCE)
                                 and np.linalg.det(T[:3, :3]) > 0)
         if not rigid:
             why = "non-finite pose or covariance" if not finite else "a pose that is not rigid"
@@ -726,7 +741,7 @@ def _distinct_centres(world: WorldModel, pairs: Sequence[tuple[int, int]]) -> tu
         return tuple(sorted(pairs))
     pos = world.positions[np.array([o for _, o in pairs], dtype=np.intp)]
     keep = np.ones(len(pairs), dtype=bool)
-    for i, j in sorted(cKDTree(pos).query_pairs(1e-9)):
+    for i, j in sorted(cKDTree(pos).query_pairs(DUPLICATE_DISTANCE)):
         if keep[i]:
             keep[j] = False
     return tuple(sorted(p for p, k in zip(pairs, keep, strict=True) if k))
@@ -866,7 +881,7 @@ def _ml_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
     if ctx.settings.certify and len(pairs) <= 4:  # few matches: the rotation SDP is a global solver
         sdp_pose, _ = solve_pose_sdp(ctx.ego[p_i], centers, ctx.covs[p_i])
         if pose_cost(sdp_pose, ctx.ego[p_i], ctx.covs[p_i], centers) < \
-                pose_cost(pose, ctx.ego[p_i], ctx.covs[p_i], centers) - 1e-12:
+                pose_cost(pose, ctx.ego[p_i], ctx.covs[p_i], centers) - COST_ROUNDING:
             pose = sdp_pose
             ctx.notes.append("the rotation SDP found a better pose than the local fit")
     cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
@@ -987,7 +1002,7 @@ def _radial_score(sol: ro.RadialSolution | None) -> float:
     return 0.0 if sol is None else float(sol.normalized_displacement) ** 2
 
 
-def _range_consistent(sol: ro.RadialSolution | None, alpha: float = 1e-3) -> bool:
+def _range_consistent(sol: ro.RadialSolution | None, alpha: float = SIGNIFICANCE) -> bool:
     """The radial displacement is within the ``1 - alpha`` chi-square gate (n degrees of freedom)."""
     return sol is None or _radial_score(sol) <= float(chi2.ppf(1.0 - alpha, len(sol.radii)))
 
@@ -1069,7 +1084,7 @@ def _in_region(region: ro.Region, pose: NDArray, cov6: NDArray) -> bool:
     slack = 0.0
     if np.all(np.isfinite(block)):
         slack = _worst_3sigma(block)
-    return bool(region.contains(pose[:3, 3], tol=1e-6 + slack))
+    return bool(region.contains(pose[:3, 3], tol=REGION_SLACK + slack))
 
 
 def _finish(ctx: _Context, answer: _Answer, hyps: tuple, choice: _Choice) -> LocalizationResult:

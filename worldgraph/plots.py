@@ -25,6 +25,7 @@ from ._checks import _short, as_list, float_array, positive_float, rigid_transfo
 from .errors import ArgumentTypeError, ImporterError, ShapeError
 from .localize import LocalizationResult
 from .model import WorldModel
+from .tolerances import PSD_RTOL, SAME_POSITION, SYMMETRY_RTOL, TINY
 
 __all__ = [
     "TYPE_COLOURS",
@@ -134,11 +135,11 @@ def covariance_ellipse(center: Any, covariance: Any, *, n_sigma: float = 3.0, **
     c = float_array("center", center, (2,))
     cov = float_array("covariance", covariance, (2, 2))
     n_sigma = positive_float("n_sigma", n_sigma)
-    scale = max(float(np.abs(cov).max()), 1e-300)
-    if abs(cov[0, 1] - cov[1, 0]) > 1e-9 * scale:
+    scale = max(float(np.abs(cov).max()), TINY)
+    if abs(cov[0, 1] - cov[1, 0]) > SYMMETRY_RTOL * scale:
         raise ArgumentTypeError(f"covariance must be symmetric, got {cov.tolist()}")
     eig, vec = np.linalg.eigh(cov)
-    if eig[0] < -1e-9 * scale:
+    if eig[0] < -PSD_RTOL * scale:
         raise ArgumentTypeError(
             f"covariance must be positive semi-definite, got eigenvalues {eig.tolist()}")
     semi = n_sigma * np.sqrt(np.maximum(eig, 0.0))
@@ -349,7 +350,7 @@ def _draw_result(ax: Any, result: LocalizationResult, n_hypotheses: int, n_sigma
         T = getattr(h, "world_from_ego", None)
         if not _finite_pose(T) or np.allclose(T, np.eye(4)):
             continue
-        if any(np.linalg.norm(T[:3, 3] - d) < 1e-3 for d in drawn):
+        if any(np.linalg.norm(T[:3, 3] - d) < SAME_POSITION for d in drawn):
             continue
         others.append(T[:2, 3])
         drawn.append(T[:3, 3])

@@ -14,6 +14,24 @@ from scipy.spatial.transform import Rotation
 
 from ._checks import float_array, positive_float, rigid_transform, strict_int
 from .errors import PoseError, ShapeError
+from .tolerances import COLLINEAR_TOL as COLLINEAR_TOL  # re-exported: worldgraph.pose.COLLINEAR_TOL
+from .tolerances import (
+    COST_DECREASE_RTOL,
+    GRADIENT_RTOL,
+    ISOTROPIC_RTOL,
+    LM_LAMBDA_MIN,
+    LM_LAMBDA_START,
+    LM_SHIFT,
+    PD_RTOL,
+    REFINE_TOL,
+    SAME_ROTATION,
+    SMALL_ANGLE,
+    START_IMPROVEMENT,
+    STEP_RTOL,
+    STEP_TOL,
+    SYMMETRY_RTOL,
+    TINY,
+)
 
 __all__ = [
     "invert_transformation",
@@ -27,11 +45,6 @@ __all__ = [
     "weighted_kabsch_batch",
     "weighted_rotation",
 ]
-
-#: Three points whose triangle area is below this fraction of the squared longest side are
-#: collinear for :func:`percept_frame`.
-COLLINEAR_TOL = 1e-9
-
 
 #: Largest coordinate (m) the pose functions accept: squares and weighted sums stay finite.
 MAX_POSE_COORDINATE = 1e12
@@ -275,7 +288,8 @@ def _covariances(covariances: ArrayLike, k: int, name: str = "covariances", like
     if len(C) != k:
         raise ShapeError(f"{name} must have shape ({k}, 3, 3){f' like {like}' if like else ''}, "
                          f"got shape {C.shape}")
-    asym = np.abs(C - np.swapaxes(C, 1, 2)).max(axis=(1, 2)) > 1e-9 * np.abs(C).max(axis=(1, 2)) + 1e-300
+    asym = (np.abs(C - np.swapaxes(C, 1, 2)).max(axis=(1, 2))
+            > SYMMETRY_RTOL * np.abs(C).max(axis=(1, 2)) + TINY)
     if asym.any():
         i = int(np.argmax(asym))
         raise PoseError(f"{name}[{i}] must be symmetric, got {C[i].tolist()}")
@@ -364,7 +378,7 @@ _UNIT_SKEW = np.array([[[0.0, 0, 0], [0, 0, -1], [0, 1, 0]],
 def _expm(w: NDArray) -> NDArray:
     """Rotation matrix of the rotation vector ``w`` (Rodrigues; no scipy overhead)."""
     theta = math.sqrt(float(w @ w))
-    if theta < 1e-12:
+    if theta < SMALL_ANGLE:
         return np.eye(3) + _skew(w)
     K = _skew(w / theta)
     return np.eye(3) + math.sin(theta) * K + (1.0 - math.cos(theta)) * (K @ K)
@@ -388,8 +402,8 @@ def _reduced_descent(Q: NDArray, R: NDArray, max_iter: int) -> NDArray:
         P = Ql[:9].reshape(3, 3, order="F").T @ M
         H = D.T @ Q @ D + 0.5 * (P + P.T) - np.trace(P) * np.eye(3)
         lo = float(np.linalg.eigvalsh(H)[0])
-        scale = max(float(np.abs(H).max()), 1e-300)
-        mu = 0.0 if lo > 1e-12 * scale else -lo + 1e-6 * scale
+        scale = max(float(np.abs(H).max()), TINY)
+        mu = 0.0 if lo > PD_RTOL * scale else -lo + LM_SHIFT * scale
         improved = False
         for _damp in range(40):
             step = -np.linalg.solve(H + mu * np.eye(3), b)
@@ -401,10 +415,10 @@ def _reduced_descent(Q: NDArray, R: NDArray, max_iter: int) -> NDArray:
             if fn <= f:
                 improved = True
                 break
-            mu = max(10.0 * mu, 1e-6 * scale)
+            mu = max(10.0 * mu, LM_SHIFT * scale)
         if not improved:
             break
-        done = f - fn <= 1e-14 * max(f, 1e-300) or float(np.linalg.norm(step)) < 1e-10
+        done = f - fn <= COST_DECREASE_RTOL * max(f, TINY) or float(np.linalg.norm(step)) < STEP_TOL
         R, f = Rn, fn
         if done:
             break
@@ -412,7 +426,7 @@ def _reduced_descent(Q: NDArray, R: NDArray, max_iter: int) -> NDArray:
 
 
 def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
-                world_from_ego: ArrayLike, max_iter: int = 200, tol: float = 1e-12
+                world_from_ego: ArrayLike, max_iter: int = 200, tol: float = REFINE_TOL
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Maximum-likelihood pose from 3D correspondences with per-point covariances.
 
@@ -496,13 +510,13 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
 
     scale = np.trace(C, axis1=1, axis2=2) / 3.0
     Rk, tk = weighted_kabsch(x, y, 1.0 / scale)
-    if np.allclose(C, scale[:, None, None] * np.eye(3), rtol=1e-9, atol=0.0):
+    if np.allclose(C, scale[:, None, None] * np.eye(3), rtol=ISOTROPIC_RTOL, atol=0.0):
         R, t = (Rk, tk) if cost(Rk, tk) <= cost(T0[:3, :3], T0[:3, 3]) else (T0[:3, :3], T0[:3, 3])
         out = transformation(R, t)
         return out, pose_information(out, x, C)
     Q, WinvG, cx, cy = _reduced_matrix(x, y, Cinv)
     best_R, best_f = T0[:3, :3], np.inf
-    starts = [T0[:3, :3]] if np.abs(T0[:3, :3] - Rk).max() < 1e-9 else [T0[:3, :3], Rk]
+    starts = [T0[:3, :3]] if np.abs(T0[:3, :3] - Rk).max() < SAME_ROTATION else [T0[:3, :3], Rk]
     for R in starts:  # the local minima of the given and the Kabsch start ...
         R = _reduced_descent(Q, R, 50)
         f = float(_lift(R) @ Q @ _lift(R))
@@ -511,7 +525,7 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
     # ... then every basin that a grid rotation shows to hold a lower reduced cost
     grid = _rotation_grid()
     vals = np.sum((grid[:, :10] @ Q) * grid[:, :10], axis=1)
-    lower = np.flatnonzero(vals < best_f - 1e-9 * max(best_f, 1.0))
+    lower = np.flatnonzero(vals < best_f - START_IMPROVEMENT * max(best_f, 1.0))
     tried: list[NDArray] = []
     for i in lower[np.argsort(vals[lower])][:64]:
         Rg = grid[i, 10:].reshape(3, 3)
@@ -530,7 +544,7 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
     start_cost = cost(T0[:3, :3], T0[:3, 3])
     if start_cost < current:
         R, t, current = T0[:3, :3], T0[:3, 3], start_cost
-    lam = 1e-9
+    lam = LM_LAMBDA_START
     converged = False
     for _ in range(max_iter):
         # R <- exp(dtheta) R, t <- t + dt:  dr = -R^T skew(X - t) dtheta + R^T dt
@@ -539,8 +553,9 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
         r = x - (y - t) @ R
         J = np.einsum("kai,kab,kbj->ij", H, Cinv, H)
         g = np.einsum("kai,kab,kb->i", H, Cinv, r)
-        dscale = np.sqrt(np.maximum(np.diag(J), 1e-300))
-        if float(np.linalg.norm(g / dscale)) <= 1e-9 * math.sqrt(max(current, 1e-300)) or current == 0.0:
+        dscale = np.sqrt(np.maximum(np.diag(J), TINY))
+        if (float(np.linalg.norm(g / dscale)) <= GRADIENT_RTOL * math.sqrt(max(current, TINY))
+                or current == 0.0):
             converged = True
             break
         accepted = False
@@ -561,11 +576,11 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
         if not accepted:  # no descent direction left at machine precision: a minimum
             converged = True
             break
-        small = float(np.linalg.norm(step * dscale)) <= 1e-10 * math.sqrt(max(current, 1.0))
+        small = float(np.linalg.norm(step * dscale)) <= STEP_RTOL * math.sqrt(max(current, 1.0))
         R, t = Rn, tn
         done = current - new <= tol * max(1.0, current) or small
         current = new
-        lam = max(lam / 10.0, 1e-12)
+        lam = max(lam / 10.0, LM_LAMBDA_MIN)
         if done:
             converged = True
             break

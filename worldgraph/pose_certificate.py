@@ -67,15 +67,15 @@ from radialopt.certificates import Certificate
 from ._checks import positive_float, rigid_transform
 from .errors import ArgumentTypeError, PoseError, TooFewPerceptsError, WorldGraphError
 from .pose import MAX_POSE_COORDINATE, _covariances, _points, refine_pose, transformation
+from .tolerances import (
+    CERTIFICATE_COST_ROUNDING,
+    CERTIFICATE_GAP,
+    CERTIFICATE_ROUNDING,
+    HOMOGENEOUS_ZERO,
+)
+from .tolerances import CLARABEL_OPTIONS as CLARABEL_OPTIONS  # re-exported
 
 __all__ = ["certify_pose", "pose_cost", "reduced_cost_matrix", "solve_pose_sdp"]
-
-#: Clarabel options: tight tolerances (the bound does not rely on them, its tightness does).
-CLARABEL_OPTIONS = {"tol_gap_abs": 1e-10, "tol_gap_rel": 1e-10, "tol_feas": 1e-10,
-                    "tol_ktratio": 1e-8, "max_iter": 200}
-
-_ROUND = 4e-13  # relative rounding margin on the bound
-_RANK_ONE = 1e-3  # second / first eigenvalue of Z below this: rank one
 
 
 def _m(row: int, col: int) -> int:
@@ -211,7 +211,8 @@ def _bound(Q: NDArray, lam: NDArray, scale: NDArray, f_ref: float) -> float:
     L = np.einsum("j,jab->ab", lam, _A)
     S = Q - L
     lmin = float(np.linalg.eigvalsh((S + S.T) / 2.0)[0])
-    margin = _ROUND * (scale + float(np.linalg.norm(L))) + 1e-14 * abs(f_ref)
+    margin = (CERTIFICATE_ROUNDING * (scale + float(np.linalg.norm(L)))
+              + CERTIFICATE_COST_ROUNDING * abs(f_ref))
     return float(_B @ lam + 4.0 * min(0.0, lmin) - margin)
 
 
@@ -266,8 +267,8 @@ def _certify(x, y, C, T, solver, abs_gap, rel_gap, t0) -> Certificate:
 
 
 def certify_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
-                 world_from_ego: ArrayLike, *, solver: str = "CLARABEL", abs_gap: float = 1e-6,
-                 rel_gap: float = 1e-6) -> Certificate:
+                 world_from_ego: ArrayLike, *, solver: str = "CLARABEL", abs_gap: float = CERTIFICATE_GAP,
+                 rel_gap: float = CERTIFICATE_GAP) -> Certificate:
     """Prove (or fail to prove) that ``world_from_ego`` is a global minimiser of the ML pose cost.
 
     Parameters
@@ -335,7 +336,7 @@ def _solve_global(x: NDArray, y: NDArray, C: NDArray, solver: str) -> tuple[NDAr
         raise PoseError(f"the SDP relaxation failed with solver={solver!r}: {status}")
     starts = []
     _, v = np.linalg.eigh((Z + Z.T) / 2.0)
-    for vec in (Z[:, 9], v[:, -1] / v[9, -1] if abs(v[9, -1]) > 1e-9 else Z[:, 9]):
+    for vec in (Z[:, 9], v[:, -1] / v[9, -1] if abs(v[9, -1]) > HOMOGENEOUS_ZERO else Z[:, 9]):
         u_, _, vt = np.linalg.svd(vec[:9].reshape(3, 3, order="F"))
         d = 1.0 if np.linalg.det(u_ @ vt) > 0 else -1.0
         starts.append(u_ @ np.diag([1.0, 1.0, d]) @ vt)  # M = R^T on SO(3)

@@ -15,7 +15,7 @@ indices and ranks the tiles' best poses together by the rule of :func:`localize`
   inliers; a percept whose type the tile lacks counts the cap, as it would against a far-away
   object of the whole world);
 * the cheapest answer wins; another tile's answer whose cost is within
-  ``tolerances.ambiguity_margin`` at a distinct pose (outside the winner's 3-sigma ellipsoid,
+  ``tol.ambiguity_margin`` at a distinct pose (outside the winner's 3-sigma ellipsoid,
   6D NEES > ``CHI2_6_GATE``) makes the result ``"ambiguous"`` (its pose joins
   ``alternatives``);
 * tiles without a pose drop out; when no tile has one, the most informative failure is
@@ -51,7 +51,7 @@ from .errors import ArgumentTypeError, EmptyWorldError, ShapeError, UnknownTypeE
 from .hypotheses import AssociationHypothesis
 from .localize import LOCALIZE_METHODS, POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult, localize
 from .model import WorldModel
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
+from .tolerances import ASSOCIATION_TOLERANCES, HALO_SLACK, AssociationTolerances, _tol_argument
 from .validation import CHI2_3_GATE, CHI2_6_GATE, NearestObjects, fit_hypothesis, percept_covariances
 
 __all__ = ["FAILURE_ORDER", "MAX_TILES", "Tile", "localize_tiled", "split"]
@@ -99,7 +99,7 @@ def _halo_members(positions: NDArray[np.float64], own: NDArray[np.intp], others:
     near = others[np.all((p >= lo) & (p <= hi), axis=1)]
     if not near.size:
         return near
-    dist, _ = cKDTree(p_own).query(positions[near], k=1, distance_upper_bound=halo * (1 + 1e-12))
+    dist, _ = cKDTree(p_own).query(positions[near], k=1, distance_upper_bound=halo * (1 + HALO_SLACK))
     return near[dist <= halo]
 
 
@@ -178,10 +178,10 @@ def _fit_cost(world: WorldModel, percepts: list[Percept], result: LocalizationRe
 
 
 def _run_tile(world: WorldModel, percepts: list[Percept], world_types: frozenset[str], method: str,
-              tolerances: AssociationTolerances, region: Any, rng: np.random.Generator | None
+              tol: AssociationTolerances, region: Any, rng: np.random.Generator | None
               ) -> _TileAnswer:
     try:
-        result = localize(world, percepts, method, tolerances=tolerances, region=region, rng=rng)
+        result = localize(world, percepts, method, tol=tol, region=region, rng=rng)
     except UnknownTypeError as exc:  # the tile has none of the percepts' types
         return _TileAnswer(None, exc)
     if result.status not in _WITH_POSE:
@@ -299,8 +299,8 @@ def _client(scheduler: object) -> tuple[Any, bool]:
 
 def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: str = "ml", *,
                    scheduler: Any = None, workers: int | None = None,
-                   tolerances: AssociationTolerances | None = None, rng: np.random.Generator | None = None,
-                   region: Any = None) -> LocalizationResult:
+                   tol: AssociationTolerances | None = None, rng: np.random.Generator | None = None,
+                   region: Any = None, tolerances: AssociationTolerances | None = None) -> LocalizationResult:
     """:func:`~worldgraph.localize.localize` on every tile in parallel, the answers ranked together.
 
     Parameters
@@ -321,11 +321,15 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         answers); elsewhere every tile is pickled to its worker on each call.  Forking a
         process that runs threads (an in-process Dask cluster, a GUI) can deadlock: use
         ``workers=1`` or ``scheduler`` there.
-    tolerances : AssociationTolerances, optional
+    tol : AssociationTolerances, optional
+        Default :data:`~worldgraph.tolerances.ASSOCIATION_TOLERANCES`.
     rng : numpy.random.Generator, optional
         Split into one child generator per tile (:meth:`numpy.random.Generator.spawn`).
     region : radialopt.Region or (lower, upper), optional
         Passed to every tile's :func:`localize` (default: each tile's default region).
+    tolerances : AssociationTolerances, optional
+        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
+        :class:`~worldgraph.errors.ArgumentTypeError`).
 
     Returns
     -------
@@ -333,7 +337,7 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         The best tile's answer with object indices of the whole world: ``correspondences`` and
         ``hypotheses`` mapped back, the other tiles' hypotheses after the winner's, status
         ``"ambiguous"`` (the runner-up poses in ``alternatives``) when another tile's answer is
-        within ``tolerances.ambiguity_margin``; ``timings["tiles_total"]`` is the wall time of
+        within ``tol.ambiguity_margin``; ``timings["tiles_total"]`` is the wall time of
         the whole call.  When no tile finds a pose, the most informative failure
         (:data:`FAILURE_ORDER`).
 
@@ -352,9 +356,10 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     for k, p in enumerate(percepts):
         if not isinstance(p, Percept):
             raise ArgumentTypeError(f"percepts[{k}] must be a perception.Percept, got {_checks._short(p)}")
-    tol = ASSOCIATION_TOLERANCES if tolerances is None else tolerances
+    tol = _tol_argument("localize_tiled", tol, tolerances)
+    tol = ASSOCIATION_TOLERANCES if tol is None else tol
     if not isinstance(tol, AssociationTolerances):
-        raise ArgumentTypeError(f"tolerances must be AssociationTolerances, got {_checks._short(tol)}")
+        raise ArgumentTypeError(f"tol must be AssociationTolerances, got {_checks._short(tol)}")
     if workers is not None:
         workers = _checks.strict_int("workers", workers, minimum=1, maximum=1024)
     rngs: list[np.random.Generator | None] = [None] * len(tiles)

@@ -1,9 +1,18 @@
-"""Tolerances of the association (docs/design.md#association): :class:`AssociationTolerances`."""
+"""Every numerical tolerance of :mod:`worldgraph`, in one module (docs/design.md#tolerances).
+
+:class:`AssociationTolerances` (docs/design.md#association) holds the user-tunable gates and
+budgets of the association; public functions take it as ``tol=`` (default
+:data:`ASSOCIATION_TOLERANCES`).  The module constants below are fixed internal thresholds
+(rounding margins, rank, symmetry and convergence tests, solver settings); each says what it
+guards.  They are named here so that they are found, not so that they are tuned.
+"""
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -16,6 +25,96 @@ from .errors import (
     ShapeError,
 )
 from .model import WorldModel
+
+# --- fixed internal thresholds ---------------------------------------------------------------
+# Relative ones multiply the scale named in their comment; none of them is a physical size.
+
+#: Floor of a denominator, norm or scale that may be exactly zero (keeps a quotient finite).
+TINY = 1e-300
+#: Largest allowed ``|R^T R - I|`` entry and ``|det R - 1|`` of a rigid transform's rotation.
+RIGID_TOLERANCE = 1e-6
+#: Three points whose triangle area is below this fraction of the squared longest side are
+#: collinear (:func:`~worldgraph.pose.percept_frame`, the orientation filter's triples).
+COLLINEAR_TOL = 1e-9
+#: Pose hypotheses: three matched points whose second singular value is below this times the
+#: first are (nearly) collinear and fix no rotation.
+PLANAR_RTOL = 1e-6
+#: A matrix that should be symmetric (a covariance, a pose weight) is rejected when
+#: ``|C - C^T|`` exceeds this times its largest entry.
+SYMMETRY_RTOL = 1e-9
+#: The same test for an information matrix or covariance built by validation (looser: sums).
+INFORMATION_SYMMETRY_RTOL = 1e-8
+#: A covariance whose smallest eigenvalue is below ``-PSD_RTOL`` times its scale is not PSD.
+PSD_RTOL = 1e-9
+#: A symmetric matrix whose smallest/largest eigenvalue is at most this is singular.
+RANK_RTOL = 1e-12
+#: A unit vector whose norm before normalising is below this has no direction.
+NORM_FLOOR = 1e-12
+#: Rotations by less than this (rad) are the identity (small-angle branch).
+SMALL_ANGLE = 1e-12
+#: Rounding of a float64 cost relative to its size: a decrease below this is none.
+COST_ROUNDING = 1e-12
+#: Objects closer than this (m) are at the same place (duplicate positions).
+DUPLICATE_DISTANCE = 1e-9
+#: Slack (m) of the region test, added to the pose's own 3-sigma slack.
+REGION_SLACK = 1e-6
+#: Chi-square self-checks: false-alarm probability (significance level) of the gates.
+SIGNIFICANCE = 1e-3
+#: Tiles: relative slack of the k-d tree's distance bound (the exact test follows).
+HALO_SLACK = 1e-12
+#: Plots: poses closer than this (m) are drawn once.
+SAME_POSITION = 1e-3
+#: Importers: a length that equals a reference value to this (m) matches it.
+SIZE_MATCH = 1e-9
+#: Importers: a plane whose z-axis has a z component above ``1 - UPRIGHT_TOL`` is horizontal.
+UPRIGHT_TOL = 1e-9
+#: View planning: joint angles stay this far (rad) inside finite joint limits.
+JOINT_LIMIT_MARGIN = 1e-9
+#: View planning: ``xtol``, ``ftol`` and ``gtol`` of the aiming least squares.
+AIM_LSQ_TOL = 1e-10
+#: View planning: weight of the joint-angle regulariser in the aiming residual.
+AIM_REGULARISATION = 1e-3
+#: View planning: rounding allowed in the cosine test of "inside the field of view".
+COSINE_ROUNDING = 1e-12
+#: Validation: floor of the rise (times the target) in the secant on the curvature factor.
+RISE_FLOOR = 1e-3
+#: Pose refinement (LM): a Hessian is positive definite when its smallest eigenvalue exceeds
+#: this times its scale; otherwise it is shifted by :data:`LM_SHIFT` times the scale.
+PD_RTOL = 1e-12
+#: Pose refinement (LM): the smallest diagonal shift, times the Hessian's scale.
+LM_SHIFT = 1e-6
+#: Pose refinement: converged when the cost falls by less than this relative amount.
+COST_DECREASE_RTOL = 1e-14
+#: Pose refinement: converged when the step is shorter than this (rad or m).
+STEP_TOL = 1e-10
+#: Default ``tol`` of :func:`~worldgraph.pose.refine_pose` (relative cost decrease).
+REFINE_TOL = 1e-12
+#: Pose: covariances equal to a multiple of the identity to this relative accuracy are isotropic.
+ISOTROPIC_RTOL = 1e-9
+#: Pose: rotations whose entries agree to this are the same start.
+SAME_ROTATION = 1e-9
+#: Pose: a start is better only when its cost is lower by this times ``max(cost, 1)``.
+START_IMPROVEMENT = 1e-9
+#: Pose (LM on the covariance-weighted cost): starting damping.
+LM_LAMBDA_START = 1e-9
+#: Pose (LM on the covariance-weighted cost): smallest damping.
+LM_LAMBDA_MIN = 1e-12
+#: Pose (LM): converged when the scaled gradient is below this times sqrt(cost).
+GRADIENT_RTOL = 1e-9
+#: Pose (LM): converged when the scaled step is below this times sqrt(max(cost, 1)).
+STEP_RTOL = 1e-10
+#: Pose certificate: relative rounding margin on the bound.
+CERTIFICATE_ROUNDING = 4e-13
+#: Pose certificate: rounding of the reference cost, relative to it.
+CERTIFICATE_COST_ROUNDING = 1e-14
+#: Pose certificate: a homogeneous coordinate below this cannot be divided by.
+HOMOGENEOUS_ZERO = 1e-9
+#: Default relative and absolute optimality gaps of the pose certificate.
+CERTIFICATE_GAP = 1e-6
+#: Clarabel options of the pose SDP: tight tolerances (the bound does not rely on them, its
+#: tightness does).
+CLARABEL_OPTIONS = {"tol_gap_abs": 1e-10, "tol_gap_rel": 1e-10, "tol_feas": 1e-10,
+                    "tol_ktratio": 1e-8, "max_iter": 200}
 
 
 @dataclass(frozen=True)
@@ -170,3 +269,24 @@ def _check_tolerances(tolerances: object, name: str = "tolerances", world: World
     return tolerances
 
 
+def _tol_argument(function: str, tol: AssociationTolerances | None, tolerances: object,
+                  stacklevel: int = 3) -> AssociationTolerances | None:
+    """The ``tol`` argument of a public function, given as ``tol=`` or as the deprecated
+    keyword ``tolerances=`` (a :class:`DeprecationWarning` naming ``tol``); both at once raise
+    :class:`~worldgraph.errors.ArgumentTypeError`.  ``None`` when neither was given."""
+    if tolerances is None:
+        return tol
+    if tol is not None:
+        raise ArgumentTypeError(f"{function}() got both tol and tolerances (the deprecated name of tol): "
+                                "pass tol only")
+    warnings.warn(f"{function}(tolerances=...) is deprecated: pass tol=... instead", DeprecationWarning,
+                  stacklevel=stacklevel)
+    return cast(AssociationTolerances, tolerances)
+
+
+def _resolved_tol(function: str, tol: AssociationTolerances | None, tolerances: object,
+                  world: WorldModel | None = None) -> AssociationTolerances:
+    """:func:`_tol_argument`, ``None`` as :data:`ASSOCIATION_TOLERANCES`, then checked (and
+    ``gravity_aligned`` resolved against ``world``) by :func:`_check_tolerances`."""
+    tol = _tol_argument(function, tol, tolerances, stacklevel=4)
+    return _check_tolerances(ASSOCIATION_TOLERANCES if tol is None else tol, "tol", world=world)

@@ -48,6 +48,7 @@ from ._checks import as_list, float_array, positive_float, rigid_transform, stri
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
 from .model import WorldModel
 from .pose import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, pose_information, refine_pose
+from .tolerances import INFORMATION_SYMMETRY_RTOL, PSD_RTOL, RANK_RTOL, RISE_FLOOR, SIGNIFICANCE, TINY
 
 __all__ = [
     "CHI2_3_GATE",
@@ -112,11 +113,11 @@ def _covariance_or_unknown(name: str, value: object, n: int) -> NDArray[np.float
     mean "unknown" and are passed through)."""
     arr = _matrix_or_unknown(name, value, n)
     if np.all(np.isfinite(arr)):
-        scale = max(float(np.abs(arr).max()), 1e-300)
-        if np.abs(arr - arr.T).max() > 1e-8 * scale:
+        scale = max(float(np.abs(arr).max()), TINY)
+        if np.abs(arr - arr.T).max() > INFORMATION_SYMMETRY_RTOL * scale:
             raise PoseError(f"{name} must be symmetric, got {arr.tolist()}")
         low = float(np.linalg.eigvalsh(0.5 * (arr + arr.T))[0])
-        if low < -1e-9 * scale:
+        if low < -PSD_RTOL * scale:
             raise PoseError(f"{name} must be positive semi-definite (smallest eigenvalue {low:.3g})")
     return arr
 
@@ -144,10 +145,10 @@ def ros_pose_covariance(information: NDArray[np.float64]) -> NDArray[np.float64]
         The information is singular (the landmarks do not fix a 6D pose).
     """
     J = float_array("information", information, (6, 6))
-    if np.abs(J - J.T).max() > 1e-8 * max(np.abs(J).max(), 1e-300):
+    if np.abs(J - J.T).max() > INFORMATION_SYMMETRY_RTOL * max(np.abs(J).max(), TINY):
         raise PoseError(f"information must be symmetric, got {J.tolist()}")
     w, V = np.linalg.eigh(0.5 * (J + J.T))
-    if not np.all(np.isfinite(w)) or w[0] <= 1e-12 * max(w[-1], 1e-300):
+    if not np.all(np.isfinite(w)) or w[0] <= RANK_RTOL * max(w[-1], TINY):
         raise PoseError("the pose information is singular: the matched landmarks do not fix a 6D pose")
     cov = (V / w) @ V.T
     cov = 0.5 * (cov + cov.T)
@@ -389,7 +390,7 @@ def _laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world
             continue
         f = s
         for _ in range(rounds):  # secant in f^2 (rise ~ c f^2 locally)
-            f = f * math.sqrt(target / max(rise, 1e-3 * target))
+            f = f * math.sqrt(target / max(rise, RISE_FLOOR * target))
             f = min(f, 100.0 * s)
             rise = _pose_cost(moved(sign * f * line), ego, covs, world_points) - base
             if abs(rise - target) < 0.1 * target:
@@ -462,7 +463,7 @@ def _curved(world_from_ego: NDArray, ego: NDArray, covs: NDArray, cov: NDArray) 
     # a curved error is not elliptical: where the curvature matters, widen the ellipsoid until its
     # 3-sigma gate holds the 3-sigma share of the propagated distribution (a fixed normal sample)
     try:
-        L = np.linalg.cholesky(cov + 1e-300 * np.eye(6))
+        L = np.linalg.cholesky(cov + TINY * np.eye(6))
     except np.linalg.LinAlgError as exc:
         raise PoseError("pose_covariance must be positive definite for the curved covariance") from exc
     ratio = np.linalg.eigvalsh(np.linalg.solve(L, np.linalg.solve(L, second).T))  # of L^-1 S L^-T
@@ -647,7 +648,8 @@ def rotation_only_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArra
 
 
 def self_check(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
-               pose_covariance: NDArray, alpha: float = 1e-3) -> tuple[bool, NDArray[np.float64], str]:
+               pose_covariance: NDArray, alpha: float = SIGNIFICANCE
+               ) -> tuple[bool, NDArray[np.float64], str]:
     """Chi-square test of matched percepts placed by their own pose.
 
     Fails when the sum of the squared Mahalanobis distances (residual covariance ``R C R^T + H

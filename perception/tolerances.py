@@ -1,0 +1,41 @@
+"""Every numerical tolerance of :mod:`perception`, in one module (docs/design.md#tolerances).
+
+Fixed thresholds of the checks and iterations (symmetry and definiteness of covariances,
+rigidity of transforms, convergence, rounding), each with what it guards; functions that let a
+caller tune one take it as ``tol=`` with the constant as default.  They are named here so that
+they are found, not so that they are tuned.  Ranges of accepted input (sigmas in
+``[1e-150, 1e150]``, :data:`~perception.fusion.SIGMA_RANGE`) are limits of the domain, not
+tolerances, and stay with their checks.
+"""
+
+from __future__ import annotations
+
+#: Floor of a denominator, norm or scale that may be exactly zero (keeps a quotient finite).
+TINY = 1e-300
+#: Relative floor of the smallest eigenvalue of a covariance (numerical positive definiteness).
+SPD_RTOL = 1e-14
+#: Relative tolerance of the symmetry check of a covariance, ``|C - C^T| <= SYM_RTOL max|C|``.
+SYM_RTOL = 1e-8
+#: A covariance (scaled to max entry 1) whose smallest eigenvalue is below ``-PSD_ATOL`` is not
+#: positive semidefinite.
+PSD_ATOL = 1e-12
+#: A covariance minus the shared loadings may dip this far (times its largest eigenvalue) below
+#: zero by rounding.
+SHARED_RTOL = 1e-9
+#: Largest ``|R^T R - I|`` entry (and ``|det R - 1|``) of a rotation or rigid transform.
+RIGID_TOLERANCE = 1e-6
+#: Default ``tol`` of the mean shift: a point has converged when it moves less (bandwidth units).
+MEAN_SHIFT_TOL = 1e-6
+#: Mean shift: the k-d tree is queried this much (relative) beyond the kernel support; the exact
+#: test follows.
+QUERY_SLACK = 1e-9
+#: Blob features: floor of the smaller eigenvalue of a blob's second moments (pixels^2).
+EIGENVALUE_FLOOR = 1e-12
+#: Triangulation: a 2x2 normal-equation determinant at most this is singular (parallel rays).
+PARALLEL_RAYS = 1e-15
+#: Renderer: a vertex within this of a face's plane is on it (depth ordering).
+PLANE_EPS = 1e-9
+#: Iterative undistortion stops at a step below this (normalised image units).
+UNDISTORT_EPS = 1e-15
+#: Largest deviation of a unit URDF axis from a frame axis that still counts as that axis.
+AXIS_TOL = 1e-9
