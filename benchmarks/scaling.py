@@ -259,14 +259,14 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
         associate(world, percepts, tol)
         t_assoc.append(time.perf_counter() - t)
         t = time.perf_counter()
-        res = localize(world, percepts, tolerances=tol)
+        res = localize(world, percepts, tol=tol)
         t_loc.append(time.perf_counter() - t)
         v = assoc_bench._judge(res, pose)
         verdicts["good"] += v == "good"
         kinds["plain"][v] = kinds["plain"].get(v, 0) + 1
         if tiles is not None:
             t = time.perf_counter()
-            tr = localize_tiled(tiles, percepts, tolerances=tol, workers=args.workers)
+            tr = localize_tiled(tiles, percepts, tol=tol, workers=args.workers)
             t_tiled.append(time.perf_counter() - t)
             v = assoc_bench._judge(tr, pose)
             verdicts["tiled_good"] += v == "good"
