@@ -99,3 +99,19 @@ def test_percept_hint_thresholds(span: float, ranges: list[float], expected: str
 
 def test_no_percepts_no_hint() -> None:
     assert percept_units_hint(_line_world(4.0), []) is None
+
+
+def test_builders_and_associate_warn_about_millimetres(kitchen_scan) -> None:
+    world, percepts = kitchen_scan
+    with pytest.warns(UnitsWarning, match="world positions look like millimetres"):
+        wg.WorldModel.from_arrays(list(world.types), world.positions * 1000.0)
+    # associate: no hypothesis and millimetre percepts -> a warning with the hint
+    with pytest.warns(UnitsWarning, match="no hypothesis; percept positions look like millimetres"):
+        hyps = wg.associate(world, _scaled(percepts, 1000.0))
+    assert hyps == []
+    # metres: hypotheses and no warning; localize keeps the hint in its message, not a warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert wg.associate(world, percepts)
+        res = wg.localize(world, _scaled(percepts, 1000.0))
+    assert "look like millimetres" in res.message

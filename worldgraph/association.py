@@ -37,6 +37,7 @@ ranking) and :mod:`worldgraph.filters` (the paper's filters, eqs. 1-3, and the d
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import replace
 
@@ -62,6 +63,7 @@ from .filters import (
 from .hypotheses import AssociationHypothesis, _fit_all, _rank, is_ambiguous, same_pose
 from .model import WorldModel
 from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _resolved_tol
+from .units import UnitsWarning, percept_units_hint
 
 __all__ = [
     "ASSOCIATION_METHODS",
@@ -134,7 +136,9 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     list of AssociationHypothesis
         By increasing robust cost; poses within ``distinct_translation``/``distinct_angle`` of
         a better hypothesis are merged into it.  Empty when no clique of ``min_clique_size``
-        (or, for "paper", no complete assignment) exists.
+        (or, for "paper", no complete assignment) exists; then a
+        :class:`~worldgraph.units.UnitsWarning` says so when the percepts or the world look like
+        millimetres (:func:`~worldgraph.units.percept_units_hint`, :attr:`WorldModel.units_hint`).
 
     Raises
     ------
@@ -147,6 +151,18 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
         raise WorldGraphError(f"method must be one of {ASSOCIATION_METHODS}, got {method!r}")
     percepts = _check_inputs(world, percepts)
     tol = _resolved_tol("associate", tol, tolerances, world=world)
+    hyps = _associate(world, percepts, tol, method, max_hypotheses)
+    if not hyps:
+        hint = percept_units_hint(world, percepts) or world.units_hint
+        if hint is not None:
+            warnings.warn(f"associate found no hypothesis; {hint}", UnitsWarning, stacklevel=2)
+    return hyps
+
+
+def _associate(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances, method: str,
+               max_hypotheses: int | None) -> list[AssociationHypothesis]:
+    """:func:`associate` on checked inputs, without the units warning (``localize`` puts the
+    hint in its message instead)."""
     k = len(percepts)
     if k < tol.min_clique_size:
         raise TooFewPerceptsError(f"association needs at least {tol.min_clique_size} percepts, got {k}")

@@ -22,8 +22,8 @@ from .errors import (
     OutOfRangeError,
     UnknownTypeError,
 )
-from .model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE, FAR_PAIR_SLACK, FarPairIndex, WorldModel
-from .tolerances import AssociationTolerances
+from .model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE, FarPairIndex, WorldModel
+from .tolerances import FAR_PAIR_SLACK, QUERY_FLOOR, QUERY_WIDEN, AssociationTolerances
 
 # ----------------------------------------------------------------------------------------------
 # input checks and the consistency graph
@@ -295,9 +295,9 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         s = GRAVITY_Z_SCALE
         h = math.hypot(diff[0], diff[1])
         raised = cKDTree((world.positions[sub] + [0.0, 0.0, diff[2]]) * [1.0, 1.0, s])
-        r_hi = math.hypot(h + tau, s * ztol) * (1.0 + 1e-9) + 1e-12
+        r_hi = math.hypot(h + tau, s * ztol) * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
         pairs = raised.sparse_distance_matrix(world.type_tree(tq, s), r_hi, output_type="ndarray")
-        shell = pairs["v"] >= (h - tau) * (1.0 - 1e-9)
+        shell = pairs["v"] >= (h - tau) * (1.0 - QUERY_WIDEN)
         i, j = sub[pairs["i"][shell]], oq[pairs["j"][shell]]
         keep = i != j
         i, j = i[keep], j[keep]
@@ -305,7 +305,7 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         # beyond the link table: the two types' k-d trees give every pair within d + reach
         # (dual tree, in C); the shell |d_model - d| < reach, with the distances computed as in
         # the other branches, keeps the candidates
-        wide = reach * (1.0 + 1e-9) + 1e-12
+        wide = reach * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
         tree_p = world.type_tree(tp) if rows is None else cKDTree(world.positions[sub])
         pairs = tree_p.sparse_distance_matrix(world.type_tree(tq), d + wide, output_type="ndarray")
         shell = pairs["v"] > d - wide

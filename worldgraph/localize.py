@@ -55,7 +55,7 @@ import radialopt as ro
 from perception import Percept
 
 from ._checks import float_array, generator, positive_float, strict_int
-from .association import associate
+from .association import _associate
 from .consistency import MAX_COORDINATE, check_world_and_percepts
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, UnknownTypeError, WorldGraphError
 from .hypotheses import AssociationHypothesis, is_ambiguous
@@ -70,6 +70,7 @@ from .tolerances import (
     RIGID_TOLERANCE,
     SIGNIFICANCE,
     AssociationTolerances,
+    _check_tolerances,
     _tol_argument,
 )
 from .units import percept_units_hint
@@ -714,8 +715,8 @@ def _associate_step(call: _Call) -> list[AssociationHypothesis]:
     t0 = time.perf_counter()
     tol = call.settings.tol
     how = "paper" if call.settings.method == "paper" else "clique"
-    hyps = associate(call.world, call.used, tol, method=how,
-                     max_hypotheses=max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES))
+    hyps = _associate(call.world, call.used, _check_tolerances(tol, "tol", world=call.world), how,
+                      max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES))
     call.timings["association"] = time.perf_counter() - t0
     return hyps
 

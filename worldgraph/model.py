@@ -77,6 +77,7 @@ from .errors import (
     UnknownTypeError,
     WorldGraphError,
 )
+from .tolerances import COINCIDENT_TOLERANCE, FAR_PAIR_SLACK, QUERY_WIDEN  # noqa: F401 - re-exported
 
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
@@ -102,7 +103,6 @@ __all__ = [
 FILE_FORMAT = "worldgraph.WorldModel"
 FILE_VERSION = 1
 #: Two objects of one type closer than this (metres) are coincident.
-COINCIDENT_TOLERANCE = 1e-9
 #: Bounding-box extents (metres) given to objects built from bare positions.
 DEFAULT_SIZE = 0.05
 #: Largest allowed ``|coordinate|`` (metres) of an object position, a box size, a class-geometry
@@ -332,8 +332,6 @@ class FarPairIndex:
         return slice(a, max(a, b))
 
 
-#: Window slack of :meth:`FarPairIndex.window` (m), well above float32 rounding at 16 m (1e-6 m).
-FAR_PAIR_SLACK = 1e-4
 
 
 def _build_far_pairs(world: WorldModel, a: str, b: str, gravity: bool,
@@ -342,7 +340,7 @@ def _build_far_pairs(world: WorldModel, a: str, b: str, gravity: bool,
     # gravity: z scaled so that the ball of radius R sqrt(2) holds every pair with horizontal
     # distance <= R and |dz| <= H; then the exact box is kept
     scale = FAR_PAIR_RANGE / FAR_PAIR_HEIGHT if gravity else 1.0
-    radius = FAR_PAIR_RANGE * (math.sqrt(2.0) if gravity else 1.0) * (1.0 + 1e-9)
+    radius = FAR_PAIR_RANGE * (math.sqrt(2.0) if gravity else 1.0) * (1.0 + QUERY_WIDEN)
     ta, tb = world.type_tree(a, scale), world.type_tree(b, scale)
     ia, ib = world.indices_of(a), world.indices_of(b)
     # estimate the count from a strided sample of a's objects before building
@@ -966,7 +964,7 @@ class WorldModel:
                     f"{counts.mean() - 1:,.0f} within reach of each), more than {MAX_LINKS:,}: lower "
                     "max_link_length or thin the world")
         # query slightly wide, then filter with the exact strict test below
-        pairs = tree.query_pairs(radius * (1.0 + 1e-9), output_type="ndarray")
+        pairs = tree.query_pairs(radius * (1.0 + QUERY_WIDEN), output_type="ndarray")
         if pairs.size == 0:
             pairs = np.zeros((0, 2), np.intp)
         pi, pj = pairs[:, 0].astype(np.intp), pairs[:, 1].astype(np.intp)
@@ -1056,8 +1054,9 @@ class WorldModel:
                                              else np.median(sz[rows], axis=0))
         table = ObjectTable._trusted(tuple(str(t) for t in names), codes, np.array(pos, dtype=np.float64),
                                      np.array(sz, dtype=np.float64), id_list)
-        return cls(table, max_link_length=max_link_length, class_vertices=class_vertices,
-                   link_margin=link_margin, room=room, gravity_aligned=gravity_aligned)
+        world = cls(table, max_link_length=max_link_length, class_vertices=class_vertices,
+                    link_margin=link_margin, room=room, gravity_aligned=gravity_aligned)
+        return world._warn_units()
 
     @classmethod
     def from_trimesh(cls, scene: trimesh.Scene, type_of: Callable[[str, Any], str | None] | None = None,
@@ -1139,8 +1138,9 @@ class WorldModel:
                           f"not mirrored): {mirrored[:5]}", UserWarning, stacklevel=2)
         if not objs:
             raise EmptyWorldError("scene has no typed geometry nodes with vertices (a WorldModel needs one)")
-        return cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
-                   link_margin=link_margin, room=room)
+        world = cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
+                    link_margin=link_margin, room=room)
+        return world._warn_units()
 
     @classmethod
     def from_file(cls, path: str | os.PathLike[str], type_of: Any = None, **options: Any) -> WorldModel:
@@ -1303,6 +1303,14 @@ class WorldModel:
     @cached_property
     def _far_pairs(self) -> dict[tuple[str, str, bool], FarPairIndex | None]:
         return {}
+
+    def _warn_units(self) -> WorldModel:
+        """Warn (:class:`~worldgraph.units.UnitsWarning`) if :attr:`units_hint` says
+        its positions look like millimetres, and return this world (the ``from_*`` builders call it)."""
+        if self.units_hint is not None:
+            from .units import UnitsWarning  # units imports this module
+            warnings.warn(self.units_hint, UnitsWarning, stacklevel=3)
+        return self
 
     @cached_property
     def units_hint(self) -> str | None:

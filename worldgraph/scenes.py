@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from . import _checks
 from .errors import WorldGraphError
 from .model import MAX_COORDINATE, WorldModel, _check_scene, _default_type
+from .tolerances import FIT_SLACK
 
 __all__ = [
     "KITCHEN_ROOM",
@@ -293,8 +294,8 @@ def _fill_widths(rng: np.random.Generator, length: float, widths: NDArray[np.flo
     """Cabinet widths (from ``widths``) that fill ``length`` up to < 0.4 m."""
     out: list[float] = []
     left = length
-    while left >= widths.min() - 1e-9:
-        fit = widths[widths <= left + 1e-9]
+    while left >= widths.min() - FIT_SLACK:
+        fit = widths[widths <= left + FIT_SLACK]
         w = float(rng.choice(fit))
         out.append(w)
         left -= w
@@ -620,15 +621,15 @@ def _plan_run(rng: np.random.Generator, length: float, modules: list[_Module], a
         if free - _SLOT_WIDTHS[a] >= 2 * widest:
             chosen.append(a)
             free -= _SLOT_WIDTHS[a]
-    if free < -1e-9:
+    if free < -FIT_SLACK:
         raise WorldGraphError(f"run of {length:.2f} m is too short for {appliances}")
     blocks: list[list[tuple[str, float, _Module | None]]] = [[(a, _SLOT_WIDTHS[a], None)] for a in chosen]
     while True:
-        fits = [m for m in modules if 2 * m.width <= free + 1e-9]
+        fits = [m for m in modules if 2 * m.width <= free + FIT_SLACK]
         if not fits:
             break
         m = fits[int(rng.integers(len(fits)))]
-        n = int(rng.integers(2, min(4, int((free + 1e-9) // m.width)) + 1))
+        n = int(rng.integers(2, min(4, int((free + FIT_SLACK) // m.width)) + 1))
         blocks.append([("unit", m.width, m)] * n)
         free -= n * m.width
     slots = [s for k in rng.permutation(len(blocks)) for s in blocks[k]]

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, replace
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,13 +24,26 @@ from .errors import (
     OutOfRangeError,
     ShapeError,
 )
-from .model import WorldModel
+
+if TYPE_CHECKING:  # model imports this module
+    from .model import WorldModel
 
 # --- fixed internal thresholds ---------------------------------------------------------------
 # Relative ones multiply the scale named in their comment; none of them is a physical size.
 
 #: Floor of a denominator, norm or scale that may be exactly zero (keeps a quotient finite).
 TINY = 1e-300
+#: World model: two objects of one type closer than this (m) coincide (an error).
+COINCIDENT_TOLERANCE = 1e-9
+#: Far-pair index: window slack (m) of the float32 keys, well above float32 rounding at 16 m (1e-6 m).
+FAR_PAIR_SLACK = 1e-4
+#: k-d tree queries are widened by this relative amount (and ``QUERY_FLOOR``), so that the exact
+#: float64 test after them decides every pair near the edge.
+QUERY_WIDEN = 1e-9
+#: Absolute widening (m) of those queries, for radii near zero.
+QUERY_FLOOR = 1e-12
+#: Scenes: a module fits a free width when it is at most this much (m) wider (float sums).
+FIT_SLACK = 1e-9
 #: Largest allowed ``|R^T R - I|`` entry and ``|det R - 1|`` of a rigid transform's rotation.
 RIGID_TOLERANCE = 1e-6
 #: Three points whose triangle area is below this fraction of the squared longest side are
