@@ -19,6 +19,12 @@ the answer like benchmarks/association.py: correct = status "ok", 6D NEES <= 20.
 returned covariance and rotation error <= 2 deg; the table counts the other answers too
 (ambiguous, unique but wrong, failed; "weak" makes up the rest).
 
+With ``--active``, the same percepts also go to ``active_localize`` (at most 2 looks where
+``plan_view`` points, fov 60 deg; a look returns the true percepts of the robot's own landmarks
+within 8 m and 30 deg of the gaze, from the true pose, with fresh noise and no false one), judged
+the same way: repeated rooms and corridors leave one view ambiguous, a look at what differs
+settles it.
+
 Baselines on the same percepts (``--baselines``, by default on the kitchen only: their
 candidate sets grow with the number of same-type objects): ``ransac``, this script's numpy
 RANSAC over triples of same-type candidate correspondences (edge-length pre-check, Kabsch,
@@ -51,13 +57,16 @@ from scipy.spatial.transform import Rotation
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import association as assoc_bench  # noqa: E402  (benchmarks/association.py: _draw, _judge, _pose)
 
+from perception.simulate import simulate_percepts  # noqa: E402
 from worldgraph import scenes  # noqa: E402
+from worldgraph.active import active_localize  # noqa: E402
 from worldgraph.association import AssociationTolerances, associate  # noqa: E402
 from worldgraph.localize import localize  # noqa: E402
 from worldgraph.tiles import localize_tiled, split  # noqa: E402
 
 WORLDS = ("kitchen", "floor", "building", "campus")
 N_TRUE, N_FALSE = 8, 1
+LOOK_FOV_DEG = 60.0
 
 
 def _maxrss_mib() -> float:
@@ -96,26 +105,40 @@ def _at_table(world, rng: np.random.Generator, tables: np.ndarray) -> np.ndarray
     return m
 
 
+def _looker(world, mask: np.ndarray, pose: np.ndarray, rng: np.random.Generator, args: argparse.Namespace):
+    """``look(direction)``: the true percepts (no false one) of the landmarks in ``mask`` that the
+    robot at ``pose`` sees within 8 m and 30 deg of the ego direction (an active look)."""
+    types, pos = list(world.types[mask]), world.positions[mask]
+    cos_half = np.cos(np.radians(LOOK_FOV_DEG / 2))
+
+    def look(d: np.ndarray) -> list:
+        percepts, _ = simulate_percepts(types, pos, pose, rng, depth_factor=args.depth_factor,
+                                        max_range=args.max_range)
+        return [p for p in percepts if float(p.position @ d) >= cos_half * float(np.linalg.norm(p.position))]
+    return look
+
+
 def _drawer(name: str, world, site, args: argparse.Namespace):  # noqa: ANN202 - callable
-    """``draw(rng) -> (pose, percepts)`` for the world."""
+    """``draw(rng) -> (pose, percepts, mask)`` for the world; ``mask``: the landmarks the robot
+    can see from there (the kitchen's percept types; in a building, its own storey)."""
     if name == "kitchen":
         mask = np.isin(world.types, assoc_bench.PERCEPT_TYPES)
         lo, hi = world.bounds
-        return lambda rng: assoc_bench._draw(world, mask, rng, N_TRUE, N_FALSE, args,
-                                             lambda r: assoc_bench._pose(r, lo, hi, 1.5))[:2]
+        return lambda rng: (*assoc_bench._draw(world, mask, rng, N_TRUE, N_FALSE, args,
+                                               lambda r: assoc_bench._pose(r, lo, hi, 1.5))[:2], mask)
     tables = np.flatnonzero(world.types == "table")
     if site is None:
         every = np.ones(len(world), dtype=bool)
-        return lambda rng: assoc_bench._draw(world, every, rng, N_TRUE, N_FALSE, args,
-                                             lambda r: _at_table(world, r, tables))[:2]
+        return lambda rng: (*assoc_bench._draw(world, every, rng, N_TRUE, N_FALSE, args,
+                                               lambda r: _at_table(world, r, tables))[:2], every)
 
     def draw(rng: np.random.Generator):  # noqa: ANN202
         # the robot sees the landmarks of its own storey (no percepts through the slabs)
         table = tables[rng.integers(len(tables))]
         mask = (site.storey == site.storey[table]) & (site.building == site.building[table])
         own = tables[mask[tables]]
-        return assoc_bench._draw(world, mask, rng, N_TRUE, N_FALSE, args,
-                                 lambda r: _at_table(world, r, own))[:2]
+        return (*assoc_bench._draw(world, mask, rng, N_TRUE, N_FALSE, args,
+                                   lambda r: _at_table(world, r, own))[:2], mask)
     return draw
 
 
@@ -244,8 +267,8 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
         index += time.perf_counter() - t0
     draw = _drawer(name, world, site, args)
     rng = np.random.default_rng(args.seed + 17)
-    t_assoc, t_loc, t_tiled = [], [], []
-    verdicts = {"good": 0, "tiled_good": 0}
+    t_assoc, t_loc, t_tiled, t_active, looks = [], [], [], [], []
+    verdicts = {"good": 0, "tiled_good": 0, "active_good": 0}
     kinds = {"plain": {}, "tiled": {}}  # verdict -> count: good, ambiguous, weak, wrong, failed
     base = {b: {"time": [], "good": 0} for b in args.baselines if name in args.baseline_worlds}
     start = time.perf_counter()
@@ -254,7 +277,7 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
         if time.perf_counter() - start > args.max_seconds:
             print(f"{name}: time budget reached after {n} poses", file=sys.stderr, flush=True)
             break
-        pose, percepts = draw(rng)
+        pose, percepts, mask = draw(rng)
         t = time.perf_counter()
         associate(world, percepts, tol)
         t_assoc.append(time.perf_counter() - t)
@@ -264,6 +287,16 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
         v = assoc_bench._judge(res, pose)
         verdicts["good"] += v == "good"
         kinds["plain"][v] = kinds["plain"].get(v, 0) + 1
+        if args.active:
+            look_rng = np.random.default_rng([args.seed, k])
+            t = time.perf_counter()
+            act = active_localize(world, percepts, _looker(world, mask, pose, look_rng, args), max_looks=2,
+                                  tol=tol, fov_deg=LOOK_FOV_DEG, max_range=args.max_range)
+            t_active.append(time.perf_counter() - t)
+            looks.append(act.looks)
+            va = assoc_bench._judge(act.result, pose)
+            verdicts["active_good"] += va == "good"
+            kinds.setdefault("active", {})[va] = kinds.get("active", {}).get(va, 0) + 1
         if tiles is not None:
             t = time.perf_counter()
             tr = localize_tiled(tiles, percepts, tol=tol, workers=args.workers)
@@ -288,6 +321,8 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
             "rss_build": rss_build,
             "rss_peak": _maxrss_mib(), "poses": n, "associate": stats(t_assoc), "localize": stats(t_loc),
             "tiled": stats(t_tiled), "tiles": len(tiles) if tiles else 0,
+            "active": stats(t_active), "looks": float(np.mean(looks)) if looks else 0.0,
+            "active_correct": verdicts["active_good"] / max(n, 1),
             "correct": verdicts["good"] / max(n, 1), "tiled_correct": verdicts["tiled_good"] / max(n, 1),
             "verdicts": kinds,
             "baselines": {b: {"time": stats(a["time"]), "correct": a["good"] / max(n, 1)}
@@ -323,6 +358,15 @@ def table(rows: list[dict]) -> str:
                    f"{r['rss_build']:,.0f} / {r['rss_peak']:,.0f} | {r['poses']} | {_ms(r['associate'])} "
                    f"| {ratio} | {_ms(r['localize'])} | {100 * r['correct']:.0f} % | {awf} | {tiled} "
                    f"| {tc} |")
+    act = [r for r in rows if r.get("active")]
+    if act:
+        out += ["", "| world | active_localize median / p95 ms | looks (mean) | correct after <= 2 looks "
+                "| ambiguous / wrong / failed |", "|---|---|---|---|---|"]
+        for r in act:
+            kv = r["verdicts"].get("active", {})
+            awf = " / ".join(str(kv.get(k, 0)) for k in ("ambiguous", "wrong", "failed"))
+            out.append(f"| {r['world']} | {_ms(r['active'])} | {r['looks']:.2f} | "
+                       f"{100 * r['active_correct']:.0f} % | {awf} |")
     base = [(r, b, a) for r in rows if "baselines" in r for b, a in r["baselines"].items()]
     if base:
         out += ["", "| world | method | median / p95 ms | correct (0.2 m, 2 deg) |", "|---|---|---|---|"]
@@ -350,6 +394,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--no-tiled", dest="tiled", action="store_false",
                     help="do not run localize_tiled (its tiles double the world's memory)")
     ap.add_argument("--workers", type=int, default=None, help="processes of localize_tiled")
+    ap.add_argument("--active", action="store_true",
+                    help="also run active_localize (at most 2 looks of plan_view, 60 deg, at the true pose)")
     ap.add_argument("--baselines", nargs="*", choices=("ransac", "open3d"), default=["ransac", "open3d"])
     ap.add_argument("--baseline-worlds", nargs="*", choices=WORLDS, default=["kitchen"])
     ap.add_argument("--open3d-path", default=None,
