@@ -97,6 +97,8 @@ def benchmark_problems(
                     robot = rng.uniform(-3, 3, size=3)
                     rho = np.linalg.norm(centers - robot, axis=1)
                     if scaling == "well":
+                        # eq. 6 (perception.depth_sigma(rho, 50.0, min_sigma=1e-3)), written out:
+                        # radialopt, the bottom layer, imports neither perception nor worldgraph
                         sig = np.maximum(rho**2 / 50.0, 1e-3)
                     else:
                         sig = 10.0 ** rng.uniform(-4, 1, size=n)

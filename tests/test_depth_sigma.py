@@ -115,3 +115,16 @@ def test_active_gate_uses_eq6() -> None:
     # max(0.01, rho^2 / 100) = 0.01, 0.01, 0.09; gate = 3 * sqrt(2) * sigma + 0.02
     expected = 3.0 * np.sqrt(2.0) * np.array([0.01, 0.01, 0.09]) + 0.02
     np.testing.assert_allclose(_gate(rho, 100.0, 0.01, 3.0, 0.02), expected, rtol=1e-14)
+
+
+def test_comparison_problems_follow_eq6() -> None:
+    """radialopt's problem generator writes eq. 6 out (radialopt does not import perception):
+    its well-scaled feasible problems (noise-free ranges) have depth_sigma's sigmas."""
+    from perception import depth_sigma
+    from radialopt.comparison import benchmark_problems
+
+    probs = [p for p in benchmark_problems(np.random.default_rng(2), per_case=2, sizes=[3, 5])
+             if p.feasible and p.scaling == "well"]
+    assert len(probs) == 4
+    for p in probs:
+        np.testing.assert_allclose(p.sigmas, depth_sigma(p.radii, 50.0, min_sigma=1e-3), rtol=1e-12)
