@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gc
+import pickle
 
 import numpy as np
 import pytest
@@ -126,6 +127,18 @@ def test_table_arguments_are_checked():
     assert world.objects[0] == ObjectModel("a_0", "a", np.eye(4), np.ones(3), "a")
     with pytest.raises(we.UnknownGeometryError, match="'b_1' has geometry 'b'"):
         WorldModel(good, class_vertices={"a": np.zeros((1, 3))})
+
+
+def test_a_table_world_pickles() -> None:
+    """Tiles go to worker processes and Dask workers by pickle."""
+    rng = np.random.default_rng(8)
+    types, pos, sizes = _arrays(rng, 50)
+    for ids in (None, [f"o{k}" for k in range(50)]):
+        world = WorldModel.from_arrays(types, pos, sizes=sizes, ids=ids, gravity_aligned=True).take([3, 1, 7])
+        back = pickle.loads(pickle.dumps(world))
+        assert isinstance(back.objects, ObjectTable)
+        assert back == world and back.gravity_aligned
+        assert [o.id for o in back.objects] == [o.id for o in world.objects]
 
 
 def test_chunked_pair_lengths_match_the_direct_formula():

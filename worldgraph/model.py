@@ -545,6 +545,11 @@ class ObjectTable(Sequence[ObjectModel]):
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"ObjectTable is read-only: cannot set {name!r}")
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # pickling (tiles sent to processes or a Dask cluster): rebuilt by _trusted, not setattr
+        return (ObjectTable._trusted, (self.type_names, self.codes, self.positions, self.sizes, self._ids,
+                                       self._numbers))
+
     def __len__(self) -> int:
         return len(self.codes)
 
