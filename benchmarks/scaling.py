@@ -14,7 +14,8 @@ random table, 0.8 m above it, all types; in a building the robot sees its own st
 robot sees 8 true percepts (random visible landmarks within 8 m) and 1 false one, with
 ``sigma = rho^2 / 1000`` (eq. 6), drawn with the helpers of benchmarks/association.py.  On the
 same percepts it times ``associate`` and ``localize(method="ml")`` (and, for the building and
-the campus, ``localize_tiled`` over storey or building tiles on local processes), and judges
+the campus, ``localize_tiled`` over storey or building tiles on the local processes of one
+``TilePool``, forked on the first call and kept), and judges
 the answer like benchmarks/association.py: correct = status "ok", 6D NEES <= 20.06 with the
 returned covariance and rotation error <= 2 deg; the table counts the other answers too
 (ambiguous, unique but wrong, failed; "weak" makes up the rest).
@@ -62,7 +63,7 @@ from worldgraph import scenes  # noqa: E402
 from worldgraph.active import active_localize  # noqa: E402
 from worldgraph.association import AssociationTolerances, associate  # noqa: E402
 from worldgraph.localize import localize  # noqa: E402
-from worldgraph.tiles import localize_tiled, split  # noqa: E402
+from worldgraph.tiles import TilePool, localize_tiled, split  # noqa: E402
 
 WORLDS = ("kitchen", "floor", "building", "campus")
 N_TRUE, N_FALSE = 8, 1
@@ -265,6 +266,8 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
         for tile in tiles:
             tile.world.build_far_pairs(gravity)
         index += time.perf_counter() - t0
+    # the tiles' worker processes are forked once, on the first call, and kept (TilePool)
+    pool = TilePool(tiles, workers=args.workers) if tiles is not None else None
     draw = _drawer(name, world, site, args)
     rng = np.random.default_rng(args.seed + 17)
     t_assoc, t_loc, t_tiled, t_active, looks = [], [], [], [], []
@@ -299,7 +302,7 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
             kinds.setdefault("active", {})[va] = kinds.get("active", {}).get(va, 0) + 1
         if tiles is not None:
             t = time.perf_counter()
-            tr = localize_tiled(tiles, percepts, tol=tol, workers=args.workers)
+            tr = localize_tiled(tiles, percepts, tol=tol, pool=pool)
             t_tiled.append(time.perf_counter() - t)
             v = assoc_bench._judge(tr, pose)
             verdicts["tiled_good"] += v == "good"
@@ -312,6 +315,9 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
         n += 1
         print(f"{name} pose {k}: associate {t_assoc[-1] * 1e3:.0f} ms, localize {t_loc[-1] * 1e3:.0f} ms "
               f"{res.status}", file=sys.stderr, flush=True)
+
+    if pool is not None:
+        pool.close()
 
     def stats(v: list[float]) -> list[float] | None:
         return [float(np.median(v)), float(np.percentile(v, 95))] if v else None

@@ -182,3 +182,43 @@ def test_dask_cluster_gives_the_local_answer(site, tiles):
         assert a.correspondences == b.correspondences
     assert by_address.correspondences == local[0].correspondences
     assert any(r.status == "ok" for r in local)
+
+
+def test_pool_keeps_its_workers_and_gives_the_one_process_answer(site, tiles):
+    rng = np.random.default_rng(12)
+    scans = []
+    for trial in range(4):
+        pose = _pose_at_table(site.world, site.building == trial % 2, rng)
+        scans.append(_percepts(site.world, pose, rng))
+    with wg.TilePool(tiles, workers=2) as pool:
+        assert not pool.closed and pool.workers == 2 and "2 workers" in repr(pool)
+        pids = set()
+        for percepts in scans:
+            pooled = localize_tiled(tiles, percepts, pool=pool)
+            alone = localize_tiled(tiles, percepts, workers=1)
+            assert pooled.status == alone.status
+            np.testing.assert_allclose(pooled.transformation, alone.transformation, rtol=0, atol=1e-12)
+            assert pooled.correspondences == alone.correspondences
+            pids |= {p.pid for p in pool._executor._processes.values()}  # type: ignore[union-attr]
+        assert 1 <= len(pids) <= 2  # forked once: the same processes served all four calls
+    assert pool.closed and "closed" in repr(pool)
+    with pytest.raises(wg.WorldGraphError, match="closed"):
+        localize_tiled(tiles, scans[0], pool=pool)
+    pool.close()  # idempotent
+
+
+def test_pool_arguments_are_checked(site, tiles):
+    p = [Percept("door", np.array([x, 1.0, 0.0]), 0.01) for x in (1.0, 2.0, 3.5)]
+    other = split(site.world, site.storey)
+    with wg.TilePool(tiles, workers=1) as pool:
+        assert pool.serves(list(tiles)) and not pool.serves(other)
+        with pytest.raises(wg.WorldGraphError, match="other tiles"):
+            localize_tiled(other, p, pool=pool)
+        with pytest.raises(wg.ArgumentTypeError, match="pool cannot be combined"):
+            localize_tiled(tiles, p, pool=pool, workers=2)
+    with pytest.raises(wg.ArgumentTypeError, match="pool must be"):
+        localize_tiled(tiles, p, pool="pool")
+    with pytest.raises(wg.OutOfRangeError, match="workers"):
+        wg.TilePool(tiles, workers=0)
+    with pytest.raises(wg.ArgumentTypeError, match="tiles"):
+        wg.TilePool([tiles[0].world])

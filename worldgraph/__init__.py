@@ -34,7 +34,7 @@ from .hypotheses import AssociationHypothesis
 from .localize import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
 from .model import LinkTable, ObjectModel, ObjectTable, WorldModel, box_vertices
 from .pose import percept_frame, pose_from_frames, weighted_kabsch
-from .tiles import Tile, localize_tiled
+from .tiles import Tile, TilePool, localize_tiled
 from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 
 __all__ = [
@@ -87,4 +87,5 @@ __all__ += [
     "weighted_kabsch",
     "Tile",
     "localize_tiled",
+    "TilePool",
 ]

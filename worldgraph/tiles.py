@@ -54,7 +54,7 @@ from .model import WorldModel
 from .tolerances import ASSOCIATION_TOLERANCES, HALO_SLACK, AssociationTolerances, _tol_argument
 from .validation import CHI2_3_GATE, CHI2_6_GATE, NearestObjects, fit_hypothesis, percept_covariances
 
-__all__ = ["FAILURE_ORDER", "MAX_TILES", "Tile", "localize_tiled", "split"]
+__all__ = ["FAILURE_ORDER", "MAX_TILES", "Tile", "TilePool", "localize_tiled", "split"]
 
 #: Most tiles :func:`split` makes.
 MAX_TILES = 100_000
@@ -200,6 +200,80 @@ def _run_shared(token: int, k: int, *args: Any) -> _TileAnswer:
     return _run_tile(_SHARED[token][k].world, *args)
 
 
+class TilePool:
+    """Worker processes that keep a split world's tiles between :func:`localize_tiled` calls.
+
+    :func:`localize_tiled` without a pool forks its workers on every call (about half a second
+    for the five storeys of a 100k building); a pool forks them once, on its first call, and
+    each later call sends only the percepts and receives the answers.  Use it as a context
+    manager, or call :meth:`close`::
+
+        with TilePool(tiles, workers=2) as pool:
+            for percepts in scans:
+                result = localize_tiled(tiles, percepts, pool=pool)
+
+    Parameters
+    ----------
+    tiles : sequence of Tile
+        From :func:`split`; the pool serves these tiles only (the same sequence object, or one
+        with the same Tile objects in the same order).
+    workers : int, optional
+        Processes (default ``min(len(tiles), os.cpu_count())``, at least 1).
+
+    Raises
+    ------
+    WorldGraphError
+        Bad tiles or workers, or a platform without the ``fork`` start method (there, every
+        call pickles the tiles anyway: use :func:`localize_tiled` without a pool).
+    """
+
+    def __init__(self, tiles: Sequence[Tile], workers: int | None = None) -> None:
+        self.tiles = _check_tiles(tiles)
+        if workers is not None:
+            workers = _checks.strict_int("workers", workers, minimum=1, maximum=1024)
+        if "fork" not in multiprocessing.get_all_start_methods():  # pragma: no cover - spawn-only
+            raise WorldGraphError("TilePool needs the 'fork' start method (Linux, macOS): use "
+                                  "localize_tiled without pool on this platform")
+        self.workers = min(len(self.tiles), workers or os.cpu_count() or 1)
+        self._token = id(self)
+        # registered before the executor forks its workers (on its first task), kept until close
+        _SHARED[self._token] = self.tiles
+        self._executor: ProcessPoolExecutor | None = ProcessPoolExecutor(
+            self.workers, mp_context=multiprocessing.get_context("fork"))
+
+    def serves(self, tiles: Sequence[Tile]) -> bool:
+        """Whether ``tiles`` are the tiles of this pool (the same Tile objects, in order)."""
+        return len(tiles) == len(self.tiles) and all(a is b for a, b in zip(tiles, self.tiles, strict=True))
+
+    @property
+    def closed(self) -> bool:
+        """True after :meth:`close`."""
+        return self._executor is None
+
+    def _map(self, args: list[tuple[Any, ...]]) -> list[_TileAnswer]:
+        if self._executor is None:
+            raise WorldGraphError("pool is closed (TilePool.close was called): make a new TilePool")
+        return list(self._executor.map(_run_shared, [self._token] * len(self.tiles), range(len(self.tiles)),
+                                       *zip(*args, strict=True)))
+
+    def close(self) -> None:
+        """Stop the workers (idempotent)."""
+        if self._executor is not None:
+            self._executor.shutdown(wait=True)
+            self._executor = None
+        _SHARED.pop(self._token, None)
+
+    def __enter__(self) -> TilePool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        state = "closed" if self.closed else f"{self.workers} workers"
+        return f"TilePool({len(self.tiles)} tiles, {state})"
+
+
 # ----------------------------------------------------------------------------------------------
 # ranking
 # ----------------------------------------------------------------------------------------------
@@ -298,7 +372,7 @@ def _client(scheduler: object) -> tuple[Any, bool]:
 
 
 def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: str = "ml", *,
-                   scheduler: Any = None, workers: int | None = None,
+                   scheduler: Any = None, workers: int | None = None, pool: TilePool | None = None,
                    tol: AssociationTolerances | None = None, rng: np.random.Generator | None = None,
                    region: Any = None, tolerances: AssociationTolerances | None = None) -> LocalizationResult:
     """:func:`~worldgraph.localize.localize` on every tile in parallel, the answers ranked together.
@@ -321,6 +395,9 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         answers); elsewhere every tile is pickled to its worker on each call.  Forking a
         process that runs threads (an in-process Dask cluster, a GUI) can deadlock: use
         ``workers=1`` or ``scheduler`` there.
+    pool : TilePool, optional
+        Worker processes made for these tiles and kept between calls (forked once); not with
+        ``scheduler`` or ``workers``.
     tol : AssociationTolerances, optional
         Default :data:`~worldgraph.tolerances.ASSOCIATION_TOLERANCES`.
     rng : numpy.random.Generator, optional
@@ -362,13 +439,25 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         raise ArgumentTypeError(f"tol must be AssociationTolerances, got {_checks._short(tol)}")
     if workers is not None:
         workers = _checks.strict_int("workers", workers, minimum=1, maximum=1024)
+    if pool is not None:
+        if not isinstance(pool, TilePool):
+            raise ArgumentTypeError(f"pool must be None or a TilePool, got {_checks._short(pool)}")
+        if scheduler is not None or workers is not None:
+            raise ArgumentTypeError("pool cannot be combined with scheduler or workers (it has its own)")
+        if not pool.serves(tiles):
+            raise WorldGraphError(f"pool serves other tiles ({len(pool.tiles)} tiles) than the {len(tiles)} "
+                                  "given: make a TilePool of these tiles")
+        if pool.closed:
+            raise WorldGraphError("pool is closed (TilePool.close was called): make a new TilePool")
     rngs: list[np.random.Generator | None] = [None] * len(tiles)
     if rng is not None:
         rngs = list(_checks.generator("rng", rng).spawn(len(tiles)))
     world_types = frozenset(t for tile in tiles for t in tile.world.type_names)
     args = [(percepts, world_types, method, tol, region, r) for r in rngs]
 
-    if scheduler is not None:
+    if pool is not None:
+        answers = pool._map(args)
+    elif scheduler is not None:
         client, opened = _client(scheduler)
         try:
             remote = client.scatter([t.world for t in tiles], hash=False)
@@ -385,12 +474,12 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
             token = id(tiles)
             _SHARED[token] = tiles
             try:
-                with ProcessPoolExecutor(n_workers, mp_context=multiprocessing.get_context("fork")) as pool:
-                    answers = list(pool.map(_run_shared, [token] * len(tiles), range(len(tiles)),
-                                            *zip(*args, strict=True)))
+                with ProcessPoolExecutor(n_workers, mp_context=multiprocessing.get_context("fork")) as ex:
+                    answers = list(ex.map(_run_shared, [token] * len(tiles), range(len(tiles)),
+                                          *zip(*args, strict=True)))
             finally:
                 _SHARED.pop(token, None)
         else:  # pragma: no cover - spawn-only platforms pickle the tiles
-            with ProcessPoolExecutor(n_workers) as pool:
-                answers = list(pool.map(_run_tile, [t.world for t in tiles], *zip(*args, strict=True)))
+            with ProcessPoolExecutor(n_workers) as ex:
+                answers = list(ex.map(_run_tile, [t.world for t in tiles], *zip(*args, strict=True)))
     return _combine(tiles, list(answers), tol, t_start)
