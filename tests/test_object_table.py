@@ -147,3 +147,28 @@ def test_chunked_pair_lengths_match_the_direct_formula():
     i, j = rng.integers(0, 50, 1000), rng.integers(0, 50, 1000)
     direct = np.array([np.linalg.norm(pos[a] - pos[b]) for a, b in zip(i, j, strict=True)])
     np.testing.assert_allclose(_pair_lengths(pos, i, j, chunk=7), direct, rtol=1e-15, atol=0)
+
+
+def test_build_far_pairs_fills_the_budget_smallest_first(monkeypatch) -> None:
+    """200 'a', 60 'm', 60 'z' objects in an 8 m box: every pair is within the 16 m range, so
+    a type pair's index holds n_a * n_b pairs (n (n - 1) for one type).  With a budget of 45,000
+    pairs, the five small type pairs (3 x 3,600 or fewer, then 2 x 12,000) fit and (a, a), 39,800
+    pairs, does not; built alphabetically, (a, a) would come first and take the budget."""
+    import worldgraph.model as model
+
+    monkeypatch.setattr(model, "FAR_PAIR_BUDGET", 45_000)
+    monkeypatch.setattr(model, "FAR_PAIR_MAX_PAIRS", 10**9)
+    rng = np.random.default_rng(9)
+    types = ["a"] * 200 + ["m"] * 60 + ["z"] * 60
+    world = WorldModel.from_arrays(types, rng.uniform(0, 8 / np.sqrt(3), (320, 3)), max_link_length=1.0)
+    held = world.build_far_pairs()
+    built = {k[:2] for k, v in world._far_pairs.items() if v is not None}
+    assert built == {("m", "m"), ("m", "z"), ("z", "z"), ("a", "m"), ("a", "z")}
+    assert world.far_pairs("a", "a") is None
+    sizes = {("m", "m"): 60 * 59, ("z", "z"): 60 * 59, ("m", "z"): 3600, ("a", "m"): 12000, ("a", "z"): 12000}
+    for (a, b), n in sizes.items():  # each index holds every ordered pair of distinct objects once
+        index = world.far_pairs(a, b)
+        assert index is not None
+        pairs = set(zip(index.i.tolist(), index.j.tolist(), strict=True))
+        assert len(pairs) == len(index.i) == n
+    assert held == sum(len(world.far_pairs(a, b).i) for a, b in sizes)

@@ -334,19 +334,30 @@ class FarPairIndex:
 
 
 
+def _far_pair_query(gravity: bool) -> tuple[float, float]:
+    """``(z scale, radius)`` of the k-d tree query that holds every far pair."""
+    scale = FAR_PAIR_RANGE / FAR_PAIR_HEIGHT if gravity else 1.0
+    return scale, FAR_PAIR_RANGE * (math.sqrt(2.0) if gravity else 1.0) * (1.0 + QUERY_WIDEN)
+
+
+def _far_pair_estimate(world: WorldModel, a: str, b: str, gravity: bool) -> float:
+    """How many pairs the query of :func:`_build_far_pairs` returns, from a strided sample of
+    ``a``'s objects (at most about 2000), before anything is built."""
+    scale, radius = _far_pair_query(gravity)
+    ta, tb = world.type_tree(a, scale), world.type_tree(b, scale)
+    stride = max(1, len(ta.data) // 2000)
+    return float(cKDTree(ta.data[::stride]).count_neighbors(tb, radius)) * stride
+
+
 def _build_far_pairs(world: WorldModel, a: str, b: str, gravity: bool,
                      cache: dict[tuple[str, str, bool], FarPairIndex | None]) -> FarPairIndex | None:
     """The :class:`FarPairIndex` of types ``a <= b`` (see :meth:`WorldModel.far_pairs`)."""
     # gravity: z scaled so that the ball of radius R sqrt(2) holds every pair with horizontal
     # distance <= R and |dz| <= H; then the exact box is kept
-    scale = FAR_PAIR_RANGE / FAR_PAIR_HEIGHT if gravity else 1.0
-    radius = FAR_PAIR_RANGE * (math.sqrt(2.0) if gravity else 1.0) * (1.0 + QUERY_WIDEN)
+    scale, radius = _far_pair_query(gravity)
     ta, tb = world.type_tree(a, scale), world.type_tree(b, scale)
     ia, ib = world.indices_of(a), world.indices_of(b)
-    # estimate the count from a strided sample of a's objects before building
-    stride = max(1, len(ia) // 2000)
-    sample = cKDTree(ta.data[::stride])
-    estimate = float(sample.count_neighbors(tb, radius)) * stride
+    estimate = _far_pair_estimate(world, a, b, gravity)
     used = sum(len(x.key) for x in cache.values() if x is not None)
     if estimate > FAR_PAIR_MAX_PAIRS or used + estimate > FAR_PAIR_BUDGET:
         return None
@@ -1327,8 +1338,14 @@ class WorldModel:
 
     def build_far_pairs(self, gravity_aligned: bool = False) -> int:
         """Build :meth:`far_pairs` for every pair of types now (instead of on first use, during
-        the first localisations); returns the number of pairs held (within the budgets)."""
-        for a, b in itertools.combinations_with_replacement(self.type_names, 2):
+        the first localisations), the smallest first (estimated from a sample), so that the
+        budget :data:`FAR_PAIR_BUDGET` covers as many type pairs as it can; returns the number
+        of pairs held."""
+        if not isinstance(gravity_aligned, bool | np.bool_):
+            raise ArgumentTypeError(f"gravity_aligned must be a bool, got {_checks._short(gravity_aligned)}")
+        pairs = list(itertools.combinations_with_replacement(self.type_names, 2))
+        sizes = [_far_pair_estimate(self, a, b, bool(gravity_aligned)) for a, b in pairs]
+        for _, (a, b) in sorted(zip(sizes, pairs, strict=True)):
             self.far_pairs(a, b, gravity_aligned)
         return sum(len(x.key) for x in self._far_pairs.values() if x is not None)
 
