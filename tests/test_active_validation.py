@@ -372,3 +372,26 @@ def test_an_ok_answer_with_a_wide_rotation_bound_gets_a_look():
         wg.active_localize(world, percepts, look, goal_rotation_3sigma=5.0)
     with pytest.raises(NonPositiveError, match="goal_rotation_3sigma"):
         wg.active_localize(world, percepts, look, goal_rotation_3sigma=0.0)
+
+
+def test_far_objects_are_left_out_of_the_prediction_without_changing_the_scores():
+    """Objects beyond max_range + the largest gate of every hypothesis are left out (large worlds);
+    the scores still equal the slow reference over every object."""
+    from worldgraph.active import _predict
+
+    rng = np.random.default_rng(14)
+    types = rng.choice(["door", "handle", "knob", "lamp"], 400)
+    pos = rng.uniform([0, 0, 0], [80, 7, 2.5], (400, 3))
+    world = wg.WorldModel.from_arrays(types, pos, max_link_length=4.0)
+    poses = [_random_pose(rng, [4.5, 3.5, 1.2]) for _ in range(3)]
+    costs = [0.0, 1.0, 3.0]
+    res = _result(poses, costs, world)
+    kinds = ["door", "handle", "knob"]
+    pred = _predict(world, res, kinds, 5.0, 1000.0, 1e-4, 3.0, 0.3)
+    assert 0 < len(pred.objects) < np.count_nonzero(np.isin(world.types, kinds)) // 4
+    dirs = rng.standard_normal((30, 3))
+    fast = view_scores(world, res, dirs, types=kinds, fov_deg=50.0, max_range=5.0, detection=0.7, margin=0.3)
+    w = np.exp(-np.array(costs) / 2)
+    slow = _slow_scores(world, poses, w / w.sum(), kinds, dirs, 50.0, 5.0, 0.7, 0.3)
+    assert np.allclose(fast, slow, atol=1e-12)
+    assert fast.max() > 0.1

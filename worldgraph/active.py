@@ -376,7 +376,13 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, max_r
              depth_factor: float, min_sigma: float, n_sigma: float, margin: float) -> _Prediction:
     recog = _check_types(world, types, result)
     poses, weights = _hypotheses(result)
-    obj = np.flatnonzero(np.isin(world.types, recog))
+    # only objects within reach of some hypothesis matter: one farther from every hypothesis than
+    # max_range + the largest gate is in no view and no nearer than a gate to any predicted point
+    # (large worlds: the arrays below are per hypothesis and per object)
+    reach = max_range + float(_gate(np.array([max_range]), depth_factor, min_sigma, n_sigma, margin)[0])
+    near = world.tree.query_ball_point(np.array([T[:3, 3] for T in poses]), reach + 1.0)  # 1 m to spare
+    cand = np.unique(np.concatenate([np.asarray(x, dtype=np.intp) for x in near]))
+    obj = cand[np.isin(world.types[cand], recog)]
     X = world.positions[obj]
     codes = np.unique(world.types[obj], return_inverse=True)[1].astype(np.intp)
     ego = [(X - T[:3, 3]) @ T[:3, :3] for T in poses]
