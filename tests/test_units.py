@@ -46,7 +46,8 @@ def test_millimetre_percepts_in_the_kitchen(kitchen_scan) -> None:
 
 def test_millimetre_world_with_metre_percepts(kitchen_scan) -> None:
     world, percepts = kitchen_scan
-    world_mm = wg.WorldModel.from_arrays(list(world.types), world.positions * 1000.0)
+    with pytest.warns(UnitsWarning):
+        world_mm = wg.WorldModel.from_arrays(list(world.types), world.positions * 1000.0)
     res = wg.localize(world_mm, percepts)
     assert res.status == "no_association"
     assert "world positions look like millimetres" in res.message
@@ -55,7 +56,8 @@ def test_millimetre_world_with_metre_percepts(kitchen_scan) -> None:
 
 def test_world_from_millimetre_arrays_warns(kitchen_scan) -> None:
     world, _ = kitchen_scan
-    world_mm = wg.WorldModel.from_arrays(list(world.types), world.positions * 1000.0)  # default sizes 0.05 m
+    with pytest.warns(UnitsWarning):  # the builder warns too
+        world_mm = wg.WorldModel.from_arrays(list(world.types), world.positions * 1000.0)  # sizes 0.05 m
     with pytest.warns(UnitsWarning, match="look like millimetres"):
         hint = check_world_units(world_mm)
     assert hint is not None and "0.05 m in size" in hint
