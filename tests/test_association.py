@@ -477,3 +477,37 @@ def test_orientation_filter_names_percepts_when_they_do_not_match_the_proximity_
     prox = proximity_filter(world, percepts)
     with pytest.raises(WorldGraphError, match=r"percepts has 4 percepts but proximity\['objects'\] has 5"):
         orientation_filter(world, percepts[:4], prox)
+
+
+@pytest.mark.parametrize("gravity", [False, True])
+def test_far_pair_cost_estimate_counts_the_query_hits(gravity: bool, monkeypatch) -> None:
+    """The rounds' cost per row (k-d tree path, the far-pair index off) is the mean number of
+    objects the query of a sampled row visits, counted here by brute force over all objects."""
+    import worldgraph.model as model
+    from worldgraph.consistency import FAR_COST_SAMPLE, GRAVITY_Z_SCALE, _far_hits_per_row
+
+    monkeypatch.setattr(model, "FAR_PAIR_BUDGET", 0)
+
+    rng = np.random.default_rng(3)
+    world = WorldModel.from_arrays(rng.choice(["a", "b"], 400), rng.uniform([0, 0, 0], [30, 20, 6], (400, 3)),
+                                   max_link_length=1.0)
+    percepts = [Percept("a", np.array([0.0, 0.0, 0.5]), 0.02), Percept("b", np.array([6.0, 2.0, 1.5]), 0.03)]
+    tol = AssociationTolerances(gravity_aligned=gravity)
+    objects = [world.type_index["a"], world.type_index["b"]]
+    got = _far_hits_per_row(world, percepts, 0, 1, 0.1, tol, objects)
+    assert not [x for x in world._far_pairs.values() if x is not None]  # the tree path was taken
+    op, oq = objects
+    pick = op[np.unique(np.linspace(0, len(op) - 1, min(len(op), FAR_COST_SAMPLE)).astype(int))]
+    diff = percepts[1].position - percepts[0].position
+    s = GRAVITY_Z_SCALE if gravity else 1.0
+    counts = []
+    for a in pick:
+        v = world.positions[oq] - world.positions[a] - ([0.0, 0.0, diff[2]] if gravity else 0.0)
+        v = v * [1.0, 1.0, s]
+        if gravity:
+            radius = np.hypot(np.hypot(diff[0], diff[1]) + 0.1, s * 0.1)
+        else:
+            radius = np.linalg.norm(diff) + 0.1
+        counts.append(np.count_nonzero(np.linalg.norm(v, axis=1) <= radius))
+    assert got == pytest.approx(max(1.0, float(np.mean(counts))), rel=1e-12)
+    assert got > 1.0
