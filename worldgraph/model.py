@@ -102,7 +102,6 @@ __all__ = [
 
 FILE_FORMAT = "worldgraph.WorldModel"
 FILE_VERSION = 1
-#: Two objects of one type closer than this (metres) are coincident.
 #: Bounding-box extents (metres) given to objects built from bare positions.
 DEFAULT_SIZE = 0.05
 #: Largest allowed ``|coordinate|`` (metres) of an object position, a box size, a class-geometry
@@ -332,8 +331,6 @@ class FarPairIndex:
         return slice(a, max(a, b))
 
 
-
-
 def _far_pair_query(gravity: bool) -> tuple[float, float]:
     """``(z scale, radius)`` of the k-d tree query that holds every far pair."""
     scale = FAR_PAIR_RANGE / FAR_PAIR_HEIGHT if gravity else 1.0
@@ -342,11 +339,15 @@ def _far_pair_query(gravity: bool) -> tuple[float, float]:
 
 def _far_pair_estimate(world: WorldModel, a: str, b: str, gravity: bool) -> float:
     """How many pairs the query of :func:`_build_far_pairs` returns, from a strided sample of
-    ``a``'s objects (at most about 2000), before anything is built."""
-    scale, radius = _far_pair_query(gravity)
-    ta, tb = world.type_tree(a, scale), world.type_tree(b, scale)
-    stride = max(1, len(ta.data) // 2000)
-    return float(cKDTree(ta.data[::stride]).count_neighbors(tb, radius)) * stride
+    ``a``'s objects (at most about 2000), before anything is built (kept with the world:
+    :meth:`WorldModel.build_far_pairs` orders by it, then each build checks it)."""
+    estimates = world._far_estimates
+    if (a, b, gravity) not in estimates:
+        scale, radius = _far_pair_query(gravity)
+        ta, tb = world.type_tree(a, scale), world.type_tree(b, scale)
+        stride = max(1, len(ta.data) // 2000)
+        estimates[(a, b, gravity)] = float(cKDTree(ta.data[::stride]).count_neighbors(tb, radius)) * stride
+    return estimates[(a, b, gravity)]
 
 
 def _build_far_pairs(world: WorldModel, a: str, b: str, gravity: bool,
@@ -594,11 +595,7 @@ class ObjectTable(Sequence[ObjectModel]):
     def take(self, index: ArrayLike) -> ObjectTable:
         """The objects at ``index`` (an int array, in that order) as a new table; ids kept."""
         n = len(self)
-        idx = _checks.int_array("index", index, (None,), minimum=-n)
-        if idx.size and int(idx.max()) >= n:
-            k = int(np.argmax(idx >= n))
-            raise OutOfRangeError(f"index[{k}] = {int(idx[k])} must be < the number of objects, {n}")
-        idx = idx % max(n, 1)
+        idx = _object_index(index, n, -n) % max(n, 1)
         ids = None if self._ids is None else tuple(self._ids[k] for k in idx.tolist())
         numbers = None if self._numbers is None else self._numbers[idx]
         return ObjectTable._trusted(self.type_names, self.codes[idx], self.positions[idx], self.sizes[idx],
@@ -704,6 +701,15 @@ def _pair_lengths(positions: NDArray[np.float64], i: NDArray[np.intp], j: NDArra
         d = positions[a] - positions[b]
         out[lo:lo + chunk] = np.sqrt(np.einsum("ij,ij->i", d, d))
     return out
+
+
+def _object_index(index: ArrayLike, n: int, minimum: int) -> NDArray[np.intp]:
+    """``index`` as an int array of object indices ``minimum <= k < n`` (errors name the entry)."""
+    idx = _checks.int_array("index", index, (None,), minimum=minimum)
+    if idx.size and int(idx.max()) >= n:
+        k = int(np.argmax(idx >= n))
+        raise OutOfRangeError(f"index[{k}] = {int(idx[k])} must be < the number of objects, {n}")
+    return idx
 
 
 def _empty_table() -> LinkTable:
@@ -1320,6 +1326,10 @@ class WorldModel:
     def _far_pairs(self) -> dict[tuple[str, str, bool], FarPairIndex | None]:
         return {}
 
+    @cached_property
+    def _far_estimates(self) -> dict[tuple[str, str, bool], float]:
+        return {}
+
     def _warn_units(self) -> WorldModel:
         """Warn (:class:`~worldgraph.units.UnitsWarning`) if :attr:`units_hint` says
         its positions look like millimetres, and return this world (the ``from_*`` builders call it)."""
@@ -1410,11 +1420,7 @@ class WorldModel:
     def take(self, index: ArrayLike) -> WorldModel:
         """A world model holding the objects at ``index`` (distinct ints, in that order) with the
         same link settings, room and ``gravity_aligned`` flag; a table stays a table."""
-        n = len(self)
-        idx = _checks.int_array("index", index, (None,), minimum=0)
-        if idx.size and int(idx.max()) >= n:
-            k = int(np.argmax(idx >= n))
-            raise OutOfRangeError(f"index[{k}] = {int(idx[k])} must be < the number of objects, {n}")
+        idx = _object_index(index, len(self), 0)
         if not idx.size:
             raise EmptyWorldError("index must select at least one object, got 0")
         if len(np.unique(idx)) != len(idx):
