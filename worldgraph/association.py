@@ -63,7 +63,7 @@ from .filters import (
 from .hypotheses import AssociationHypothesis, _fit_all, _rank, is_ambiguous, same_pose
 from .model import WorldModel
 from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _resolved_tol
-from .units import UnitsWarning, percept_units_hint
+from .units import UnitsWarning, units_hint
 
 __all__ = [
     "ASSOCIATION_METHODS",
@@ -138,7 +138,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
         a better hypothesis are merged into it.  Empty when no clique of ``min_clique_size``
         (or, for "paper", no complete assignment) exists; then a
         :class:`~worldgraph.units.UnitsWarning` says so when the percepts or the world look like
-        millimetres (:func:`~worldgraph.units.percept_units_hint`, :attr:`WorldModel.units_hint`).
+        millimetres (:func:`~worldgraph.units.units_hint`).
 
     Raises
     ------
@@ -153,7 +153,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     tol = _resolved_tol("associate", tol, tolerances, world=world)
     hyps = _associate(world, percepts, tol, method, max_hypotheses)
     if not hyps:
-        hint = percept_units_hint(world, percepts) or world.units_hint
+        hint = units_hint(world, percepts)
         if hint is not None:
             warnings.warn(f"associate found no hypothesis; {hint}", UnitsWarning, stacklevel=2)
     return hyps

@@ -73,7 +73,7 @@ from .tolerances import (
     _check_tolerances,
     _tol_argument,
 )
-from .units import percept_units_hint
+from .units import units_hint
 from .validation import (
     CHI2_3_GATE,
     CHI2_6_GATE,
@@ -637,7 +637,7 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
 
 def _units_hints(world: WorldModel, used: list[Percept]) -> list[str]:
     """Sentences for the message when positions look like millimetres (docs/design.md#units)."""
-    hint = percept_units_hint(world, used) or world.units_hint
+    hint = units_hint(world, used)
     return [hint] if hint else []
 
 

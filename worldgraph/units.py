@@ -35,6 +35,7 @@ __all__ = [
     "UnitsWarning",
     "check_world_units",
     "percept_units_hint",
+    "units_hint",
     "world_units_hint",
 ]
 
@@ -135,6 +136,12 @@ def world_units_hint(world: WorldModel) -> str | None:
     return None
 
 
+def units_hint(world: WorldModel, percepts: Sequence[Percept]) -> str | None:
+    """:func:`percept_units_hint`, else the world's own (:attr:`WorldModel.units_hint`, computed
+    once per world): the one sentence ``localize`` and ``associate`` give when nothing matched."""
+    return percept_units_hint(world, percepts) or world.units_hint
+
+
 def check_world_units(world: WorldModel) -> str | None:
     """Warn (:class:`UnitsWarning`) when :func:`world_units_hint` finds the world suspect.
 
@@ -147,7 +154,7 @@ def check_world_units(world: WorldModel) -> str | None:
     str or None
         The hint that was warned, or None.
     """
-    hint = world_units_hint(world)
+    hint = world.units_hint  # world_units_hint, computed once per world
     if hint is not None:
         warnings.warn(hint, UnitsWarning, stacklevel=2)
     return hint
