@@ -191,8 +191,8 @@ def _run_tile(world: WorldModel, percepts: list[Percept], world_types: frozenset
     return _TileAnswer(result, None, cost, cov)
 
 
-#: Tiles handed to forked worker processes by reference (no pickling of the worlds): the
-#: parent registers them under a token before the pool forks and removes them afterwards.
+#: Tiles handed to forked worker processes by reference (no pickling of the worlds): a
+#: :class:`TilePool` registers them under a token before it forks and removes them on close.
 _SHARED: dict[int, tuple[Tile, ...]] = {}
 
 
@@ -447,8 +447,6 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         if not pool.serves(tiles):
             raise WorldGraphError(f"pool serves other tiles ({len(pool.tiles)} tiles) than the {len(tiles)} "
                                   "given: make a TilePool of these tiles")
-        if pool.closed:
-            raise WorldGraphError("pool is closed (TilePool.close was called): make a new TilePool")
     rngs: list[np.random.Generator | None] = [None] * len(tiles)
     if rng is not None:
         rngs = list(_checks.generator("rng", rng).spawn(len(tiles)))
@@ -471,14 +469,8 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         if n_workers == 1:
             answers = [_run_tile(t.world, *a) for t, a in zip(tiles, args, strict=True)]
         elif "fork" in multiprocessing.get_all_start_methods():
-            token = id(tiles)
-            _SHARED[token] = tiles
-            try:
-                with ProcessPoolExecutor(n_workers, mp_context=multiprocessing.get_context("fork")) as ex:
-                    answers = list(ex.map(_run_shared, [token] * len(tiles), range(len(tiles)),
-                                          *zip(*args, strict=True)))
-            finally:
-                _SHARED.pop(token, None)
+            with TilePool(tiles, n_workers) as one_call:  # forked for this call only
+                answers = one_call._map(args)
         else:  # pragma: no cover - spawn-only platforms pickle the tiles
             with ProcessPoolExecutor(n_workers) as ex:
                 answers = list(ex.map(_run_tile, [t.world for t in tiles], *zip(*args, strict=True)))
