@@ -222,6 +222,24 @@ def _far_index(world: WorldModel, tp: str, tq: str, diff: NDArray[np.float64], d
     return world.far_pairs(tp, tq, bool(tol.gravity_aligned))
 
 
+def _index_window(index: FarPairIndex, diff: NDArray[np.float64], d: float, tau: float, reach: float
+                  ) -> tuple[slice, float, float]:
+    """``(window, centre, half)``: the index pairs whose key is within ``half`` of ``centre``
+    (gravity-aligned: the horizontal distance within ``tau``, else the distance within ``reach``)."""
+    centre, half = (math.hypot(diff[0], diff[1]), tau) if index.dz is not None else (d, reach)
+    return index.window(centre - half, centre + half), centre, half
+
+
+def _raised_query(world: WorldModel, objs: NDArray[np.intp], tq: str, diff: NDArray[np.float64], tau: float,
+                  ztol: float) -> tuple[NDArray[np.float64], cKDTree, float]:
+    """Gravity-aligned k-d tree query beyond the link table: ``objs``' positions raised by dz,
+    q's tree, both with z scaled by :data:`GRAVITY_Z_SCALE`, and the radius (not widened) that
+    holds every partner on the horizontal ring of radius h, thin in z."""
+    s = GRAVITY_Z_SCALE
+    pts = (world.positions[objs] + [0.0, 0.0, diff[2]]) * [1.0, 1.0, s]
+    return pts, world.type_tree(tq, s), math.hypot(math.hypot(diff[0], diff[1]) + tau, s * ztol)
+
+
 def _indexed_candidates(world: WorldModel, index: FarPairIndex, diff: NDArray[np.float64], d: float,
                         ztol: float, tau: float, reach: float, sub: NDArray[np.intp] | None
                         ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
@@ -233,8 +251,7 @@ def _indexed_candidates(world: WorldModel, index: FarPairIndex, diff: NDArray[np
     from the positions."""
     h = math.hypot(diff[0], diff[1])
     gravity = index.dz is not None
-    centre, half = (h, tau) if gravity else (d, reach)
-    w = index.window(centre - half, centre + half)
+    w, centre, half = _index_window(index, diff, d, tau, reach)
     i, j, key = index.i[w], index.j[w], index.key[w]
     keep = np.ones(len(i), dtype=bool)
     if sub is not None:
@@ -292,11 +309,10 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         # beyond the link table, z up: p's objects raised by dz, against q's tree, both with z
         # scaled by GRAVITY_Z_SCALE: the partners lie on a horizontal ring of radius h, thin in
         # z, and the other storeys far outside the query radius; the gravity test below is exact
-        s = GRAVITY_Z_SCALE
         h = math.hypot(diff[0], diff[1])
-        raised = cKDTree((world.positions[sub] + [0.0, 0.0, diff[2]]) * [1.0, 1.0, s])
-        r_hi = math.hypot(h + tau, s * ztol) * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
-        pairs = raised.sparse_distance_matrix(world.type_tree(tq, s), r_hi, output_type="ndarray")
+        pts, tree_q, radius = _raised_query(world, sub, tq, diff, tau, ztol)
+        r_hi = radius * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
+        pairs = cKDTree(pts).sparse_distance_matrix(tree_q, r_hi, output_type="ndarray")
         shell = pairs["v"] >= (h - tau) * (1.0 - QUERY_WIDEN)
         i, j = sub[pairs["i"][shell]], oq[pairs["j"][shell]]
         keep = i != j
@@ -350,15 +366,11 @@ def _far_hits_per_row(world: WorldModel, percepts: list[Percept], p: int, q: int
     diff, d, ztol, reach, _ = _pair_reach(world, percepts, p, q, tau, tol)
     op = objects[p]
     if (index := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
-        centre, half = (math.hypot(diff[0], diff[1]), tau) if tol.gravity_aligned else (d, reach)
-        w = index.window(centre - half, centre + half)
+        w, _, _ = _index_window(index, diff, d, tau, reach)
         return max(1.0, (w.stop - w.start) / max(len(op), 1))
     pick = op[np.unique(np.linspace(0, len(op) - 1, min(len(op), FAR_COST_SAMPLE)).astype(np.intp))]
     if tol.gravity_aligned:
-        s = GRAVITY_Z_SCALE
-        pts = (world.positions[pick] + [0.0, 0.0, diff[2]]) * [1.0, 1.0, s]
-        radius = math.hypot(math.hypot(diff[0], diff[1]) + tau, s * ztol)
-        tree = world.type_tree(tq, s)
+        pts, tree, radius = _raised_query(world, pick, tq, diff, tau, ztol)
     else:
         pts, radius, tree = world.positions[pick], d + reach, world.type_tree(tq)
     return max(1.0, float(np.mean(tree.query_ball_point(pts, radius, return_length=True))))
