@@ -3,10 +3,11 @@ each percept pair (link tables, the far-pair index, k-d trees), lazy far pairs a
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -241,23 +242,23 @@ def _raised_query(world: WorldModel, objs: NDArray[np.intp], tq: str, diff: NDAr
 
 
 def _indexed_candidates(world: WorldModel, index: FarPairIndex, diff: NDArray[np.float64], d: float,
-                        ztol: float, tau: float, reach: float, sub: NDArray[np.intp] | None
-                        ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+                        ztol: float, tau: float, reach: float, sub: NDArray[np.intp] | None,
+                        sub_q: NDArray[np.intp] | None = None) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """Far percept pair candidates from the world's far-pair index: the pairs in the key window
     (3D distance, or gravity-aligned horizontal distance and dz) whose p object is in ``sub``
-    (all when None), tested exactly as the other branches of :func:`_pair_candidates` do.  The
-    float32 keys are within :data:`FAR_PAIR_SLACK` of the float64 values, so pairs that pass by
-    more than the slack pass the exact test and only the pairs near the edge are computed again
-    from the positions."""
+    (all when None) and whose q object is in ``sub_q`` (all when None), tested exactly as the
+    other branches of :func:`_pair_candidates` do.  The float32 keys are within
+    :data:`FAR_PAIR_SLACK` of the float64 values, so pairs that pass by more than the slack pass
+    the exact test and only the pairs near the edge are computed again from the positions."""
     h = math.hypot(diff[0], diff[1])
     gravity = index.dz is not None
     w, centre, half = _index_window(index, diff, d, tau, reach)
     i, j, key = index.i[w], index.j[w], index.key[w]
     keep = np.ones(len(i), dtype=bool)
     if sub is not None:
-        mine = np.zeros(len(world), dtype=bool)
-        mine[sub] = True
-        keep &= mine[i]
+        keep &= _members(world, sub)[i]
+    if sub_q is not None:
+        keep &= _members(world, sub_q)[j]
     off = np.abs(key - centre)
     inner = off < half - FAR_PAIR_SLACK
     if index.dz is not None:
@@ -275,17 +276,64 @@ def _indexed_candidates(world: WorldModel, index: FarPairIndex, diff: NDArray[np
     return i[keep].astype(np.intp), j[keep].astype(np.intp)
 
 
+def _members(world: WorldModel, idx: NDArray[np.intp]) -> NDArray[np.bool_]:
+    """A mask over the world's objects that is True at ``idx``."""
+    mask = np.zeros(len(world), dtype=bool)
+    mask[idx] = True
+    return mask
+
+
+#: A far pair's k-d tree query uses a tree of one side's chosen objects (built for the call)
+#: instead of the type's kept tree when they are at most this fraction of the type.
+SUBTREE_FRACTION = 0.5
+
+
+def _tree_pairs(world: WorldModel, types: tuple[str, str], full: tuple[NDArray[np.intp], NDArray[np.intp]],
+                chosen: tuple[NDArray[np.intp], NDArray[np.intp]], dz: float, z_scale: float,
+                shell: tuple[float, float]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Every pair ``(i, j)`` (global indices) of the chosen objects of the two types (``chosen``,
+    subsets of the types' objects ``full``) whose offset minus ``(0, 0, dz)``, with z multiplied
+    by ``z_scale``, has a length within ``shell = (lo, hi)``: one dual k-d tree query in C.
+
+    Each side is queried through its type's kept tree (:meth:`WorldModel.type_tree`; pairs of
+    objects not chosen are then dropped) when it holds more than :data:`SUBTREE_FRACTION` of its
+    type, else through a tree of its chosen objects built for the call; ``dz`` moves a built
+    tree (when both sides are large, the smaller is built), so a side of a few objects against
+    a type of 200k builds no large tree."""
+    (tp, tq), (op, oq), (sub, sub_q) = types, full, chosen
+    own_p = len(sub) <= SUBTREE_FRACTION * len(op)
+    own_q = len(sub_q) <= SUBTREE_FRACTION * len(oq)
+    if dz != 0.0 and not (own_p or own_q):
+        own_p, own_q = len(sub) <= len(sub_q), len(sub) > len(sub_q)
+    scale = np.array([1.0, 1.0, z_scale])
+    lift = np.array([0.0, 0.0, dz])
+    tree_p = cKDTree((world.positions[sub] + lift) * scale) if own_p else world.type_tree(tp, z_scale)
+    lift = lift if not own_p else 0.0 * lift  # dz moves one side only
+    tree_q = cKDTree((world.positions[sub_q] - lift) * scale) if own_q else world.type_tree(tq, z_scale)
+    pairs = tree_p.sparse_distance_matrix(tree_q, shell[1], output_type="ndarray")
+    pairs = pairs[pairs["v"] >= shell[0]]
+    i, j = (sub if own_p else op)[pairs["i"]], (sub_q if own_q else oq)[pairs["j"]]
+    keep = i != j
+    if not own_p and len(sub) < len(op):
+        keep &= _members(world, sub)[i]
+    if not own_q and len(sub_q) < len(oq):
+        keep &= _members(world, sub_q)[j]
+    return i[keep], j[keep]
+
+
 def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
                      tol: AssociationTolerances, objects: list[NDArray[np.intp]],
-                     rows: NDArray[np.intp] | None = None,
+                     rows: NDArray[np.intp] | None = None, cols: NDArray[np.intp] | None = None,
                      ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """Model pairs consistent with the percept pair (p, q): local indices ``(a, b)`` into
-    ``objects[p]`` and ``objects[q]``.  ``rows`` (local indices into ``objects[p]``; used for far
-    pairs, see :func:`_is_far`) restricts p's side to those objects."""
+    ``objects[p]`` and ``objects[q]``.  ``rows`` and ``cols`` (local indices into ``objects[p]``
+    and ``objects[q]``; used for far pairs, see :func:`_is_far`) restrict p's and q's side to
+    those objects."""
     tp, tq = percepts[p].type, percepts[q].type
     op, oq = objects[p], objects[q]
     diff, d, ztol, reach, covered = _pair_reach(world, percepts, p, q, tau, tol)
     sub = op if rows is None else op[rows]
+    sub_q = oq if cols is None else oq[cols]
     i: NDArray[np.integer]  # intp from the link tables and trees, int32 from the far-pair index
     j: NDArray[np.integer]
     if covered:
@@ -293,41 +341,38 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         if tp == tq:
             i, j = np.concatenate([i, j]), np.concatenate([j, i])
         if rows is not None:
-            keep = np.isin(i, sub)
+            keep = _members(world, sub)[i]
+            i, j = i[keep], j[keep]
+        if cols is not None:
+            keep = _members(world, sub_q)[j]
             i, j = i[keep], j[keep]
     elif len(op) * len(oq) <= tol.dense_pair_limit:
-        ii, jj = np.meshgrid(sub, oq, indexing="ij")
+        ii, jj = np.meshgrid(sub, sub_q, indexing="ij")
         i, j = ii.ravel(), jj.ravel()
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
     elif (index := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
         # the far-pair index applies the final tests itself
-        i, j = _indexed_candidates(world, index, diff, d, ztol, tau, reach, sub if rows is not None else None)
+        i, j = _indexed_candidates(world, index, diff, d, ztol, tau, reach, sub if rows is not None else None,
+                                   sub_q if cols is not None else None)
         return _renumber(world, tp, tq, op, oq, i, j)
     elif tol.gravity_aligned:
-        # beyond the link table, z up: p's objects raised by dz, against q's tree, both with z
+        # beyond the link table, z up: p's objects raised by dz (or q's lowered), both with z
         # scaled by GRAVITY_Z_SCALE: the partners lie on a horizontal ring of radius h, thin in
         # z, and the other storeys far outside the query radius; the gravity test below is exact
         h = math.hypot(diff[0], diff[1])
-        pts, tree_q, radius = _raised_query(world, sub, tq, diff, tau, ztol)
-        r_hi = radius * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
-        pairs = cKDTree(pts).sparse_distance_matrix(tree_q, r_hi, output_type="ndarray")
-        shell = pairs["v"] >= (h - tau) * (1.0 - QUERY_WIDEN)
-        i, j = sub[pairs["i"][shell]], oq[pairs["j"][shell]]
-        keep = i != j
-        i, j = i[keep], j[keep]
+        radius = math.hypot(h + tau, GRAVITY_Z_SCALE * ztol)
+        i, j = _tree_pairs(world, (tp, tq), (op, oq), (sub, sub_q), float(diff[2]), GRAVITY_Z_SCALE,
+                           ((h - tau) * (1.0 - QUERY_WIDEN), radius * (1.0 + QUERY_WIDEN) + QUERY_FLOOR))
     else:
         # beyond the link table: the two types' k-d trees give every pair within d + reach
         # (dual tree, in C); the shell |d_model - d| < reach, with the distances computed as in
         # the other branches, keeps the candidates
         wide = reach * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
-        tree_p = world.type_tree(tp) if rows is None else cKDTree(world.positions[sub])
-        pairs = tree_p.sparse_distance_matrix(world.type_tree(tq), d + wide, output_type="ndarray")
-        shell = pairs["v"] > d - wide
-        i, j = sub[pairs["i"][shell]], oq[pairs["j"][shell]]
+        i, j = _tree_pairs(world, (tp, tq), (op, oq), (sub, sub_q), 0.0, 1.0, (d - wide, d + wide))
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
-        keep = (np.abs(dm - d) < reach) & (i != j)
+        keep = np.abs(dm - d) < reach
         i, j = i[keep], j[keep]
     if tol.gravity_aligned and len(i):
         dv = world.positions[j] - world.positions[i]
@@ -376,16 +421,35 @@ def _far_hits_per_row(world: WorldModel, percepts: list[Percept], p: int, q: int
     return max(1.0, float(np.mean(tree.query_ball_point(pts, radius, return_length=True))))
 
 
+@dataclass
+class _FarPair:
+    """What :class:`_LazyGraph` has queried of one far percept pair (p, q): ``done`` marks the
+    rows (p's local indices) queried, each against (at least) the q objects ``covered`` marks;
+    ``parts`` holds the candidates found; ``repeated`` says that some of them may be found twice
+    (a row queried again against revived q objects)."""
+
+    tau: float
+    done: NDArray[np.bool_]
+    covered: NDArray[np.bool_]
+    parts: list[tuple[NDArray[np.intp], NDArray[np.intp]]] = field(default_factory=list)
+    repeated: bool = False
+
+    def complete(self, alive_p: NDArray[np.bool_], alive_q: NDArray[np.bool_]) -> bool:
+        """Every alive row is queried against every alive q object."""
+        return not (np.any(alive_p & ~self.done) or np.any(alive_q & ~self.covered))
+
+
 class _LazyGraph:
     """The consistency graph with the far percept pairs (:func:`_is_far`) filled on demand.
 
     Pruning for a clique size ``need`` first treats every far pair as unconstrained; that keeps a
     superset of the vertices the exact pruning keeps (pruning is monotone in the edges).  The far
-    pairs' candidates are then computed for those vertices only (p's side of each pair; later
-    calls add the vertices a smaller ``need`` revives), and the graph of the near pairs plus the
-    far candidates found so far is pruned again: exactly, because every vertex it can keep has
-    all its far candidates.  Far pairs cost queries for the few objects that fit the near
-    pairs, not for every object of their type.
+    pairs' candidates are then computed between those vertices only (p's alive rows against q's
+    alive objects; later calls add the vertices a smaller ``need`` revives), and the graph of the
+    near pairs plus the far candidates found so far is pruned again: exactly, because every
+    vertex it can keep has all its far candidates among the vertices it can keep (edges to
+    vertices the pruning has already removed cannot support anything).  Far pairs cost queries
+    between the few objects that fit the near pairs, not between all objects of their types.
     """
 
     def __init__(self, world: WorldModel, percepts: list[Percept], tol: AssociationTolerances) -> None:
@@ -393,12 +457,13 @@ class _LazyGraph:
         self.objects = [world.type_index[p.type] for p in percepts]
         sig = np.array([p.sigma for p in percepts])
         self.near: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]]] = {}
-        self.far: dict[tuple[int, int], tuple[float, NDArray[np.bool_], list, list]] = {}
+        self.far: dict[tuple[int, int], _FarPair] = {}
         self.hits: dict[tuple[int, int], float] = {}  # a far pair's query cost per p row
         for p, q in itertools.combinations(range(len(percepts)), 2):
             tau = float(tol.pair_tolerance(sig[p], sig[q]))
             if _is_far(world, percepts, p, q, tau, tol, self.objects):
-                self.far[(p, q)] = (tau, np.zeros(len(self.objects[p]), dtype=bool), [], [])
+                self.far[(p, q)] = _FarPair(tau, np.zeros(len(self.objects[p]), dtype=bool),
+                                            np.zeros(len(self.objects[q]), dtype=bool))
                 self.hits[(p, q)] = _far_hits_per_row(world, percepts, p, q, tau, tol, self.objects)
             else:
                 self.near[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tol, self.objects)
@@ -409,50 +474,83 @@ class _LazyGraph:
         that pruning.
 
         Far pairs are filled in rounds, the cheapest first (rows to query times the model pairs a
-        row's query visits, :func:`_far_hits_per_row`: on the 1M campus this cut the associate
-        median by a fifth against rows alone), and the graph
-        is pruned again after each round: a far pair counts as unconstrained while some alive
-        vertex of its p side has not been queried, and as constrained once all have, so every
-        intermediate pruning keeps a superset of the exact one (see the class docstring) while
-        the rows left to query shrink with each constraint added."""
+        row's query visits, :func:`_far_hits_per_row`, times the alive fraction of q's objects:
+        on the 1M campus the cost order cut the associate median by a fifth against rows alone),
+        and the graph is pruned again after each round: a far pair counts as unconstrained until
+        every alive vertex of its p side is queried against every alive vertex of its q side, and
+        as constrained from then on, so every intermediate pruning keeps a superset of the exact
+        one (see the class docstring) while the rows left to query shrink with each constraint
+        added."""
         if not self.far:
             return self.free, _prune(self.free, need)
         graph = self._current()
         alive = _prune(graph, need)
         while True:
-            # a pair's cost: its rows to query times the model pairs one row's query visits
-            rows = {key: int(np.count_nonzero(alive[key[0]] & ~done))
-                    for key, (_, done, _, _) in self.far.items()}
-            pending = sorted((n * self.hits[key], key) for key, n in rows.items() if n)
+            # a pair's cost: its rows to query (again, for revived q objects) times the model
+            # pairs one row's query visits among q's alive objects
+            pending = []
+            for key, far in self.far.items():
+                p, q = key
+                n = np.count_nonzero(alive[p] & ~far.done)
+                if np.any(alive[q] & ~far.covered):
+                    n += np.count_nonzero(alive[p] & far.done)
+                if n:
+                    frac = np.count_nonzero(alive[q]) / max(len(alive[q]), 1)
+                    pending.append((n * self.hits[key] * frac, key))
             if not pending:
-                # every far pair is queried for every alive vertex: constrain them all
+                # every far pair is queried between all alive vertices: constrain them all
                 final = self._current(alive)
                 return final, _prune(final, need, alive)
+            pending.sort()
             # this round: the cheapest pairs, up to FAR_ROUND_FACTOR times the cheapest one's cost
             floor = FAR_ROUND_MIN_ROWS * self.hits[pending[0][1]]
             limit = FAR_ROUND_FACTOR * max(pending[0][0], floor)
-            for n, (p, q) in pending:
-                if n > limit:
+            for cost, (p, q) in pending:
+                if cost > limit:
                     break
-                tau, done, a_parts, b_parts = self.far[(p, q)]
-                todo = np.flatnonzero(alive[p] & ~done)
-                a, b = _pair_candidates(self.world, self.percepts, p, q, tau, self.tol, self.objects, todo)
-                a_parts.append(a)
-                b_parts.append(b)
-                done[todo] = True
+                self._query(p, q, alive)
             graph = self._current(alive)
             alive = _prune(graph, need, alive)
 
+    def _query(self, p: int, q: int, alive: list[NDArray[np.bool_]]) -> None:
+        """Query the far pair (p, q) between the alive vertices: the queried rows that are still
+        alive against the revived q objects, then the new rows against q's alive objects."""
+        far = self.far[(p, q)]
+        query = functools.partial(_pair_candidates, self.world, self.percepts, p, q, far.tau, self.tol,
+                                  self.objects)
+        if np.any(far.done & ~alive[p]):  # a row removed now is queried again (in full) if it revives
+            far.done &= alive[p]
+            far.repeated = True
+        revived = alive[q] & ~far.covered
+        if revived.any() and far.done.any():
+            far.parts.append(query(np.flatnonzero(far.done), np.flatnonzero(revived)))
+            far.repeated = True
+        # every queried row now covers q's alive objects (and maybe more)
+        far.covered = alive[q].copy()
+        todo = np.flatnonzero(alive[p] & ~far.done)
+        if todo.size:
+            far.parts.append(query(todo, np.flatnonzero(alive[q])))
+            far.done[todo] = True
+
     def _current(self, alive: list[NDArray[np.bool_]] | None = None) -> _Graph:
-        """The near pairs plus the far pairs whose p side is queried for every alive vertex
-        (``alive`` None: every vertex); the other far pairs unconstrained."""
+        """The near pairs plus the far pairs queried between every alive vertex (``alive``
+        None: every vertex); the other far pairs unconstrained."""
         edges: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]] | None] = dict(self.near)
-        for key, (_, done, a_parts, b_parts) in self.far.items():
-            complete = bool(done.all()) if alive is None else not np.any(alive[key[0]] & ~done)
-            if a_parts and complete:
-                edges[key] = (np.concatenate(a_parts), np.concatenate(b_parts))
+        for (p, q), far in self.far.items():
+            if alive is None:
+                complete = bool(far.done.all() and far.covered.all())
             else:
-                edges[key] = None
+                complete = far.complete(alive[p], alive[q])
+            if far.parts and complete:
+                a = np.concatenate([x for x, _ in far.parts])
+                b = np.concatenate([y for _, y in far.parts])
+                if far.repeated:  # one edge per pair (a row queried twice may find one twice)
+                    code = np.unique(a.astype(np.int64) * len(far.covered) + b)
+                    a, b = code // len(far.covered), code % len(far.covered)
+                    far.parts, far.repeated = [(a, b)], False
+                edges[(p, q)] = (a, b)
+            else:
+                edges[(p, q)] = None
         return _Graph(self.objects, dict(sorted(edges.items())))
 
 
