@@ -590,29 +590,33 @@ def _prune_by_pairs(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | N
     k = len(graph.objects)
     cur = [np.ones(len(o), dtype=bool) for o in graph.objects] if alive is None else [a.copy() for a in alive]
     edges = dict(graph.edges)
+    count = np.min_scalar_type(k)  # supports count parts: small integers keep the arrays in cache
+
+    def add(support: NDArray[np.integer], ends: NDArray[np.intp]) -> None:
+        # one support for each distinct vertex among the edge ends (a mask: sorting the ends
+        # was slower even when they were few against the part)
+        hit = np.zeros(len(support), dtype=bool)
+        hit[ends] = True
+        support += hit
+
     while True:
-        support = [np.zeros(len(a), dtype=np.int64) for a in cur]
+        free = np.zeros(k, dtype=np.int64)  # supports of the unconstrained pairs, per part
+        support = [np.zeros(len(a), dtype=count) for a in cur]
         has = [bool(a.any()) for a in cur]
         for (p, q), e in edges.items():
             if e is None:
-                if has[q]:
-                    support[p] += 1
-                if has[p]:
-                    support[q] += 1
+                free[p] += has[q]
+                free[q] += has[p]
                 continue
             a, b = e
             keep = cur[p][a] & cur[q][b]
             a, b = a[keep], b[keep]
             edges[(p, q)] = (a, b)
-            hit = np.zeros(len(cur[p]), dtype=bool)
-            hit[a] = True
-            support[p] += hit
-            hit = np.zeros(len(cur[q]), dtype=bool)
-            hit[b] = True
-            support[q] += hit
+            add(support[p], a)
+            add(support[q], b)
         changed = False
         for p in range(k):
-            new = cur[p] & (support[p] >= need - 1)
+            new = cur[p] & (support[p] >= need - 1 - free[p])
             if np.count_nonzero(new) != np.count_nonzero(cur[p]):
                 cur[p], changed = new, True
         if not changed:
