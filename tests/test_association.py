@@ -454,7 +454,8 @@ def test_far_pair_candidates_between_chosen_rows_and_columns(index: bool, seed: 
     rng = np.random.default_rng(seed)
     n = 300
     storey = rng.integers(0, 3, n)
-    pos = np.column_stack([rng.uniform(0, 14, n), rng.uniform(0, 12, n), 3.0 * storey + rng.uniform(0, 2.5, n)])
+    pos = np.column_stack([rng.uniform(0, 14, n), rng.uniform(0, 12, n),
+                           3.0 * storey + rng.uniform(0, 2.5, n)])
     world = WorldModel.from_arrays(rng.choice(TYPES, n), pos, max_link_length=1.5)
     percepts = [Percept(str(t), rng.uniform([-5, -5, -1], [5, 5, 2.5]), float(rng.uniform(0.01, 0.08)))
                 for t in rng.choice(TYPES, 5)]
@@ -565,3 +566,36 @@ def test_far_pair_cost_estimate_counts_the_query_hits(gravity: bool, monkeypatch
         counts.append(np.count_nonzero(np.linalg.norm(v, axis=1) <= radius))
     assert got == pytest.approx(max(1.0, float(np.mean(counts))), rel=1e-12)
     assert got > 1.0
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_truncated_near_maximum_search_keeps_every_maximum_clique(seed: int) -> None:
+    """When the near-maximum enumeration stops at ``max_cliques``, the maximum cliques are
+    searched apart (in the graph pruned for their size) and all of them still become
+    hypotheses: the same largest hypotheses as an enumeration with room for every clique, and
+    the answer flagged incomplete."""
+    rng = np.random.default_rng(seed)
+    module = rng.uniform([0, 0, 0], [3.0, 2.5, 2.0], (6, 3))
+    types = list(rng.choice(TYPES, 6))
+    # six rooms with one object moved (maximal cliques of five; first in the object order, so
+    # the enumeration meets them first), then four identical rooms 4 m apart (four maximum
+    # cliques of the six true percepts), plus clutter
+    moved = [module + np.where(np.arange(6)[:, None] == r, [0.0, 0.0, 0.9], 0.0) for r in range(6)]
+    pos = np.concatenate([m + [4.0 * r, 0.0, 0.0] for r, m in enumerate(moved)] +
+                         [module + [4.0 * (6 + r), 0.0, 0.0] for r in range(4)] +
+                         [rng.uniform([0, 3.0, 0], [40, 6, 2.0], (40, 3))])
+    world = WorldModel.from_arrays(types * 10 + list(rng.choice(TYPES, 40)), pos, max_link_length=5.0)
+    pose = np.eye(4)
+    pose[:3, 3] = [24.0 + 1.5, -1.0, 1.0]
+    percepts = exact_percepts(world, pose, np.arange(36, 42), sigma=0.01)
+    percepts.append(Percept(str(rng.choice(TYPES)), np.array([0.3, 2.5, 0.4]), 0.01))
+    roomy = associate(world, percepts, AssociationTolerances(max_hypotheses=1000), max_hypotheses=1000)
+    tight_tol = AssociationTolerances(max_cliques=5, max_hypotheses=1000)
+    tight = associate(world, percepts, tight_tol, max_hypotheses=1000)
+    assert all(h.complete for h in roomy)
+    assert tight and not any(h.complete for h in tight)  # the enumeration was cut short
+    size = max(len(h.pairs) for h in roomy)
+    assert size == 6
+    largest = {tuple(h.pairs) for h in roomy if len(h.pairs) == size}
+    assert len(largest) >= 4  # one per room (and no more than fits in max_cliques)
+    assert {tuple(h.pairs) for h in tight if len(h.pairs) == size} == largest

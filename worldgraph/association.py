@@ -188,8 +188,8 @@ def _associate(world: WorldModel, percepts: list[Percept], tol: AssociationToler
         graph, alive = lazy.prune(need)
         if sum(bool(a.any()) for a in alive) < need:
             continue
-        objects, adjacency = graph.compact(alive)
-        search = maximum_cliques([len(o) for o in objects], adjacency, min_size=need, near_maximum=0,
+        top_objects, top_adjacency = graph.compact(alive)
+        search = maximum_cliques([len(o) for o in top_objects], top_adjacency, min_size=need, near_maximum=0,
                                  max_nodes=tol.max_nodes, stop_at=need)
         if search.maximum >= need:
             best = search.maximum
@@ -204,10 +204,14 @@ def _associate(world: WorldModel, percepts: list[Percept], tol: AssociationToler
                              max_cliques=tol.max_cliques)
     cliques = search.cliques
     if not search.complete and best > floor:
-        # truncated: make sure the maximum cliques themselves are among the candidates
-        top = maximum_cliques([len(o) for o in objects], adjacency, min_size=best, near_maximum=0,
+        # truncated: make sure the maximum cliques themselves are among the candidates, searched
+        # in the graph pruned for their size (which holds every one of them, and fewer vertices)
+        # and renumbered into this graph's vertices
+        top = maximum_cliques([len(o) for o in top_objects], top_adjacency, min_size=best, near_maximum=0,
                               max_nodes=tol.max_nodes, max_cliques=tol.max_cliques)
-        cliques = sorted(set(top.cliques) | set(cliques), key=lambda c: (-len(c), c))
+        renumbered = {tuple((p, int(np.searchsorted(objects[p], top_objects[p][a]))) for p, a in c)
+                      for c in top.cliques}
+        cliques = sorted(renumbered | set(cliques), key=lambda c: (-len(c), c))
     hyps = _hypotheses_from_cliques(world, percepts, objects, cliques, tol, searched)
     if not hyps and floor > tol.min_clique_size:
         # every large clique was a mirror or degenerate: fall back to all sizes
