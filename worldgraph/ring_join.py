@@ -81,6 +81,8 @@ def _ring_kernel(a: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows
     cnt = 0
     hh = h_hi + eps
     hl = h_lo - eps
+    sq_hi = hh * hh * (1.0 + 1e-9)
+    sq_lo = max(hl, 0.0) ** 2 * (1.0 - 1e-9)
     for p in range(n):
         ax = a[p, 0]
         ay = a[p, 1]
@@ -162,8 +164,12 @@ def _ring_kernel(a: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows
                     k = left
                     while k < e and keys[k] <= last:
                         dz = bs[k, 2] - az
-                        if z_lo <= dz <= z_hi:
-                            h = math.hypot(bs[k, 0] - ax, bs[k, 1] - ay)
+                        dx = bs[k, 0] - ax
+                        dy = bs[k, 1] - ay
+                        d2 = dx * dx + dy * dy
+                        # a cheap squared test, widened far beyond its rounding, first
+                        if z_lo <= dz <= z_hi and sq_lo <= d2 <= sq_hi:
+                            h = math.hypot(dx, dy)
                             if h_lo <= h <= h_hi:
                                 if cnt == cap:
                                     cap *= 2
