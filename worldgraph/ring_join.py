@@ -380,8 +380,10 @@ def _cells(b: NDArray[np.float64], origin: NDArray[np.float64], sizes: tuple[flo
     return np.clip(idx, 0, np.asarray(counts, dtype=np.int64) - 1)
 
 
-def _sorted(b: NDArray[np.float64], keys: NDArray[np.int64], rows: int, inner: int,
-            n: int) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], bool]:
+_Sorted = tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], bool]
+
+
+def _sorted(b: NDArray[np.float64], keys: NDArray[np.int64], rows: int, inner: int, n: int) -> _Sorted:
     """``b`` and its keys sorted by key, the order, and the row-start table (when small enough)."""
     order = np.argsort(keys, kind="stable")
     keys = keys[order]
