@@ -68,13 +68,13 @@ _KEY_LIMIT = 2.0**62  # cell keys stay below this (int64)
 _COMPILED: dict[str, Callable[..., Any] | None] = {"ring": None, "shell": None}
 
 
-def _ring_kernel(a: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows: bool,
+def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows: bool,
                  origin: Any, cell: float, zcell: float, nx: int, ny: int, nz: int,
                  h_lo: float, h_hi: float, z_lo: float, z_hi: float, eps: float) -> Any:
     """Ring join of ``a`` against the sorted ``bs`` (compiled by numba; plain Python otherwise)."""
     n = a.shape[0]
     m = bs.shape[0]
-    x0, y0, z0 = origin[0], origin[1], origin[2]
+    x0, z0 = origin[0], origin[2]
     cap = max(1024, 4 * n)
     out_i = np.empty(cap, np.int64)
     out_j = np.empty(cap, np.int64)
@@ -116,53 +116,52 @@ def _ring_kernel(a: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows
             ymin = 0.0
             if hl > dmax:
                 ymin = max(math.sqrt(hl * hl - dmax * dmax) - eps, 0.0)
-            t_lo1 = (ay - ymax - y0) / cell
-            t_hi1 = (ay - ymin - y0) / cell
-            t_lo2 = (ay + ymin - y0) / cell
-            t_hi2 = (ay + ymax - y0) / cell
-            if t_hi2 < 0.0 or t_lo1 >= ny:
-                continue
-            lo1 = int(math.floor(max(t_lo1, -1.0)))
-            hi1 = int(math.floor(min(t_hi1, float(ny))))
-            lo2 = int(math.floor(max(t_lo2, -1.0)))
-            hi2 = int(math.floor(min(t_hi2, float(ny))))
-            if lo2 <= hi1 + 1:  # the two y ranges touch: one scan
-                hi1 = hi2
+            ylo1 = ay - ymax
+            yhi1 = ay - ymin
+            ylo2 = ay + ymin
+            yhi2 = ay + ymax
+            nint = 2
+            if ylo2 <= yhi1:  # the two y ranges overlap: one scan
+                yhi1 = yhi2
                 nint = 1
-            else:
-                nint = 2
             for iz in range(izlo, izhi + 1):
                 row = ix * nz + iz
                 if use_rows:
                     s = rowstart[row]
                     e = rowstart[row + 1]
                 else:
-                    s = 0
-                    e = m
+                    left = 0
+                    right = m
+                    while left < right:  # first key >= row
+                        mid = (left + right) >> 1
+                        if keys[mid] < row:
+                            left = mid + 1
+                        else:
+                            right = mid
+                    s = left
+                    right = m
+                    while left < right:  # first key > row
+                        mid = (left + right) >> 1
+                        if keys[mid] <= row:
+                            left = mid + 1
+                        else:
+                            right = mid
+                    e = left
                 if s == e:
                     continue
-                base = row * ny
                 for q in range(nint):
-                    if q == 0:
-                        lo = max(lo1, 0)
-                        hi = min(hi1, ny - 1)
-                    else:
-                        lo = max(lo2, 0)
-                        hi = min(hi2, ny - 1)
-                    if lo > hi:
-                        continue
-                    want = base + lo
-                    last = base + hi
+                    ylo = ylo1 if q == 0 else ylo2
+                    yhi = yhi1 if q == 0 else yhi2
                     left = s
                     right = e
-                    while left < right:  # first key >= want
+                    while left < right:  # first y >= ylo in the row (sorted by y)
                         mid = (left + right) >> 1
-                        if keys[mid] < want:
+                        if bs[mid, 1] < ylo:
                             left = mid + 1
                         else:
                             right = mid
                     k = left
-                    while k < e and keys[k] <= last:
+                    while k < e and bs[k, 1] <= yhi:
                         dz = bs[k, 2] - az
                         dx = bs[k, 0] - ax
                         dy = bs[k, 1] - ay
@@ -179,14 +178,14 @@ def _ring_kernel(a: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows
                                     grown = np.empty(cap, np.int64)
                                     grown[:cnt] = out_j[:cnt]
                                     out_j = grown
-                                out_i[cnt] = p
+                                out_i[cnt] = a_order[p]
                                 out_j[cnt] = order[k]
                                 cnt += 1
                         k += 1
     return out_i[:cnt].copy(), out_j[:cnt].copy()
 
 
-def _shell_kernel(a: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows: bool,
+def _shell_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows: bool,
                   origin: Any, cell: float, nx: int, ny: int, nz: int,
                   r_lo: float, r_hi: float, eps: float) -> Any:
     """Shell join of ``a`` against the sorted ``bs`` (compiled by numba; plain Python otherwise)."""
@@ -247,52 +246,51 @@ def _shell_kernel(a: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_row
                 zmin = 0.0
                 if rl > 0.0 and rl * rl > far2:
                     zmin = max(math.sqrt(rl * rl - far2) - eps, 0.0)
-                t_lo1 = (az - zmax - z0) / cell
-                t_hi1 = (az - zmin - z0) / cell
-                t_lo2 = (az + zmin - z0) / cell
-                t_hi2 = (az + zmax - z0) / cell
-                if t_hi2 < 0.0 or t_lo1 >= nz:
-                    continue
+                zlo1 = az - zmax
+                zhi1 = az - zmin
+                zlo2 = az + zmin
+                zhi2 = az + zmax
+                nint = 2
+                if zlo2 <= zhi1:
+                    zhi1 = zhi2
+                    nint = 1
                 row = ix * ny + iy
                 if use_rows:
                     s = rowstart[row]
                     e = rowstart[row + 1]
                 else:
-                    s = 0
-                    e = m
-                if s == e:
-                    continue
-                lo1 = int(math.floor(max(t_lo1, -1.0)))
-                hi1 = int(math.floor(min(t_hi1, float(nz))))
-                lo2 = int(math.floor(max(t_lo2, -1.0)))
-                hi2 = int(math.floor(min(t_hi2, float(nz))))
-                if lo2 <= hi1 + 1:
-                    hi1 = hi2
-                    nint = 1
-                else:
-                    nint = 2
-                base = row * nz
-                for q in range(nint):
-                    if q == 0:
-                        lo = max(lo1, 0)
-                        hi = min(hi1, nz - 1)
-                    else:
-                        lo = max(lo2, 0)
-                        hi = min(hi2, nz - 1)
-                    if lo > hi:
-                        continue
-                    want = base + lo
-                    last = base + hi
-                    left = s
-                    right = e
+                    left = 0
+                    right = m
                     while left < right:
                         mid = (left + right) >> 1
-                        if keys[mid] < want:
+                        if keys[mid] < row:
+                            left = mid + 1
+                        else:
+                            right = mid
+                    s = left
+                    right = m
+                    while left < right:
+                        mid = (left + right) >> 1
+                        if keys[mid] <= row:
+                            left = mid + 1
+                        else:
+                            right = mid
+                    e = left
+                if s == e:
+                    continue
+                for q in range(nint):
+                    zlo = zlo1 if q == 0 else zlo2
+                    zhi = zhi1 if q == 0 else zhi2
+                    left = s
+                    right = e
+                    while left < right:  # first z >= zlo in the column (sorted by z)
+                        mid = (left + right) >> 1
+                        if bs[mid, 2] < zlo:
                             left = mid + 1
                         else:
                             right = mid
                     k = left
-                    while k < e and keys[k] <= last:
+                    while k < e and bs[k, 2] <= zhi:
                         dx = bs[k, 0] - ax
                         dy = bs[k, 1] - ay
                         dz = bs[k, 2] - az
@@ -306,7 +304,7 @@ def _shell_kernel(a: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_row
                                 grown = np.empty(cap, np.int64)
                                 grown[:cnt] = out_j[:cnt]
                                 out_j = grown
-                            out_i[cnt] = p
+                            out_i[cnt] = a_order[p]
                             out_j[cnt] = order[k]
                             cnt += 1
                         k += 1
@@ -383,16 +381,25 @@ def _cells(b: NDArray[np.float64], origin: NDArray[np.float64], sizes: tuple[flo
 _Sorted = tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], bool]
 
 
-def _sorted(b: NDArray[np.float64], keys: NDArray[np.int64], rows: int, inner: int, n: int) -> _Sorted:
-    """``b`` and its keys sorted by key, the order, and the row-start table (when small enough)."""
-    order = np.argsort(keys, kind="stable")
-    keys = keys[order]
-    use_rows = rows <= 4 * (n + len(b)) + 65536
+def _sorted(b: NDArray[np.float64], rows: NDArray[np.int64], within: int, nrows: int, n: int) -> _Sorted:
+    """``b`` sorted by grid row, then by coordinate ``within``; the order, the sorted row ids and
+    the row-start table (when it is small enough, else the kernels binary-search the row ids)."""
+    order = np.lexsort((b[:, within], rows))
+    rows = rows[order]
+    use_rows = nrows <= 4 * (n + len(b)) + 65536
     if use_rows:
-        rowstart = np.searchsorted(keys, np.arange(rows + 1, dtype=np.int64) * inner).astype(np.int64)
+        rowstart = np.searchsorted(rows, np.arange(nrows + 1, dtype=np.int64)).astype(np.int64)
     else:
         rowstart = np.zeros(1, np.int64)
-    return np.ascontiguousarray(b[order]), order.astype(np.int64), keys, rowstart, use_rows
+    return np.ascontiguousarray(b[order]), order.astype(np.int64), rows, rowstart, use_rows
+
+
+def _locality_order(a: NDArray[np.float64], origin: NDArray[np.float64], sizes: tuple[float, float, float],
+                    counts: tuple[int, int, int], axes: tuple[int, int, int]) -> NDArray[np.int64]:
+    """An order of ``a`` by the grid cells of ``b`` (the slowest axis first): consecutive rows
+    visit the same cells of ``b``, which stay in the processor's cache."""
+    idx = _cells(a, origin, sizes, counts)
+    return np.lexsort((a[:, axes[2]], idx[:, axes[1]], idx[:, axes[0]])).astype(np.int64)
 
 
 def _ring_cell(h_lo: float, h_hi: float, z_lo: float, z_hi: float,
@@ -447,11 +454,10 @@ def ring_pairs(a: Any, b: Any, *, h_lo: float, h_hi: float, z_lo: float, z_hi: f
     cell, zcell = _ring_cell(h_lo, h_hi, z_lo, z_hi, _cell)
     origin, cx, cz, (nx, ny, nz) = _grid(pb, cell, zcell, 1e3 * eps)
     idx = _cells(pb, origin, (cx, cx, cz), (nx, ny, nz))
-    keys = (idx[:, 0] * nz + idx[:, 2]) * ny + idx[:, 1]
-    bs, order, keys, rowstart, use_rows = _sorted(pb, keys, nx * nz, ny, len(pa))
-    i, j = kernel(pa, bs, order, keys, rowstart, use_rows, origin, cx, cz, nx, ny, nz,
+    bs, order, keys, rowstart, use_rows = _sorted(pb, idx[:, 0] * nz + idx[:, 2], 1, nx * nz, len(pa))
+    a_order = _locality_order(pa, origin, (cx, cx, cz), (nx, ny, nz), (0, 2, 1))
+    return kernel(pa[a_order], a_order, bs, order, keys, rowstart, use_rows, origin, cx, cz, nx, ny, nz,
                   h_lo, h_hi, z_lo, z_hi, eps)
-    return i, j
 
 
 def shell_pairs(a: Any, b: Any, *, r_lo: float, r_hi: float,
@@ -494,6 +500,7 @@ def shell_pairs(a: Any, b: Any, *, r_lo: float, r_hi: float,
     while c != cz:  # cubic cells: both the larger
         origin, c, cz, (nx, ny, nz) = _grid(pb, max(c, cz), max(c, cz), 1e3 * eps)
     idx = _cells(pb, origin, (c, c, c), (nx, ny, nz))
-    keys = (idx[:, 0] * ny + idx[:, 1]) * nz + idx[:, 2]
-    bs, order, keys, rowstart, use_rows = _sorted(pb, keys, nx * ny, nz, len(pa))
-    return kernel(pa, bs, order, keys, rowstart, use_rows, origin, c, nx, ny, nz, r_lo, r_hi, eps)
+    bs, order, keys, rowstart, use_rows = _sorted(pb, idx[:, 0] * ny + idx[:, 1], 2, nx * ny, len(pa))
+    a_order = _locality_order(pa, origin, (c, c, c), (nx, ny, nz), (0, 1, 2))
+    return kernel(pa[a_order], a_order, bs, order, keys, rowstart, use_rows, origin, c, nx, ny, nz,
+                  r_lo, r_hi, eps)
