@@ -1,8 +1,9 @@
 """Benchmark: the compiled ring join (worldgraph.ring_join.ring_pairs) against the k-d tree query.
 
 Campus: buildings of 5 storeys 3.5 m apart, each storey 60 x 40 m holding about 2 objects per
-m^2 (x, y uniform; z uniform in the storey's lowest 0.6 m), buildings on a 100 m grid, as many as
-the size needs (24k objects each).  A and B are two independent such sets of the same size.
+m^2 (x, y uniform; z uniform in the storey's lowest ``--z-spread`` m, default 0.6), buildings
+on a 100 m grid, as many as the size needs (24k objects each).  A and B are two independent
+such sets of the same size.
 Ring: horizontal distance in [5.9, 6.1] m, height offset b_z - a_z in [0.2, 0.4] m.
 
 The k-d tree baseline is the current approach of worldgraph.consistency: z scaled by 10,
@@ -12,7 +13,7 @@ the same exact filter.  Both must give the same pair set (checked on every size)
 
 "first" is the first call in the process (ring: numba compile or cache load included), "warm"
 the median of ``--repeats`` further calls.  ``--cells`` also times ring_pairs with a few cell
-sizes (the default is h_hi / 8).
+sizes (the default is h_hi / 4 = 1.525 m).
 
 Run:  python benchmarks/ring_join.py [--sizes 20000 50000 100000 200000] [--repeats 3] [--cells]
 Prints Markdown tables.
@@ -33,7 +34,7 @@ Z_LO, Z_HI = 0.2, 0.4
 Z_SCALE = 10.0
 
 
-def campus(n: int, rng: np.random.Generator) -> np.ndarray:
+def campus(n: int, rng: np.random.Generator, z_spread: float) -> np.ndarray:
     per_building = 5 * 60 * 40 * 2
     buildings = -(-n // per_building)
     side = int(np.ceil(np.sqrt(buildings)))
@@ -42,7 +43,7 @@ def campus(n: int, rng: np.random.Generator) -> np.ndarray:
     pts = np.empty((n, 3))
     pts[:, 0] = (which % side) * 100.0 + rng.uniform(0.0, 60.0, n)
     pts[:, 1] = (which // side) * 100.0 + rng.uniform(0.0, 40.0, n)
-    pts[:, 2] = storey * 3.5 + rng.uniform(0.0, 0.6, n)
+    pts[:, 2] = storey * 3.5 + rng.uniform(0.0, z_spread, n)
     return pts
 
 
@@ -84,15 +85,16 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=[20000, 50000, 100000, 200000])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--z-spread", type=float, default=0.6, help="object heights within a storey (m)")
     parser.add_argument("--cells", action="store_true", help="also time a few cell sizes")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
-    print(f"ring h in [{H_LO}, {H_HI}] m, dz in [{Z_LO}, {Z_HI}] m; times in s\n")
+    print(f"ring h in [{H_LO}, {H_HI}] m, dz in [{Z_LO}, {Z_HI}] m, z spread {args.z_spread} m; times in s\n")
     print("| n = m | pairs | tree hits/row | tree first | tree warm | ring first | ring warm | warm ratio |")
     print("|---:|---:|---:|---:|---:|---:|---:|---:|")
     sets = []
     for n in args.sizes:
-        a, b = campus(n, rng), campus(n, rng)
+        a, b = campus(n, rng, args.z_spread), campus(n, rng, args.z_spread)
         sets.append((a, b))
 
         def ring(a=a, b=b):
