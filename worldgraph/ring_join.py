@@ -31,10 +31,11 @@ Grid (shell)
     width 0.2 m, 50k uniform points: 1.5 m columns 0.91 s, 0.75 m 1.34 s, 3 m 1.08 s).
 
 Exactness
-    The column and y (z) ranges are widened by a margin ``1e-12 (1 + largest |coordinate|)``,
-    far above the rounding of their arithmetic, so rounding never drops a pair; the final test
-    uses the documented expressions in float64 (``math.hypot(bx - ax, by - ay)``, ``bz - az``,
-    ``sqrt(dx*dx + dy*dy + dz*dz)``), the same as a brute-force numpy reference.
+    The column and y (z) ranges are widened by 4096 float64 roundings of ``1 + largest
+    |coordinate|`` (about 1e-12 of it), far above the rounding of their arithmetic, so rounding
+    never drops a pair; the final test uses the documented expressions in float64
+    (``math.hypot(bx - ax, by - ay)``, ``bz - az``, ``sqrt(dx*dx + dy*dy + dz*dz)``), the same
+    as a brute-force numpy reference.
 
 Memory: the sorted copy of ``b`` and its keys (O(m)), a row table of at most ``4 (n + m) + 65536``
 entries (else a binary search over all keys), and the output, grown by doubling and returned at
@@ -65,6 +66,11 @@ MAX_ABS_COORDINATE = 1e12
 
 _PIP = "pip install gaussian-spheres[fast]"
 _KEY_LIMIT = 2.0**62  # cell keys stay below this (int64)
+_ULP = float(np.finfo(np.float64).eps)
+# Exactness margins, in units of float64 rounding (not tolerances: any margin above the rounding
+# of the arithmetic gives the same pairs; a larger one only visits a few more candidates):
+_RANGE_ULPS = 4096.0  # the column / y / z ranges, relative to the largest |coordinate|
+_SQUARE_WIDEN = 2.0**20 * _ULP  # the squared-distance pre-test, relative to the squared bounds
 
 # The compiled kernels, built on first use by _kernels(); tests may replace the entry with None
 # to see the missing-numba error.
@@ -84,8 +90,8 @@ def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart:
     cnt = 0
     hh = h_hi + eps
     hl = h_lo - eps
-    sq_hi = hh * hh * (1.0 + 1e-9)
-    sq_lo = max(hl, 0.0) ** 2 * (1.0 - 1e-9)
+    sq_hi = hh * hh * (1.0 + _SQUARE_WIDEN)
+    sq_lo = max(hl, 0.0) ** 2 * (1.0 - _SQUARE_WIDEN)
     for p in range(n):
         ax = a[p, 0]
         ay = a[p, 1]
@@ -353,7 +359,7 @@ def _empty() -> tuple[NDArray[np.int64], NDArray[np.int64]]:
 def _margin(a: NDArray[np.float64], b: NDArray[np.float64], *bounds: float) -> float:
     """A widening of the cell ranges far above the rounding of the cell arithmetic."""
     big = max(float(np.abs(a).max()), float(np.abs(b).max()), *(abs(x) for x in bounds))
-    return 1e-12 * (1.0 + big)
+    return _RANGE_ULPS * _ULP * (1.0 + big)
 
 
 def _grid(b: NDArray[np.float64], cell: float, zcell: float,
