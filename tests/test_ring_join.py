@@ -152,9 +152,18 @@ def test_identical_sets_give_self_pairs_when_the_bands_hold_zero():
     assert as_set(i, j, 50, 50) == {(k, k) for k in range(50)}
 
 
-def test_wide_extent_and_many_rows():
+def test_wide_extent_and_many_rows(monkeypatch):
     # points spread over 1e4 m in x and 10 m in z with a thin ring: more grid rows than the
     # row table holds (binary search over all keys), and a far outlier at 1e9 m
+    seen = []
+
+    def spy(*args):
+        out = sorted_b(*args)
+        seen.append(out[-1])
+        return out
+
+    sorted_b = ring_join._sorted
+    monkeypatch.setattr(ring_join, "_sorted", spy)
     rng = np.random.default_rng(7)
     a = np.column_stack([rng.uniform(0, 1e4, 400), rng.uniform(0, 2, 400), rng.uniform(0, 10, 400)])
     b = np.vstack([a + rng.normal(0, 0.5, a.shape), [[1e9, 0.0, 0.0]]])
@@ -162,6 +171,7 @@ def test_wide_extent_and_many_rows():
     assert as_set(i, j, 400, 401) == ring_reference(a, b, 0.3, 0.8, -0.05, 0.05)
     i, j = shell_pairs(a, b, r_lo=0.2, r_hi=0.9)
     assert as_set(i, j, 400, 401) == shell_reference(a, b, 0.2, 0.9)
+    assert seen == [False, False]  # both took the path without a row table
 
 
 def test_empty_inputs_give_empty_int64_arrays():
@@ -235,3 +245,21 @@ def test_importing_worldgraph_does_not_import_numba():
     code = "import sys, worldgraph, worldgraph.ring_join; print('numba' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_points_exactly_on_zero_width_rings_and_shells():
+    # zero-width bands (r = 0: coincident points) with offsets along the axes: the pairs lie on
+    # the reach of the grid ranges, where the rounding of the cell arithmetic drops some of them
+    # without the margin (this test fails with _RANGE_ULPS = 0)
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        off = rng.choice([0.0, 1e5, 1e6, -7.7e5]) + rng.uniform(0, 1)
+        a = rng.uniform(-10, 10, (30, 3)) + off
+        r = float(rng.choice([0.0, rng.uniform(0, 10)]))
+        theta = rng.choice([0.0, np.pi / 2, np.pi, 1.5 * np.pi], 30)
+        b = a + np.column_stack([r * np.cos(theta), r * np.sin(theta), np.zeros(30)])
+        i, j = ring_pairs(a, b, h_lo=r, h_hi=r, z_lo=0.0, z_hi=0.0)
+        assert as_set(i, j, 30, 30) == ring_reference(a, b, r, r, 0.0, 0.0)
+        b = a + np.column_stack([np.zeros(30), r * np.sin(theta), r * np.cos(theta)])
+        i, j = shell_pairs(a, b, r_lo=r, r_hi=r)
+        assert as_set(i, j, 30, 30) == shell_reference(a, b, r, r)

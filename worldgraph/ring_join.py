@@ -78,7 +78,7 @@ _COMPILED: dict[str, Callable[..., Any] | None] = {"ring": None, "shell": None}
 
 
 def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows: bool,
-                 origin: Any, cell: float, zcell: float, nx: int, ny: int, nz: int,
+                 origin: Any, cell: float, zcell: float, nx: int, nz: int,
                  h_lo: float, h_hi: float, z_lo: float, z_hi: float, eps: float) -> Any:
     """Ring join of ``a`` against the sorted ``bs`` (compiled by numba; plain Python otherwise)."""
     n = a.shape[0]
@@ -465,7 +465,7 @@ def ring_pairs(a: Any, b: Any, *, h_lo: float, h_hi: float, z_lo: float, z_hi: f
     idx = _cells(pb, origin, (cx, cx, cz), (nx, ny, nz))
     bs, order, keys, rowstart, use_rows = _sorted(pb, idx[:, 0] * nz + idx[:, 2], 1, nx * nz, len(pa))
     a_order = _locality_order(pa, origin, (cx, cx, cz), (nx, ny, nz), (0, 2, 1))
-    return kernel(pa[a_order], a_order, bs, order, keys, rowstart, use_rows, origin, cx, cz, nx, ny, nz,
+    return kernel(pa[a_order], a_order, bs, order, keys, rowstart, use_rows, origin, cx, cz, nx, nz,
                   h_lo, h_hi, z_lo, z_hi, eps)
 
 
