@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import itertools
+from collections.abc import Iterator
 
 import networkx as nx
 import numpy as np
@@ -29,6 +31,25 @@ seeds = st.integers(0, 2**32 - 1)
 # ----------------------------------------------------------------------------------------------
 # helpers (independent of the code under test)
 # ----------------------------------------------------------------------------------------------
+@contextlib.contextmanager
+def far_path(path: str) -> Iterator[None]:
+    """Far percept pairs through the far-pair index ("index"), the k-d trees ("tree": the index
+    budget at zero, the ring join off) or the compiled ring join ("ring": numba, every size)."""
+    import worldgraph.consistency as consistency
+    import worldgraph.model as model
+
+    saved = model.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS
+    model.FAR_PAIR_MAX_PAIRS = saved[0] if path == "index" else 0
+    consistency.RING_JOIN_MIN_PAIRS = 0 if path == "ring" else None
+    try:
+        yield
+    finally:
+        model.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS = saved
+
+
+FAR_PATHS = ["index", "tree", "ring"]
+
+
 def random_world(rng: np.random.Generator, n: int = 120, room=(12.0, 10.0, 2.5)) -> WorldModel:
     pos = rng.uniform([0, 0, 0], room, (n, 3))
     types = rng.choice(TYPES, n)
@@ -396,24 +417,19 @@ def test_ball_query_path_equals_brute_force_path(seed: int) -> None:
     assert tree[0].pairs == tuple((p, int(o)) for p, o in enumerate(truth))
 
 
-@pytest.mark.parametrize("index", [True, False], ids=["far-pair index", "k-d trees"])
+@pytest.mark.parametrize("path", FAR_PATHS)
 @settings(max_examples=8)
 @given(seed=seeds, gravity=st.booleans())
-def test_tree_pair_candidates_equal_all_pairs_also_across_storeys(index: bool, seed: int,
+def test_tree_pair_candidates_equal_all_pairs_also_across_storeys(path: str, seed: int,
                                                                   gravity: bool) -> None:
     """Every percept pair's model candidates beyond the link table: the world's far-pair index
-    (sorted distances, or horizontal distances and dz) and the k-d tree queries (plain, and with
-    z scaled for gravity-aligned worlds; forced by a zero index budget) give exactly the pairs an
-    all-pairs test gives, on a three-storey world where other storeys hold pairs of the same 3D
-    length (percept pairs up to 17 m apart and 3.5 m in z: some beyond the index's reach)."""
-    import worldgraph.model as model
-
-    saved = model.FAR_PAIR_MAX_PAIRS
-    model.FAR_PAIR_MAX_PAIRS = saved if index else 0
-    try:
-        _check_pair_candidates(seed, gravity, index)
-    finally:
-        model.FAR_PAIR_MAX_PAIRS = saved
+    (sorted distances, or horizontal distances and dz), the k-d tree queries (plain, and with
+    z scaled for gravity-aligned worlds; forced by a zero index budget) and the compiled ring
+    and shell joins give exactly the pairs an all-pairs test gives, on a three-storey world where
+    other storeys hold pairs of the same 3D length (percept pairs up to 17 m apart and 3.5 m in
+    z: some beyond the index's reach)."""
+    with far_path(path):
+        _check_pair_candidates(seed, gravity, path == "index")
 
 
 def _check_pair_candidates(seed: int, gravity: bool, index: bool) -> None:
@@ -439,16 +455,15 @@ def _check_pair_candidates(seed: int, gravity: bool, index: bool) -> None:
     assert bool(built) == index  # the path under test was taken
 
 
-@pytest.mark.parametrize("index", [True, False])
+@pytest.mark.parametrize("path", FAR_PATHS)
 @settings(max_examples=8)
 @given(seed=seeds, gravity=st.booleans())
-def test_far_pair_candidates_between_chosen_rows_and_columns(index: bool, seed: int, gravity: bool,
+def test_far_pair_candidates_between_chosen_rows_and_columns(path: str, seed: int, gravity: bool,
                                                             ) -> None:
     """Far percept pair candidates restricted to some of p's objects (``rows``) and some of q's
     (``cols``; few enough for a k-d tree of their own, or most of q's against the type's kept
     tree) are exactly the all-pairs candidates whose ends are both chosen, through the far-pair
-    index and through the k-d trees (the index budget at zero)."""
-    import worldgraph.model as model
+    index, the k-d trees (the index budget at zero) and the compiled ring join."""
     from worldgraph.consistency import _consistency_graph, _pair_candidates
 
     rng = np.random.default_rng(seed)
@@ -463,9 +478,7 @@ def test_far_pair_candidates_between_chosen_rows_and_columns(index: bool, seed: 
     brute = _consistency_graph(world, percepts, AssociationTolerances(dense_pair_limit=10**9,
                                                                       gravity_aligned=gravity))
     objects = [world.type_index[p.type] for p in percepts]
-    saved = model.FAR_PAIR_MAX_PAIRS
-    model.FAR_PAIR_MAX_PAIRS = saved if index else 0
-    try:
+    with far_path(path):
         for (p, q), e in brute.edges.items():
             tau = float(tol.pair_tolerance(percepts[p].sigma, percepts[q].sigma))
             for frac_p, frac_q in ((0.3, 0.2), (0.9, 0.8), (1.0, 0.1)):
@@ -474,28 +487,20 @@ def test_far_pair_candidates_between_chosen_rows_and_columns(index: bool, seed: 
                 got = _pair_candidates(world, percepts, p, q, tau, tol, objects, rows, cols)
                 want = {(a, b) for a, b in np.column_stack(e) if a in set(rows) and b in set(cols)}
                 assert {tuple(x) for x in np.column_stack(got)} == want, (p, q, frac_p, frac_q)
-    finally:
-        model.FAR_PAIR_MAX_PAIRS = saved
 
 
-@pytest.mark.parametrize("index", [True, False])
+@pytest.mark.parametrize("path", FAR_PATHS)
 @settings(max_examples=10)
 @given(seed=seeds, gravity=st.booleans(), n_false=st.integers(0, 2))
 @example(seed=24, gravity=False, n_false=1)  # smaller clique sizes revive q objects
 @example(seed=19, gravity=True, n_false=2)
-def test_lazy_far_pairs_give_the_hypotheses_of_the_full_graph(index: bool, seed: int, gravity: bool,
+def test_lazy_far_pairs_give_the_hypotheses_of_the_full_graph(path: str, seed: int, gravity: bool,
                                                               n_false: int) -> None:
     """Far percept pairs filled only between the objects that survive the near pairs' pruning
-    (through the far-pair index, or the k-d trees with the index budget at zero): the same
-    hypotheses (pairs and costs) as the graph with every far pair computed up front."""
-    import worldgraph.model as model
-
-    saved = model.FAR_PAIR_MAX_PAIRS
-    model.FAR_PAIR_MAX_PAIRS = saved if index else 0
-    try:
+    (through the far-pair index, the k-d trees or the ring join): the same hypotheses (pairs and
+    costs) as the graph with every far pair computed up front."""
+    with far_path(path):
         _check_lazy_far_pairs(seed, gravity, n_false)
-    finally:
-        model.FAR_PAIR_MAX_PAIRS = saved
 
 
 def _check_lazy_far_pairs(seed: int, gravity: bool, n_false: int) -> None:
