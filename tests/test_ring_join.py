@@ -166,11 +166,12 @@ def test_wide_extent_and_many_rows(monkeypatch):
     monkeypatch.setattr(ring_join, "_sorted", spy)
     rng = np.random.default_rng(7)
     a = np.column_stack([rng.uniform(0, 1e4, 400), rng.uniform(0, 2, 400), rng.uniform(0, 10, 400)])
-    b = np.vstack([a + rng.normal(0, 0.5, a.shape), [[1e9, 0.0, 0.0]]])
+    # as many points in b as in a, so that the grid is built on b (the smaller side when they differ)
+    b = np.vstack([a[:399] + rng.normal(0, 0.5, (399, 3)), [[1e9, 0.0, 0.0]]])
     i, j = ring_pairs(a, b, h_lo=0.3, h_hi=0.8, z_lo=-0.05, z_hi=0.05)
-    assert as_set(i, j, 400, 401) == ring_reference(a, b, 0.3, 0.8, -0.05, 0.05)
+    assert as_set(i, j, 400, 400) == ring_reference(a, b, 0.3, 0.8, -0.05, 0.05)
     i, j = shell_pairs(a, b, r_lo=0.2, r_hi=0.9)
-    assert as_set(i, j, 400, 401) == shell_reference(a, b, 0.2, 0.9)
+    assert as_set(i, j, 400, 400) == shell_reference(a, b, 0.2, 0.9)
     assert seen == [False, False]  # both took the path without a row table
 
 
@@ -263,3 +264,33 @@ def test_points_exactly_on_zero_width_rings_and_shells():
         b = a + np.column_stack([np.zeros(30), r * np.sin(theta), r * np.cos(theta)])
         i, j = shell_pairs(a, b, r_lo=r, r_hi=r)
         assert as_set(i, j, 30, 30) == shell_reference(a, b, r, r)
+
+
+@given(cases(shell=False), st.sampled_from([0.7, 2.0, 5.0]), st.sampled_from([0.1, 0.25, 1.0]),
+       st.sampled_from([None, 0.0, 0.3, 1.0]))
+def test_kept_grid_with_a_mask_equals_the_reference_on_the_chosen_points(case, cell, zcell, keep) -> None:
+    """ring_pairs_in against a RingGrid kept for many calls (any cell sizes), with the grid's
+    points restricted by a mask: the brute-force pairs whose b point is chosen."""
+    a, b, h_lo, h_hi, z_lo, z_hi = case
+    grid = ring_join.ring_grid(b, cell=cell, zcell=zcell)
+    rng = np.random.default_rng(len(a) + len(b))
+    mask = None if keep is None else rng.random(len(b)) < keep
+    i, j = ring_join.ring_pairs_in(a, grid, h_lo=h_lo, h_hi=h_hi, z_lo=z_lo, z_hi=z_hi, b_mask=mask)
+    want = ring_reference(a, b, h_lo, h_hi, z_lo, z_hi)
+    if mask is not None:
+        want = {(p, q) for p, q in want if mask[q]}
+    assert as_set(i, j, len(a), len(b)) == want
+
+
+def test_kept_grid_arguments_are_checked() -> None:
+    grid = ring_join.ring_grid(np.zeros((3, 3)))
+    with pytest.raises(ArgumentTypeError, match="grid must be a RingGrid, got ndarray"):
+        ring_join.ring_pairs_in(np.zeros((1, 3)), np.zeros((3, 3)), h_lo=0, h_hi=1, z_lo=0, z_hi=1)
+    with pytest.raises(ShapeError, match=r"b_mask must be a bool array of shape \(3,\), got dtype int64"):
+        ring_join.ring_pairs_in(np.zeros((1, 3)), grid, h_lo=0, h_hi=1, z_lo=0, z_hi=1,
+                                b_mask=np.ones(3, dtype=np.int64))
+    with pytest.raises(NonPositiveError, match="cell"):
+        ring_join.ring_grid(np.zeros((3, 3)), cell=0.0)
+    empty = ring_join.ring_grid(np.zeros((0, 3)))
+    i, j = ring_join.ring_pairs_in(np.zeros((2, 3)), empty, h_lo=0, h_hi=1, z_lo=-1, z_hi=1)
+    assert len(i) == len(j) == 0

@@ -64,7 +64,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from . import _checks
+from . import _checks, ring_join
 from .errors import (
     ArgumentTypeError,
     CoincidentObjectsError,
@@ -1295,6 +1295,20 @@ class WorldModel:
 
     @cached_property
     def _type_trees(self) -> dict[tuple[str, float], cKDTree]:
+        return {}
+
+    def type_grid(self, type_name: str) -> ring_join.RingGrid:
+        """A :class:`~worldgraph.ring_join.RingGrid` of one type's objects (in the order of
+        :meth:`indices_of`) for the compiled ring joins of far percept pairs.  Built on first
+        use (a sort, no numba needed), then kept with the world."""
+        self._check_known_type(type_name, "type_name")
+        grids = self._type_grids
+        if type_name not in grids:
+            grids[type_name] = ring_join.ring_grid(self._positions[self._type_index[type_name]])
+        return grids[type_name]
+
+    @cached_property
+    def _type_grids(self) -> dict[str, ring_join.RingGrid]:
         return {}
 
     def far_pairs(self, type_a: str, type_b: str, gravity_aligned: bool = False) -> FarPairIndex | None:

@@ -7,6 +7,13 @@ a grid sorted by an int64 cell key and visit, for each point of ``a``, only the 
 (or shell) can reach, testing the candidates exactly.  A k-d tree ball query returns the whole disk
 (or ball) of radius ``h_hi``; a thin ring of radius 6 m and width 0.2 m holds about 4 % of it.
 
+For many joins against one set (a type's objects, far percept pairs of a big map),
+:func:`ring_grid` sorts it once into a :class:`RingGrid` (kept with the world by
+:meth:`~worldgraph.model.WorldModel.type_grid`) and :func:`ring_pairs_in` joins against it, with a
+mask for the chosen points: no sort per call.  :func:`ring_pairs` and :func:`shell_pairs` put
+their grid on the smaller side (``b - a = -(a - b)`` exactly, so swapping the sides with the
+height band negated gives the same pairs).
+
 numba is optional (``pip install gaussian-spheres[fast]``): this module does not import it until
 the first call, which compiles the kernels (``cache=True``: later processes load them from the
 cache).  Without numba both functions raise :class:`~worldgraph.errors.ImporterError`.
@@ -47,15 +54,17 @@ from __future__ import annotations
 import importlib.util
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from . import _checks
-from .errors import ImporterError, OutOfRangeError
+from .errors import ArgumentTypeError, ImporterError, OutOfRangeError, ShapeError
 
-__all__ = ["HAVE_NUMBA", "MAX_ABS_COORDINATE", "ring_pairs", "shell_pairs"]
+__all__ = ["HAVE_NUMBA", "MAX_ABS_COORDINATE", "RingGrid", "ring_grid", "ring_pairs", "ring_pairs_in",
+           "shell_pairs"]
 
 #: Whether numba can be imported (checked without importing it).
 HAVE_NUMBA: bool = importlib.util.find_spec("numba") is not None
@@ -79,8 +88,10 @@ _COMPILED: dict[str, Callable[..., Any] | None] = {"ring": None, "shell": None}
 
 def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows: bool,
                  origin: Any, cell: float, zcell: float, nx: int, nz: int,
-                 h_lo: float, h_hi: float, z_lo: float, z_hi: float, eps: float) -> Any:
-    """Ring join of ``a`` against the sorted ``bs`` (compiled by numba; plain Python otherwise)."""
+                 h_lo: float, h_hi: float, z_lo: float, z_hi: float, eps: float,
+                 b_mask: Any, use_mask: bool) -> Any:
+    """Ring join of ``a`` against the sorted ``bs`` (compiled by numba; plain Python otherwise);
+    with ``use_mask``, only the points ``k`` of ``bs`` with ``b_mask[order[k]]``."""
     n = a.shape[0]
     m = bs.shape[0]
     x0, z0 = origin[0], origin[2]
@@ -171,6 +182,9 @@ def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart:
                             right = mid
                     k = left
                     while k < e and bs[k, 1] <= yhi:
+                        if use_mask and not b_mask[order[k]]:
+                            k += 1
+                            continue
                         dz = bs[k, 2] - az
                         dx = bs[k, 0] - ax
                         dy = bs[k, 1] - ay
@@ -459,6 +473,18 @@ def ring_pairs(a: Any, b: Any, *, h_lo: float, h_hi: float, z_lo: float, z_hi: f
     kernel = _kernels()["ring"]
     if len(pa) == 0 or len(pb) == 0:
         return _empty()
+    if len(pa) < len(pb):
+        # the grid goes on the smaller side (sorting it is the per-call cost; rows of the larger
+        # side that miss its extent cost O(1)); b - a = -(a - b) exactly in float64, so the
+        # swapped join with the negated height band gives the same pairs
+        j, i = _ring(pb, pa, h_lo, h_hi, -z_hi, -z_lo, _cell, kernel)
+        return i, j
+    return _ring(pa, pb, h_lo, h_hi, z_lo, z_hi, _cell, kernel)
+
+
+def _ring(pa: NDArray[np.float64], pb: NDArray[np.float64], h_lo: float, h_hi: float, z_lo: float,
+          z_hi: float, _cell: float | None, kernel: Callable[..., Any]
+          ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     eps = _margin(pa, pb, h_hi, z_lo, z_hi)
     cell, zcell = _ring_cell(h_lo, h_hi, z_lo, z_hi, _cell)
     origin, cx, cz, (nx, ny, nz) = _grid(pb, cell, zcell, 1e3 * eps)
@@ -466,7 +492,80 @@ def ring_pairs(a: Any, b: Any, *, h_lo: float, h_hi: float, z_lo: float, z_hi: f
     bs, order, keys, rowstart, use_rows = _sorted(pb, idx[:, 0] * nz + idx[:, 2], 1, nx * nz, len(pa))
     a_order = _locality_order(pa, origin, (cx, cx, cz), (nx, ny, nz), (0, 2, 1))
     return kernel(pa[a_order], a_order, bs, order, keys, rowstart, use_rows, origin, cx, cz, nx, nz,
-                  h_lo, h_hi, z_lo, z_hi, eps)
+                  h_lo, h_hi, z_lo, z_hi, eps, _NO_MASK, False)
+
+
+_NO_MASK = np.zeros(1, dtype=bool)
+
+#: Cell sizes (m) of the grids kept with a world (:meth:`WorldModel.type_grid`): 2 m columns
+#: suit rings of 5-16 m (4-16 columns per point), 0.25 m bands the height bands of 0.1-0.6 m.
+KEPT_GRID_CELL = 2.0
+KEPT_GRID_ZCELL = 0.25
+
+
+@dataclass(frozen=True, eq=False)
+class RingGrid:
+    """Points bucketed once for many :func:`ring_pairs_in` calls (one type's objects, kept with
+    the world like its k-d trees): columns of width ``cell`` in x and bands of ``zcell`` in z,
+    the points sorted by (column, band) and by y within, as :func:`ring_pairs` builds them per
+    call."""
+
+    origin: NDArray[np.float64]
+    cell: float
+    zcell: float
+    nx: int
+    nz: int
+    sorted_points: NDArray[np.float64]
+    order: NDArray[np.int64]
+    keys: NDArray[np.int64]
+    rowstart: NDArray[np.int64]
+    use_rows: bool
+    largest: float  # the largest |coordinate|
+
+    def __len__(self) -> int:
+        return len(self.order)
+
+
+def ring_grid(points: Any, *, cell: float = KEPT_GRID_CELL, zcell: float = KEPT_GRID_ZCELL) -> RingGrid:
+    """A :class:`RingGrid` of ``points`` ((m, 3) finite floats) with columns of ``cell`` and
+    bands of ``zcell`` metres (both > 0)."""
+    pb = _points("points", points)
+    cell = _checks.positive_float("cell", cell, maximum=MAX_ABS_COORDINATE)
+    zcell = _checks.positive_float("zcell", zcell, maximum=MAX_ABS_COORDINATE)
+    if len(pb) == 0:
+        empty = np.zeros(0, np.int64)
+        return RingGrid(np.zeros(3), cell, zcell, 1, 1, np.zeros((0, 3)), empty, empty,
+                        np.zeros(2, np.int64), True, 0.0)
+    largest = float(np.abs(pb).max())
+    origin, cx, cz, (nx, ny, nz) = _grid(pb, cell, zcell, 1e3 * _RANGE_ULPS * _ULP * (1.0 + largest))
+    idx = _cells(pb, origin, (cx, cx, cz), (nx, ny, nz))
+    bs, order, keys, rowstart, use_rows = _sorted(pb, idx[:, 0] * nz + idx[:, 2], 1, nx * nz, len(pb))
+    return RingGrid(origin, cx, cz, nx, nz, bs, order, keys, rowstart, use_rows, largest)
+
+
+def ring_pairs_in(a: Any, grid: RingGrid, *, h_lo: float, h_hi: float, z_lo: float, z_hi: float,
+                  b_mask: Any = None) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """:func:`ring_pairs` of ``a`` against the points of a kept :class:`RingGrid` (``j`` indexes
+    the points the grid was built from), only those where ``b_mask`` (bool, one per point) is
+    True when given: no sort per call."""
+    if not isinstance(grid, RingGrid):
+        raise ArgumentTypeError(f"grid must be a RingGrid, got {type(grid).__name__}")
+    pa = _points("a", a)
+    h_lo, h_hi = _band("h_lo", h_lo, "h_hi", h_hi, nonnegative=True)
+    z_lo, z_hi = _band("z_lo", z_lo, "z_hi", z_hi, nonnegative=False)
+    if b_mask is not None:
+        b_mask = np.asarray(b_mask)
+        if b_mask.dtype != np.bool_ or b_mask.shape != (len(grid),):
+            raise ShapeError(f"b_mask must be a bool array of shape ({len(grid)},), got dtype "
+                             f"{b_mask.dtype} and shape {b_mask.shape}")
+    kernel = _kernels()["ring"]
+    if len(pa) == 0 or len(grid) == 0:
+        return _empty()
+    big = max(float(np.abs(pa).max()), grid.largest, abs(h_hi), abs(z_lo), abs(z_hi))
+    eps = _RANGE_ULPS * _ULP * (1.0 + big)
+    return kernel(pa, np.arange(len(pa), dtype=np.int64), grid.sorted_points, grid.order, grid.keys,
+                  grid.rowstart, grid.use_rows, grid.origin, grid.cell, grid.zcell, grid.nx, grid.nz,
+                  h_lo, h_hi, z_lo, z_hi, eps, _NO_MASK if b_mask is None else b_mask, b_mask is not None)
 
 
 def shell_pairs(a: Any, b: Any, *, r_lo: float, r_hi: float,
@@ -503,6 +602,14 @@ def shell_pairs(a: Any, b: Any, *, r_lo: float, r_hi: float,
     kernel = _kernels()["shell"]
     if len(pa) == 0 or len(pb) == 0:
         return _empty()
+    if len(pa) < len(pb):  # the grid on the smaller side, as in ring_pairs
+        j, i = _shell(pb, pa, r_lo, r_hi, _cell, kernel)
+        return i, j
+    return _shell(pa, pb, r_lo, r_hi, _cell, kernel)
+
+
+def _shell(pa: NDArray[np.float64], pb: NDArray[np.float64], r_lo: float, r_hi: float,
+           _cell: float | None, kernel: Callable[..., Any]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     eps = _margin(pa, pb, r_hi)
     cell = _cell if _cell is not None else max(r_hi / 4.0, 2.0 * (r_hi - r_lo))
     origin, c, cz, (nx, ny, nz) = _grid(pb, cell, cell, 1e3 * eps)
