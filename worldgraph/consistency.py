@@ -376,7 +376,14 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
     i: NDArray[np.integer]  # intp from the link tables and trees, int32 from the far-pair index
     j: NDArray[np.integer]
     if covered:
-        i, j, _ = world.link_lengths(tp, tq, d - reach, d + reach)
+        lo, hi = d - reach, d + reach
+        if tol.gravity_aligned:
+            # |h_m - h| < tau and |dz_m - dz| < ztol bound the 3D length more tightly than
+            # d +- (tau + ztol): about half the links of the window when dz is small against h
+            h, adz = math.hypot(diff[0], diff[1]), abs(float(diff[2]))
+            lo = math.hypot(max(h - tau, 0.0), max(adz - ztol, 0.0)) * (1.0 - QUERY_WIDEN) - QUERY_FLOOR
+            hi = math.hypot(h + tau, adz + ztol) * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
+        i, j, _ = world.link_lengths(tp, tq, lo, hi)
         if tp == tq:
             i, j = np.concatenate([i, j]), np.concatenate([j, i])
         if rows is not None:
