@@ -604,3 +604,41 @@ def test_truncated_near_maximum_search_keeps_every_maximum_clique(seed: int) -> 
     largest = {tuple(h.pairs) for h in roomy if len(h.pairs) == size}
     assert len(largest) >= 4  # one per room (and no more than fits in max_cliques)
     assert {tuple(h.pairs) for h in tight if len(h.pairs) == size} == largest
+
+
+@settings(max_examples=10)
+@given(seed=seeds)
+def test_gravity_link_window_keeps_every_pair_of_the_exact_test(seed: int) -> None:
+    """Percept pairs within the link table of a gravity-aligned world: the candidates (through
+    the 3D-length window that the horizontal and height tolerances allow) are exactly the
+    object pairs of the two types that pass |h_m - h| < tau and |dz_m - dz| < ztol, computed
+    here over all pairs; percepts placed at true objects, so that pairs sit on the window."""
+    from worldgraph.consistency import _pair_candidates
+
+    rng = np.random.default_rng(seed)
+    n = 260
+    storey = rng.integers(0, 3, n)
+    pos = np.column_stack([rng.uniform(0, 10, n), rng.uniform(0, 8, n),
+                           3.0 * storey + rng.uniform(0, 2.5, n)])
+    world = WorldModel.from_arrays(rng.choice(TYPES, n), pos, max_link_length=4.0)
+    picks = rng.choice(n, 5, replace=False)
+    percepts = [Percept(str(world.types[k]), world.positions[k] - world.positions[picks[0]]
+                        + rng.normal(0, 0.02, 3), float(rng.uniform(0.01, 0.08))) for k in picks]
+    tol = AssociationTolerances(gravity_aligned=True, height_tolerance=float(rng.choice([0.05, 0.3])))
+    objects = [world.type_index[p.type] for p in percepts]
+    checked = 0
+    for p, q in itertools.combinations(range(5), 2):
+        diff = percepts[q].position - percepts[p].position
+        tau = float(tol.pair_tolerance(percepts[p].sigma, percepts[q].sigma))
+        if np.linalg.norm(diff) + tau + tol.height_tolerance >= world.max_link_length + world.link_margin:
+            continue  # beyond the link table: other tests cover those
+        checked += 1
+        a, b = _pair_candidates(world, percepts, p, q, tau, tol, objects)
+        op, oq = objects[p], objects[q]
+        dv = world.positions[oq][None, :, :] - world.positions[op][:, None, :]
+        ok = (np.abs(dv[..., 2] - diff[2]) < tol.height_tolerance) & \
+            (np.abs(np.hypot(dv[..., 0], dv[..., 1]) - np.hypot(diff[0], diff[1])) < tau) & \
+            (op[:, None] != oq[None, :])
+        want = set(zip(*np.nonzero(ok), strict=True))
+        assert {tuple(x) for x in np.column_stack([a, b])} == want, (p, q)
+    assert checked
