@@ -621,7 +621,8 @@ def test_gravity_link_window_keeps_every_pair_of_the_exact_test(seed: int) -> No
     pos = np.column_stack([rng.uniform(0, 10, n), rng.uniform(0, 8, n),
                            3.0 * storey + rng.uniform(0, 2.5, n)])
     world = WorldModel.from_arrays(rng.choice(TYPES, n), pos, max_link_length=4.0)
-    picks = rng.choice(n, 5, replace=False)
+    first = int(rng.integers(n))  # and the four objects nearest to it: pairs within the link table
+    picks = np.argsort(np.linalg.norm(world.positions - world.positions[first], axis=1))[:5]
     percepts = [Percept(str(world.types[k]), world.positions[k] - world.positions[picks[0]]
                         + rng.normal(0, 0.02, 3), float(rng.uniform(0.01, 0.08))) for k in picks]
     tol = AssociationTolerances(gravity_aligned=True, height_tolerance=float(rng.choice([0.05, 0.3])))
