@@ -675,7 +675,7 @@ def _prune_by_pairs(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | N
             add(support[q], b)
         changed = False
         for p in range(k):
-            new = cur[p] & (support[p] >= need - 1 - free[p])
+            new = cur[p] & (support[p] >= need - 1 - int(free[p]))
             if np.count_nonzero(new) != np.count_nonzero(cur[p]):
                 cur[p], changed = new, True
         if not changed:
