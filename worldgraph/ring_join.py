@@ -86,6 +86,37 @@ _SQUARE_WIDEN = 2.0**20 * _ULP  # the squared-distance pre-test, relative to the
 _COMPILED: dict[str, Callable[..., Any] | None] = {"ring": None, "shell": None}
 
 
+def _first_key(keys: Any, lo: int, hi: int, row: int, after: bool) -> int:
+    """The first index in ``[lo, hi)`` of the sorted ``keys`` with a key ``> row`` (``after``)
+    or ``>= row`` (binary search; compiled with the kernels)."""
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if keys[mid] < row or (after and keys[mid] == row):
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+def _row_span(keys: Any, rowstart: Any, use_rows: bool, row: int) -> tuple[int, int]:
+    """``(s, e)``: the sorted points of grid row ``row``, from the row table or by binary search."""
+    if use_rows:
+        return rowstart[row], rowstart[row + 1]
+    m = keys.shape[0]
+    return _first_key(keys, 0, m, row, False), _first_key(keys, 0, m, row, True)
+
+
+def _first_at_least(bs: Any, axis: int, lo: int, hi: int, value: float) -> int:
+    """The first index in ``[lo, hi)`` with ``bs[k, axis] >= value`` (sorted along ``axis``)."""
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if bs[mid, axis] < value:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows: bool,
                  origin: Any, cell: float, zcell: float, nx: int, nz: int,
                  h_lo: float, h_hi: float, z_lo: float, z_hi: float, eps: float,
@@ -93,7 +124,6 @@ def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart:
     """Ring join of ``a`` against the sorted ``bs`` (compiled by numba; plain Python otherwise);
     with ``use_mask``, only the points ``k`` of ``bs`` with ``b_mask[order[k]]``."""
     n = a.shape[0]
-    m = bs.shape[0]
     x0, z0 = origin[0], origin[2]
     cap = max(1024, 4 * n)
     out_i = np.empty(cap, np.int64)
@@ -146,41 +176,13 @@ def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart:
                 nint = 1
             for iz in range(izlo, izhi + 1):
                 row = ix * nz + iz
-                if use_rows:
-                    s = rowstart[row]
-                    e = rowstart[row + 1]
-                else:
-                    left = 0
-                    right = m
-                    while left < right:  # first key >= row
-                        mid = (left + right) >> 1
-                        if keys[mid] < row:
-                            left = mid + 1
-                        else:
-                            right = mid
-                    s = left
-                    right = m
-                    while left < right:  # first key > row
-                        mid = (left + right) >> 1
-                        if keys[mid] <= row:
-                            left = mid + 1
-                        else:
-                            right = mid
-                    e = left
+                s, e = _row_span(keys, rowstart, use_rows, row)
                 if s == e:
                     continue
                 for q in range(nint):
                     ylo = ylo1 if q == 0 else ylo2
                     yhi = yhi1 if q == 0 else yhi2
-                    left = s
-                    right = e
-                    while left < right:  # first y >= ylo in the row (sorted by y)
-                        mid = (left + right) >> 1
-                        if bs[mid, 1] < ylo:
-                            left = mid + 1
-                        else:
-                            right = mid
-                    k = left
+                    k = _first_at_least(bs, 1, s, e, ylo)  # the row is sorted by y
                     while k < e and bs[k, 1] <= yhi:
                         if use_mask and not b_mask[order[k]]:
                             k += 1
@@ -213,7 +215,6 @@ def _shell_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart
                   r_lo: float, r_hi: float, eps: float) -> Any:
     """Shell join of ``a`` against the sorted ``bs`` (compiled by numba; plain Python otherwise)."""
     n = a.shape[0]
-    m = bs.shape[0]
     x0, y0, z0 = origin[0], origin[1], origin[2]
     cap = max(1024, 4 * n)
     out_i = np.empty(cap, np.int64)
@@ -278,41 +279,13 @@ def _shell_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart
                     zhi1 = zhi2
                     nint = 1
                 row = ix * ny + iy
-                if use_rows:
-                    s = rowstart[row]
-                    e = rowstart[row + 1]
-                else:
-                    left = 0
-                    right = m
-                    while left < right:
-                        mid = (left + right) >> 1
-                        if keys[mid] < row:
-                            left = mid + 1
-                        else:
-                            right = mid
-                    s = left
-                    right = m
-                    while left < right:
-                        mid = (left + right) >> 1
-                        if keys[mid] <= row:
-                            left = mid + 1
-                        else:
-                            right = mid
-                    e = left
+                s, e = _row_span(keys, rowstart, use_rows, row)
                 if s == e:
                     continue
                 for q in range(nint):
                     zlo = zlo1 if q == 0 else zlo2
                     zhi = zhi1 if q == 0 else zhi2
-                    left = s
-                    right = e
-                    while left < right:  # first z >= zlo in the column (sorted by z)
-                        mid = (left + right) >> 1
-                        if bs[mid, 2] < zlo:
-                            left = mid + 1
-                        else:
-                            right = mid
-                    k = left
+                    k = _first_at_least(bs, 2, s, e, zlo)  # the column is sorted by z
                     while k < e and bs[k, 2] <= zhi:
                         dx = bs[k, 0] - ax
                         dy = bs[k, 1] - ay
@@ -346,6 +319,10 @@ def _kernels() -> dict[str, Callable[..., Any]]:
     except ImportError as exc:  # found but broken (e.g. an llvmlite that does not match)
         raise ImporterError(f"ring_pairs and shell_pairs need a working numba: {_PIP}") from exc
     jit = numba.njit(cache=True, nogil=True)
+    # the kernels call the helpers by their global names: compiled first, put in their place
+    for name in ("_first_key", "_row_span", "_first_at_least"):
+        if not hasattr(globals()[name], "py_func"):  # not compiled yet
+            globals()[name] = jit(globals()[name])
     _COMPILED["ring"] = ring = jit(_ring_kernel)
     _COMPILED["shell"] = shell = jit(_shell_kernel)
     return {"ring": ring, "shell": shell}
