@@ -117,6 +117,27 @@ def _first_at_least(bs: Any, axis: int, lo: int, hi: int, value: float) -> int:
     return lo
 
 
+def _gap(d0: float, cell: float, eps: float) -> tuple[float, float]:
+    """The nearest and farthest distance from a coordinate to a cell ``[d0, d0 + cell)`` given
+    relative to it, widened by ``eps`` (the nearest not below 0)."""
+    d1 = d0 + cell
+    near = d0 if d0 > 0.0 else (-d1 if d1 < 0.0 else 0.0)
+    return max(near - eps, 0.0), max(abs(d0), abs(d1)) + eps
+
+
+def _push(out_i: Any, out_j: Any, cnt: int, i: int, j: int) -> tuple[Any, Any]:
+    """Store pair ``cnt``, doubling the output arrays when full; returns them."""
+    if cnt == out_i.shape[0]:
+        grown_i = np.empty(2 * cnt, np.int64)
+        grown_i[:cnt] = out_i[:cnt]
+        grown_j = np.empty(2 * cnt, np.int64)
+        grown_j[:cnt] = out_j[:cnt]
+        out_i, out_j = grown_i, grown_j
+    out_i[cnt] = i
+    out_j[cnt] = j
+    return out_i, out_j
+
+
 def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart: Any, use_rows: bool,
                  origin: Any, cell: float, zcell: float, nx: int, nz: int,
                  h_lo: float, h_hi: float, z_lo: float, z_hi: float, eps: float,
@@ -125,9 +146,8 @@ def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart:
     with ``use_mask``, only the points ``k`` of ``bs`` with ``b_mask[order[k]]``."""
     n = a.shape[0]
     x0, z0 = origin[0], origin[2]
-    cap = max(1024, 4 * n)
-    out_i = np.empty(cap, np.int64)
-    out_j = np.empty(cap, np.int64)
+    out_i = np.empty(max(1024, 4 * n), np.int64)
+    out_j = np.empty(max(1024, 4 * n), np.int64)
     cnt = 0
     hh = h_hi + eps
     hl = h_lo - eps
@@ -150,16 +170,7 @@ def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart:
         ixlo = max(int(math.floor(tx0)), 0)
         ixhi = min(int(math.floor(tx1)), nx - 1)
         for ix in range(ixlo, ixhi + 1):
-            d0 = x0 + ix * cell - ax
-            d1 = d0 + cell
-            if d0 > 0.0:
-                dmin = d0
-            elif d1 < 0.0:
-                dmin = -d1
-            else:
-                dmin = 0.0
-            dmax = max(abs(d0), abs(d1)) + eps
-            dmin = max(dmin - eps, 0.0)
+            dmin, dmax = _gap(x0 + ix * cell - ax, cell, eps)
             if dmin > hh:
                 continue
             ymax = math.sqrt(hh * hh - dmin * dmin) + eps
@@ -195,16 +206,7 @@ def _ring_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart:
                         if z_lo <= dz <= z_hi and sq_lo <= d2 <= sq_hi:
                             h = math.hypot(dx, dy)
                             if h_lo <= h <= h_hi:
-                                if cnt == cap:
-                                    cap *= 2
-                                    grown = np.empty(cap, np.int64)
-                                    grown[:cnt] = out_i[:cnt]
-                                    out_i = grown
-                                    grown = np.empty(cap, np.int64)
-                                    grown[:cnt] = out_j[:cnt]
-                                    out_j = grown
-                                out_i[cnt] = a_order[p]
-                                out_j[cnt] = order[k]
+                                out_i, out_j = _push(out_i, out_j, cnt, a_order[p], order[k])
                                 cnt += 1
                         k += 1
     return out_i[:cnt].copy(), out_j[:cnt].copy()
@@ -216,9 +218,8 @@ def _shell_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart
     """Shell join of ``a`` against the sorted ``bs`` (compiled by numba; plain Python otherwise)."""
     n = a.shape[0]
     x0, y0, z0 = origin[0], origin[1], origin[2]
-    cap = max(1024, 4 * n)
-    out_i = np.empty(cap, np.int64)
-    out_j = np.empty(cap, np.int64)
+    out_i = np.empty(max(1024, 4 * n), np.int64)
+    out_j = np.empty(max(1024, 4 * n), np.int64)
     cnt = 0
     rh = r_hi + eps
     rl = r_lo - eps
@@ -239,29 +240,11 @@ def _shell_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart
         iylo = max(int(math.floor(ty0)), 0)
         iyhi = min(int(math.floor(ty1)), ny - 1)
         for ix in range(ixlo, ixhi + 1):
-            d0 = x0 + ix * cell - ax
-            d1 = d0 + cell
-            if d0 > 0.0:
-                xmin = d0
-            elif d1 < 0.0:
-                xmin = -d1
-            else:
-                xmin = 0.0
-            xmax = max(abs(d0), abs(d1)) + eps
-            xmin = max(xmin - eps, 0.0)
+            xmin, xmax = _gap(x0 + ix * cell - ax, cell, eps)
             if xmin > rh:
                 continue
             for iy in range(iylo, iyhi + 1):
-                e0 = y0 + iy * cell - ay
-                e1 = e0 + cell
-                if e0 > 0.0:
-                    ymin = e0
-                elif e1 < 0.0:
-                    ymin = -e1
-                else:
-                    ymin = 0.0
-                ymax = max(abs(e0), abs(e1)) + eps
-                ymin = max(ymin - eps, 0.0)
+                ymin, ymax = _gap(y0 + iy * cell - ay, cell, eps)
                 near2 = xmin * xmin + ymin * ymin
                 if near2 > rh * rh:
                     continue
@@ -292,16 +275,7 @@ def _shell_kernel(a: Any, a_order: Any, bs: Any, order: Any, keys: Any, rowstart
                         dz = bs[k, 2] - az
                         r = math.sqrt(dx * dx + dy * dy + dz * dz)
                         if r_lo <= r <= r_hi:
-                            if cnt == cap:
-                                cap *= 2
-                                grown = np.empty(cap, np.int64)
-                                grown[:cnt] = out_i[:cnt]
-                                out_i = grown
-                                grown = np.empty(cap, np.int64)
-                                grown[:cnt] = out_j[:cnt]
-                                out_j = grown
-                            out_i[cnt] = a_order[p]
-                            out_j[cnt] = order[k]
+                            out_i, out_j = _push(out_i, out_j, cnt, a_order[p], order[k])
                             cnt += 1
                         k += 1
     return out_i[:cnt].copy(), out_j[:cnt].copy()
@@ -320,7 +294,7 @@ def _kernels() -> dict[str, Callable[..., Any]]:
         raise ImporterError(f"ring_pairs and shell_pairs need a working numba: {_PIP}") from exc
     jit = numba.njit(cache=True, nogil=True)
     # the kernels call the helpers by their global names: compiled first, put in their place
-    for name in ("_first_key", "_row_span", "_first_at_least"):
+    for name in ("_first_key", "_row_span", "_first_at_least", "_gap", "_push"):
         if not hasattr(globals()[name], "py_func"):  # not compiled yet
             globals()[name] = jit(globals()[name])
     _COMPILED["ring"] = ring = jit(_ring_kernel)
