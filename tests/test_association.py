@@ -432,17 +432,23 @@ def test_tree_pair_candidates_equal_all_pairs_also_across_storeys(path: str, see
         _check_pair_candidates(seed, gravity, path == "index")
 
 
-def _check_pair_candidates(seed: int, gravity: bool, index: bool) -> None:
-    from worldgraph.consistency import _consistency_graph
-
-    rng = np.random.default_rng(seed)
-    n = 240
+def storey_world(rng: np.random.Generator, n: int, k: int, spread: float) -> tuple[WorldModel, list[Percept]]:
+    """``n`` objects on three storeys 3 m apart (a 1.5 m link table) and ``k`` random percepts
+    within ``spread`` m sideways: pairs beyond the link table, some across storeys."""
     storey = rng.integers(0, 3, n)
     pos = np.column_stack([rng.uniform(0, 14, n), rng.uniform(0, 12, n),
                            3.0 * storey + rng.uniform(0, 2.5, n)])
     world = WorldModel.from_arrays(rng.choice(TYPES, n), pos, max_link_length=1.5)
-    percepts = [Percept(str(t), rng.uniform([-6, -6, -1], [6, 6, 2.5]), float(rng.uniform(0.01, 0.08)))
-                for t in rng.choice(TYPES, 7)]
+    percepts = [Percept(str(t), rng.uniform([-spread, -spread, -1], [spread, spread, 2.5]),
+                        float(rng.uniform(0.01, 0.08))) for t in rng.choice(TYPES, k)]
+    return world, percepts
+
+
+def _check_pair_candidates(seed: int, gravity: bool, index: bool) -> None:
+    from worldgraph.consistency import _consistency_graph
+
+    rng = np.random.default_rng(seed)
+    world, percepts = storey_world(rng, 240, 7, 6.0)
     brute = _consistency_graph(world, percepts, AssociationTolerances(dense_pair_limit=10**9,
                                                                       gravity_aligned=gravity))
     tree = _consistency_graph(world, percepts, AssociationTolerances(dense_pair_limit=0,
@@ -467,13 +473,7 @@ def test_far_pair_candidates_between_chosen_rows_and_columns(path: str, seed: in
     from worldgraph.consistency import _consistency_graph, _pair_candidates
 
     rng = np.random.default_rng(seed)
-    n = 300
-    storey = rng.integers(0, 3, n)
-    pos = np.column_stack([rng.uniform(0, 14, n), rng.uniform(0, 12, n),
-                           3.0 * storey + rng.uniform(0, 2.5, n)])
-    world = WorldModel.from_arrays(rng.choice(TYPES, n), pos, max_link_length=1.5)
-    percepts = [Percept(str(t), rng.uniform([-5, -5, -1], [5, 5, 2.5]), float(rng.uniform(0.01, 0.08)))
-                for t in rng.choice(TYPES, 5)]
+    world, percepts = storey_world(rng, 300, 5, 5.0)
     tol = AssociationTolerances(dense_pair_limit=0, gravity_aligned=gravity)
     brute = _consistency_graph(world, percepts, AssociationTolerances(dense_pair_limit=10**9,
                                                                       gravity_aligned=gravity))
