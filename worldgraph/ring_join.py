@@ -321,10 +321,14 @@ def _empty() -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     return np.empty(0, np.int64), np.empty(0, np.int64)
 
 
-def _margin(a: NDArray[np.float64], b: NDArray[np.float64], *bounds: float) -> float:
-    """A widening of the cell ranges far above the rounding of the cell arithmetic."""
-    big = max(float(np.abs(a).max()), float(np.abs(b).max()), *(abs(x) for x in bounds))
-    return _RANGE_ULPS * _ULP * (1.0 + big)
+def _largest(points: NDArray[np.float64]) -> float:
+    return float(np.abs(points).max())
+
+
+def _margin(*magnitudes: float) -> float:
+    """A widening of the cell ranges far above the rounding of the cell arithmetic on
+    coordinates and bounds up to the largest of ``magnitudes`` (absolute values)."""
+    return _RANGE_ULPS * _ULP * (1.0 + max(abs(x) for x in magnitudes))
 
 
 def _grid(b: NDArray[np.float64], cell: float, zcell: float,
@@ -436,14 +440,21 @@ def ring_pairs(a: Any, b: Any, *, h_lo: float, h_hi: float, z_lo: float, z_hi: f
 def _ring(pa: NDArray[np.float64], pb: NDArray[np.float64], h_lo: float, h_hi: float, z_lo: float,
           z_hi: float, _cell: float | None, kernel: Callable[..., Any]
           ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    eps = _margin(pa, pb, h_hi, z_lo, z_hi)
+    eps = _margin(_largest(pa), _largest(pb), h_hi, z_lo, z_hi)
     cell, zcell = _ring_cell(h_lo, h_hi, z_lo, z_hi, _cell)
-    origin, cx, cz, (nx, ny, nz) = _grid(pb, cell, zcell, 1e3 * eps)
-    idx = _cells(pb, origin, (cx, cx, cz), (nx, ny, nz))
-    bs, order, keys, rowstart, use_rows = _sorted(pb, idx[:, 0] * nz + idx[:, 2], 1, nx * nz, len(pa))
-    a_order = _locality_order(pa, origin, (cx, cx, cz), (nx, ny, nz), (0, 2, 1))
-    return kernel(pa[a_order], a_order, bs, order, keys, rowstart, use_rows, origin, cx, cz, nx, nz,
-                  h_lo, h_hi, z_lo, z_hi, eps, _NO_MASK, False)
+    grid = _ring_grid(pb, cell, zcell, 1e3 * eps, len(pa))
+    sizes = (grid.cell, grid.cell, grid.zcell)
+    a_order = _locality_order(pa, grid.origin, sizes, (grid.nx, grid.ny, grid.nz), (0, 2, 1))
+    return _ring_join(kernel, pa[a_order], a_order, grid, (h_lo, h_hi, z_lo, z_hi), eps, None)
+
+
+def _ring_join(kernel: Callable[..., Any], pa: NDArray[np.float64], a_order: NDArray[np.int64],
+               grid: RingGrid, bounds: tuple[float, float, float, float], eps: float,
+               b_mask: NDArray[np.bool_] | None) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The ring kernel on rows ``pa`` (row ``k`` reported as ``a_order[k]``) against ``grid``."""
+    return kernel(pa, a_order, grid.sorted_points, grid.order, grid.keys, grid.rowstart, grid.use_rows,
+                  grid.origin, grid.cell, grid.zcell, grid.nx, grid.nz, *bounds, eps,
+                  _NO_MASK if b_mask is None else b_mask, b_mask is not None)
 
 
 _NO_MASK = np.zeros(1, dtype=bool)
@@ -467,6 +478,7 @@ class RingGrid:
     cell: float
     zcell: float
     nx: int
+    ny: int
     nz: int
     sorted_points: NDArray[np.float64]
     order: NDArray[np.int64]
@@ -487,13 +499,18 @@ def ring_grid(points: Any, *, cell: float = KEPT_GRID_CELL, zcell: float = KEPT_
     zcell = _checks.positive_float("zcell", zcell, maximum=MAX_ABS_COORDINATE)
     if len(pb) == 0:
         empty = np.zeros(0, np.int64)
-        return RingGrid(np.zeros(3), cell, zcell, 1, 1, np.zeros((0, 3)), empty, empty,
+        return RingGrid(np.zeros(3), cell, zcell, 1, 1, 1, np.zeros((0, 3)), empty, empty,
                         np.zeros(2, np.int64), True, 0.0)
-    largest = float(np.abs(pb).max())
-    origin, cx, cz, (nx, ny, nz) = _grid(pb, cell, zcell, 1e3 * _RANGE_ULPS * _ULP * (1.0 + largest))
+    return _ring_grid(pb, cell, zcell, 1e3 * _margin(_largest(pb)), len(pb))
+
+
+def _ring_grid(pb: NDArray[np.float64], cell: float, zcell: float, min_size: float, n_rows: int) -> RingGrid:
+    """The grid of ``pb`` (non-empty) with cells of at least ``min_size``; a row-start table when
+    it is small against ``n_rows`` (the rows to join) and the points."""
+    origin, cx, cz, (nx, ny, nz) = _grid(pb, cell, zcell, min_size)
     idx = _cells(pb, origin, (cx, cx, cz), (nx, ny, nz))
-    bs, order, keys, rowstart, use_rows = _sorted(pb, idx[:, 0] * nz + idx[:, 2], 1, nx * nz, len(pb))
-    return RingGrid(origin, cx, cz, nx, nz, bs, order, keys, rowstart, use_rows, largest)
+    bs, order, keys, rowstart, use_rows = _sorted(pb, idx[:, 0] * nz + idx[:, 2], 1, nx * nz, n_rows)
+    return RingGrid(origin, cx, cz, nx, ny, nz, bs, order, keys, rowstart, use_rows, _largest(pb))
 
 
 def ring_pairs_in(a: Any, grid: RingGrid, *, h_lo: float, h_hi: float, z_lo: float, z_hi: float,
@@ -514,11 +531,9 @@ def ring_pairs_in(a: Any, grid: RingGrid, *, h_lo: float, h_hi: float, z_lo: flo
     kernel = _kernels()["ring"]
     if len(pa) == 0 or len(grid) == 0:
         return _empty()
-    big = max(float(np.abs(pa).max()), grid.largest, abs(h_hi), abs(z_lo), abs(z_hi))
-    eps = _RANGE_ULPS * _ULP * (1.0 + big)
-    return kernel(pa, np.arange(len(pa), dtype=np.int64), grid.sorted_points, grid.order, grid.keys,
-                  grid.rowstart, grid.use_rows, grid.origin, grid.cell, grid.zcell, grid.nx, grid.nz,
-                  h_lo, h_hi, z_lo, z_hi, eps, _NO_MASK if b_mask is None else b_mask, b_mask is not None)
+    eps = _margin(_largest(pa), grid.largest, h_hi, z_lo, z_hi)
+    return _ring_join(kernel, pa, np.arange(len(pa), dtype=np.int64), grid, (h_lo, h_hi, z_lo, z_hi), eps,
+                      b_mask)
 
 
 def shell_pairs(a: Any, b: Any, *, r_lo: float, r_hi: float,
@@ -563,7 +578,7 @@ def shell_pairs(a: Any, b: Any, *, r_lo: float, r_hi: float,
 
 def _shell(pa: NDArray[np.float64], pb: NDArray[np.float64], r_lo: float, r_hi: float,
            _cell: float | None, kernel: Callable[..., Any]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    eps = _margin(pa, pb, r_hi)
+    eps = _margin(_largest(pa), _largest(pb), r_hi)
     cell = _cell if _cell is not None else max(r_hi / 4.0, 2.0 * (r_hi - r_lo))
     origin, c, cz, (nx, ny, nz) = _grid(pb, cell, cell, 1e3 * eps)
     while c != cz:  # cubic cells: both the larger
