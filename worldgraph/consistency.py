@@ -239,7 +239,13 @@ def _raised_query(world: WorldModel, objs: NDArray[np.intp], tq: str, diff: NDAr
     holds every partner on the horizontal ring of radius h, thin in z."""
     s = GRAVITY_Z_SCALE
     pts = (world.positions[objs] + [0.0, 0.0, diff[2]]) * [1.0, 1.0, s]
-    return pts, world.type_tree(tq, s), math.hypot(math.hypot(diff[0], diff[1]) + tau, s * ztol)
+    return pts, world.type_tree(tq, s), _raised_radius(math.hypot(diff[0], diff[1]), tau, ztol)
+
+
+def _raised_radius(h: float, tau: float, ztol: float) -> float:
+    """The radius, in coordinates with z scaled by :data:`GRAVITY_Z_SCALE`, of the ball that
+    holds the horizontal ring of radius ``h`` (+- ``tau``) and height band (+- ``ztol``)."""
+    return math.hypot(h + tau, GRAVITY_Z_SCALE * ztol)
 
 
 def _indexed_candidates(world: WorldModel, index: FarPairIndex, diff: NDArray[np.float64], d: float,
@@ -415,9 +421,9 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
                                      (h + tau) * (1.0 + QUERY_WIDEN) + QUERY_FLOOR),
                                     (dz - ztol - zwide, dz + ztol + zwide))
         else:
-            radius = math.hypot(h + tau, GRAVITY_Z_SCALE * ztol)
+            radius = _raised_radius(h, tau, ztol) * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
             i, j = _tree_pairs(world, (tp, tq), (op, oq), (sub, sub_q), float(diff[2]), GRAVITY_Z_SCALE,
-                               ((h - tau) * (1.0 - QUERY_WIDEN), radius * (1.0 + QUERY_WIDEN) + QUERY_FLOOR))
+                               ((h - tau) * (1.0 - QUERY_WIDEN), radius))
     else:
         # beyond the link table: the two types' k-d trees give every pair within d + reach
         # (dual tree, in C); the shell |d_model - d| < reach, with the distances computed as in
@@ -427,7 +433,8 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
             ii, jj = ring_join.shell_pairs(world.positions[sub], world.positions[sub_q],
                                            r_lo=max(0.0, d - wide), r_hi=d + wide)
             i, j = sub[ii], sub_q[jj]
-            i, j = i[i != j], j[i != j]
+            keep = i != j
+            i, j = i[keep], j[keep]
         else:
             i, j = _tree_pairs(world, (tp, tq), (op, oq), (sub, sub_q), 0.0, 1.0, (d - wide, d + wide))
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
@@ -488,6 +495,7 @@ class _FarPair:
     (a row queried again against revived q objects)."""
 
     tau: float
+    hits: float  # the model pairs one row's query visits (:func:`_far_hits_per_row`)
     done: NDArray[np.bool_]
     covered: NDArray[np.bool_]
     parts: list[tuple[NDArray[np.intp], NDArray[np.intp]]] = field(default_factory=list)
@@ -517,13 +525,12 @@ class _LazyGraph:
         sig = np.array([p.sigma for p in percepts])
         self.near: dict[tuple[int, int], tuple[NDArray[np.intp], NDArray[np.intp]]] = {}
         self.far: dict[tuple[int, int], _FarPair] = {}
-        self.hits: dict[tuple[int, int], float] = {}  # a far pair's query cost per p row
         for p, q in itertools.combinations(range(len(percepts)), 2):
             tau = float(tol.pair_tolerance(sig[p], sig[q]))
             if _is_far(world, percepts, p, q, tau, tol, self.objects):
-                self.far[(p, q)] = _FarPair(tau, np.zeros(len(self.objects[p]), dtype=bool),
+                hits = _far_hits_per_row(world, percepts, p, q, tau, tol, self.objects)
+                self.far[(p, q)] = _FarPair(tau, hits, np.zeros(len(self.objects[p]), dtype=bool),
                                             np.zeros(len(self.objects[q]), dtype=bool))
-                self.hits[(p, q)] = _far_hits_per_row(world, percepts, p, q, tau, tol, self.objects)
             else:
                 self.near[(p, q)] = _pair_candidates(world, percepts, p, q, tau, tol, self.objects)
         self.free = _Graph(self.objects, {**self.near, **dict.fromkeys(self.far)})
@@ -555,14 +562,14 @@ class _LazyGraph:
                     n += np.count_nonzero(alive[p] & far.done)
                 if n:
                     frac = np.count_nonzero(alive[q]) / max(len(alive[q]), 1)
-                    pending.append((n * self.hits[key] * frac, key))
+                    pending.append((n * far.hits * frac, key))
             if not pending:
                 # every far pair is queried between all alive vertices: constrain them all
                 final = self._current(alive)
                 return final, _prune(final, need, alive)
             pending.sort()
             # this round: the cheapest pairs, up to FAR_ROUND_FACTOR times the cheapest one's cost
-            floor = FAR_ROUND_MIN_ROWS * self.hits[pending[0][1]]
+            floor = FAR_ROUND_MIN_ROWS * self.far[pending[0][1]].hits
             limit = FAR_ROUND_FACTOR * max(pending[0][0], floor)
             for cost, (p, q) in pending:
                 if cost > limit:
