@@ -48,7 +48,7 @@ from perception import Percept
 
 from ._checks import strict_int
 from .cliques import CliqueSearch, maximum_cliques
-from .consistency import _check_inputs, _LazyGraph
+from .consistency import _check_inputs, _LazyGraph, _local
 from .errors import (
     TooFewPerceptsError,
     WorldGraphError,
@@ -209,7 +209,7 @@ def _associate(world: WorldModel, percepts: list[Percept], tol: AssociationToler
         # and renumbered into this graph's vertices
         top = maximum_cliques([len(o) for o in top_objects], top_adjacency, min_size=best, near_maximum=0,
                               max_nodes=tol.max_nodes, max_cliques=tol.max_cliques)
-        renumbered = {tuple((p, int(np.searchsorted(objects[p], top_objects[p][a]))) for p, a in c)
+        renumbered = {tuple((p, int(_local(objects[p], top_objects[p][a]))) for p, a in c)
                       for c in top.cliques}
         cliques = sorted(renumbered | set(cliques), key=lambda c: (-len(c), c))
     hyps = _hypotheses_from_cliques(world, percepts, objects, cliques, tol, searched)
