@@ -373,3 +373,105 @@ def test_paper_ok_answers_agree_with_their_own_matches(seed: int) -> None:
 
 def skew(v: np.ndarray) -> np.ndarray:
     return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+
+
+# ----------------------------------------------------------------------------------------------
+# neighbouring objects of one type: a right pose is neither thrown away nor called ambiguous
+# ----------------------------------------------------------------------------------------------
+def test_unique_inliers_keep_a_percept_much_nearer_one_of_two_objects() -> None:
+    from worldgraph.validation import CHI2_3_GATE, UNIQUE_MARGIN, _unique_inliers
+
+    assert UNIQUE_MARGIN == pytest.approx(2 * math.log(100))  # the nearer is 100 times as likely
+    # percept: squared Mahalanobis distance to its nearest object, that object, to the second
+    d2 = np.array([1.0, 2.0, 5.0, 20.0, 0.5, 3.0])
+    obj = np.array([10, 11, 12, 13, 14, 14])
+    second = np.array([12.0, 30.0, 12.0, np.inf, 10.0, 40.0])
+    got = _unique_inliers(d2, obj, second, CHI2_3_GATE)
+    # 0: second inside the gate but 11 farther (> 9.21): kept; 1: second outside the gate: kept;
+    # 2: second only 7 farther: left out; 3: outside the gate; 4: 9.5 farther: kept, and it is
+    # nearer object 14 than percept 5, which loses it
+    assert got == ((0, 10), (1, 11), (4, 14))
+
+
+def neighbouring_knobs_world() -> tuple[WorldModel, np.ndarray]:
+    """Six landmarks of distinct types around a robot facing -y, and two knobs 0.1 m apart."""
+    pos = np.array([[0.0, 0.0, 0.9], [0.8, 0.2, 1.6], [1.6, -0.1, 0.5], [2.4, 0.3, 1.2],
+                    [0.4, -0.4, 2.1], [2.0, 0.1, 2.0], [1.2, 0.0, 1.0], [1.3, 0.0, 1.0]])
+    world = WorldModel.from_arrays(["door", "handle", "drawer", "panel", "oven", "sink", "knob", "knob"], pos)
+    return world, facing(np.array([1.2, 3.0, 1.5]), -math.pi / 2)
+
+
+def test_a_percept_between_two_knobs_counts_when_one_is_far_more_likely() -> None:
+    world, pose = neighbouring_knobs_world()
+    percepts = [Percept(p.type, p.position, 0.004) for p in percepts_of(world, pose, range(6))]
+    # the knob percept sits on knob 6 with sigma 0.03: knob 7 lies (0.1 / 0.03)^2 = 11.1 away,
+    # inside the 3-sigma gate (14.2) but more than UNIQUE_MARGIN (9.2) farther than knob 6
+    knob = (world.positions[6] - pose[:3, 3]) @ pose[:3, :3]
+    percepts.append(Percept("knob", knob, 0.03))
+    res = localize(world, percepts)
+    assert res.status == "ok", res.message
+    assert (6, 6) in res.correspondences
+    assert res.residuals[6] < 0.1
+    # a knob percept halfway between the two tells nothing certain: left out
+    mid = (world.positions[6:8].mean(axis=0) - pose[:3, 3]) @ pose[:3, :3]
+    res = localize(world, [*percepts[:6], Percept("knob", mid, 0.03)])
+    assert res.status == "ok", res.message
+    assert all(p != 6 for p, _ in res.correspondences)
+
+
+# A view of scenes.floor(20000, seed=0) (benchmarks/scaling.py, the floor's 41st view): the chair
+# percept (sigma 1.8 mm) lies between two chairs 9 mm apart; the fits matching it to either are
+# both consistent, 6 mm apart, with robust costs 24.5 and 24.9.
+FLOOR_POSE = np.array([[0.46364, 0.886024, 0.0, 70.854973], [-0.886024, 0.46364, 0.0, 43.885662],
+                       [0.0, 0.0, 1.0, 1.54], [0.0, 0.0, 0.0, 1.0]])
+FLOOR_PERCEPTS = [
+    ("radiator", [5.19339, 3.79211, -1.12844], 0.042085), ("sign", [-1.6569, 3.325, 0.76413], 0.014435),
+    ("handle", [-2.30037, 6.70392, -0.53079], 0.049919),
+    ("extinguisher", [-0.64692, 5.54788, -0.92617], 0.032159),
+    ("chair", [-0.63529, 0.48767, -1.09055], 0.001828), ("handle", [2.26822, 3.9464, 5.01056], 0.045825),
+    ("lamp", [2.62384, 5.08754, 1.20283], 0.034426), ("radiator", [7.15808, 3.15268, -1.05126], 0.061968),
+    ("window", [2.64005, -1.39285, 0.0637], 0.008918)]
+
+
+def test_fits_at_the_same_pose_widen_the_covariance_instead_of_making_it_ambiguous(monkeypatch) -> None:
+    world = scenes.floor(n_objects=20000, seed=0)
+    percepts = [Percept(t, np.array(x), s) for t, x, s in FLOOR_PERCEPTS]
+    e_of = lambda res: np.concatenate([  # noqa: E731 - truth minus answer, ROS order
+        FLOOR_POSE[:3, 3] - res.position,
+        Rotation.from_matrix(FLOOR_POSE[:3, :3] @ res.transformation[:3, :3].T).as_rotvec()])
+    res = localize(world, percepts)
+    assert res.status == "ok", res.message
+    assert "same pose" in res.message
+    chairs = sorted(o for p, o in res.correspondences if p == 4)
+    e = e_of(res)
+    assert e @ np.linalg.solve(res.pose_covariance, e) <= chi2.ppf(0.9973, 6)
+    # the premise: without merging the fits at the same pose, the runner-up makes it ambiguous
+    monkeypatch.setattr(wl, "_same_pose", lambda *args: False)
+    alone = localize(world, percepts)
+    assert alone.status == "ambiguous"
+    assert np.linalg.norm(alone.alternatives[0][:3, 3] - alone.position) < 0.01
+    assert sorted(o for p, o in alone.correspondences if p == 4) == chairs
+    # the covariance only grew, by the likelihood-weighted spread of the two fits
+    np.testing.assert_allclose(alone.transformation, res.transformation)
+    grown = np.linalg.eigvalsh(res.pose_covariance - alone.pose_covariance)
+    assert grown.min() > -1e-12 and grown.max() > 1e-6
+    alt = alone.alternatives[0]
+    d = np.concatenate([alt[:3, 3] - alone.position,
+                        Rotation.from_matrix(alt[:3, :3] @ alone.transformation[:3, :3].T).as_rotvec()])
+    costs = alone.near_best_costs
+    w = math.exp(-0.5 * (costs[1] - costs[0]))
+    w = w / (1 + w)  # the runner-up's share of the likelihood
+    assert grown.max() == pytest.approx(w * (d @ d), rel=1e-6)  # the rank-one w d d^T
+    assert grown[-2] < 1e-9 * grown.max()
+
+
+def test_lenient_tolerances_never_merge_two_places() -> None:
+    """With 100 m / 180 deg tolerances, two identical runs 4 m apart stay two answers."""
+    run = np.array([[0.0, 0.0, 0.9], [0.6, 0.0, 0.9], [1.2, 0.0, 1.5], [1.8, 0.0, 0.6], [0.3, 0.0, 2.0]])
+    types = ["door", "handle", "knob", "drawer", "panel"]
+    world = WorldModel.from_arrays(types * 2, np.vstack([run, run + [4.0, 0.0, 0.0]]))
+    pose = facing(np.array([0.9, 2.5, 1.5]), -math.pi / 2)
+    percepts = percepts_of(world, pose, range(5), np.random.default_rng(0))
+    res = localize(world, percepts, max_position_3sigma=100.0, max_rotation_3sigma=math.pi)
+    assert res.status == "ambiguous"
+    assert len(res.alternatives) == 1
