@@ -212,8 +212,12 @@ class LocalizationResult:
     alternatives : tuple of (4, 4) float
         ``world_from_ego`` of the validated runner-ups within ``ambiguity_margin`` of the best.
     log_likelihood_ratio : float
-        Half the robust-cost difference between the runner-up and the chosen pose (inf when no
-        runner-up was validated).
+        Half the robust-cost difference between the best validated fit at another pose and the
+        chosen pose (inf when there is none).  Fits at the same pose (closer than a third of
+        ``max_position_3sigma`` and ``max_rotation_3sigma``, and than ``distinct_translation``
+        and ``distinct_angle``: a percept matched to one of two neighbouring objects of its
+        type) do not make the answer ambiguous: their likelihood-weighted spread is part of
+        ``pose_covariance``.
     certificate : radialopt.Certificate or None
         With ``certify=True``: whether the pose is proven the global minimum of the ML cost of
         its matches (the rotation SDP of :mod:`worldgraph.pose_certificate`), with the proven
@@ -758,13 +762,20 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Locali
                           "landmarks)", hyps, incomplete)
     best, choice = _choose_step(ctx, distinct, incomplete)
     if ctx.settings.method == "ml":
-        return _finish(ctx, _ml_pose_step(ctx, best), hyps, choice)
+        return _finish(ctx, _widened(_ml_pose_step(ctx, best), choice), hyps, choice)
     answer = _range_only_pose_step(ctx, best)
     if answer.status_hint in ("degenerate", "degenerate_collinear"):  # no position, so no pose
         message = answer.est.message if answer.est is not None else ""
         return ctx.failed(cast(LocalizeStatus, answer.status_hint),
                           message or "the matched landmarks fix no position", hyps, choice.ambiguous)
-    return _finish(ctx, answer, hyps, choice)
+    return _finish(ctx, _widened(answer, choice), hyps, choice)
+
+
+def _widened(answer: _Answer, choice: _Choice) -> _Answer:
+    """The answer with the spread of the fits at the same pose added to its covariance."""
+    if choice.spread is None:
+        return answer
+    return replace(answer, cov6=answer.cov6 + choice.spread)
 
 
 _Fits = dict[tuple[tuple[int, int], ...], tuple[PoseFit, int]]
@@ -822,8 +833,11 @@ class _Choice:
 
     ambiguous: bool
     alternatives: tuple[NDArray[np.float64], ...] = ()
-    llr: float = math.inf  # log-likelihood ratio to the second-best fit
+    llr: float = math.inf  # log-likelihood ratio to the best fit at a distinct pose
     near_best_costs: tuple[float, ...] = ()
+    # (6, 6) ROS order: the likelihood-weighted spread of the fits at the same pose (see
+    # _same_pose), added to the pose covariance
+    spread: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
@@ -854,8 +868,17 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
             ctx.notes.append(f"the best fit lies outside the default region; the best pose inside it fits "
                              f"worse by a robust cost of {worse_by:.3g}, so it was not preferred")
     best = distinct[0][0]
-    runners = [f for f, _ in distinct[1:] if f.cost - best.cost < ctx.settings.tol.ambiguity_margin
+    tol = ctx.settings.tol
+    same: list[PoseFit] = []
+    others: list[PoseFit] = []
+    for f, _ in distinct[1:]:
+        (same if _same_pose(best.world_from_ego, f.world_from_ego, ctx.settings) else others).append(f)
+    runners = [f for f in others if f.cost - best.cost < tol.ambiguity_margin
                and _pose_nees(best, f.world_from_ego) > CHI2_6_GATE]
+    spread = _same_pose_spread(best, same)
+    if spread is not None:
+        ctx.notes.append(f"{len(same)} other fit(s) at the same pose (other objects of the percepts' "
+                         "types nearby) widen its covariance by their likelihood-weighted spread")
     ambiguous = bool(runners) or incomplete
     if incomplete:
         ctx.notes.append("clique search truncated (max_nodes/max_cliques): the world repeats itself "
@@ -865,10 +888,43 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
         ctx.notes.append(f"association ambiguous: best robust cost {best.cost:.3g} "
                          f"({best.inliers} inliers), next {runners[0].cost:.3g} ({runners[0].inliers} "
                          f"inliers) at a pose {gap:.3g} m away")
-    llr = 0.5 * (distinct[1][0].cost - best.cost) if len(distinct) > 1 else math.inf
+    llr = 0.5 * (others[0].cost - best.cost) if others else math.inf
     alternatives = tuple(f.world_from_ego.copy() for f in runners)
     near_best_costs = (float(best.cost), *(float(f.cost) for f in runners))
-    return best, _Choice(ambiguous, alternatives, llr, near_best_costs)
+    return best, _Choice(ambiguous, alternatives, llr, near_best_costs, spread)
+
+
+def _pose_error(reference: NDArray, other: NDArray) -> NDArray[np.float64]:
+    """``other - reference`` in ROS order: translation, then the rotation vector of
+    ``R_other R_reference^T`` (the convention of ``pose_covariance``)."""
+    return np.concatenate([other[:3, 3] - reference[:3, 3],
+                           Rotation.from_matrix(other[:3, :3] @ reference[:3, :3].T).as_rotvec()])
+
+
+def _same_pose(a: NDArray, b: NDArray, settings: _Settings) -> bool:
+    """Whether two poses are one answer, as fits are that differ only in which of two
+    neighbouring objects of its type a percept matched: closer than a third of the tolerances
+    (``max_position_3sigma``, ``max_rotation_3sigma``; their likelihood-weighted spread then adds
+    at most ``(0.71 d)^2`` to the variance, which keeps the 3-sigma bound of a sharp fit inside
+    the tolerance) and than the association's ``distinct_translation`` and ``distinct_angle``
+    (so lenient tolerances never merge two places into one wide answer)."""
+    e = _pose_error(a, b)
+    tol = settings.tol
+    return bool(np.linalg.norm(e[:3]) < min(settings.pos_tol / 3.0, tol.distinct_translation)
+                and np.linalg.norm(e[3:]) < min(settings.rot_tol / 3.0, tol.distinct_angle))
+
+
+def _same_pose_spread(best: PoseFit, same: list[PoseFit]) -> NDArray[np.float64] | None:
+    """``sum_i w_i d_i d_i^T`` over the fits at the same pose as ``best``: ``d_i`` their pose
+    minus the best's (ROS order), ``w_i`` their likelihood ``exp(-cost_i / 2)`` normalised over
+    them and the best.  Added to the best's covariance, the sum is the mean square error of
+    reporting the best pose when the truth is one of these fits (None without such fits)."""
+    if not same:
+        return None
+    w = np.exp(-0.5 * np.array([f.cost - best.cost for f in same]))
+    w = w / (1.0 + w.sum())
+    d = np.array([_pose_error(best.world_from_ego, f.world_from_ego) for f in same])
+    return (d * w[:, None]).T @ d
 
 
 def _ml_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
@@ -1011,8 +1067,7 @@ def _range_consistent(sol: ro.RadialSolution | None, alpha: float = SIGNIFICANCE
 def _pose_nees(fit: PoseFit, other: NDArray) -> float:
     """``e^T C^-1 e`` of another pose against a fit's pose and covariance (a runner-up inside the
     fit's own 3-sigma ellipsoid is the same answer, not an ambiguity)."""
-    e = np.concatenate([other[:3, 3] - fit.world_from_ego[:3, 3],
-                        Rotation.from_matrix(other[:3, :3] @ fit.world_from_ego[:3, :3].T).as_rotvec()])
+    e = _pose_error(fit.world_from_ego, other)
     try:
         return float(e @ np.linalg.solve(fit.pose_covariance, e))
     except np.linalg.LinAlgError:
