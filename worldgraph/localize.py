@@ -8,8 +8,10 @@
    best association hypotheses are fitted by maximum likelihood, every percept is re-associated
    to its nearest same-type object by Mahalanobis distance and the fit repeated on the inliers;
    the fits are ranked by their robust cost (a log-likelihood ratio), poses outside the region
-   give way to poses inside it, and a runner-up within ``ambiguity_margin`` makes the answer
-   ``"ambiguous"`` (its pose is in ``alternatives``);
+   give way to poses inside it, and a runner-up within ``ambiguity_margin`` at another pose
+   makes the answer ``"ambiguous"`` (its pose is in ``alternatives``); runners-up at the same
+   pose (a percept matched to one of two neighbouring objects of its type; closer than a third
+   of the tolerances) widen ``pose_covariance`` by their likelihood-weighted spread instead;
 3. the pose of the chosen hypothesis: ``method="ml"`` (default) is the validated ML 6D pose of the
    matched percepts' full 3D positions and covariances; the range-only methods (``"spheres"``,
    ``"paper"``, ``"srls"``, ``"gradient"``) put one Gaussian sphere per matched pair (centre =
