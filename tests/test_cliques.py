@@ -201,7 +201,7 @@ def test_compiled_search_finds_a_planted_clique_in_large_sparse_parts() -> None:
 def test_intersect_equals_numpy() -> None:
     """The compiled sorted-list intersection (both of its branches: merge, and a binary search
     per neighbour) against np.intersect1d."""
-    assert cliques._kernel() is not None
+    assert cliques._kernels() is not None
     rng = np.random.default_rng(3)
     for n_cand, n_nbr in [(0, 5), (5, 0), (40, 30), (3000, 4), (9, 1), (1, 1), (500, 500)]:
         cand = np.unique(rng.integers(0, 4000, n_cand)).astype(np.int64)
@@ -222,3 +222,18 @@ def test_small_graphs_do_not_import_numba() -> None:
             "print('numba' in sys.modules)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_rows_equal_numpy() -> None:
+    """The compiled CSR rows (a counting sort, each row sorted, repeats dropped) against a
+    lexsort and np.unique per row: short rows (insertion sort), long rows, empty rows."""
+    kernels = cliques._kernels()
+    assert kernels is not None
+    rng = np.random.default_rng(5)
+    for n_rows, n_pairs, width in [(0, 0, 1), (5, 0, 3), (10, 40, 6), (7, 600, 50), (300, 2000, 20000)]:
+        src = rng.integers(0, max(n_rows, 1), n_pairs).astype(np.int64)
+        dst = rng.integers(0, width, n_pairs).astype(np.int64)
+        indptr, cols = kernels["rows"](src, dst, n_rows)
+        assert indptr.shape == (n_rows + 1,) and indptr[0] == 0 and indptr[-1] == cols.size
+        for r in range(n_rows):
+            assert np.array_equal(cols[indptr[r]:indptr[r + 1]], np.unique(dst[src == r]))

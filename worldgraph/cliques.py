@@ -121,8 +121,8 @@ COMPILED_MIN_VERTICES = 64
 
 _NONE, _ALL, _ROWS = 0, 1, 2  # kinds of an ordered part pair: no edge, every pair, CSR rows
 
-# The compiled kernel, built on first use by _kernel(); False once numba was found unusable.
-_COMPILED: dict[str, Callable[..., Any] | None | bool] = {"search": None}
+# The compiled kernels, built on first use by _kernels(); False once numba was found unusable.
+_COMPILED: dict[str, Callable[..., Any] | None | bool] = {"search": None, "rows": None}
 
 
 def _intersect(pool: Any, c_at: int, c_len: int, cols: Any, r0: int, r1: int, out: int) -> int:
@@ -288,14 +288,52 @@ def _search_kernel(kind: Any, row_at: Any, indptr: Any, cols: Any, start_at: Any
     return found_size[:n_found].copy(), found[:n_found].copy(), best, nodes, complete
 
 
-def _kernel() -> Callable[..., Any] | None:
-    """The compiled search, compiled (or loaded from numba's cache) on first use; None without a
-    working numba (``pip install gaussian-spheres[fast]``): the Python search is used then."""
-    got = _COMPILED["search"]
-    if got is False:
+def _rows_kernel(src: Any, dst: Any, n_rows: int) -> tuple[Any, Any]:
+    """CSR rows of the pairs ``(src, dst)`` (``src < n_rows``): ``indptr`` (n_rows + 1,) and the
+    neighbours, sorted and unique within each row (compiled by numba; plain Python otherwise).
+    A counting sort by row, then each row sorted on its own (rows are short) and its repeats
+    dropped: linear in the pairs, where one sort of all of them was the most of a search."""
+    indptr = np.zeros(n_rows + 1, np.int64)
+    for i in range(src.size):
+        indptr[src[i] + 1] += 1
+    for r in range(n_rows):
+        indptr[r + 1] += indptr[r]
+    fill = indptr[:-1].copy()
+    cols = np.empty(src.size, np.int64)
+    for i in range(src.size):
+        cols[fill[src[i]]] = dst[i]
+        fill[src[i]] += 1
+    out, start = 0, 0
+    for r in range(n_rows):
+        end = indptr[r + 1]
+        if end - start > 16:
+            cols[start:end].sort()
+        else:  # insertion sort
+            for j in range(start + 1, end):
+                v, i = cols[j], j
+                while i > start and cols[i - 1] > v:
+                    cols[i] = cols[i - 1]
+                    i -= 1
+                cols[i] = v
+        indptr[r] = out
+        for j in range(start, end):
+            if j == start or cols[j] != cols[j - 1]:
+                cols[out] = cols[j]
+                out += 1
+        start = end
+    indptr[n_rows] = out
+    return indptr, cols[:out].copy()
+
+
+def _kernels() -> dict[str, Callable[..., Any]] | None:
+    """The compiled search and row builder, compiled (or loaded from numba's cache) on first use;
+    None without a working numba (``pip install gaussian-spheres[fast]``): the Python search is
+    used then."""
+    search, rows = _COMPILED["search"], _COMPILED["rows"]
+    if search is False:
         return None
-    if got is not None:
-        return got  # type: ignore[return-value]
+    if search is not None and rows is not None:
+        return {"search": search, "rows": rows}  # type: ignore[dict-item]
     if importlib.util.find_spec("numba") is None:
         _COMPILED["search"] = False
         return None
@@ -308,69 +346,48 @@ def _kernel() -> Callable[..., Any] | None:
     jit = numba.njit(cache=True, nogil=True)
     if not hasattr(_intersect, "py_func"):  # the kernel calls it by its global name: compiled first
         _intersect = jit(_intersect)
-    _COMPILED["search"] = kernel = jit(_search_kernel)
-    return kernel
+    _COMPILED["search"] = search = jit(_search_kernel)
+    _COMPILED["rows"] = rows = jit(_rows_kernel)
+    return {"search": search, "rows": rows}
 
 
-def _neighbour_rows(src: NDArray[np.integer], dst: NDArray[np.integer], n_src: int, n_dst: int,
-                    ordered: bool) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """CSR rows of the pairs ``(src, dst)``: ``indptr`` (n_src + 1,) and the neighbours, sorted
-    and unique within each row (``ordered``: the pairs are already so, as from ``np.nonzero``)."""
-    src, dst = src.astype(np.int64), dst.astype(np.int64)
-    if not ordered:
-        key = np.sort(src * n_dst + dst)
-        if key.size:
-            key = key[np.concatenate(([True], key[1:] != key[:-1]))]
-        src, dst = key // n_dst, key % n_dst
-    indptr = np.zeros(n_src + 1, np.int64)
-    np.cumsum(np.bincount(src, minlength=n_src), out=indptr[1:])
-    return indptr, dst
-
-
-def _compiled_search(kernel: Callable[..., Any], sizes: list[int], checked: dict[tuple[int, int], _Entry],
-                     order: list[int], usable: list[NDArray[np.intp]],
+def _compiled_search(kernels: dict[str, Callable[..., Any]], sizes: list[int],
+                     checked: dict[tuple[int, int], _Entry], order: list[int], usable: list[NDArray[np.intp]],
                      limits: tuple[int, int, int, int | None, int | None]
                      ) -> tuple[int, list[tuple[int, tuple[tuple[int, int], ...]]], int, bool]:
     """:func:`_python_search` by the compiled kernel: every adjacency form turned into one CSR
     layout per ordered part pair (by depth; "all" and "none" pairs hold no rows)."""
     floor, near_maximum, max_nodes, max_cliques, stop_at = limits
     k = len(sizes)
+    depth = {p: d for d, p in enumerate(order)}
     kind = np.zeros((k, k), np.int64)
-    row_at = np.zeros((k, k), np.int64)
-    indptrs: list[NDArray[np.int64]] = []
-    neighbours: list[NDArray[np.int64]] = []
-    n_rows = n_cols = 0
-    for d, p in enumerate(order):
-        for e, q in enumerate(order):
-            key = (min(p, q), max(p, q))
-            if p == q or key not in checked:
-                continue
-            mat = checked[key]
-            if mat is None:
-                kind[d, e] = _ALL
-                continue
-            if isinstance(mat, tuple):
-                src, dst = mat if p < q else mat[::-1]
-                indptr, dst = _neighbour_rows(src, dst, sizes[p], sizes[q], ordered=False)
-            else:
-                src, dst = np.nonzero(mat if p < q else mat.T)
-                indptr, dst = _neighbour_rows(src, dst, sizes[p], sizes[q], ordered=True)
-            if dst.size == 0:
-                continue
-            kind[d, e] = _ROWS
-            row_at[d, e] = n_rows
-            indptrs.append(indptr + n_cols)
-            neighbours.append(dst)
-            n_rows += indptr.size
-            n_cols += dst.size
+    row_at = np.zeros((k, k), np.int64)  # rows of the vertices of part d against part e start here
+    sources: list[NDArray[np.int64]] = []
+    targets: list[NDArray[np.int64]] = []
+    n_rows = 0
+    for (p, q), mat in checked.items():
+        d, e = depth[p], depth[q]
+        if mat is None:
+            kind[d, e] = kind[e, d] = _ALL
+            continue
+        pairs = mat if isinstance(mat, tuple) else np.nonzero(mat)
+        rows, cols = (np.asarray(x, dtype=np.int64) for x in pairs)
+        if rows.size == 0:
+            continue
+        for src_d, dst_d, src, dst, n_src in ((d, e, rows, cols, sizes[p]), (e, d, cols, rows, sizes[q])):
+            kind[src_d, dst_d] = _ROWS
+            row_at[src_d, dst_d] = n_rows
+            sources.append(src + n_rows)
+            targets.append(dst)
+            n_rows += n_src
     empty = np.zeros(0, np.int64)
-    indptr_all = np.concatenate(indptrs) if indptrs else empty
-    cols_all = np.concatenate(neighbours) if neighbours else empty
+    indptr_all, cols_all = kernels["rows"](np.concatenate(sources) if sources else empty,
+                                           np.concatenate(targets) if targets else empty, n_rows)
     start_len = np.array([len(usable[p]) for p in order], np.int64)
     start_at = np.zeros(k, np.int64)
     np.cumsum(start_len[:-1], out=start_at[1:])
     pool0 = np.concatenate([usable[p] for p in order]).astype(np.int64) if k else empty
-    found_size, found, best, nodes, complete = kernel(
+    found_size, found, best, nodes, complete = kernels["search"](
         kind, row_at, indptr_all, cols_all, start_at, start_len, pool0, floor, near_maximum, max_nodes,
         0 if max_cliques is None else max_cliques, 0 if stop_at is None else stop_at)
     by_part = np.full_like(found, -1)
@@ -460,9 +477,9 @@ def maximum_cliques(
     floor = max(int(min_size), 1)
     limits = (floor, near_maximum, max_nodes, max_cliques, stop_at)
     if sum(counts) >= COMPILED_MIN_VERTICES:
-        kernel = _kernel()
-        if kernel is not None:
-            best, found, nodes, complete = _compiled_search(kernel, sizes, checked, order, usable, limits)
+        kernels = _kernels()
+        if kernels is not None:
+            best, found, nodes, complete = _compiled_search(kernels, sizes, checked, order, usable, limits)
             return _result(best, found, nodes, complete, floor, near_maximum)
     best, found, nodes, complete = _python_search(sizes, checked, order, usable, allowed is None, limits)
     return _result(best, found, nodes, complete, floor, near_maximum)
