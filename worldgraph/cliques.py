@@ -14,15 +14,15 @@ maximum, complete flag, node count):
 :func:`maximum_cliques` runs the compiled search on graphs of at least
 :data:`COMPILED_MIN_VERTICES` usable vertices when numba can be imported, else the Python one.
 ``benchmarks/cliques.py`` (one run, 2-core machine shared with other jobs): on 9-partite graphs
-the compiled search is 1.2-5x faster at 200 vertices per part, 2-17x at 2,000 and 6-10x at
-20,000, where building the CSR rows of every part pair takes most of its time; on small dense
-graphs 1.6x at 9 vertices, 3-7x from 50 vertices on.  The first compiled call of a process
-costs about 0.45 s (numba import 0.2 s, loading the cached kernels 0.25 s; a first compile,
-once per installation, 6 s).  The kitchen example's graphs (at most 11 vertices, 3 searches of
-about 1 ms each) never import numba; the kitchen association benchmark's graphs of 128 - 300+
-vertices take 2 - 5 ms each in Python and a third of that compiled, so a process repays the
-load after a few hundred of them, and a campus view (150 - 200 vertices, 0.3 - 1 s in Python)
-repays it at once.  Hence 128.
+with a planted clique, the compiled search is 1.5-6x faster at 200 vertices per part, 2.5-22x
+at 2,000 and 6-12x at 20,000 (at degree 50, building the CSR rows of every part pair is most of its
+time); on small dense graphs 1.1-1.7x below 30 vertices, 2-7x from 36 on.  The first compiled
+call of a process costs about 0.45 s (numba import 0.2 s, loading the cached kernels 0.25 s; the
+first compile, once per installation, 6 s).  The kitchen example's graphs (at most 11
+vertices, 3 searches of about 1 ms) never import numba; in the kitchen association benchmark
+the graphs of 128 - 300+ vertices take 1.7 - 4.4 ms each in Python and a third of that
+compiled, so a process repays the load after a few hundred of them, and a campus view
+(150 - 200 vertices, 0.3 - 1 s in Python) at once.  Hence 128.
 """
 
 from __future__ import annotations
