@@ -238,3 +238,17 @@ def test_rows_equal_numpy() -> None:
         assert indptr.shape == (n_rows + 1,) and indptr[0] == 0 and indptr[-1] == cols.size
         for r in range(n_rows):
             assert np.array_equal(cols[indptr[r]:indptr[r + 1]], np.unique(dst[src == r]))
+
+
+def test_without_numba_the_python_search_runs() -> None:
+    """With numba unusable (as when not installed) every graph goes to the Python search."""
+    saved = dict(cliques._COMPILED)
+    cliques._COMPILED["search"] = False
+    try:
+        assert cliques._kernels() is None
+        with search_path("compiled") as calls:
+            res = maximum_cliques([2, 2], {(0, 1): np.array([[True, False], [False, True]])})
+        assert calls == [0]
+        assert res.cliques == [((0, 0), (1, 0)), ((0, 1), (1, 1))] and res.maximum == 2 and res.complete
+    finally:
+        cliques._COMPILED.update(saved)
