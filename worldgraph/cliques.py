@@ -84,8 +84,7 @@ DENSE_BITS = 1 << 26
 _Entry = None | NDArray[np.bool_] | tuple[NDArray[np.integer], NDArray[np.integer]]
 
 
-def _check_entry(key: tuple[int, int], mat: object, sizes: list[int]
-                 ) -> None | NDArray[np.bool_] | tuple[NDArray[np.integer], NDArray[np.integer]]:
+def _check_entry(key: tuple[int, int], mat: object, sizes: list[int]) -> _Entry:
     """``adjacency[key]`` checked: None (all compatible), a ``(sizes[p], sizes[q])`` bool matrix,
     or ``(rows, cols)`` equal-length 1-D integer arrays inside the parts."""
     if mat is None:
