@@ -497,8 +497,8 @@ def maximum_cliques(
     checked = {(int(key[0]), int(key[1])): _check_entry((int(key[0]), int(key[1])), mat, sizes)
                for key, mat in adjacency.items()}
     k = len(sizes)
-    usable = [np.arange(s, dtype=np.intp) if allowed is None else np.flatnonzero(a).astype(np.intp)
-              for s, a in zip(sizes, allowed or [None] * k, strict=True)]
+    usable = ([np.arange(s, dtype=np.intp) for s in sizes] if allowed is None
+              else [np.flatnonzero(a).astype(np.intp) for a in allowed])
     counts = [len(u) for u in usable]
     order = sorted(range(k), key=lambda p: (counts[p], p))
     order = [p for p in order if counts[p]] + [p for p in order if not counts[p]]
