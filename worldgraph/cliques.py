@@ -18,11 +18,13 @@ with a planted clique, the compiled search is 1.5-6x faster at 200 vertices per 
 at 2,000 and 6-12x at 20,000 (at degree 50, building the CSR rows of every part pair is most of its
 time); on small dense graphs 1.1-1.7x below 30 vertices, 2-7x from 36 on.  The first compiled
 call of a process costs about 0.45 s (numba import 0.2 s, loading the cached kernels 0.25 s; the
-first compile, once per installation, 6 s).  The kitchen example's graphs (at most 11
-vertices, 3 searches of about 1 ms) never import numba; in the kitchen association benchmark
-the graphs of 128 - 300+ vertices take 1.7 - 4.4 ms each in Python and a third of that
-compiled, so a process repays the load after a few hundred of them, and a campus view
-(150 - 200 vertices, 0.3 - 1 s in Python) at once.  Hence 128.
+first compile, once per installation, 6 s).  That load is paid only where it pays back: the
+graphs that association searches (``benchmarks/scaling.py`` views, Python search) have
+below 500 usable vertices in the kitchen (40 views: 78 graphs below 128, 2 of 128 - 500 at 2 ms
+each, none above) and the 20k floor, while in the 100k building 8 of 41 graphs have more than
+2,000 (92 ms median, 239 ms at most, 93 % of its search time) and in the campus the searches
+with near-maximum cliques have 24k - 148k (0.2 - 0.7 s each in Python, 14 - 24 ms compiled,
+the same answers).  Hence 500.
 """
 
 from __future__ import annotations
@@ -142,7 +144,7 @@ def _csr(key: tuple[int, int], pairs: tuple[NDArray[np.integer], NDArray[np.inte
 #: the compiled kernel when numba is installed; smaller ones by the Python search, which then
 #: never imports numba.  Chosen by ``benchmarks/cliques.py`` and the association benchmark's
 #: graphs; see the module notes.
-COMPILED_MIN_VERTICES = 128
+COMPILED_MIN_VERTICES = 500
 
 _NONE, _ALL, _ROWS = 0, 1, 2  # kinds of an ordered part pair: no edge, every pair, CSR rows
 
