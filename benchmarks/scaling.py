@@ -32,7 +32,10 @@ RANSAC over triples of same-type candidate correspondences (edge-length pre-chec
 inliers within 4 sigma + 1 cm of a same-type object, refit on the inliers), and ``open3d``,
 Open3D's ``registration_ransac_based_on_correspondence`` on the same candidates when
 ``import open3d`` works (``--open3d-path`` appends directories to ``sys.path`` for it).
-Baselines give no covariance: correct = position error < 0.2 m and rotation error <= 2 deg.
+Baselines give no covariance or status: correct = position error < 0.2 m and rotation error
+<= 2 deg; the table gives this library's localize under that test too (any status with a pose).
+Open3D runs RANSACConvergenceCriteria(1,000,000, 1.0): with (100,000, 0.999) it stopped early
+(65 ms, 23 % correct on the kitchen's 30 views).
 TEASER++ is not on PyPI (``pip download teaserpp-python`` finds nothing) and is not run.
 
 Run:  python benchmarks/scaling.py [--worlds kitchen floor building campus] [--poses 50]
@@ -235,7 +238,7 @@ def open3d_baseline(world, percepts) -> np.ndarray:
     max_sigma = max(p.sigma for p in percepts)
     result = reg.registration_ransac_based_on_correspondence(
         src, dst, corres, 4.0 * max_sigma + 0.01, reg.TransformationEstimationPointToPoint(False), 3,
-        [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9)], reg.RANSACConvergenceCriteria(100000, 0.999))
+        [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9)], reg.RANSACConvergenceCriteria(1000000, 1.0))
     return np.asarray(result.transformation)
 
 
@@ -271,7 +274,7 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
     draw = _drawer(name, world, site, args)
     rng = np.random.default_rng(args.seed + 17)
     t_assoc, t_loc, t_tiled, t_active, looks = [], [], [], [], []
-    verdicts = {"good": 0, "tiled_good": 0, "active_good": 0}
+    verdicts = {"good": 0, "tiled_good": 0, "active_good": 0, "close": 0}
     kinds = {"plain": {}, "tiled": {}}  # verdict -> count: good, ambiguous, weak, wrong, failed
     base = {b: {"time": [], "good": 0} for b in args.baselines if name in args.baseline_worlds}
     start = time.perf_counter()
@@ -289,6 +292,9 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
         t_loc.append(time.perf_counter() - t)
         v = assoc_bench._judge(res, pose)
         verdicts["good"] += v == "good"
+        # the baselines' test (any status with a finite pose), for the table beside them
+        posed = bool(np.all(np.isfinite(res.transformation)))
+        verdicts["close"] += posed and _close(res.transformation, pose)
         kinds["plain"][v] = kinds["plain"].get(v, 0) + 1
         if args.active:
             look_rng = np.random.default_rng([args.seed, k])
@@ -330,6 +336,7 @@ def run_world(name: str, args: argparse.Namespace) -> dict:
             "active": stats(t_active), "looks": float(np.mean(looks)) if looks else 0.0,
             "active_correct": verdicts["active_good"] / max(n, 1),
             "correct": verdicts["good"] / max(n, 1), "tiled_correct": verdicts["tiled_good"] / max(n, 1),
+            "close": verdicts["close"] / max(n, 1),
             "verdicts": kinds,
             "baselines": {b: {"time": stats(a["time"]), "correct": a["good"] / max(n, 1)}
                           for b, a in base.items()}}
@@ -375,13 +382,14 @@ def table(rows: list[dict]) -> str:
                        f"{100 * r['active_correct']:.0f} % | {awf} |")
     base = [(r, b, a) for r in rows if "baselines" in r for b, a in r["baselines"].items()]
     if base:
-        out += ["", "| world | method | median / p95 ms | correct (0.2 m, 2 deg) |", "|---|---|---|---|"]
+        out += ["", "| world | method | median / p95 ms | within 0.2 m and 2 deg "
+                "| correct: status ok, NEES, 2 deg |", "|---|---|---|---|---|"]
         for r in rows:
             if r.get("localize"):
                 out.append(f"| {r['world']} | worldgraph localize (ml) | {_ms(r['localize'])} "
-                           f"| {100 * r['correct']:.0f} % (NEES) |")
+                           f"| {100 * r['close']:.0f} % | {100 * r['correct']:.0f} % |")
         for r, b, a in base:
-            out.append(f"| {r['world']} | {b} | {_ms(a['time'])} | {100 * a['correct']:.0f} % |")
+            out.append(f"| {r['world']} | {b} | {_ms(a['time'])} | {100 * a['correct']:.0f} % | - |")
     return "\n".join(out)
 
 
