@@ -81,6 +81,8 @@ from .validation import (
     CHI2_6_GATE,
     NearestObjects,
     PoseFit,
+    _pose_error,
+    _pose_nees,
     calibrated_pose_covariance,
     fit_hypothesis,
     percept_covariances,
@@ -791,7 +793,8 @@ def _fit_step(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> _Fits:
     for h_i, h in enumerate(hyps_local):
         if len(fits) >= MAX_VALIDATED:
             break
-        if any(_pose_nees(f, h.world_from_ego) <= CHI2_6_GATE for f, _ in fits.values()):
+        if any(_pose_nees(f.world_from_ego, f.pose_covariance, h.world_from_ego) <= CHI2_6_GATE
+               for f, _ in fits.values()):
             continue  # its pose lies inside a fit's 3-sigma ellipsoid: it would converge there
         # from the clique alone, and from the clique with the association's validated matches:
         # those were taken at the clique's pose without its uncertainty, and a wrong one (an
@@ -876,7 +879,7 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     for f, _ in distinct[1:]:
         (same if _same_pose(best.world_from_ego, f.world_from_ego, ctx.settings) else others).append(f)
     runners = [f for f in others if f.cost - best.cost < tol.ambiguity_margin
-               and _pose_nees(best, f.world_from_ego) > CHI2_6_GATE]
+               and _pose_nees(best.world_from_ego, best.pose_covariance, f.world_from_ego) > CHI2_6_GATE]
     spread = _same_pose_spread(best, same)
     if spread is not None:
         ctx.notes.append(f"{len(same)} other fit(s) at the same pose (other objects of the percepts' "
@@ -894,13 +897,6 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     alternatives = tuple(f.world_from_ego.copy() for f in runners)
     near_best_costs = (float(best.cost), *(float(f.cost) for f in runners))
     return best, _Choice(ambiguous, alternatives, llr, near_best_costs, spread)
-
-
-def _pose_error(reference: NDArray, other: NDArray) -> NDArray[np.float64]:
-    """``other - reference`` in ROS order: translation, then the rotation vector of
-    ``R_other R_reference^T`` (the convention of ``pose_covariance``)."""
-    return np.concatenate([other[:3, 3] - reference[:3, 3],
-                           Rotation.from_matrix(other[:3, :3] @ reference[:3, :3].T).as_rotvec()])
 
 
 def _same_pose(a: NDArray, b: NDArray, settings: _Settings) -> bool:
@@ -1064,16 +1060,6 @@ def _radial_score(sol: ro.RadialSolution | None) -> float:
 def _range_consistent(sol: ro.RadialSolution | None, alpha: float = SIGNIFICANCE) -> bool:
     """The radial displacement is within the ``1 - alpha`` chi-square gate (n degrees of freedom)."""
     return sol is None or _radial_score(sol) <= float(chi2.ppf(1.0 - alpha, len(sol.radii)))
-
-
-def _pose_nees(fit: PoseFit, other: NDArray) -> float:
-    """``e^T C^-1 e`` of another pose against a fit's pose and covariance (a runner-up inside the
-    fit's own 3-sigma ellipsoid is the same answer, not an ambiguity)."""
-    e = _pose_error(fit.world_from_ego, other)
-    try:
-        return float(e @ np.linalg.solve(fit.pose_covariance, e))
-    except np.linalg.LinAlgError:
-        return math.inf
 
 
 def _sphere_position(ctx: _Context, pairs: tuple[tuple[int, int], ...], estimator: str, t_ref: NDArray,

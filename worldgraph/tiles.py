@@ -42,7 +42,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
 from perception import Percept
 
@@ -52,7 +51,14 @@ from .hypotheses import AssociationHypothesis
 from .localize import LOCALIZE_METHODS, POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult, localize
 from .model import WorldModel
 from .tolerances import ASSOCIATION_TOLERANCES, HALO_SLACK, AssociationTolerances, _tol_argument
-from .validation import CHI2_3_GATE, CHI2_6_GATE, NearestObjects, fit_hypothesis, percept_covariances
+from .validation import (
+    CHI2_3_GATE,
+    CHI2_6_GATE,
+    NearestObjects,
+    _pose_nees,
+    fit_hypothesis,
+    percept_covariances,
+)
 
 __all__ = ["FAILURE_ORDER", "MAX_TILES", "Tile", "TilePool", "localize_tiled", "split"]
 
@@ -277,18 +283,6 @@ class TilePool:
 # ----------------------------------------------------------------------------------------------
 # ranking
 # ----------------------------------------------------------------------------------------------
-def _nees(pose: NDArray, covariance: NDArray | None, other: NDArray) -> float:
-    """``e^T C^-1 e`` of ``other`` against ``pose`` (ROS order, as :func:`localize` uses)."""
-    if covariance is None:
-        return math.inf
-    e = np.concatenate([other[:3, 3] - pose[:3, 3],
-                        Rotation.from_matrix(other[:3, :3] @ pose[:3, :3].T).as_rotvec()])
-    try:
-        return float(e @ np.linalg.solve(covariance, e))
-    except np.linalg.LinAlgError:
-        return math.inf
-
-
 def _to_global(h: AssociationHypothesis, index: NDArray[np.intp]) -> AssociationHypothesis:
     return replace(h, pairs=tuple((p, int(index[o])) for p, o in h.pairs),
                    validated=tuple((p, int(index[o])) for p, o in h.validated))
@@ -320,7 +314,7 @@ def _combine(tiles: Sequence[Tile], answers: list[_TileAnswer], tol: Association
     res = _globalised(results[best_k], tiles[best_k])
     pose = res.transformation
     runners = [k for k in posed[1:] if answers[k].cost - best.cost < tol.ambiguity_margin
-               and _nees(pose, best.fit_covariance, results[k].transformation) > CHI2_6_GATE]
+               and _pose_nees(pose, best.fit_covariance, results[k].transformation) > CHI2_6_GATE]
     notes = [res.message] if res.message else []
     notes.append(f"tile {tiles[best_k].label} of {len(tiles)} (robust cost {best.cost:.3g})")
     status = res.status
