@@ -419,9 +419,8 @@ def _compiled_search(kernels: dict[str, Callable[..., Any]], sizes: list[int],
         0 if max_cliques is None else max_cliques, 0 if stop_at is None else stop_at)
     by_part = np.full_like(found, -1)
     by_part[:, order] = found
-    thr = max(int(best) - near_maximum, floor)
     recorded = [(int(s), tuple((p, int(v)) for p, v in enumerate(row) if v >= 0))
-                for s, row in zip(found_size.tolist(), by_part.tolist(), strict=True) if s >= thr]
+                for s, row in zip(found_size.tolist(), by_part.tolist(), strict=True)]
     return int(best), recorded, int(nodes), bool(complete)
 
 
