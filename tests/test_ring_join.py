@@ -234,7 +234,7 @@ def test_missing_numba_names_the_extra(monkeypatch):
         with pytest.raises(ImporterError) as info:
             call()
         assert isinstance(info.value, WorldGraphError)
-        assert "pip install gaussian-spheres[fast]" in str(info.value)
+        assert "pip install numba" in str(info.value)
 
 
 def test_have_numba_true_where_the_test_extra_is_installed():

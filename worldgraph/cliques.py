@@ -4,7 +4,7 @@ Two implementations of one branch and bound, with identical answers (cliques in 
 maximum, complete flag, node count):
 
 * :func:`_python_search`: candidate sets as Python-int bitsets; the slow obvious reference.
-* :func:`_search_kernel`: compiled by numba (the ``fast`` extra), iterative with an explicit
+* :func:`_search_kernel`: compiled by numba (a main dependency), iterative with an explicit
   stack; the candidates of each part are sorted index lists, intersected with the visited
   vertex's CSR neighbour list (a merge, or a binary search per neighbour for the big first
   lists), so memory stays linear in the vertices and edges: no dense ``n_p x n_q`` matrix.
@@ -354,7 +354,7 @@ def _rows_kernel(src: Any, dst: Any, n_rows: int) -> tuple[Any, Any]:
 
 def _kernels() -> dict[str, Callable[..., Any]] | None:
     """The compiled search and row builder, compiled (or loaded from numba's cache) on first use;
-    None without a working numba (``pip install gaussian-spheres[fast]``): the Python search is
+    None without a working numba (``pip install numba``): the Python search is
     used then."""
     search, rows = _COMPILED["search"], _COMPILED["rows"]
     if search is False:
@@ -444,7 +444,7 @@ def maximum_cliques(
     when the chosen count plus the number of later parts with a compatible vertex cannot reach
     the threshold ``max(best - near_maximum, min_size)``.  Graphs of at least
     :data:`COMPILED_MIN_VERTICES` usable vertices are searched by a numba kernel when numba is
-    installed (``pip install gaussian-spheres[fast]``; sorted candidate lists and CSR
+    installed (``pip install numba``; sorted candidate lists and CSR
     neighbour lists), smaller ones with Python-int bitsets: the same search, the same answer.
 
     Parameters

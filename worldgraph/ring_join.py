@@ -14,9 +14,9 @@ mask for the chosen points: no sort per call.  :func:`ring_pairs` and :func:`she
 their grid on the smaller side (``b - a = -(a - b)`` exactly, so swapping the sides with the
 height band negated gives the same pairs).
 
-numba is optional (``pip install gaussian-spheres[fast]``): this module does not import it until
+numba is a main dependency; this module does not import it until
 the first call, which compiles the kernels (``cache=True``: later processes load them from the
-cache).  Without numba both functions raise :class:`~worldgraph.errors.ImporterError`.
+cache).  Without a working numba both functions raise :class:`~worldgraph.errors.ImporterError`.
 
 Grid (ring)
     Columns of width ``cell`` in x and bands of height ``zcell`` in z; ``b`` is sorted by
@@ -73,7 +73,7 @@ HAVE_NUMBA: bool = importlib.util.find_spec("numba") is not None
 #: that cell indices fit an int64.
 MAX_ABS_COORDINATE = 1e12
 
-_PIP = "pip install gaussian-spheres[fast]"
+_PIP = "pip install numba"
 _KEY_LIMIT = 2.0**62  # cell keys stay below this (int64)
 _ULP = float(np.finfo(np.float64).eps)
 # Exactness margins, in units of float64 rounding (not tolerances: any margin above the rounding
@@ -417,7 +417,7 @@ def ring_pairs(a: Any, b: Any, *, h_lo: float, h_hi: float, z_lo: float, z_hi: f
     Raises
     ------
     ImporterError
-        numba is not installed (``pip install gaussian-spheres[fast]``).
+        numba is not installed (``pip install numba``).
     ShapeError, NonFiniteError, ArgumentTypeError, OutOfRangeError, NonPositiveError
         A bad array (naming the argument, index and value) or bound (``h_lo < 0``,
         ``lo > hi``, non-finite).
@@ -561,7 +561,7 @@ def shell_pairs(a: Any, b: Any, *, r_lo: float, r_hi: float,
     Raises
     ------
     ImporterError
-        numba is not installed (``pip install gaussian-spheres[fast]``).
+        numba is not installed (``pip install numba``).
     ShapeError, NonFiniteError, ArgumentTypeError, OutOfRangeError, NonPositiveError
         A bad array (naming the argument, index and value) or bound.
     """
