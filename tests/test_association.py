@@ -258,10 +258,19 @@ def test_rigid_motion_of_world_moves_pose(seed: int) -> None:
     move[:3, 3] = rng.uniform(-20, 20, 3)
     moved = WorldModel.from_arrays(world.types, world.positions @ move[:3, :3].T + move[:3, 3],
                                    max_link_length=5.0, link_margin=0.5)
-    a = associate(world, percepts)[0]
-    b = associate(moved, percepts)[0]
+    # the free search is invariant under any rigid motion of the world ...
+    a = associate(world, percepts, gravity=None)[0]
+    b = associate(moved, percepts, gravity=None)[0]
     assert a.pairs == b.pairs
     assert np.allclose(move @ a.world_from_ego, b.world_from_ego, atol=1e-8)
+    # ... the gravity search (the default) under those that keep the world's z axis
+    move[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
+    level = WorldModel.from_arrays(world.types, world.positions @ move[:3, :3].T + move[:3, 3],
+                                   max_link_length=5.0, link_margin=0.5)
+    a = associate(world, percepts)[0]
+    c = associate(level, percepts)[0]
+    assert a.pairs == c.pairs and a.search == c.search
+    assert np.allclose(move @ a.world_from_ego, c.world_from_ego, atol=1e-8)
 
 
 @settings(max_examples=15)
@@ -552,7 +561,7 @@ def test_far_pair_cost_estimate_counts_the_query_hits(gravity: bool, monkeypatch
     world = WorldModel.from_arrays(rng.choice(["a", "b"], 400), rng.uniform([0, 0, 0], [30, 20, 6], (400, 3)),
                                    max_link_length=1.0)
     percepts = [Percept("a", np.array([0.0, 0.0, 0.5]), 0.02), Percept("b", np.array([6.0, 2.0, 1.5]), 0.03)]
-    tol = AssociationTolerances(gravity_aligned=gravity)
+    tol = AssociationTolerances(gravity_aligned=gravity, tilt_allowance=0.0)  # the level gates
     objects = [world.type_index["a"], world.type_index["b"]]
     got = _far_hits_per_row(world, percepts, 0, 1, 0.1, tol, objects)
     assert not [x for x in world._far_pairs.values() if x is not None]  # the tree path was taken
@@ -611,8 +620,10 @@ def test_truncated_near_maximum_search_keeps_every_maximum_clique(seed: int) -> 
 def test_gravity_link_window_keeps_every_pair_of_the_exact_test(seed: int) -> None:
     """Percept pairs within the link table of a gravity-aligned world: the candidates (through
     the 3D-length window that the horizontal and height tolerances allow) are exactly the
-    object pairs of the two types that pass |h_m - h| < tau and |dz_m - dz| < ztol, computed
-    here over all pairs; percepts placed at true objects, so that pairs sit on the window."""
+    object pairs of the two types that pass |h_m - h| < tau + wh and |dz_m - dz| < ztol + wz,
+    computed here over all pairs, with the tilt allowance t's widening wh = h (1 - cos t) +
+    |dz| sin t, wz = h sin t + |dz| (1 - cos t) (t = 0: the level gates); percepts placed at
+    true objects, so that pairs sit on the window."""
     from worldgraph.consistency import _pair_candidates
 
     rng = np.random.default_rng(seed)
@@ -625,20 +636,25 @@ def test_gravity_link_window_keeps_every_pair_of_the_exact_test(seed: int) -> No
     picks = np.argsort(np.linalg.norm(world.positions - world.positions[first], axis=1))[:5]
     percepts = [Percept(str(world.types[k]), world.positions[k] - world.positions[picks[0]]
                         + rng.normal(0, 0.02, 3), float(rng.uniform(0.01, 0.08))) for k in picks]
-    tol = AssociationTolerances(gravity_aligned=True, height_tolerance=float(rng.choice([0.05, 0.3])))
+    tilt = float(rng.choice([0.0, np.radians(5.0)]))
+    tol = AssociationTolerances(gravity_aligned=True, height_tolerance=float(rng.choice([0.05, 0.3])),
+                                tilt_allowance=tilt)
     objects = [world.type_index[p.type] for p in percepts]
     checked = 0
     for p, q in itertools.combinations(range(5), 2):
         diff = percepts[q].position - percepts[p].position
         tau = float(tol.pair_tolerance(percepts[p].sigma, percepts[q].sigma))
-        if np.linalg.norm(diff) + tau + tol.height_tolerance >= world.max_link_length + world.link_margin:
+        h = np.hypot(diff[0], diff[1])
+        htol = tau + h * (1 - np.cos(tilt)) + abs(diff[2]) * np.sin(tilt)
+        ztol = tol.height_tolerance + h * np.sin(tilt) + abs(diff[2]) * (1 - np.cos(tilt))
+        if np.linalg.norm(diff) + htol + ztol >= world.max_link_length + world.link_margin:
             continue  # beyond the link table: other tests cover those
         checked += 1
         a, b = _pair_candidates(world, percepts, p, q, tau, tol, objects)
         op, oq = objects[p], objects[q]
         dv = world.positions[oq][None, :, :] - world.positions[op][:, None, :]
-        ok = (np.abs(dv[..., 2] - diff[2]) < tol.height_tolerance) & \
-            (np.abs(np.hypot(dv[..., 0], dv[..., 1]) - np.hypot(diff[0], diff[1])) < tau) & \
+        ok = (np.abs(dv[..., 2] - diff[2]) < ztol) & \
+            (np.abs(np.hypot(dv[..., 0], dv[..., 1]) - h) < htol) & \
             (op[:, None] != oq[None, :])
         want = set(zip(*np.nonzero(ok), strict=True))
         assert {tuple(x) for x in np.column_stack([a, b])} == want, (p, q)

@@ -8,7 +8,7 @@ try:
 except _PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "0.1.0"  # keep equal to pyproject.toml's [project] version (a test checks)
 
-from . import plots, rerun_log, scenes, tiles
+from . import gravity, plots, rerun_log, scenes, tiles
 from .active import ActiveLocalization, ViewPlan, active_localize, plan_view
 from .association import associate
 from .errors import (
@@ -63,6 +63,7 @@ __all__ = [
     "box_vertices",
     "franka_kitchen_path",
     "load_franka_kitchen",
+    "gravity",
     "plots",
     "rerun_log",
     "scenes",

@@ -50,6 +50,7 @@ from perception import KinematicChain, Percept, PerceptionError, depth_sigma
 from ._checks import as_list, float_array, generator, positive_float, strict_int
 from .consistency import check_world_and_percepts
 from .errors import ArgumentTypeError, NonFiniteError, OutOfRangeError, UnknownTypeError
+from .gravity import Gravity, _check_gravity
 from .localize import LocalizationResult, PoseStatus, localize
 from .model import WorldModel
 from .tolerances import (
@@ -625,7 +626,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                     method: str = "ml", tol: AssociationTolerances | None = None,
                     fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
                     head: KinematicChain | None = None, look_while: Sequence[str] = ("ambiguous", "weak"),
-                    goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA,
+                    goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA, gravity: Gravity = "auto",
                     tolerances: AssociationTolerances | None = None) -> ActiveLocalization:
     """Localise; while the status is in ``look_while`` (default ``"ambiguous"`` and ``"weak"``) and
     looks remain:
@@ -657,6 +658,9 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         rotation bound (about the worst axis, from ``pose_covariance``) is wider than this also
         gets looks, to add landmarks that pin the rotation; the final status is still the one
         ``localize`` gives. ``None`` looks only while the status is in ``look_while``.
+    gravity : "auto", (3,) float or None
+        Passed to every :func:`~worldgraph.localize` call (:mod:`worldgraph.gravity`; the head
+        turns, the ego frame does not, so one up vector holds for all the looks).
     tolerances : AssociationTolerances, optional
         Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
         :class:`~worldgraph.errors.ArgumentTypeError`).
@@ -688,7 +692,8 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     tol = _tol_argument("active_localize", tol, tolerances)
     tol = ASSOCIATION_TOLERANCES if tol is None else tol
     current = check_world_and_percepts(world, percepts)
-    result = localize(world, current, method, tol=tol)
+    _check_gravity(gravity, tol)  # a bad gravity fails before the first look
+    result = localize(world, current, method, tol=tol, gravity=gravity)
     results, plans = [result], []
     directions: list[NDArray[np.float64]] = []
     while len(directions) < max_looks and (result.status in statuses
@@ -713,7 +718,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                                         f"got {type(p).__name__}")
         directions.append(d)
         current = merge_percepts(current, new)
-        result = localize(world, current, method, tol=tol)
+        result = localize(world, current, method, tol=tol, gravity=gravity)
         results.append(result)
     return ActiveLocalization(result=result, results=tuple(results), plans=tuple(plans),
                               directions=tuple(directions), percepts=tuple(current), looks=len(directions))

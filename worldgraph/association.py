@@ -60,6 +60,17 @@ from .filters import (
     orientation_filter,
     proximity_filter,
 )
+from .gravity import (
+    _FREE,
+    Gravity,
+    _check_gravity,
+    _levelled,
+    _Plan,
+    _supported,
+    _tol_for,
+    _unlevelled_pose,
+    _within_allowance,
+)
 from .hypotheses import AssociationHypothesis, _fit_all, _rank, is_ambiguous, same_pose
 from .model import WorldModel
 from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _resolved_tol
@@ -111,7 +122,7 @@ def _search_subset(percepts: list[Percept], limit: int) -> NDArray[np.intp]:
 
 def associate(world: WorldModel, percepts: Sequence[Percept],
               tol: AssociationTolerances | None = None, method: str = "clique",
-              max_hypotheses: int | None = None, *,
+              max_hypotheses: int | None = None, *, gravity: Gravity = "auto",
               tolerances: AssociationTolerances | None = None) -> list[AssociationHypothesis]:
     """Ranked association hypotheses of ``percepts`` (ego frame) to the objects of ``world``.
 
@@ -127,6 +138,13 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
         See the module docstring.
     max_hypotheses : int, optional
         Default ``tol.max_hypotheses``.
+    gravity : "auto", (3,) float or None
+        Which way is up in the ego frame (:mod:`worldgraph.gravity`): ``"auto"`` (default) the
+        gravity search about the ego z axis within ``tol.tilt_allowance``, then the free search
+        when its best hypothesis has too few inliers or tilts beyond the allowance; an up
+        vector (an IMU's) levels the percepts for the gravity search; ``None`` the free 3D
+        search.  Each hypothesis' ``search`` says which search made it.  The paper's filters
+        use no gravity (``"free"``).
     tolerances : AssociationTolerances, optional
         Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
         :class:`~worldgraph.errors.ArgumentTypeError`).
@@ -150,13 +168,38 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     if not isinstance(method, str) or method not in ASSOCIATION_METHODS:
         raise WorldGraphError(f"method must be one of {ASSOCIATION_METHODS}, got {method!r}")
     percepts = _check_inputs(world, percepts)
-    tol = _resolved_tol("associate", tol, tolerances, world=world)
-    hyps = _associate(world, percepts, tol, method, max_hypotheses)
+    tol = _resolved_tol("associate", tol, tolerances)
+    plan = _check_gravity(gravity, tol)
+    hyps = _associate_searched(world, percepts, tol, method, max_hypotheses, plan)
+    if plan.fallback and not _supported_hypotheses(hyps, len(percepts), tol, plan):
+        hyps = _associate_searched(world, percepts, tol, method, max_hypotheses, _FREE)
     if not hyps:
         hint = units_hint(world, percepts)
         if hint is not None:
             warnings.warn(f"associate found no hypothesis; {hint}", UnitsWarning, stacklevel=2)
     return hyps
+
+
+def _associate_searched(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances, method: str,
+                        max_hypotheses: int | None, plan: _Plan) -> list[AssociationHypothesis]:
+    """:func:`_associate` with the plan's search: the percepts levelled for the gravity search,
+    the hypotheses' poses of the ego frame as given, each marked with its search.  The paper's
+    filters use no gravity: the free search."""
+    if method == "paper":
+        plan = _FREE
+    hyps = _associate(world, _levelled(percepts, plan.level), _tol_for(plan, tol), method, max_hypotheses)
+    return [replace(h, world_from_ego=_unlevelled_pose(h.world_from_ego, plan.level), search=plan.search)
+            for h in hyps]
+
+
+def _supported_hypotheses(hyps: list[AssociationHypothesis], n: int, tol: AssociationTolerances,
+                          plan: _Plan) -> bool:
+    """``gravity="auto"`` keeps the gravity search's hypotheses: the best one has enough inliers
+    and keeps the ego up vector within the tilt allowance."""
+    if not hyps or plan.up is None:
+        return bool(hyps) or plan.up is None
+    best = hyps[0]
+    return _supported(best.inliers, n, tol) and _within_allowance(best.world_from_ego, plan.up, tol)
 
 
 def _associate(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances, method: str,

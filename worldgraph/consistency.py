@@ -24,6 +24,7 @@ from .errors import (
     OutOfRangeError,
     UnknownTypeError,
 )
+from .gravity import tilt_widening
 from .model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE, FarPairIndex, WorldModel
 from .tolerances import FAR_PAIR_SLACK, QUERY_FLOOR, QUERY_WIDEN, AssociationTolerances
 
@@ -202,15 +203,22 @@ def _is_far(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: flo
 
 
 def _pair_reach(world: WorldModel, percepts: list[Percept], p: int, q: int, tau: float,
-                tol: AssociationTolerances) -> tuple[NDArray[np.float64], float, float, float, bool]:
-    """``(diff, d, ztol, reach, covered)`` of the percept pair: the offset from p to q and its
-    length, the height tolerance, how far a model distance may differ from ``d`` (``tau``, plus
-    ``ztol`` when gravity-aligned), and whether the link table holds every pair within reach."""
+                tol: AssociationTolerances) -> tuple[NDArray[np.float64], float, float, float, float, bool]:
+    """``(diff, d, htol, ztol, reach, covered)`` of the percept pair: the offset from p to q and
+    its length; gravity-aligned, the tolerances of the horizontal length and of the height
+    difference (``tau`` and the height tolerance, each widened by what a tilt of
+    ``tol.tilt_allowance`` can change, :func:`~worldgraph.gravity.tilt_widening`); how far a
+    model distance may differ from ``d`` (``tau``, or ``htol + ztol`` when gravity-aligned); and
+    whether the link table holds every pair within reach."""
     diff = percepts[q].position - percepts[p].position
     d = float(np.linalg.norm(diff))
     ztol = tau if tol.height_tolerance is None else float(tol.height_tolerance)
-    reach = tau + (ztol if tol.gravity_aligned else 0.0)
-    return diff, d, ztol, reach, d + reach < world.max_link_length + world.link_margin
+    htol = tau
+    if tol.gravity_aligned:
+        wide_h, wide_z = tilt_widening(math.hypot(diff[0], diff[1]), float(diff[2]), tol.tilt_allowance)
+        htol, ztol = tau + float(wide_h), ztol + float(wide_z)
+    reach = htol + ztol if tol.gravity_aligned else tau
+    return diff, d, htol, ztol, reach, d + reach < world.max_link_length + world.link_margin
 
 
 def _far_index(world: WorldModel, tp: str, tq: str, diff: NDArray[np.float64], d: float, ztol: float,
@@ -376,7 +384,7 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
     those objects."""
     tp, tq = percepts[p].type, percepts[q].type
     op, oq = objects[p], objects[q]
-    diff, d, ztol, reach, covered = _pair_reach(world, percepts, p, q, tau, tol)
+    diff, d, tau, ztol, reach, covered = _pair_reach(world, percepts, p, q, tau, tol)
     sub = op if rows is None else op[rows]
     sub_q = oq if cols is None else oq[cols]
     i: NDArray[np.integer]  # intp from the link tables and trees, int32 from the far-pair index
@@ -474,7 +482,7 @@ def _far_hits_per_row(world: WorldModel, percepts: list[Percept], p: int, q: int
     the index window's pairs per p object, or the k-d tree hits of an even sample of p's objects
     (the disk of :func:`_pair_candidates`, which keeps only its shell)."""
     tp, tq = percepts[p].type, percepts[q].type
-    diff, d, ztol, reach, _ = _pair_reach(world, percepts, p, q, tau, tol)
+    diff, d, tau, ztol, reach, _ = _pair_reach(world, percepts, p, q, tau, tol)
     op = objects[p]
     if (index := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
         w, _, _ = _index_window(index, diff, d, tau, reach)

@@ -18,6 +18,7 @@ from ._checks import finite_float, rigid_transform
 from .errors import (
     ArgumentTypeError,
 )
+from .gravity import SearchKind
 from .model import WorldModel
 from .pose import weighted_kabsch_batch
 from .tolerances import PLANAR_RTOL, TINY, AssociationTolerances, _check_tolerances, _resolved_tol
@@ -50,6 +51,9 @@ class AssociationHypothesis:
         Filled by :func:`~worldgraph.localize`: the projection of the hypothesis' Gaussian
         spheres (centre = model object, radius = percept range, sigma) onto their restriction
         polytope, the paper's range-consistency score (its ``normalized_displacement``).
+    search : {"gravity", "free"}
+        The search that made it (:mod:`worldgraph.gravity`): the storey-aware gravity search or
+        the free 3D search.
     """
 
     pairs: tuple[tuple[int, int], ...]
@@ -60,6 +64,7 @@ class AssociationHypothesis:
     inliers: int = 0
     complete: bool = True
     radial: Any = None
+    search: SearchKind = "free"
 
     @property
     def all_pairs(self) -> tuple[tuple[int, int], ...]:
@@ -148,12 +153,15 @@ def _chirality_ok(ego: NDArray, world: NDArray, sigmas: NDArray, tol: Associatio
             tri = np.concatenate([quads[:, :, [0, 1, 3]], quads[:, :, [0, 2, 3]], quads[:, :, :3]], axis=1)
         e = ego[hh, tri]
         w = world[hh, tri]
-        ne = _cross(e[:, :, 1] - e[:, :, 0], e[:, :, 2] - e[:, :, 0])[..., 2]
+        ne_full = _cross(e[:, :, 1] - e[:, :, 0], e[:, :, 2] - e[:, :, 0])
+        ne = ne_full[..., 2]
         nw = _cross(w[:, :, 1] - w[:, :, 0], w[:, :, 2] - w[:, :, 0])[..., 2]
         s = sigmas[hh, tri].max(axis=2)
         span = np.max(np.linalg.norm(w - w[:, :, :1], axis=-1), axis=-1)
         gate = tol.chirality_sigmas * tol.pair_factor * 2.0 * s * span
-        bad = (np.abs(nw) > gate) & (np.abs(ne) > gate) & (np.sign(ne) != np.sign(nw))
+        # a tilt of the ego z axis up to the allowance moves the normal's z by |n| sin(allowance)
+        gate_e = gate + np.linalg.norm(ne_full, axis=-1) * math.sin(tol.tilt_allowance)
+        bad = (np.abs(nw) > gate) & (np.abs(ne) > gate_e) & (np.sign(ne) != np.sign(nw))
         ok &= ~bad.any(axis=1)
     return ok
 

@@ -57,9 +57,20 @@ import radialopt as ro
 from perception import Percept
 
 from ._checks import float_array, generator, positive_float, strict_int
-from .association import _associate
+from .association import _associate_searched
 from .consistency import MAX_COORDINATE, check_world_and_percepts
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, UnknownTypeError, WorldGraphError
+from .gravity import (
+    _FREE,
+    TILT_SLACK,
+    Gravity,
+    SearchKind,
+    _check_gravity,
+    _Plan,
+    _supported,
+    _within_allowance,
+    tilt_angle,
+)
 from .hypotheses import AssociationHypothesis, is_ambiguous
 from .model import WorldModel
 from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
@@ -72,7 +83,6 @@ from .tolerances import (
     RIGID_TOLERANCE,
     SIGNIFICANCE,
     AssociationTolerances,
-    _check_tolerances,
     _tol_argument,
 )
 from .units import units_hint
@@ -231,6 +241,11 @@ class LocalizationResult:
         behind ``transformation`` and each of ``alternatives``, in that order (empty for the
         ``"paper"`` method and when no pose was determined); what
         :func:`worldgraph.active.plan_view` weights the near-best hypotheses with.
+    search : {"gravity", "free"}
+        Which search answered (:mod:`worldgraph.gravity`): the storey-aware gravity search or
+        the free 3D search (``gravity=None``, the paper's method, or ``"auto"``'s fallback,
+        whose reason the message gives; ``timings["gravity_pass"]`` is then the gravity pass's
+        time).
     """
 
     transformation: NDArray[np.float64]
@@ -251,6 +266,7 @@ class LocalizationResult:
     log_likelihood_ratio: float = math.inf
     certificate: ro.Certificate | None = None
     near_best_costs: tuple[float, ...] = ()
+    search: SearchKind = "free"
 
     @property
     def unique(self) -> bool:
@@ -363,7 +379,7 @@ class LocalizationResult:
             order); ``correspondences`` (``[percept_index, object_index]`` pairs),
             ``n_hypotheses``, ``n_near_best``, ``alternatives`` (4x4 each), ``near_best_costs``,
             ``log_likelihood_ratio``, ``fitness``, ``inlier_rmse`` (m), ``residuals``,
-            ``timings`` (s), ``position_estimate`` (its method, status, message and position)
+            ``timings`` (s), ``search``, ``position_estimate`` (its method, status, message and position)
             and ``certificate`` (certified, method, lower bound, gap, message), each None when
             absent.  Lists instead of arrays; every NaN or infinite number becomes None.
         """
@@ -391,6 +407,7 @@ class LocalizationResult:
             "inlier_rmse": self.inlier_rmse,
             "residuals": self.residuals,
             "timings": dict(self.timings),
+            "search": self.search,
             "position_estimate": None if est is None else {
                 "method": est.method, "status": est.status, "message": est.message,
                 "position": est.position},
@@ -467,7 +484,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
              tol: AssociationTolerances | None = None, region: ro.Region | None = None,
              rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
              max_rotation_3sigma: float = MAX_ROTATION_3SIGMA, solver: str = "active_set",
-             check: bool = False, certify: bool = False,
+             check: bool = False, certify: bool = False, gravity: Gravity = "auto",
              tolerances: AssociationTolerances | None = None) -> LocalizationResult:
     """Pose of the robot (``world_from_ego``) from percepts of known world objects.
 
@@ -510,6 +527,15 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         Fill ``certificate``: the rotation SDP's proof (or not) that the returned pose is the
         global minimum of the ML cost of its matched percepts.  With 3 or 4 matches the SDP is
         also the solver (``"ml"``).
+    gravity : "auto", (3,) float or None
+        Which way is up in the ego frame (:mod:`worldgraph.gravity`).  ``"auto"`` (default): the
+        storey-aware gravity search about the ego z axis, within ``tol.tilt_allowance`` (a level
+        base); when its answer has no pose, fewer inliers than
+        :data:`~worldgraph.gravity.MIN_GRAVITY_SUPPORT` of the percepts, or a pose that tilts
+        the ego z axis beyond the allowance, the free 3D search answers instead.  A (3,) up
+        vector (an IMU's, in the ego frame): the gravity search about it, no fallback.
+        ``None``: the free 3D search.  :attr:`LocalizationResult.search` says which search
+        answered.  The paper's method uses no gravity.
     tolerances : AssociationTolerances, optional
         Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
         :class:`~worldgraph.errors.ArgumentTypeError`).
@@ -534,10 +560,48 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     t_start = time.perf_counter()
     tol = _tol_argument("localize", tol, tolerances)
     percepts, settings = _check_arguments(world, percepts, method, tol, region, rng,
-                                          max_position_3sigma, max_rotation_3sigma, solver, check, certify)
+                                          max_position_3sigma, max_rotation_3sigma, solver, check, certify,
+                                          gravity)
     with _raised_as_worldgraph_errors(settings.method):
         result = _localize(world, percepts, settings, t_start)
+        n_used = sum(1 for p in percepts if p.type in world.type_index)
+        why = _gravity_unsupported(result, settings.plan, settings.tol, settings.method, n_used)
+        if why:
+            free = _localize(world, percepts, replace(settings, plan=_FREE), t_start)
+            result = _answered_by_free_search(free, result, why)
     return _sane(result, len(percepts))
+
+
+def _gravity_unsupported(result: LocalizationResult, plan: _Plan, tol: AssociationTolerances, method: str,
+                         n_used: int) -> str:
+    """Why ``gravity="auto"`` falls back from the gravity pass's ``result`` (of ``n_used``
+    percepts of known types) to the free search, "" when it keeps it: no pose, too few inliers
+    (:data:`~worldgraph.gravity.MIN_GRAVITY_SUPPORT`), or a pose that tilts the ego up vector
+    beyond ``tol.tilt_allowance``."""
+    if not plan.fallback or plan.up is None or method == "paper" or result.search != "gravity":
+        return ""
+    if result.status == "too_few_percepts":
+        return ""  # the free search has no more percepts
+    if not bool(np.all(np.isfinite(result.transformation))):
+        return f"no pose ({result.status})"
+    n_inliers = len(result.correspondences)
+    if not _supported(n_inliers, n_used, tol):
+        return f"{n_inliers} of {n_used} percepts as inliers ({result.status})"
+    if not _within_allowance(result.transformation, plan.up, tol):
+        return (f"a pose tilted {math.degrees(tilt_angle(result.transformation, plan.up)):.1f} deg "
+                f"(allowance {math.degrees(tol.tilt_allowance):.1f} deg + {math.degrees(TILT_SLACK):.0f} deg "
+                "slack)")
+    return ""
+
+
+def _answered_by_free_search(free: LocalizationResult, gravity_pass: LocalizationResult, why: str
+                             ) -> LocalizationResult:
+    """The free search's answer, its message saying why the gravity pass was not kept and its
+    timings holding the gravity pass's total as ``"gravity_pass"``."""
+    note = f"gravity search: {why}; answered by the free 3D search"
+    timings = dict(free.timings)
+    timings["gravity_pass"] = gravity_pass.timings.get("total", math.nan)
+    return replace(free, message="; ".join(m for m in (note, free.message) if m), timings=timings)
 
 
 @dataclass(frozen=True)
@@ -553,12 +617,13 @@ class _Settings:
     solver: str  # "active_set" or an installed cvxpy solver's name, upper case
     check: bool
     certify: bool
+    plan: _Plan  # the search: gravity (about which up vector) or free, and whether "auto" may fall back
 
 
 def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str,
                      tol: object, region: object, rng: object,
                      max_position_3sigma: float, max_rotation_3sigma: float, solver: object, check: object,
-                     certify: object) -> tuple[list[Percept], _Settings]:
+                     certify: object, gravity: object = "auto") -> tuple[list[Percept], _Settings]:
     """Step 1: every argument of :func:`localize` checked (specific errors), as the percepts and
     the call's settings."""
     if not isinstance(method, str) or method not in LOCALIZE_METHODS:
@@ -588,8 +653,9 @@ def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str
     if not big <= MAX_COORDINATE:
         raise OutOfRangeError(f"world positions reach {big:.3g} m; localize handles coordinates up to "
                               f"{MAX_COORDINATE:g} m (shift the world's origin)")
+    plan = _check_gravity(gravity, tol)
     return checked, _Settings(method, tol, box, gen, pos_tol, rot_tol, solver_name, bool(check),
-                              bool(certify))
+                              bool(certify), plan)
 
 
 @contextmanager
@@ -658,14 +724,16 @@ def _localize(world: WorldModel, percepts: list[Percept], settings: _Settings, t
     if len(call.used) < need:
         return call.failed("too_few_percepts", f"localisation needs at least {need} percepts of known types, "
                            f"got {len(call.used)}")
+    search: SearchKind = "free" if settings.method == "paper" else settings.plan.search
     hyps_local = _associate_step(call)
     if not hyps_local:
-        return call.failed("no_association",
-                           "no consistent association of >= 3 percepts with the world model")
+        return replace(call.failed("no_association",
+                                   "no consistent association of >= 3 percepts with the world model"),
+                       search=search)
     ctx = _measurement_step(call)
     if settings.method == "paper":
         return _paper(ctx, hyps_local)
-    return _validated(ctx, hyps_local)
+    return replace(_validated(ctx, hyps_local), search=search)
 
 
 @dataclass
@@ -723,8 +791,8 @@ def _associate_step(call: _Call) -> list[AssociationHypothesis]:
     t0 = time.perf_counter()
     tol = call.settings.tol
     how = "paper" if call.settings.method == "paper" else "clique"
-    hyps = _associate(call.world, call.used, _check_tolerances(tol, "tol", world=call.world), how,
-                      max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES))
+    hyps = _associate_searched(call.world, call.used, tol, how,
+                               max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES), call.settings.plan)
     call.timings["association"] = time.perf_counter() - t0
     return hyps
 

@@ -47,8 +47,17 @@ from perception import Percept
 
 from . import _checks
 from .errors import ArgumentTypeError, EmptyWorldError, ShapeError, UnknownTypeError, WorldGraphError
+from .gravity import Gravity, _check_gravity
 from .hypotheses import AssociationHypothesis
-from .localize import LOCALIZE_METHODS, POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult, localize
+from .localize import (
+    LOCALIZE_METHODS,
+    POSE_STATUSES,
+    UNIQUE_STATUSES,
+    LocalizationResult,
+    _answered_by_free_search,
+    _gravity_unsupported,
+    localize,
+)
 from .model import WorldModel
 from .tolerances import ASSOCIATION_TOLERANCES, HALO_SLACK, AssociationTolerances, _tol_argument
 from .validation import (
@@ -184,10 +193,10 @@ def _fit_cost(world: WorldModel, percepts: list[Percept], result: LocalizationRe
 
 
 def _run_tile(world: WorldModel, percepts: list[Percept], world_types: frozenset[str], method: str,
-              tol: AssociationTolerances, region: Any, rng: np.random.Generator | None
-              ) -> _TileAnswer:
+              tol: AssociationTolerances, region: Any, rng: np.random.Generator | None,
+              gravity: NDArray[np.float64] | None) -> _TileAnswer:
     try:
-        result = localize(world, percepts, method, tol=tol, region=region, rng=rng)
+        result = localize(world, percepts, method, tol=tol, region=region, rng=rng, gravity=gravity)
     except UnknownTypeError as exc:  # the tile has none of the percepts' types
         return _TileAnswer(None, exc)
     if result.status not in _WITH_POSE:
@@ -368,7 +377,8 @@ def _client(scheduler: object) -> tuple[Any, bool]:
 def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: str = "ml", *,
                    scheduler: Any = None, workers: int | None = None, pool: TilePool | None = None,
                    tol: AssociationTolerances | None = None, rng: np.random.Generator | None = None,
-                   region: Any = None, tolerances: AssociationTolerances | None = None) -> LocalizationResult:
+                   region: Any = None, gravity: Gravity = "auto",
+                   tolerances: AssociationTolerances | None = None) -> LocalizationResult:
     """:func:`~worldgraph.localize.localize` on every tile in parallel, the answers ranked together.
 
     Parameters
@@ -398,6 +408,10 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         Split into one child generator per tile (:meth:`numpy.random.Generator.spawn`).
     region : radialopt.Region or (lower, upper), optional
         Passed to every tile's :func:`localize` (default: each tile's default region).
+    gravity : "auto", (3,) float or None
+        As in :func:`~worldgraph.localize.localize`.  ``"auto"`` decides on the combined
+        answer: every tile runs the gravity search, and only when the best tile's answer has no
+        pose, too few inliers or a tilted pose do all tiles run the free search.
     tolerances : AssociationTolerances, optional
         Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
         :class:`~worldgraph.errors.ArgumentTypeError`).
@@ -441,12 +455,29 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         if not pool.serves(tiles):
             raise WorldGraphError(f"pool serves other tiles ({len(pool.tiles)} tiles) than the {len(tiles)} "
                                   "given: make a TilePool of these tiles")
+    plan = _check_gravity(gravity, tol)
     rngs: list[np.random.Generator | None] = [None] * len(tiles)
     if rng is not None:
         rngs = list(_checks.generator("rng", rng).spawn(len(tiles)))
     world_types = frozenset(t for tile in tiles for t in tile.world.type_names)
-    args = [(percepts, world_types, method, tol, region, r) for r in rngs]
+    # the tiles run one search each (an explicit up vector or None): "auto" decides on the
+    # combined answer, not per tile (the tiles without the robot find nothing in either search)
+    up = None if plan.up is None else plan.up.copy()
+    answer = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, up) for r in rngs], scheduler,
+                        workers, pool, tol, t_start)
+    n_used = sum(1 for p in percepts if p.type in world_types)
+    why = _gravity_unsupported(answer, plan, tol, method, n_used)
+    if why:
+        free = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, None) for r in rngs],
+                          scheduler, workers, pool, tol, t_start)
+        answer = _answered_by_free_search(free, answer, why)
+    return answer
 
+
+def _run_tiles(tiles: tuple[Tile, ...], args: list[tuple[Any, ...]], scheduler: Any, workers: int | None,
+               pool: TilePool | None, tol: AssociationTolerances, t_start: float) -> LocalizationResult:
+    """Every tile's :func:`_run_tile` with its ``args`` (on the pool, the cluster or local
+    processes), combined."""
     if pool is not None:
         answers = pool._map(args)
     elif scheduler is not None:

@@ -35,6 +35,10 @@ if TYPE_CHECKING:  # model imports this module
 TINY = 1e-300
 #: World model: two objects of one type closer than this (m) coincide (an error).
 COINCIDENT_TOLERANCE = 1e-9
+#: An up vector (``gravity=``) shorter than this (m, any unit) has no direction.
+MIN_UP_NORM = 1e-9
+#: An up vector whose horizontal part is below this (relative) is the z axis: no levelling.
+LEVEL_TOLERANCE = 1e-12
 #: Far-pair index: window slack (m) of the float32 keys, well above float32 rounding at 16 m (1e-6 m).
 FAR_PAIR_SLACK = 1e-4
 #: k-d tree queries are widened by this relative amount (and ``QUERY_FLOOR``), so that the exact
@@ -150,13 +154,20 @@ class AssociationTolerances:
         Orientation filter, eq. 2: maximal length (m) of the signature difference; ``None``
         derives it per triple like ``tau`` from the three sigmas.
     gravity_aligned : bool or None
-        The ego z axis is the world z axis (REP 103 ego with a levelled base): compare the
-        horizontal distance and the height difference of pairs separately, so pairs across
-        storeys drop out.  ``None`` (default) follows the world's
-        :attr:`~worldgraph.model.WorldModel.gravity_aligned` (the building and campus scenes set
-        it; the kitchen and ``from_*`` worlds do not unless asked).
+        ``None`` (default): the call's ``gravity`` argument decides the search
+        (:mod:`worldgraph.gravity`; ``"auto"``: the gravity search, the free search when it finds
+        no supported level answer).  ``True``: the gravity search about the ego z axis (REP 103
+        ego with a levelled base: compare the horizontal distance and the height difference of
+        pairs separately, so pairs across storeys drop out), without fallback; ``False``: the
+        free 3D search.  An explicit ``gravity`` up vector or ``None`` overrides it.
     height_tolerance : float or None
-        Gate (m) of the height difference when ``gravity_aligned``; ``None`` uses ``tau``.
+        Gate (m) of the height difference in the gravity search; ``None`` uses ``tau``.
+    tilt_allowance : float
+        Radians: how far the ego up vector (z, or the ``gravity`` vector given) may be from the
+        true vertical in the gravity search.  Folded into its gates (a pair's horizontal length
+        and height difference may each move by what such a tilt can change,
+        :func:`~worldgraph.gravity.tilt_widening`); ``gravity="auto"`` falls back to the free
+        search when the gravity pass's pose tilts beyond it.  Default 5 degrees.
     cost_cap : float
         Cap of a percept's squared normalised residual in the robust fit cost.
     residual_factor : float
@@ -200,6 +211,7 @@ class AssociationTolerances:
     mu_max: float | None = None
     gravity_aligned: bool | None = None
     height_tolerance: float | None = None
+    tilt_allowance: float = math.radians(5.0)
     cost_cap: float = 9.0
     residual_factor: float = math.sqrt(2.0)
     min_clique_size: int = 3
@@ -223,8 +235,9 @@ class AssociationTolerances:
         for name in ("min_tolerance", "ambiguity_margin", "chirality_sigmas"):
             put(name, positive_float(f"AssociationTolerances.{name}", getattr(self, name), allow_zero=True,
                                      maximum=1e12))
-        for name in ("kappa_max", "distinct_angle"):
-            v = positive_float(f"AssociationTolerances.{name}", getattr(self, name))
+        for name in ("kappa_max", "distinct_angle", "tilt_allowance"):
+            v = positive_float(f"AssociationTolerances.{name}", getattr(self, name),
+                               allow_zero=name == "tilt_allowance")
             if v > math.pi:
                 raise OutOfRangeError(f"AssociationTolerances.{name} = {v!r} is an angle in radians and must "
                                       f"be <= pi; degrees? use np.radians({v!r}) = {math.radians(v):.6g}")
