@@ -222,14 +222,16 @@ def _pair_reach(world: WorldModel, percepts: list[Percept], p: int, q: int, tau:
 
 
 def _far_index(world: WorldModel, tp: str, tq: str, diff: NDArray[np.float64], d: float, ztol: float,
-               tau: float, reach: float, tol: AssociationTolerances) -> FarPairIndex | None:
-    """The world's far-pair index of the two types when it covers the percept pair's window."""
+               tau: float, reach: float, tol: AssociationTolerances) -> tuple[FarPairIndex, bool] | None:
+    """The world's far-pair index of the two types when it covers the percept pair's window, and
+    whether it is kept as (tq, tp) (see :meth:`WorldModel._far_pair_index`)."""
     if tol.gravity_aligned:
         if math.hypot(diff[0], diff[1]) + tau >= FAR_PAIR_RANGE or abs(diff[2]) + ztol >= FAR_PAIR_HEIGHT:
             return None
     elif d + reach >= FAR_PAIR_RANGE:
         return None
-    return world.far_pairs(tp, tq, bool(tol.gravity_aligned))
+    index, flip = world._far_pair_index(tp, tq, bool(tol.gravity_aligned))
+    return None if index is None else (index, flip)
 
 
 def _index_window(index: FarPairIndex, diff: NDArray[np.float64], d: float, tau: float, reach: float
@@ -256,15 +258,20 @@ def _raised_radius(h: float, tau: float, ztol: float) -> float:
     return math.hypot(h + tau, GRAVITY_Z_SCALE * ztol)
 
 
-def _indexed_candidates(world: WorldModel, index: FarPairIndex, diff: NDArray[np.float64], d: float,
-                        ztol: float, tau: float, reach: float, sub: NDArray[np.intp] | None,
+def _indexed_candidates(world: WorldModel, found: tuple[FarPairIndex, bool], diff: NDArray[np.float64],
+                        d: float, ztol: float, tau: float, reach: float, sub: NDArray[np.intp] | None,
                         sub_q: NDArray[np.intp] | None = None) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """Far percept pair candidates from the world's far-pair index: the pairs in the key window
     (3D distance, or gravity-aligned horizontal distance and dz) whose p object is in ``sub``
     (all when None) and whose q object is in ``sub_q`` (all when None), tested exactly as the
     other branches of :func:`_pair_candidates` do.  The float32 keys are within
     :data:`FAR_PAIR_SLACK` of the float64 values, so pairs that pass by more than the slack pass
-    the exact test and only the pairs near the edge are computed again from the positions."""
+    the exact test and only the pairs near the edge are computed again from the positions.
+    An index kept as (q's type, p's type) is read as the pair (q, p), offset ``-diff``."""
+    index, flip = found
+    if flip:
+        j, i = _indexed_candidates(world, (index, False), -diff, d, ztol, tau, reach, sub_q, sub)
+        return i, j
     h = math.hypot(diff[0], diff[1])
     gravity = index.dz is not None
     w, centre, half = _index_window(index, diff, d, tau, reach)
@@ -412,9 +419,9 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
         dm = np.linalg.norm(world.positions[j] - world.positions[i], axis=1)
         keep = (np.abs(dm - d) < reach) & (i != j)
         i, j = i[keep], j[keep]
-    elif (index := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
+    elif (found := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
         # the far-pair index applies the final tests itself
-        i, j = _indexed_candidates(world, index, diff, d, ztol, tau, reach, sub if rows is not None else None,
+        i, j = _indexed_candidates(world, found, diff, d, ztol, tau, reach, sub if rows is not None else None,
                                    sub_q if cols is not None else None)
         return _renumber(world, tp, tq, op, oq, i, j)
     elif tol.gravity_aligned:
@@ -484,8 +491,8 @@ def _far_hits_per_row(world: WorldModel, percepts: list[Percept], p: int, q: int
     tp, tq = percepts[p].type, percepts[q].type
     diff, d, tau, ztol, reach, _ = _pair_reach(world, percepts, p, q, tau, tol)
     op = objects[p]
-    if (index := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
-        w, _, _ = _index_window(index, diff, d, tau, reach)
+    if (found := _far_index(world, tp, tq, diff, d, ztol, tau, reach, tol)) is not None:
+        w, _, _ = _index_window(found[0], diff, d, tau, reach)
         return max(1.0, (w.stop - w.start) / max(len(op), 1))
     pick = op[np.unique(np.linspace(0, len(op) - 1, min(len(op), FAR_COST_SAMPLE)).astype(np.intp))]
     if tol.gravity_aligned:

@@ -1325,16 +1325,22 @@ class WorldModel:
         self._check_known_type(type_b, "type_b")
         if not isinstance(gravity_aligned, bool | np.bool_):
             raise ArgumentTypeError(f"gravity_aligned must be a bool, got {_checks._short(gravity_aligned)}")
-        flip = type_a > type_b
-        a, b = (type_b, type_a) if flip else (type_a, type_b)
-        cache = self._far_pairs
-        key = (a, b, bool(gravity_aligned))
-        if key not in cache:
-            cache[key] = _build_far_pairs(self, a, b, bool(gravity_aligned), cache)
-        index = cache[key]
+        index, flip = self._far_pair_index(type_a, type_b, bool(gravity_aligned))
         if index is None or not flip:
             return index
         return FarPairIndex(key=index.key, i=index.j, j=index.i, dz=None if index.dz is None else -index.dz)
+
+    def _far_pair_index(self, type_a: str, type_b: str, gravity: bool) -> tuple[FarPairIndex | None, bool]:
+        """The kept index of the type pair in sorted order (built on first use) and whether
+        ``(type_a, type_b)`` is that order flipped: the association reads it without the
+        flipped view's copy of ``dz`` (types checked by the caller)."""
+        flip = type_a > type_b
+        a, b = (type_b, type_a) if flip else (type_a, type_b)
+        cache = self._far_pairs
+        key = (a, b, gravity)
+        if key not in cache:
+            cache[key] = _build_far_pairs(self, a, b, gravity, cache)
+        return cache[key], flip
 
     @cached_property
     def _far_pairs(self) -> dict[tuple[str, str, bool], FarPairIndex | None]:
