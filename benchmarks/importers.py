@@ -26,6 +26,8 @@ and the same localize poses) and says so under the table; nothing is asserted on
 
 Run:  python benchmarks/importers.py [--n 20000 100000] [--storeys 5] [--poses 20] [--seed 0]
       [--formats glb obj] [--no-memory]
+(with ``PYTHONPATH=.`` from a worktree whose package is not the one pip installed).  The
+100,000-object row takes several minutes (trimesh writes and reads one mesh per object).
 Prints a Markdown table (progress on stderr).
 """
 
