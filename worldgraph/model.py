@@ -130,6 +130,31 @@ def _check_size(name: str, value: Any) -> NDArray[np.float64]:
     return size
 
 
+def _rotation_errors(rot: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(max |R^T R - I|, det R)`` of each rotation of a stack ``(n, 3, 3)``."""
+    if not len(rot):
+        return np.zeros(0), np.ones(0)
+    orth = np.abs(np.einsum("nji,njk->nik", rot, rot) - np.eye(3)).max(axis=(1, 2))
+    return orth, np.linalg.det(rot)
+
+
+def _check_rotations(name: str, rot: NDArray[np.float64]) -> None:
+    """Raise :class:`~worldgraph.errors.NonRigidError` naming the first rotation of a finite stack
+    ``(n, 3, 3)`` that is not proper within :data:`~worldgraph.tolerances.RIGID_TOLERANCE`."""
+    from .tolerances import RIGID_TOLERANCE
+
+    orth, det = _rotation_errors(rot)
+    bad = ~((orth <= RIGID_TOLERANCE) & (np.abs(det - 1.0) <= RIGID_TOLERANCE))
+    if bad.any():
+        from .errors import NonRigidError
+
+        k = int(np.argmax(bad))
+        kind = "a reflection" if det[k] < 0 else "scaled or sheared"
+        raise NonRigidError(f"{name}[{k}] must be a rotation (R^T R = I, det R = +1), but it is {kind}: "
+                            f"det R = {float(det[k]):.6g}, max |R^T R - I| = {float(orth[k]):.3g} "
+                            f"(tolerance {RIGID_TOLERANCE:g})")
+
+
 def _check_room(room: Any, what: str = "room") -> radialopt.Region | None:
     """``None``, a :class:`radialopt.Region`, or a ``(lower, upper)`` pair made into one; a bad
     pair raises this package's errors (shape, finiteness, ``lower <= upper``) naming ``what``."""
@@ -228,6 +253,73 @@ def _vertices(name: str, geometry: Any) -> NDArray[np.float64] | None:
     return _checks.float_array(name, raw, (None, 3), max_abs=MAX_COORDINATE, min_size=1)
 
 
+def _scene_nodes(scene: trimesh.Scene) -> tuple[list[Any], NDArray[np.float64], list[str], list[Any]]:
+    """What :func:`_geometry_nodes` yields, as lists and one ``(n, 4, 4)`` array of transforms
+    checked together (the first bad one raises the error of :func:`_geometry_nodes`)."""
+    nodes: list[Any] = []
+    matrices: list[Any] = []
+    geom_names: list[str] = []
+    geometries: list[Any] = []
+    for node in scene.graph.nodes_geometry:
+        matrix, geom_name = scene.graph[node]
+        geometry = scene.geometry.get(geom_name)
+        if geometry is None:
+            raise WorldGraphError(f"scene node {node!r} refers to geometry {geom_name!r}, "
+                                  "which the scene lacks")
+        nodes.append(node)
+        matrices.append(matrix)
+        geom_names.append(geom_name)  # type: ignore[arg-type]  # a key of scene.geometry (str)
+        geometries.append(geometry)
+    try:
+        stack = np.array(matrices, dtype=np.float64).reshape(len(nodes), 4, 4)
+        ok = bool(np.isfinite(stack).all()) and (not stack.size
+                                                 or float(np.abs(stack).max()) <= MAX_COORDINATE)
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:  # the first bad transform raises as in _geometry_nodes
+        for node, matrix in zip(nodes, matrices, strict=True):
+            _checks.float_array(f"transform of scene node {node!r}", matrix, (4, 4), max_abs=MAX_COORDINATE)
+        raise WorldGraphError("scene node transforms must be finite (4, 4) arrays")  # pragma: no cover
+    return nodes, stack, geom_names, geometries
+
+
+def _fast_vertex_bounds(name: str, geometry: Any) -> NDArray[np.float64] | None:
+    """:func:`_vertex_bounds` without copying float vertices: the bounds are checked instead of
+    every vertex (a NaN or an infinity reaches them); anything unusual goes through the full check."""
+    raw = getattr(geometry, "vertices", None)
+    if raw is None or np.size(raw) == 0:
+        return None
+    if isinstance(raw, np.ndarray) and raw.ndim == 2 and raw.shape[1] == 3 and raw.dtype.kind == "f":
+        bounds = np.array([raw.min(axis=0), raw.max(axis=0)], dtype=np.float64)
+        if np.isfinite(bounds).all() and float(np.abs(bounds).max()) <= MAX_COORDINATE:
+            return bounds
+    return _vertex_bounds(name, geometry)
+
+
+def _proper_rotations(lin: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`_rotation_and_scale` of a stack ``(n, 3, 3)`` (the same numbers, batched)."""
+    n = len(lin)
+    rot = np.empty((n, 3, 3))
+    scale = np.empty((n, 3))
+    ident = np.all(lin == np.eye(3), axis=(1, 2))
+    if ident.any():
+        rot_i, scale_i = _rotation_and_scale(np.eye(4))
+        rot[ident], scale[ident] = rot_i, scale_i
+    rest = np.flatnonzero(~ident)
+    if rest.size:
+        sub = lin[rest]
+        sc = np.linalg.norm(sub, axis=1)
+        r = sub / np.where(sc > 0, sc, 1.0)[:, None, :]
+        u, _, vt = np.linalg.svd(r)
+        r = u @ vt
+        neg = np.linalg.det(r) < 0
+        if neg.any():
+            u[neg, :, -1] *= -1
+            r[neg] = u[neg] @ vt[neg]
+        rot[rest], scale[rest] = r, sc
+    return rot, scale
+
+
 def room_from_trimesh(scene: trimesh.Scene) -> radialopt.Region | None:
     """The room box of a scene, or ``None`` when it has no room nodes.
 
@@ -250,6 +342,12 @@ def room_from_trimesh(scene: trimesh.Scene) -> radialopt.Region | None:
             bounds = _vertex_bounds(f"vertices of geometry {geom_name!r}", geometry)
             if bounds is not None:
                 found[typ].append(_world_bounds(matrix, bounds))
+    return _room_from_bounds(found)
+
+
+def _room_from_bounds(found: Mapping[str, list[NDArray[np.float64]]]) -> radialopt.Region | None:
+    """The room box of :func:`room_from_trimesh` from the world bounds ``(2, 3)`` of the floor,
+    wall and ceiling nodes (``found[type]``)."""
     floors, walls, ceilings = (np.array(found[t]).reshape(-1, 2, 3) for t in ROOM_TYPES)
     every = np.concatenate([floors, walls, ceilings])
     if not len(every):
@@ -471,10 +569,12 @@ class ObjectTable(Sequence[ObjectModel]):
     """The objects of a world as arrays, without a Python object per landmark.
 
     What :meth:`WorldModel.from_arrays` (and so the building and campus scenes) stores: typed
-    boxes with the identity rotation whose geometry key is their type.  Indexing makes the
-    :class:`ObjectModel` on demand (``table[k]``); iterating makes them all, so hot paths read
-    :attr:`codes`, :attr:`positions` and :attr:`sizes` instead.  An ``ObjectTable`` equals any
-    sequence of the same objects.
+    boxes with the identity rotation whose geometry key is their type; and what
+    :meth:`WorldModel.from_trimesh` (and so :meth:`WorldModel.from_file`) stores: boxes with
+    their node rotations and geometry keys.  Indexing makes the :class:`ObjectModel` on demand
+    (``table[k]``); iterating makes them all, so hot paths read :attr:`codes`,
+    :attr:`positions` and :attr:`sizes` instead.  An ``ObjectTable`` equals any sequence of the
+    same objects.
 
     Parameters
     ----------
@@ -489,18 +589,37 @@ class ObjectTable(Sequence[ObjectModel]):
     numbers : (n,) int, optional
         Distinct non-negative numbers of the default ids (default ``0 .. n-1``); ignored when
         ``ids`` is given.
+    rotations : (n, 3, 3) float, optional
+        ``world_from_object`` rotations (proper: ``R^T R = I`` and ``det R = 1`` within
+        :data:`~worldgraph.tolerances.RIGID_TOLERANCE`); default the identity for every
+        object (then :attr:`rotations` is ``None``).
+    geometries : (n,) str, optional
+        Geometry keys (non-empty strings without NUL); default each object's type.
+
+    Attributes
+    ----------
+    rotations : (n, 3, 3) float ndarray or None
+        ``None`` when every rotation is the identity.
+    geometry_names : tuple of str or None
+        The distinct geometry keys, sorted, with :attr:`geometry_codes` ``(n,)`` indexing them;
+        both ``None`` when every object's geometry key is its type.
     """
 
-    __slots__ = ("type_names", "codes", "positions", "sizes", "_ids", "_numbers")
+    __slots__ = ("type_names", "codes", "positions", "sizes", "_ids", "_numbers", "rotations",
+                 "geometry_names", "geometry_codes")
     type_names: tuple[str, ...]
     codes: NDArray[np.integer]
     positions: NDArray[np.float64]
     sizes: NDArray[np.float64]
     _ids: tuple[str, ...] | None
     _numbers: NDArray[np.int64] | None
+    rotations: NDArray[np.float64] | None
+    geometry_names: tuple[str, ...] | None
+    geometry_codes: NDArray[np.integer] | None
 
     def __init__(self, type_names: Sequence[str], codes: ArrayLike, positions: ArrayLike, sizes: ArrayLike,
-                 ids: Sequence[str] | None = None, numbers: ArrayLike | None = None) -> None:
+                 ids: Sequence[str] | None = None, numbers: ArrayLike | None = None, *,
+                 rotations: ArrayLike | None = None, geometries: Sequence[str] | None = None) -> None:
         if isinstance(type_names, str | bytes) or not isinstance(type_names, Sequence):
             raise ArgumentTypeError(f"type_names must be a sequence of str, got {_checks._short(type_names)}")
         names = tuple(type_names)
@@ -529,29 +648,54 @@ class ObjectTable(Sequence[ObjectModel]):
                 first = np.unique(num, return_index=True)[1]
                 k = int(np.setdiff1d(np.arange(n), first)[0])
                 raise WorldGraphError(f"numbers[{k}] = {int(num[k])} repeats an earlier number")
-        self._set(names, c, pos, sz, id_list, num)
+        rot = None
+        if rotations is not None:
+            rot = _checks.float_array("rotations", rotations, (n, 3, 3))
+            _check_rotations("rotations", rot)
+        geometry_names, geometry_codes = None, None
+        if geometries is not None:
+            keys = _name_list("geometries", geometries, n, UnknownGeometryError)
+            uniq, inverse = np.unique(np.array(keys, dtype=object), return_inverse=True)
+            geometry_names, geometry_codes = tuple(str(g) for g in uniq), inverse.reshape(-1)
+        self._set(names, c, pos, sz, id_list, num, rot, geometry_names, geometry_codes)
 
     def _set(self, names: tuple[str, ...], codes: NDArray[np.integer], positions: NDArray[np.float64],
              sizes: NDArray[np.float64], ids: tuple[str, ...] | None,
-             numbers: NDArray[np.integer] | None) -> None:
+             numbers: NDArray[np.integer] | None, rotations: NDArray[np.float64] | None = None,
+             geometry_names: tuple[str, ...] | None = None,
+             geometry_codes: NDArray[np.integer] | None = None) -> None:
         codes = np.asarray(codes, dtype=np.int32 if len(names) < 2**31 else np.int64)
         if ids is None and numbers is None:
             numbers = np.arange(len(codes), dtype=np.int64)
-        arrays = [codes, positions, sizes] + ([] if numbers is None else [numbers])
+        if rotations is not None and np.array_equal(rotations, np.broadcast_to(np.eye(3), rotations.shape)):
+            rotations = None  # identity everywhere: as from_arrays stores it
+        if geometry_names is not None:
+            assert geometry_codes is not None  # set together
+            geometry_codes = np.asarray(geometry_codes, dtype=np.int32 if len(geometry_names) < 2**31
+                                        else np.int64)
+            if geometry_names == names and np.array_equal(geometry_codes, codes):
+                geometry_names, geometry_codes = None, None  # every geometry key is the type
+        optional = (numbers, rotations, geometry_codes)
+        arrays = [codes, positions, sizes] + [a for a in optional if a is not None]
         for a in arrays:
             a.setflags(write=False)
         for name, value in (("type_names", names), ("codes", codes), ("positions", positions),
-                            ("sizes", sizes), ("_ids", ids), ("_numbers", numbers)):
+                            ("sizes", sizes), ("_ids", ids), ("_numbers", numbers), ("rotations", rotations),
+                            ("geometry_names", geometry_names), ("geometry_codes", geometry_codes)):
             object.__setattr__(self, name, value)
 
     @classmethod
     def _trusted(cls, names: tuple[str, ...], codes: NDArray[np.integer], positions: NDArray[np.float64],
                  sizes: NDArray[np.float64], ids: tuple[str, ...] | None = None,
-                 numbers: NDArray[np.integer] | None = None) -> ObjectTable:
+                 numbers: NDArray[np.integer] | None = None, rotations: NDArray[np.float64] | None = None,
+                 geometry_names: tuple[str, ...] | None = None,
+                 geometry_codes: NDArray[np.integer] | None = None) -> ObjectTable:
         """Build without validation from arrays the caller has checked (copies are not made)."""
         table = object.__new__(cls)
         table._set(names, codes, np.asarray(positions, dtype=np.float64), np.asarray(sizes, dtype=np.float64),
-                   ids, None if numbers is None else np.asarray(numbers, dtype=np.int64))
+                   ids, None if numbers is None else np.asarray(numbers, dtype=np.int64),
+                   None if rotations is None else np.asarray(rotations, dtype=np.float64),
+                   geometry_names, geometry_codes)
         return table
 
     def __setattr__(self, name: str, value: Any) -> None:
@@ -560,7 +704,8 @@ class ObjectTable(Sequence[ObjectModel]):
     def __reduce__(self) -> tuple[Any, ...]:
         # pickling (tiles sent to processes or a Dask cluster): rebuilt by _trusted, not setattr
         return (ObjectTable._trusted, (self.type_names, self.codes, self.positions, self.sizes, self._ids,
-                                       self._numbers))
+                                       self._numbers, self.rotations, self.geometry_names,
+                                       self.geometry_codes))
 
     def __len__(self) -> int:
         return len(self.codes)
@@ -585,12 +730,20 @@ class ObjectTable(Sequence[ObjectModel]):
             raise IndexError(f"object index {k} out of range for {n} objects")
         k %= n
         pose = np.eye(4)
+        if self.rotations is not None:
+            pose[:3, :3] = self.rotations[k]
         pose[:3, 3] = self.positions[k]
         pose.setflags(write=False)
         size = self.sizes[k].copy()
         size.setflags(write=False)
         t = self.type_names[int(self.codes[k])]
-        return ObjectModel._trusted(self.id(k), t, pose, size, t)
+        return ObjectModel._trusted(self.id(k), t, pose, size, self._geometry(k))
+
+    def _geometry(self, k: int) -> str:
+        if self.geometry_names is None:
+            return self.type_names[int(self.codes[k])]
+        assert self.geometry_codes is not None  # set together
+        return self.geometry_names[int(self.geometry_codes[k])]
 
     def take(self, index: ArrayLike) -> ObjectTable:
         """The objects at ``index`` (an int array, in that order) as a new table; ids kept."""
@@ -598,19 +751,39 @@ class ObjectTable(Sequence[ObjectModel]):
         idx = _object_index(index, n, -n) % max(n, 1)
         ids = None if self._ids is None else tuple(self._ids[k] for k in idx.tolist())
         numbers = None if self._numbers is None else self._numbers[idx]
+        rotations = None if self.rotations is None else self.rotations[idx]
+        gcodes = None if self.geometry_codes is None else self.geometry_codes[idx]
         return ObjectTable._trusted(self.type_names, self.codes[idx], self.positions[idx], self.sizes[idx],
-                                    ids, numbers)
+                                    ids, numbers, rotations, self.geometry_names, gcodes)
 
     @property
     def types(self) -> NDArray[np.str_]:
         """``(n,)`` the objects' types."""
         return np.asarray(self.type_names, dtype=str)[self.codes]
 
+    @property
+    def geometries(self) -> NDArray[np.str_]:
+        """``(n,)`` the objects' geometry keys."""
+        if self.geometry_names is None:
+            return self.types
+        return np.asarray(self.geometry_names, dtype=str)[self.geometry_codes]
+
+    def rotation_array(self) -> NDArray[np.float64]:
+        """``(n, 3, 3)`` the objects' rotations (a new array; identities when :attr:`rotations`
+        is ``None``)."""
+        if self.rotations is None:
+            return np.tile(np.eye(3), (len(self), 1, 1))
+        return self.rotations.copy()
+
     def __eq__(self, other: object) -> bool:
         if isinstance(other, ObjectTable):
             if (len(self) != len(other) or not np.array_equal(self.positions, other.positions)
                     or not np.array_equal(self.sizes, other.sizes)
-                    or not np.array_equal(self.types, other.types)):
+                    or not np.array_equal(self.types, other.types)
+                    or not np.array_equal(self.geometries, other.geometries)):
+                return False
+            if (self.rotations is not None or other.rotations is not None) \
+                    and not np.array_equal(self.rotation_array(), other.rotation_array()):
                 return False
             if self._ids is None and other._ids is None and self._numbers is not None \
                     and other._numbers is not None:
@@ -798,6 +971,61 @@ def _rotation_and_scale(matrix: NDArray[np.float64]) -> tuple[NDArray[np.float64
     return rot, scale
 
 
+def _trimesh_table(nodes: list[Any], matrices: NDArray[np.float64], geom_names: list[str],
+                   geometries: list[Any], bounds_of: Mapping[str, NDArray[np.float64] | None],
+                   keep: list[int], types: list[str],
+                   ) -> tuple[ObjectTable | None, dict[str, NDArray[np.float64]], list[str]]:
+    """The objects of :meth:`WorldModel.from_trimesh` as an :class:`ObjectTable` (``None`` when
+    there is none), its class vertices and the names of the mirrored nodes.
+
+    Batched, with the numbers of the per-node construction (``ObjectModel`` per node: see
+    ``tests/test_importers.py``); a value out of range makes that node's ``ObjectModel`` to
+    raise its error.
+    """
+    if not keep:
+        return None, {}, []
+    idx = np.array(keep, dtype=np.intp)
+    m = matrices[idx]
+    lin = m[:, :3, :3]
+    bounds = np.array([bounds_of[geom_names[k]] for k in keep], dtype=np.float64)
+    lo, hi = bounds[:, 0], bounds[:, 1]
+    centre = 0.5 * (lo + hi)
+    rot, scale = _proper_rotations(lin)
+    mirrored = [str(nodes[keep[i]]) for i in np.flatnonzero(np.linalg.det(lin) < 0).tolist()]
+    positions = (lin @ centre[:, :, None])[:, :, 0] + m[:, :3, 3]
+    sizes = (hi - lo) * scale
+    ids = [str(nodes[k]) for k in keep]
+    keys = [str(geom_names[k]) for k in keep]
+    from .tolerances import RIGID_TOLERANCE
+
+    orth, det = _rotation_errors(rot)
+    bad = ((np.abs(positions) > MAX_COORDINATE).any(axis=1) | ~np.isfinite(sizes).all(axis=1)
+           | (sizes < 0).any(axis=1) | (sizes > MAX_COORDINATE).any(axis=1)
+           | ~((orth <= RIGID_TOLERANCE) & (np.abs(det - 1.0) <= RIGID_TOLERANCE)))
+    for i in np.flatnonzero(bad).tolist():  # the per-node construction raises its error
+        pose = np.eye(4)
+        pose[:3, :3], pose[:3, 3] = rot[i], positions[i]
+        ObjectModel(ids[i], types[i], pose, sizes[i], keys[i])
+    checked: set[str] = set()
+    for oid, key in zip(ids, keys, strict=True):
+        _checks.name_string("ObjectModel.id", oid)
+        if key not in checked:
+            checked.add(_checks.name_string(f"ObjectModel {oid!r} geometry", key, UnknownGeometryError))
+    _check_unique_ids(ids, "objects")
+    class_vertices: dict[str, NDArray[np.float64]] = {}
+    for i, k in enumerate(keep):  # the first node of each geometry scales its class vertices
+        key = keys[i]
+        if key not in class_vertices:
+            verts = np.asarray(geometries[k].vertices, dtype=np.float64)
+            class_vertices[key] = (verts - centre[i]) * scale[i]
+    type_names, codes = np.unique(np.array(types, dtype=object), return_inverse=True)
+    geometry_names, geometry_codes = np.unique(np.array(keys, dtype=object), return_inverse=True)
+    table = ObjectTable._trusted(tuple(str(t) for t in type_names), codes.reshape(-1), positions, sizes,
+                                 tuple(ids), None, rot, tuple(str(g) for g in geometry_names),
+                                 geometry_codes.reshape(-1))
+    return table, class_vertices, mirrored
+
+
 # ----------------------------------------------------------------------------------------------
 # world model
 # ----------------------------------------------------------------------------------------------
@@ -900,9 +1128,14 @@ class WorldModel:
                                     min_size=1)
             v.setflags(write=False)
             cv[key] = v
-        if table is not None:  # a table's geometry keys are its types
+        if table is not None and table.geometry_names is None:  # a table's geometry keys are its types
             missing = [(table.id(int(np.argmax(table.codes == c))), table.type_names[c])
                        for c in np.unique(table.codes).tolist() if table.type_names[c] not in cv]
+        elif table is not None:
+            gnames, gcodes = table.geometry_names, table.geometry_codes
+            assert gnames is not None and gcodes is not None  # set together
+            missing = [(table.id(int(np.argmax(gcodes == c))), gnames[c])
+                       for c in np.unique(gcodes).tolist() if gnames[c] not in cv]
         else:
             missing = [(o.id, o.geometry) for o in objects if o.geometry not in cv]
         if missing:
@@ -1111,19 +1344,34 @@ class WorldModel:
         _check_scene(scene)
         if type_of is not None and not callable(type_of):
             raise ArgumentTypeError(f"type_of must be a callable or None, got {_checks._short(type_of)}")
-        if isinstance(room, str):
+        auto = isinstance(room, str)
+        region: radialopt.Region | None = None
+        if auto:
             if room != "auto":
                 raise WorldGraphError(f"room must be 'auto', a radialopt.Region or None, got {room!r}")
-            room = room_from_trimesh(scene)
+            meta = getattr(scene, "metadata", None) or {}
+            if isinstance(meta, Mapping) and meta.get("room") is not None:
+                region, auto = _check_room(meta["room"], 'scene.metadata["room"]'), False
         else:
-            room = _check_room(room)
-        objs: list[ObjectModel] = []
-        class_vertices: dict[str, NDArray[np.float64]] = {}
+            region = _check_room(room)
+        nodes, matrices, geom_names, geometries = _scene_nodes(scene)
+        # one pass over the nodes for what needs Python (types, vertex bounds per geometry), then arrays
+        found: dict[str, list[NDArray[np.float64]]] = {t: [] for t in ROOM_TYPES}
+        bounds_of: dict[str, NDArray[np.float64] | None] = {}
+        keep: list[int] = []
+        types: list[str] = []
+        checked_types: set[str] = set()
         empty: list[str] = []
-        mirrored: list[str] = []
-        for node, matrix, geom_name, geometry in _geometry_nodes(scene):
-            verts = _vertices(f"vertices of geometry {geom_name!r}", geometry)
-            if verts is None:  # an empty Trimesh or PointCloud: nothing to perceive
+        for k, (node, geom_name, geometry) in enumerate(zip(nodes, geom_names, geometries, strict=True)):
+            if geom_name in bounds_of:
+                bounds = bounds_of[geom_name]
+            else:
+                bounds = bounds_of[geom_name] = _fast_vertex_bounds(f"vertices of geometry {geom_name!r}",
+                                                                    geometry)
+            default = _default_type(scene, node, geometry) if auto or type_of is None else None
+            if auto and bounds is not None and isinstance(default, str) and default in found:
+                found[default].append(_world_bounds(matrices[k], bounds))
+            if bounds is None:  # an empty Trimesh or PointCloud: nothing to perceive
                 empty.append(str(node))
                 continue
             if type_of is not None:
@@ -1133,35 +1381,29 @@ class WorldModel:
                     raise WorldGraphError(f"type_of({node!r}, geometry) raised "
                                           f"{type(exc).__name__}: {exc}") from exc
             else:
-                typ = _default_type(scene, node, geometry)
+                typ = default
             if typ is None:
                 continue
-            _check_type_name(typ, f"type of node {node!r}")
-            lo, hi = verts.min(axis=0), verts.max(axis=0)
-            centre = 0.5 * (lo + hi)
-            rot, scale = _rotation_and_scale(matrix)
-            if np.linalg.det(matrix[:3, :3]) < 0:
-                mirrored.append(str(node))
-            pose = np.eye(4)
-            pose[:3, :3] = rot
-            pose[:3, 3] = matrix[:3, :3] @ centre + matrix[:3, 3]
-            size = (hi - lo) * scale
-            key = str(geom_name)
-            if key not in class_vertices:
-                class_vertices[key] = (verts - centre) * scale
-            objs.append(ObjectModel(str(node), typ, pose, size, key))
+            if type(typ) is not str or typ not in checked_types:
+                checked_types.add(_check_type_name(typ, f"type of node {node!r}"))
+            keep.append(k)
+            types.append(typ)
+        if auto:
+            region = _room_from_bounds(found)
         if empty:
             warnings.warn(f"from_trimesh: {len(empty)} geometry node(s) without vertices skipped (trimesh "
                           f"drops non-finite vertices when a mesh is made): {empty[:5]}", UserWarning,
                           stacklevel=2)
+        table, class_vertices, mirrored = _trimesh_table(nodes, matrices, geom_names, geometries, bounds_of,
+                                                         keep, types)
         if mirrored:
             warnings.warn(f"from_trimesh: {len(mirrored)} node(s) with a reflecting transform taken as the "
                           "proper rotation with one axis mirrored (position and size exact, class vertices "
                           f"not mirrored): {mirrored[:5]}", UserWarning, stacklevel=2)
-        if not objs:
+        if table is None:
             raise EmptyWorldError("scene has no typed geometry nodes with vertices (a WorldModel needs one)")
-        world = cls(tuple(objs), max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
-                    link_margin=link_margin, room=room)
+        world = cls(table, max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
+                    link_margin=link_margin, room=region)
         return world._warn_units()
 
     @classmethod
@@ -1393,8 +1635,10 @@ class WorldModel:
 
     @cached_property
     def _bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        if isinstance(self.objects, ObjectTable):  # identity rotations
+        if isinstance(self.objects, ObjectTable) and self.objects.rotations is None:  # identity rotations
             half = self.objects.sizes * 0.5
+        elif isinstance(self.objects, ObjectTable):
+            half = np.einsum("nij,nj->ni", np.abs(self.objects.rotation_array()), self.objects.sizes * 0.5)
         else:
             rot = np.array([o.pose[:3, :3] for o in self.objects])
             half = np.einsum("nij,nj->ni", np.abs(rot), np.array([o.size for o in self.objects]) * 0.5)
@@ -1448,7 +1692,7 @@ class WorldModel:
         objs: Sequence[ObjectModel]
         if isinstance(self.objects, ObjectTable):
             objs = self.objects.take(idx)
-            geometries = set(np.unique(self._types[idx]).tolist())
+            geometries = set(np.unique(objs.geometries).tolist())
         else:
             objs = tuple(self.objects[k] for k in idx.tolist())
             geometries = {o.geometry for o in objs}
