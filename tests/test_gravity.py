@@ -142,7 +142,7 @@ def test_bad_gravity_arguments(flat_world, site):
 # ----------------------------------------------------------------------------------------------
 def test_auto_equals_the_explicit_gravity_search_on_level_percepts(site, flat_world):
     explicit = wg.AssociationTolerances(gravity_aligned=True)
-    for pose, percepts in _views(site, flat_world, 0.0, 5, 4):
+    for _pose, percepts in _views(site, flat_world, 0.0, 5, 4):
         auto = wg.localize(flat_world, percepts)
         ref = wg.localize(flat_world, percepts, tol=explicit)
         up = wg.localize(flat_world, percepts, gravity=[0.0, 0.0, 2.0])

@@ -230,7 +230,7 @@ def _far_index(world: WorldModel, tp: str, tq: str, diff: NDArray[np.float64], d
             return None
     elif d + reach >= FAR_PAIR_RANGE:
         return None
-    index, flip = world._far_pair_index(tp, tq, bool(tol.gravity_aligned))
+    index, flip = world._far_pair_index(tp, tq, bool(tol.gravity_aligned), lazy=True)
     return None if index is None else (index, flip)
 
 

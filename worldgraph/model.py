@@ -397,6 +397,10 @@ MAX_LINKS = 40_000_000
 FAR_PAIR_RANGE = 16.0
 #: ... and, gravity-aligned, up to this far apart in z (m): the objects of one storey.
 FAR_PAIR_HEIGHT = 4.0
+#: The association builds a far-pair index on first use only up to this many pairs (estimated;
+#: about a second of building); larger ones are left to the ring join and the k-d trees unless
+#: :meth:`WorldModel.build_far_pairs` builds them up front.
+FAR_PAIR_LAZY_MAX_PAIRS = 2_000_000
 #: One far-pair index holds at most this many pairs (about 16 bytes each) ...
 FAR_PAIR_MAX_PAIRS = 30_000_000
 #: ... and the indices of one world at most this many together (about 770 MB; beyond: k-d tree
@@ -1572,15 +1576,21 @@ class WorldModel:
             return index
         return FarPairIndex(key=index.key, i=index.j, j=index.i, dz=None if index.dz is None else -index.dz)
 
-    def _far_pair_index(self, type_a: str, type_b: str, gravity: bool) -> tuple[FarPairIndex | None, bool]:
+    def _far_pair_index(self, type_a: str, type_b: str, gravity: bool, lazy: bool = False
+                        ) -> tuple[FarPairIndex | None, bool]:
         """The kept index of the type pair in sorted order (built on first use) and whether
         ``(type_a, type_b)`` is that order flipped: the association reads it without the
-        flipped view's copy of ``dz`` (types checked by the caller)."""
+        flipped view's copy of ``dz`` (types checked by the caller).  ``lazy`` (the
+        association's first use): an index estimated above :data:`FAR_PAIR_LAZY_MAX_PAIRS` is
+        not built (None; :meth:`build_far_pairs` still builds it), so that no single call pays
+        for a large index."""
         flip = type_a > type_b
         a, b = (type_b, type_a) if flip else (type_a, type_b)
         cache = self._far_pairs
         key = (a, b, gravity)
         if key not in cache:
+            if lazy and _far_pair_estimate(self, a, b, gravity) > FAR_PAIR_LAZY_MAX_PAIRS:
+                return None, flip
             cache[key] = _build_far_pairs(self, a, b, gravity, cache)
         return cache[key], flip
 
