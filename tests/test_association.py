@@ -620,10 +620,10 @@ def test_truncated_near_maximum_search_keeps_every_maximum_clique(seed: int) -> 
 def test_gravity_link_window_keeps_every_pair_of_the_exact_test(seed: int) -> None:
     """Percept pairs within the link table of a gravity-aligned world: the candidates (through
     the 3D-length window that the horizontal and height tolerances allow) are exactly the
-    object pairs of the two types that pass |h_m - h| < tau + wh and |dz_m - dz| < ztol + wz,
-    computed here over all pairs, with the tilt allowance t's widening wh = h (1 - cos t) +
-    |dz| sin t, wz = h sin t + |dz| (1 - cos t) (t = 0: the level gates); percepts placed at
-    true objects, so that pairs sit on the window."""
+    object pairs of the two types that pass |h_m - h| < tau + wh, |dz_m - dz| < ztol + wz and
+    |d_m - d| < tau (a tilt keeps 3D lengths), computed here over all pairs, with the tilt
+    allowance t's widening wh = h (1 - cos t) + |dz| sin t, wz = h sin t + |dz| (1 - cos t)
+    (t = 0: the level gates); percepts placed at true objects, so that pairs sit on the window."""
     from worldgraph.consistency import _pair_candidates
 
     rng = np.random.default_rng(seed)
@@ -647,7 +647,7 @@ def test_gravity_link_window_keeps_every_pair_of_the_exact_test(seed: int) -> No
         h = np.hypot(diff[0], diff[1])
         htol = tau + h * (1 - np.cos(tilt)) + abs(diff[2]) * np.sin(tilt)
         ztol = tol.height_tolerance + h * np.sin(tilt) + abs(diff[2]) * (1 - np.cos(tilt))
-        if np.linalg.norm(diff) + htol + ztol >= world.max_link_length + world.link_margin:
+        if np.linalg.norm(diff) + tau >= world.max_link_length + world.link_margin:
             continue  # beyond the link table: other tests cover those
         checked += 1
         a, b = _pair_candidates(world, percepts, p, q, tau, tol, objects)
@@ -655,6 +655,7 @@ def test_gravity_link_window_keeps_every_pair_of_the_exact_test(seed: int) -> No
         dv = world.positions[oq][None, :, :] - world.positions[op][:, None, :]
         ok = (np.abs(dv[..., 2] - diff[2]) < ztol) & \
             (np.abs(np.hypot(dv[..., 0], dv[..., 1]) - h) < htol) & \
+            (np.abs(np.linalg.norm(dv, axis=-1) - np.linalg.norm(diff)) < tau) & \
             (op[:, None] != oq[None, :])
         want = set(zip(*np.nonzero(ok), strict=True))
         assert {tuple(x) for x in np.column_stack([a, b])} == want, (p, q)

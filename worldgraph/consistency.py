@@ -208,8 +208,9 @@ def _pair_reach(world: WorldModel, percepts: list[Percept], p: int, q: int, tau:
     its length; gravity-aligned, the tolerances of the horizontal length and of the height
     difference (``tau`` and the height tolerance, each widened by what a tilt of
     ``tol.tilt_allowance`` can change, :func:`~worldgraph.gravity.tilt_widening`); how far a
-    model distance may differ from ``d`` (``tau``, or ``htol + ztol`` when gravity-aligned); and
-    whether the link table holds every pair within reach."""
+    model distance may differ from ``d`` (``tau`` in both searches: a rotation keeps lengths,
+    so the gravity search tests the 3D length too, which cuts the widened gates down to the
+    model pairs a tilt can explain); and whether the link table holds every pair within reach."""
     diff = percepts[q].position - percepts[p].position
     d = float(np.linalg.norm(diff))
     ztol = tau if tol.height_tolerance is None else float(tol.height_tolerance)
@@ -217,7 +218,7 @@ def _pair_reach(world: WorldModel, percepts: list[Percept], p: int, q: int, tau:
     if tol.gravity_aligned:
         wide_h, wide_z = tilt_widening(math.hypot(diff[0], diff[1]), float(diff[2]), tol.tilt_allowance)
         htol, ztol = tau + float(wide_h), ztol + float(wide_z)
-    reach = htol + ztol if tol.gravity_aligned else tau
+    reach = tau
     return diff, d, htol, ztol, reach, d + reach < world.max_link_length + world.link_margin
 
 
@@ -284,14 +285,20 @@ def _indexed_candidates(world: WorldModel, found: tuple[FarPairIndex, bool], dif
     off = np.abs(key - centre)
     inner = off < half - FAR_PAIR_SLACK
     if index.dz is not None:
-        offz = np.abs(index.dz[w] - diff[2])
+        dzw = index.dz[w]
+        offz = np.abs(dzw - diff[2])
         keep &= offz < ztol + FAR_PAIR_SLACK
         inner &= offz < ztol - FAR_PAIR_SLACK
+        # the 3D length (a tilt keeps it), from the float32 key and dz: within 2 slacks of the truth
+        off3 = np.abs(np.hypot(key.astype(np.float64), dzw) - d)
+        keep &= off3 < reach + 2.0 * FAR_PAIR_SLACK
+        inner &= off3 < reach - 2.0 * FAR_PAIR_SLACK
     edge = np.flatnonzero(keep & ~inner)
     if edge.size:  # the exact tests of _pair_candidates, in float64 from the positions
         dv = world.positions[j[edge]] - world.positions[i[edge]]
         if gravity:
-            ok = (np.abs(dv[:, 2] - diff[2]) < ztol) & (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - h) < tau)
+            ok = (np.abs(dv[:, 2] - diff[2]) < ztol) & (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - h) < tau) & \
+                (np.abs(np.linalg.norm(dv, axis=1) - d) < reach)
         else:
             ok = np.abs(np.linalg.norm(dv, axis=1) - d) < reach
         keep[edge[~ok]] = False
@@ -399,11 +406,12 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
     if covered:
         lo, hi = d - reach, d + reach
         if tol.gravity_aligned:
-            # |h_m - h| < tau and |dz_m - dz| < ztol bound the 3D length more tightly than
-            # d +- (tau + ztol): about half the links of the window when dz is small against h
+            # |h_m - h| < tau and |dz_m - dz| < ztol bound the 3D length too: the window is the
+            # tighter of the two (the 3D test below keeps |d_m - d| < reach)
             h, adz = math.hypot(diff[0], diff[1]), abs(float(diff[2]))
-            lo = math.hypot(max(h - tau, 0.0), max(adz - ztol, 0.0)) * (1.0 - QUERY_WIDEN) - QUERY_FLOOR
-            hi = math.hypot(h + tau, adz + ztol) * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
+            box_lo = math.hypot(max(h - tau, 0.0), max(adz - ztol, 0.0)) * (1.0 - QUERY_WIDEN) - QUERY_FLOOR
+            box_hi = math.hypot(h + tau, adz + ztol) * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
+            lo, hi = max(lo, box_lo), min(hi, box_hi)
         i, j, _ = world.link_lengths(tp, tq, lo, hi)
         if tp == tq:
             i, j = np.concatenate([i, j]), np.concatenate([j, i])
@@ -458,7 +466,8 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
     if tol.gravity_aligned and len(i):
         dv = world.positions[j] - world.positions[i]
         keep = (np.abs(dv[:, 2] - diff[2]) < ztol) & \
-            (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - math.hypot(diff[0], diff[1])) < tau)
+            (np.abs(np.hypot(dv[:, 0], dv[:, 1]) - math.hypot(diff[0], diff[1])) < tau) & \
+            (np.abs(np.linalg.norm(dv, axis=1) - d) < reach)
         i, j = i[keep], j[keep]
     return _renumber(world, tp, tq, op, oq, i, j)
 
