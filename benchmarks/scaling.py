@@ -1,12 +1,25 @@
-"""Benchmark: how association and localisation scale from the kitchen to a 1M-object campus (issue 13).
+"""Benchmark: how association and localisation scale from the kitchen to a 1M-object campus, with
+every default and tuned, level and tilted (issues 13 and 24).
 
 Worlds (``--worlds``, default all): ``kitchen`` (scenes.kitchen, 753 objects), ``floor``
 (scenes.floor(20000)), ``building`` (scenes.building_site: 5 storeys, 100k objects) and ``campus``
 (scenes.campus_site: 10 buildings x 5 storeys, 1M objects).  Every world runs in its own
 subprocess, so its peak memory (``VmHWM``, the ``ru_maxrss`` of this process alone) is its own:
-after the imports, after the build and at the end.  After the world, the far-pair index
-(``WorldModel.build_far_pairs``, gravity-aligned with ``--gravity``) is built for every pair of
-types and timed apart (``--no-far-index``: built lazily during the first calls instead).
+after the imports, after the build and at the end.
+
+Setups (``--setup``): ``defaults`` (the default) builds the building and the campus the way a
+user with a map builds them, ``WorldModel.from_arrays(types, positions)`` with no flag (the
+scene's own world is built first for its arrays and labels, so the build time and peak include
+it), and calls everything with its defaults (``gravity="auto"``; far-pair indices built on first
+use, those above 2M pairs left to the ring join); ``tuned`` uses the scenes' worlds as made and
+builds the far-pair index (``WorldModel.build_far_pairs``) for every pair of types up front,
+timed apart (``--no-far-index``: lazily instead).  ``--jitter S`` moves every building and campus
+object by N(0, S^2) per axis: rooms alike but not identical (the scenes repeat their room modules
+exactly, so that many views are honestly "ambiguous").  ``--tilts`` runs every world once per
+tilt of the robot's ego z axis (degrees, about a random horizontal axis: a ramp, a head or base
+that is not level); ``--imu`` adds, for every non-zero tilt, a run that passes the IMU's up
+vector as ``gravity``.  The table says which search answered (gravity / free) and counts gross
+confident-wrong answers (status "ok" more than 0.5 m or 10 degrees off).
 
 For each of ``--poses`` random robot poses (kitchen: as in benchmarks/association.py, x, y
 uniform 0.5 m inside the room, z = 1.5 m, percept types door/handle/drawer/knob; the others: at a
@@ -39,7 +52,8 @@ Open3D runs RANSACConvergenceCriteria(1,000,000, 1.0): with (100,000, 0.999) it 
 TEASER++ is not on PyPI (``pip download teaserpp-python`` finds nothing) and is not run.
 
 Run:  python benchmarks/scaling.py [--worlds kitchen floor building campus] [--poses 50]
-      [--gravity] [--max-seconds 900] [--baselines ransac open3d]
+      [--setup defaults|tuned] [--tilts 0 3 15] [--imu] [--jitter 0.15] [--gravity]
+      [--max-seconds 900] [--baselines ransac open3d]
 Prints a Markdown table (progress on stderr).
 """
 

@@ -1057,11 +1057,13 @@ class WorldModel:
         upper``; a ``(lower, upper)`` pair is turned into a Region.  Room structure (floor,
         walls, ceiling) need not be objects of the model when the room is known this way.
     gravity_aligned : bool
-        The robots localised in this world report percepts in a levelled ego frame (REP 103:
-        base z up, along the world's z): association then compares the horizontal distance and
-        the height difference of percept pairs separately, so pairs across storeys drop out
-        (``AssociationTolerances.gravity_aligned=None``, the default, follows this flag).
-        Default False.
+        The map's own note that its robots report percepts in a levelled ego frame (REP 103:
+        base z up, along the world's z); kept and saved with the world.  Whether a call
+        searches with gravity is a fact of the robot, given per call: ``associate``,
+        ``localize``, ``active_localize`` and ``localize_tiled`` take ``gravity`` (default
+        ``"auto"``, :mod:`worldgraph.gravity`) whatever this flag says; only the networkx views
+        and the paper's filters (:func:`~worldgraph.filters.consistency_graph`, ...) follow it
+        when ``AssociationTolerances.gravity_aligned`` is None.  Default False.
 
     Attributes
     ----------

@@ -1197,7 +1197,8 @@ def building_site(storeys: int = 5, n_objects: int = 100_000, seed: int = 0, sto
     cabinet).  Corridors have ceiling lamps every 3.6 m and four fire extinguishers; both ends
     of every corridor hold a stair core (two stair landings, an elevator door with its button,
     a storey sign).  Storey ``s`` stands at ``z = s * storey_height`` (world z up, REP 103; the
-    world is ``gravity_aligned``, so association is storey-aware by default);
+    world is marked ``gravity_aligned``; association is storey-aware by default in every world,
+    ``gravity="auto"``);
     each storey's module kinds copy the storey below with probability 0.9, its furniture is
     drawn anew.  The top storey is cut (its last corridors) to exactly ``n_objects`` objects.
 
