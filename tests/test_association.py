@@ -38,13 +38,14 @@ def far_path(path: str) -> Iterator[None]:
     import worldgraph.consistency as consistency
     import worldgraph.model as model
 
-    saved = model.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS
+    saved = model.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS, model.FAR_PAIR_BUILD_ON_USE
     model.FAR_PAIR_MAX_PAIRS = saved[0] if path == "index" else 0
+    model.FAR_PAIR_BUILD_ON_USE = path == "index"  # the association builds the index it needs
     consistency.RING_JOIN_MIN_PAIRS = 0 if path == "ring" else None
     try:
         yield
     finally:
-        model.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS = saved
+        model.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS, model.FAR_PAIR_BUILD_ON_USE = saved
 
 
 FAR_PATHS = ["index", "tree", "ring"]

@@ -587,28 +587,26 @@ def test_build_far_pairs_builds_every_type_pair_within_the_budget(monkeypatch) -
     assert fresh.build_far_pairs() == 0 and fresh.far_pairs("door", "knob") is None
 
 
-def test_large_far_pair_indices_are_not_built_on_the_associations_first_use(monkeypatch) -> None:
-    import worldgraph.model as model
+def test_the_association_uses_far_pair_indices_but_never_builds_them() -> None:
     from perception import Percept
 
     rng = np.random.default_rng(6)
     types = rng.choice(["door", "knob", "lamp"], 400)
     pos = rng.uniform([0, 0, 0], [40, 30, 3], (400, 3))
-    k = [int(np.flatnonzero(types == t)[0]) for t in ("door", "knob", "lamp")]
-    anchor = pos[k[0]]
+    anchor = pos[int(np.flatnonzero(types == "door")[0])]
     # three landmarks near each other plus two more than the 5 m link table away
     far = np.flatnonzero(np.linalg.norm(pos - anchor, axis=1) > 7.0)[:2]
     near = np.argsort(np.linalg.norm(pos - anchor, axis=1))[:3]
-    chosen = np.concatenate([near, far])
-    percepts = [Percept(str(types[i]), pos[i] - anchor, 0.01) for i in chosen]
-    want = [h.pairs for h in wg.associate(WorldModel.from_arrays(types, pos), percepts)]
-    monkeypatch.setattr(model, "FAR_PAIR_LAZY_MAX_PAIRS", 10)
+    percepts = [Percept(str(types[i]), pos[i] - anchor, 0.01) for i in np.concatenate([near, far])]
     world = WorldModel.from_arrays(types, pos)
-    assert [h.pairs for h in wg.associate(world, percepts)] == want  # the ring join / k-d trees
+    plain = [h.pairs for h in wg.associate(world, percepts)]  # through the ring join / k-d trees
+    assert not world._far_pairs  # nothing built by the association
     assert world._far_pair_index("door", "knob", True, lazy=True) == (None, False)
-    assert not world._far_pairs  # nothing built, nothing cached as missing
-    assert world.far_pairs("door", "knob", True) is not None  # asked for: built
-    assert world._far_pair_index("knob", "door", True, lazy=True)[1] is True
+    built = WorldModel.from_arrays(types, pos)
+    assert built.build_far_pairs(True) > 0  # asked for: built ...
+    assert built._far_pair_index("knob", "door", True, lazy=True)[0] is not None
+    assert built._far_pair_index("knob", "door", True, lazy=True)[1] is True
+    assert [h.pairs for h in wg.associate(built, percepts)] == plain  # ... used, same answers
 
 
 def test_type_rank_is_the_position_in_the_type_index() -> None:

@@ -271,8 +271,8 @@ def _indexed_candidates(world: WorldModel, found: tuple[FarPairIndex, bool], dif
     An index kept as (q's type, p's type) is read as the pair (q, p), offset ``-diff``."""
     index, flip = found
     if flip:
-        j, i = _indexed_candidates(world, (index, False), -diff, d, ztol, tau, reach, sub_q, sub)
-        return i, j
+        qs, ps = _indexed_candidates(world, (index, False), -diff, d, ztol, tau, reach, sub_q, sub)
+        return ps, qs
     h = math.hypot(diff[0], diff[1])
     gravity = index.dz is not None
     w, centre, half = _index_window(index, diff, d, tau, reach)

@@ -532,8 +532,9 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         storey-aware gravity search about the ego z axis, within ``tol.tilt_allowance`` (a level
         base); when its answer has no pose, fewer inliers than
         :data:`~worldgraph.gravity.MIN_GRAVITY_SUPPORT` (three quarters) of the percepts, or a
-        pose that tilts the ego z axis beyond the allowance (plus 1 degree), the free 3D search answers instead.  A (3,) up
-        vector (an IMU's, in the ego frame): the gravity search about it, no fallback.
+        pose that tilts the ego z axis beyond the allowance (plus 1 degree), the free 3D search
+        answers instead.  A (3,) up vector (an IMU's, in the ego frame): the gravity search
+        about it, no fallback.
         ``None``: the free 3D search.  :attr:`LocalizationResult.search` says which search
         answered.  The paper's method uses no gravity.
     tolerances : AssociationTolerances, optional
