@@ -223,18 +223,24 @@ def _check_scene(scene: Any) -> None:
             _checks.name_string(f"scene node name {node!r}", node, ImporterError)
 
 
+def _node_geometry(scene: trimesh.Scene, node: Any) -> tuple[Any, str, Any]:
+    """``(world_from_node as stored, geometry name, geometry)`` of a geometry node (trimesh types
+    the name ``Hashable | None``; it is a key of ``scene.geometry``, a str); a name the scene has
+    no geometry for raises :class:`~worldgraph.errors.WorldGraphError`."""
+    matrix, geom_name = scene.graph[node]
+    geometry = scene.geometry.get(geom_name)
+    if geometry is None:
+        raise WorldGraphError(f"scene node {node!r} refers to geometry {geom_name!r}, which the scene lacks")
+    return matrix, str(geom_name), geometry
+
+
 def _geometry_nodes(scene: trimesh.Scene) -> Iterable[tuple[str, NDArray[np.float64], str, Any]]:
     """``(node, world_from_node (4, 4), geometry name, geometry)`` of each geometry node, the
     transform checked finite with ``|x| <=`` :data:`MAX_COORDINATE`."""
     for node in scene.graph.nodes_geometry:
-        matrix, geom_name = scene.graph[node]
-        geometry = scene.geometry.get(geom_name)
-        if geometry is None:
-            raise WorldGraphError(f"scene node {node!r} refers to geometry {geom_name!r}, "
-                                  "which the scene lacks")
+        matrix, geom_name, geometry = _node_geometry(scene, node)
         m = _checks.float_array(f"transform of scene node {node!r}", matrix, (4, 4), max_abs=MAX_COORDINATE)
-        # trimesh types a node's geometry name Hashable | None; it is a key of scene.geometry here (str)
-        yield node, m, geom_name, geometry  # type: ignore[misc]
+        yield node, m, geom_name, geometry
 
 
 def _vertex_bounds(name: str, geometry: Any) -> NDArray[np.float64] | None:
@@ -261,14 +267,10 @@ def _scene_nodes(scene: trimesh.Scene) -> tuple[list[Any], NDArray[np.float64], 
     geom_names: list[str] = []
     geometries: list[Any] = []
     for node in scene.graph.nodes_geometry:
-        matrix, geom_name = scene.graph[node]
-        geometry = scene.geometry.get(geom_name)
-        if geometry is None:
-            raise WorldGraphError(f"scene node {node!r} refers to geometry {geom_name!r}, "
-                                  "which the scene lacks")
+        matrix, geom_name, geometry = _node_geometry(scene, node)
         nodes.append(node)
         matrices.append(matrix)
-        geom_names.append(geom_name)  # type: ignore[arg-type]  # a key of scene.geometry (str)
+        geom_names.append(geom_name)
         geometries.append(geometry)
     try:
         stack = np.array(matrices, dtype=np.float64).reshape(len(nodes), 4, 4)
