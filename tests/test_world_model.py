@@ -655,3 +655,17 @@ def test_gravity_aligned_flag_round_trips_and_drives_the_association_default(tmp
         WorldModel.from_arrays(types, pos, gravity_aligned="yes")
     assert scenes.building_site(storeys=2, n_objects=2000).world.gravity_aligned
     assert not scenes.kitchen().gravity_aligned
+
+
+@pytest.mark.parametrize("m, n_keys", [(0, 5), (1, 5), (9, 3), (5000, 60), (5000, 40_000)])
+def test_link_order_is_the_lexsort_of_pair_length_and_indices(m: int, n_keys: int) -> None:
+    """The link table's order (three stable sorts) is numpy's lexsort over (type pair, length,
+    i, j), the slow obvious reference, with many ties in length and type pair; keys above 16
+    bits take the general sort."""
+    from worldgraph.model import _link_order
+
+    rng = np.random.default_rng(m + n_keys)
+    pi, pj = rng.integers(0, 300, m), rng.integers(0, 300, m)
+    length = np.round(rng.uniform(0.0, 5.0, m), 1)
+    key = rng.integers(0, n_keys, m).astype(np.int64)
+    assert np.array_equal(_link_order(pi, pj, length, key, 300), np.lexsort((pj, pi, length, key)))
