@@ -23,7 +23,7 @@ from .errors import (
     PerceptionError,
     ShapeError,
 )
-from .tolerances import RIGID_TOLERANCE, UNDISTORT_EPS
+from .tolerances import RIG_ROUND_TRIP_RTOL, RIGID_TOLERANCE, UNDISTORT_EPS
 
 _DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
 MAX_IMAGE_SIDE = 100_000
@@ -247,6 +247,31 @@ class StereoRig:
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
         object.__setattr__(self, "image_size", (size[0], size[1]))
+        self._check_usable()
+
+    def _check_usable(self) -> None:
+        """Refuse a rig that cannot triangulate a point on the left optical axis 2 m (or 20
+        baselines) ahead back to itself, within :data:`RIG_ROUND_TRIP_RTOL`: one whose focal
+        lengths or geometry leave no usable disparity.  A point behind the right camera (a rig
+        whose cameras do not share that view) is not tested."""
+        depth = max(2.0, 20.0 * float(np.linalg.norm(self.T)))
+        point = np.array([[0.0, 0.0, depth]])
+        if float((self.R @ point[0] + self.T)[2]) <= 0.0:
+            return
+        why = ""
+        try:
+            uv_left, uv_right = self.project(point)
+            back = self.triangulate(uv_left, uv_right)
+            err = float(np.linalg.norm(back[0] - point[0]))
+            if not err <= RIG_ROUND_TRIP_RTOL * depth:
+                why = f"it comes back {err:.3g} m away"
+        except PerceptionError as exc:
+            why = str(exc)
+        if why:
+            raise CalibrationError(
+                f"the rig cannot triangulate the point {depth:g} m ahead of the left camera ({why}); "
+                f"check the focal lengths K1[0, 0] = {float(self.K1[0, 0])!r}, K2[0, 0] = "
+                f"{float(self.K2[0, 0])!r} (pixels), R and T = {self.T.tolist()} (metres)")
 
     # ------------------------------------------------------------------ constructors
     @classmethod

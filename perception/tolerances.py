@@ -39,3 +39,8 @@ PLANE_EPS = 1e-9
 UNDISTORT_EPS = 1e-15
 #: Largest deviation of a unit URDF axis from a frame axis that still counts as that axis.
 AXIS_TOL = 1e-9
+
+#: A rig must triangulate a point on the left optical axis (2 m ahead, or 20 baselines for a wide
+#: rig) back to itself within this relative error when it is made; one that cannot (a focal
+#: length of 1e-300 px projects every point to the principal point) is refused.
+RIG_ROUND_TRIP_RTOL = 1e-6

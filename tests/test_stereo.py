@@ -178,3 +178,25 @@ def test_bad_input() -> None:
         StereoRig.from_opencv(rig.K1, np.zeros(3), rig.K2, None, np.eye(3), [0.1, 0, 0], (640, 480))
     with pytest.raises(CalibrationError, match="focal"):
         StereoRig.from_opencv(-rig.K1, None, rig.K2, None, np.eye(3), [0.1, 0, 0], (640, 480))
+
+
+@pytest.mark.parametrize("focal", [1e-300, 1e-30, 1e-12])
+def test_an_unusable_rig_is_refused_when_made(focal: float) -> None:
+    """A rig whose focal length leaves no disparity for a point 2 m ahead (every point projects
+    to the principal point) cannot triangulate: refused at construction, naming the focal length;
+    the same rig with a real focal length round-trips that point."""
+    K = np.array([[focal, 0.0, 320.0], [0.0, focal, 240.0], [0.0, 0.0, 1.0]])
+    with pytest.raises(CalibrationError, match=r"cannot triangulate.*K1\[0, 0\]"):
+        StereoRig.from_opencv(K, np.zeros(5), K, np.zeros(5), np.eye(3), [-0.093, 0.0, 0.0], (640, 480))
+    K[0, 0] = K[1, 1] = 550.0
+    rig = StereoRig.from_opencv(K, np.zeros(5), K, np.zeros(5), np.eye(3), [-0.093, 0.0, 0.0], (640, 480))
+    point = np.array([[0.0, 0.0, 2.0]])
+    np.testing.assert_allclose(rig.triangulate(*rig.project(point)), point, atol=1e-9)
+
+
+def test_a_rig_whose_right_camera_looks_away_is_not_tested_by_that_point() -> None:
+    # the right camera turned 180 degrees about y: the point ahead of the left camera is behind it
+    R = np.diag([-1.0, 1.0, -1.0])
+    K = np.array([[550.0, 0.0, 320.0], [0.0, 550.0, 240.0], [0.0, 0.0, 1.0]])
+    rig = StereoRig.from_opencv(K, None, K, None, R, [0.0, 0.0, -0.5], (640, 480))
+    assert rig.T.tolist() == [0.0, 0.0, -0.5]
