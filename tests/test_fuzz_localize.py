@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
@@ -504,3 +504,35 @@ def test_length_mismatch_names_the_reference_argument(call) -> None:
     argument; the message now names the argument the length comes from as well."""
     with pytest.raises(wg.WorldGraphError, match=r"like ego(_points)?\b"):
         call(np.zeros((0, 3)))
+
+
+@pytest.fixture(scope="module")
+def kitchen_world() -> wg.WorldModel:
+    return wg.scenes.kitchen(seed=0)
+
+
+KITCHEN_TYPES = sorted(wg.scenes.kitchen(seed=0).type_names)
+
+
+@settings(max_examples=25)
+@given(types=st.lists(st.sampled_from(KITCHEN_TYPES), min_size=3, max_size=6),
+       point=st.tuples(*[st.floats(-3.0, 3.0)] * 3), sigma=st.floats(0.005, 0.2))
+@example(types=["appliance", "appliance", "book"], point=(1.0, 0.5, 0.2), sigma=0.05)
+def test_percepts_at_one_point_give_a_status_in_every_method(kitchen_world, types, point, sigma) -> None:
+    """Percepts that all sit at one point (any types of the world, any sigma) fix no pose: every
+    method answers with a failure status, never an exception (the paper's eq. 5 raised
+    percept_frame's PoseError when its association found a match for such percepts)."""
+    percepts = [Percept(t, np.array(point), sigma) for t in types]
+    for method in wg.LOCALIZE_METHODS:
+        res = wg.localize(kitchen_world, percepts, method=method)
+        assert res.status not in ("ok", "weak"), (method, res.status)
+        _check_result(res)
+
+
+def test_the_paper_method_names_the_percepts_that_span_no_plane(kitchen_world) -> None:
+    # two appliances and a book at one point: the paper's filters match them (objects a few
+    # centimetres apart), its eq. 5 needs a triangle of percepts
+    percepts = [Percept(t, np.array([1.0, 0.5, 0.2]), 0.05) for t in ("appliance", "appliance", "book")]
+    res = wg.localize(kitchen_world, percepts, method="paper")
+    assert res.status == "degenerate"
+    assert "eq. 5" in res.message and "percepts [0, 1, 2]" in res.message

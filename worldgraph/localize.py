@@ -1317,7 +1317,12 @@ def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Localizati
     if status in ("degenerate", "degenerate_collinear"):
         return ctx.failed(status, est.message or "the matched landmarks fix no position", hyps, ambiguous)
     t0 = time.perf_counter()
-    rot, triple = _eq5_rotation(ctx.ego[pi], centers, sig)
+    try:
+        rot, triple = _eq5_rotation(ctx.ego[pi], centers, sig)
+    except PoseError as exc:  # every matched triple of percepts (or of objects) is collinear
+        return ctx.failed("degenerate", f"the paper's eq. 5 needs three matched percepts that span a "
+                          f"plane; percepts {[int(ctx.idx[k]) for k in pi]} (of the percepts passed in) "
+                          f"give none: {exc}", hyps, ambiguous)
     pose = transformation(rot, position)
     w = np.zeros(len(pi))
     w[triple] = 1.0
@@ -1333,11 +1338,22 @@ def _paper(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Localizati
 def _eq5_rotation(ego: NDArray, centers: NDArray, sigmas: NDArray, limit: int = 10
                   ) -> tuple[NDArray, NDArray[np.intp]]:
     """Rotation of eq. 5 from the matched triple whose model triangle has the largest area,
-    among the ``limit`` most certain matches; and that triple."""
+    among the ``limit`` most certain matches, trying the next largest while the percept triangle
+    defines no frame; and that triple.  :class:`~worldgraph.errors.PoseError` when no triple of
+    the pool has both."""
     pool = np.sort(np.argsort(sigmas, kind="stable")[:limit])
     triples = np.array(list(itertools.combinations(pool.tolist(), 3)))
     a, b, c = (centers[triples[:, i]] for i in range(3))
-    best = triples[int(np.argmax(np.linalg.norm(np.cross(b - a, c - a), axis=1)))]
-    model = percept_frame(*centers[best])
-    seen = percept_frame(*ego[best])
-    return pose_from_frames(model, seen)[:3, :3], best
+    areas = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    error: PoseError | None = None
+    for k in np.argsort(-areas, kind="stable"):
+        best = triples[int(k)]
+        try:
+            model = percept_frame(*centers[best])
+            seen = percept_frame(*ego[best])
+        except PoseError as exc:
+            error = error or exc
+            continue
+        return pose_from_frames(model, seen)[:3, :3], best
+    assert error is not None  # at least one triple was tried
+    raise error
