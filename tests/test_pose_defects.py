@@ -96,3 +96,36 @@ def test_refine_pose_rejects_a_bad_start_and_cap() -> None:
         refine_pose(x, y, C, np.eye(4), max_iter=2.5)
     with pytest.raises(WorldGraphError, match="max_iter"):
         refine_pose(x, y, C, np.eye(4), max_iter=True)
+
+
+def test_needle_covariances_give_the_ml_pose_not_a_degenerate_status() -> None:
+    """Five non-collinear landmarks whose percepts are needles (variances 1e-8, 1e-6 and 1e4 m^2
+    along random axes, sigma 100): each fixes two directions, together they fix the pose.  The
+    pose information of such percepts is symmetric (the inverse of an ill-conditioned covariance
+    is not, to its condition number times 1e-16), and localize returns the ML pose; it said
+    "degenerate ... (collinear landmarks)" before."""
+    import worldgraph as wg
+    from perception import Percept
+    from worldgraph.pose import pose_information
+
+    rng = np.random.default_rng(4)
+    pos = np.array([[0, 0, 0], [4, 0, 0.5], [0, 3, 1.0], [3, 3, 0.2], [1.5, 5, 1.5]], float)
+    types = ["a", "b", "c", "d", "e"]
+    world = wg.WorldModel.from_arrays(types, pos)
+    truth = np.eye(4)
+    truth[:3, :3] = Rotation.from_euler("z", 0.3).as_matrix()
+    truth[:3, 3] = [1.0, -2.0, 0.5]
+    ego = (pos - truth[:3, 3]) @ truth[:3, :3]
+    percepts, covs = [], []
+    for k in range(5):
+        Q = Rotation.random(random_state=rng).as_matrix()
+        C = Q @ np.diag([1e-8, 1e-6, 1e4]) @ Q.T
+        covs.append(C)
+        x = ego[k] + rng.multivariate_normal(np.zeros(3), C)
+        percepts.append(Percept(types[k], x, 100.0, covariance=C))
+    J = pose_information(truth, np.array([p.position for p in percepts]), np.array(covs))
+    np.testing.assert_array_equal(J, J.T)
+    res = wg.localize(world, percepts)
+    assert res.status in ("ok", "weak"), res.message
+    assert np.linalg.norm(res.position - truth[:3, 3]) < 0.01
+    assert Rotation.from_matrix(res.transformation[:3, :3] @ truth[:3, :3].T).magnitude() < 1e-3

@@ -831,8 +831,9 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Locali
     distinct, hyps = _range_step(ctx, hyps_local, fits)
     incomplete = not hyps_local[0].complete
     if not distinct:
-        return ctx.failed("degenerate", "no hypothesis has 3 inliers that fix a 6D pose (collinear "
-                          "landmarks)", hyps, incomplete)
+        return ctx.failed("degenerate", "no hypothesis keeps 3 inliers whose pose information is "
+                          "regular: the matched landmarks fix no 6D pose (collinear, or their "
+                          "percepts constrain too few directions)", hyps, incomplete)
     best, choice = _choose_step(ctx, distinct, incomplete)
     if ctx.settings.method == "ml":
         return _finish(ctx, _widened(_ml_pose_step(ctx, best), choice), hyps, choice)

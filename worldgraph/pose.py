@@ -322,8 +322,12 @@ def pose_information(world_from_ego: ArrayLike, ego_points: ArrayLike, covarianc
     C = _covariances(covariances, len(x), like="ego_points")
     R = T[:3, :3]
     W = np.linalg.inv(R @ C @ R.T)  # (k, 3, 3)
+    # an ill-conditioned covariance (a needle: variances 1e-8 and 1e4 m^2) has an inverse that is
+    # symmetric only to ~1e-16 times its condition number; J is symmetric by definition
+    W = 0.5 * (W + np.swapaxes(W, 1, 2))
     H = np.concatenate([-_skew(x @ R.T), np.broadcast_to(np.eye(3), (len(x), 3, 3))], axis=2)
-    return np.einsum("kai,kab,kbj->ij", H, W, H)
+    J = np.einsum("kai,kab,kbj->ij", H, W, H)
+    return 0.5 * (J + J.T)
 
 
 #: Rotations screened by :func:`refine_pose` for its starts (fixed seed: deterministic).
