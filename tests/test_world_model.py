@@ -116,6 +116,18 @@ def test_many_types_store_exactly_the_linked_type_pairs():
     assert sorted(zip(j.tolist(), i.tolist(), strict=True)) == sorted(expected[(a, b)])
 
 
+def test_unknown_type_message_lists_the_first_twenty_types_of_many():
+    w = WorldModel.from_arrays([f"part{k:02d}" for k in range(50)], np.arange(150.0).reshape(50, 3) * 0.02)
+    first = [f"part{k:02d}" for k in range(20)]
+    with pytest.raises(wg.UnknownTypeError) as info:
+        w.indices_of("nope")
+    assert str(info.value) == (f"type_name = 'nope' is not in the world model; known types: {first} "
+                               "and 30 more")
+    few = WorldModel.from_arrays(["b", "a"], [[0, 0, 0], [1, 0, 0]])
+    with pytest.raises(wg.UnknownTypeError, match=r"type_a = 'c' .*; known types: \['a', 'b'\]$"):
+        few.link_lengths("c", "a")
+
+
 @given(worlds(), st.floats(0.0, 4.0), st.floats(0.0, 4.0))
 def test_in_range_and_link_lengths_equal_filter(world, lo, width):
     types, pos, mll, margin = world
