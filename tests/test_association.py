@@ -226,6 +226,36 @@ def test_true_association_survives_and_wins_noise_free(seed: int, k: int) -> Non
         assert hyps[0].cost < 1e-6
 
 
+@settings(max_examples=8)
+@given(seeds)
+def test_clutter_with_a_type_per_object_associates_as_one_clutter_type(seed: int) -> None:
+    """Issue 25: objects no percept names may each have their own type (CAD node names, a link
+    table only for the type pairs with links); association answers as on the same world with
+    those types merged into one (reference), since it matches percepts by type only."""
+    rng = np.random.default_rng(seed)
+    n = 120
+    pos = rng.uniform([0, 0, 0], (12.0, 10.0, 2.5), (n, 3))
+    clutter = rng.uniform(size=n) < 0.5
+    kinds = rng.choice(TYPES, n)
+    merged_types = np.where(clutter, "clutter", kinds)
+    split_types = np.array([f"part{k}" if c else str(t) for k, (c, t) in enumerate(zip(clutter, kinds,
+                                                                                          strict=True))])
+    merged = WorldModel.from_arrays(merged_types, pos, max_link_length=5.0, link_margin=0.5)
+    split = WorldModel.from_arrays(split_types, pos, max_link_length=5.0, link_margin=0.5)
+    assert len(split.type_index) == int(clutter.sum()) + len(set(kinds[~clutter].tolist()))
+    pose = random_pose(rng, merged)
+    d = np.linalg.norm(pos - pose[:3, 3], axis=1)
+    truth = [int(o) for o in np.argsort(d) if not clutter[o]][:6]
+    percepts = exact_percepts(merged, pose, truth)
+    a, b = associate(merged, percepts), associate(split, percepts)
+    assert a and a[0].pairs == tuple(enumerate(truth))
+    assert len(a) == len(b)
+    for ha, hb in zip(a, b, strict=True):
+        assert ha.pairs == hb.pairs
+        assert np.isclose(ha.cost, hb.cost)
+        assert np.allclose(ha.world_from_ego, hb.world_from_ego, atol=1e-9)
+
+
 @settings(max_examples=10)
 @given(seeds)
 def test_result_does_not_depend_on_percept_order(seed: int) -> None:

@@ -83,6 +83,51 @@ def test_links_equal_brute_force(world):
             assert np.all(table.i < table.j)
 
 
+def test_many_types_store_exactly_the_linked_type_pairs():
+    """A world of many distinct types (issue 25: one per CAD node) stores a table for each type
+    pair with a link and for no other (a table per type pair was 12.5M tables at 5,000 types);
+    every other sorted pair reads as an empty table, an unsorted or unknown pair is a KeyError.
+    Reference: the pair-by-pair brute force."""
+    rng = np.random.default_rng(25)
+    n, mll = 150, 2.0
+    pos = rng.uniform(0, 12, (n, 3))
+    types = [f"part{k % 120}" for k in range(n)]  # 120 types, 30 of them with two objects
+    w = WorldModel.from_arrays(types, pos, max_link_length=mll)
+    expected, ambiguous = brute_links(types, pos, mll)
+    assert not ambiguous and expected
+    assert list(w.links) == sorted(expected)  # iteration: the linked pairs, sorted
+    assert len(w.links) == len(expected) < 120 * 121 // 2
+    names = sorted(set(types))
+    for k, a in enumerate(names):
+        for b in names[k:]:
+            table = w.links[(a, b)]
+            assert ((a, b) in w.links) == ((a, b) in expected)
+            assert table_pairs(table, ambiguous) == pytest.approx(expected.get((a, b), {}), abs=1e-12)
+            assert np.all(np.diff(table.length) >= 0)
+    a, b = next(iter(expected))
+    if a != b:
+        assert (b, a) not in w.links and w.links.get((b, a)) is None
+        with pytest.raises(KeyError):
+            w.links[(b, a)]
+    with pytest.raises(KeyError):
+        w.links[("part0", "nope")]
+    # link_lengths reads any pair of known types, in either order
+    i, j, length = w.link_lengths(b, a)
+    assert sorted(zip(j.tolist(), i.tolist(), strict=True)) == sorted(expected[(a, b)])
+
+
+def test_unknown_type_message_lists_the_first_twenty_types_of_many():
+    w = WorldModel.from_arrays([f"part{k:02d}" for k in range(50)], np.arange(150.0).reshape(50, 3) * 0.02)
+    first = [f"part{k:02d}" for k in range(20)]
+    with pytest.raises(wg.UnknownTypeError) as info:
+        w.indices_of("nope")
+    assert str(info.value) == (f"type_name = 'nope' is not in the world model; known types: {first} "
+                               "and 30 more")
+    few = WorldModel.from_arrays(["b", "a"], [[0, 0, 0], [1, 0, 0]])
+    with pytest.raises(wg.UnknownTypeError, match=r"type_a = 'c' .*; known types: \['a', 'b'\]$"):
+        few.link_lengths("c", "a")
+
+
 @given(worlds(), st.floats(0.0, 4.0), st.floats(0.0, 4.0))
 def test_in_range_and_link_lengths_equal_filter(world, lo, width):
     types, pos, mll, margin = world

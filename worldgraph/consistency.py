@@ -85,7 +85,7 @@ def _check_inputs(world: WorldModel, percepts: Sequence[Percept]) -> list[Percep
     for k, p in enumerate(percepts):
         if p.type not in world.type_index:
             raise UnknownTypeError(f"percepts[{k}] has type {p.type!r}, which is not in the world model; "
-                                   f"known types: {list(world.type_index)}")
+                                   f"known types: {world._known_types()}")
     return percepts
 
 

@@ -1519,7 +1519,14 @@ class WorldModel:
             raise UnknownTypeError(f"{what} must be a type name (str), got {_checks._short(t)}")
         if t not in self._type_index:
             raise UnknownTypeError(f"{what} = {t!r} is not in the world model; "
-                                   f"known types: {list(self.type_index)}")
+                                   f"known types: {self._known_types()}")
+
+    def _known_types(self, limit: int = 20) -> str:
+        """The world's types for an error message: the first ``limit``, then how many more (a
+        CAD model with a type per node has thousands)."""
+        names = list(itertools.islice(self._type_index, limit))
+        more = len(self._type_index) - len(names)
+        return f"{names}" + (f" and {more:,} more" if more else "")
 
     def link_lengths(self, type_a: str, type_b: str, lo: float = -math.inf, hi: float = math.inf,
                      ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
