@@ -7,6 +7,7 @@ z forward); pixels are ``(u, v)`` rows of an ``(N, 2)`` array.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -252,26 +253,33 @@ class StereoRig:
     def _check_usable(self) -> None:
         """Refuse a rig that cannot triangulate a point on the left optical axis 2 m (or 20
         baselines) ahead back to itself, within :data:`RIG_ROUND_TRIP_RTOL`: one whose focal
-        lengths or geometry leave no usable disparity.  A point behind the right camera (a rig
-        whose cameras do not share that view) is not tested."""
+        lengths or geometry leave no usable disparity (1e-300 px projects every point to the
+        principal point).  The round trip is the pinhole model without distortion (zero on the
+        left axis), in numpy: OpenCV stays unimported until a method needs it.  A point behind
+        the right camera (a rig whose cameras do not share that view) is not tested."""
         depth = max(2.0, 20.0 * float(np.linalg.norm(self.T)))
-        point = np.array([[0.0, 0.0, depth]])
-        if float((self.R @ point[0] + self.T)[2]) <= 0.0:
+        point = np.array([0.0, 0.0, depth])
+        in_right = self.R @ point + self.T
+        if not float(in_right[2]) > 0.0:
             return
-        why = ""
-        try:
-            uv_left, uv_right = self.project(point)
-            back = self.triangulate(uv_left, uv_right)
-            err = float(np.linalg.norm(back[0] - point[0]))
-            if not err <= RIG_ROUND_TRIP_RTOL * depth:
-                why = f"it comes back {err:.3g} m away"
-        except PerceptionError as exc:
-            why = str(exc)
-        if why:
+        with np.errstate(all="ignore"):
+            try:
+                pix_left = self.K1 @ (point / point[2])
+                pix_right = self.K2 @ (in_right / in_right[2])
+                ray_left = np.linalg.solve(self.K1, pix_left)
+                ray_right = self.R.T @ np.linalg.solve(self.K2, pix_right)
+                centre_right = -self.R.T @ self.T
+                # closest points of the two rays (midpoint triangulation)
+                s, t = np.linalg.lstsq(np.column_stack([ray_left, -ray_right]), centre_right, rcond=None)[0]
+                back = 0.5 * (s * ray_left + centre_right + t * ray_right)
+                err = float(np.linalg.norm(back - point))
+            except np.linalg.LinAlgError:
+                err = math.inf
+        if not err <= RIG_ROUND_TRIP_RTOL * depth:
             raise CalibrationError(
-                f"the rig cannot triangulate the point {depth:g} m ahead of the left camera ({why}); "
-                f"check the focal lengths K1[0, 0] = {float(self.K1[0, 0])!r}, K2[0, 0] = "
-                f"{float(self.K2[0, 0])!r} (pixels), R and T = {self.T.tolist()} (metres)")
+                f"the rig cannot triangulate the point {depth:g} m ahead of the left camera (it comes "
+                f"back {err:.3g} m away); check the focal lengths K1[0, 0] = {float(self.K1[0, 0])!r}, "
+                f"K2[0, 0] = {float(self.K2[0, 0])!r} (pixels), R and T = {self.T.tolist()} (metres)")
 
     # ------------------------------------------------------------------ constructors
     @classmethod
