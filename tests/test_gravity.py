@@ -189,7 +189,7 @@ def test_large_tilt_falls_back_to_the_free_search(site, flat_world):
         assert "answered by the free 3D search" in res.message and "gravity_pass" in res.timings
         assert res.status != "ok" or _right(res, pose), res.summary()
         right += res.status == "ok"
-        # without the allowance the gravity gates would be those of a level robot: the same
+        # associate decides "auto" by the same rule, on its best hypothesis
         hyps = wg.associate(flat_world, percepts)
         assert hyps and all(h.search == "free" for h in hyps)
     assert right >= 3

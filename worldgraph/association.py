@@ -66,10 +66,9 @@ from .gravity import (
     _check_gravity,
     _levelled,
     _Plan,
-    _supported,
     _tol_for,
     _unlevelled_pose,
-    _within_allowance,
+    _unsupported,
 )
 from .hypotheses import AssociationHypothesis, _fit_all, _rank, is_ambiguous, same_pose
 from .model import WorldModel
@@ -171,7 +170,8 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     tol = _resolved_tol("associate", tol, tolerances)
     plan = _check_gravity(gravity, tol)
     hyps = _associate_searched(world, percepts, tol, method, max_hypotheses, plan)
-    if plan.fallback and not _supported_hypotheses(hyps, len(percepts), tol, plan):
+    if plan.fallback and plan.up is not None and method != "paper" and (
+            not hyps or _unsupported(hyps[0].world_from_ego, hyps[0].inliers, len(percepts), plan.up, tol)):
         hyps = _associate_searched(world, percepts, tol, method, max_hypotheses, _FREE)
     if not hyps:
         hint = units_hint(world, percepts)
@@ -190,16 +190,6 @@ def _associate_searched(world: WorldModel, percepts: list[Percept], tol: Associa
     hyps = _associate(world, _levelled(percepts, plan.level), _tol_for(plan, tol), method, max_hypotheses)
     return [replace(h, world_from_ego=_unlevelled_pose(h.world_from_ego, plan.level), search=plan.search)
             for h in hyps]
-
-
-def _supported_hypotheses(hyps: list[AssociationHypothesis], n: int, tol: AssociationTolerances,
-                          plan: _Plan) -> bool:
-    """``gravity="auto"`` keeps the gravity search's hypotheses: the best one has enough inliers
-    and keeps the ego up vector within the tilt allowance."""
-    if not hyps or plan.up is None:
-        return bool(hyps) or plan.up is None
-    best = hyps[0]
-    return _supported(best.inliers, n, tol) and _within_allowance(best.world_from_ego, plan.up, tol)
 
 
 def _associate(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances, method: str,

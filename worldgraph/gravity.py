@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -202,17 +202,21 @@ def _unlevelled_pose(pose: NDArray[np.float64], level: NDArray[np.float64] | Non
     return out
 
 
-def _supported(n_inliers: int, n_used: int, tol: AssociationTolerances) -> bool:
-    """Enough inliers for ``"auto"`` to keep the gravity pass's answer."""
-    return n_inliers >= max(int(tol.min_clique_size), math.ceil(MIN_GRAVITY_SUPPORT * n_used))
-
-
-def _within_allowance(pose: NDArray[np.float64], up: NDArray[np.float64], tol: AssociationTolerances) -> bool:
-    """The pose keeps the ego up vector within the tilt allowance (and :data:`TILT_SLACK`) of the
-    world z axis."""
-    t = tilt_angle(pose, up)
-    return bool(t <= tol.tilt_allowance + TILT_SLACK)
-
-
-def _as_search(value: Any) -> SearchKind:
-    return "gravity" if value == "gravity" else "free"
+def _unsupported(pose: NDArray[np.float64], n_inliers: int, n_used: int, up: NDArray[np.float64],
+                 tol: AssociationTolerances) -> str:
+    """Why ``gravity="auto"`` does not keep a gravity-pass answer (its pose and inliers, of
+    ``n_used`` percepts), "" when it does: no pose, fewer inliers than
+    :data:`MIN_GRAVITY_SUPPORT` of the percepts (and than ``min_clique_size``), or a pose that
+    tilts the ego up vector beyond ``tol.tilt_allowance`` plus :data:`TILT_SLACK`.  The one rule
+    of :func:`~worldgraph.associate` (on its best hypothesis), :func:`~worldgraph.localize` and
+    :func:`~worldgraph.localize_tiled` (on their answers)."""
+    if not bool(np.all(np.isfinite(pose))):
+        return "no pose"
+    if n_inliers < max(int(tol.min_clique_size), math.ceil(MIN_GRAVITY_SUPPORT * n_used)):
+        return f"{n_inliers} of {n_used} percepts as inliers"
+    tilt = tilt_angle(pose, up)
+    if not tilt <= tol.tilt_allowance + TILT_SLACK:
+        allowance = math.degrees(tol.tilt_allowance)
+        return (f"a pose tilted {math.degrees(tilt):.1f} deg (allowance {allowance:.1f} deg + "
+                f"{math.degrees(TILT_SLACK):.0f} deg slack)")
+    return ""

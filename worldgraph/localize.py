@@ -62,14 +62,11 @@ from .consistency import MAX_COORDINATE, check_world_and_percepts
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, UnknownTypeError, WorldGraphError
 from .gravity import (
     _FREE,
-    TILT_SLACK,
     Gravity,
     SearchKind,
     _check_gravity,
     _Plan,
-    _supported,
-    _within_allowance,
-    tilt_angle,
+    _unsupported,
 )
 from .hypotheses import AssociationHypothesis, is_ambiguous
 from .model import WorldModel
@@ -576,23 +573,14 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
 def _gravity_unsupported(result: LocalizationResult, plan: _Plan, tol: AssociationTolerances, method: str,
                          n_used: int) -> str:
     """Why ``gravity="auto"`` falls back from the gravity pass's ``result`` (of ``n_used``
-    percepts of known types) to the free search, "" when it keeps it: no pose, too few inliers
-    (:data:`~worldgraph.gravity.MIN_GRAVITY_SUPPORT`), or a pose that tilts the ego up vector
-    beyond ``tol.tilt_allowance``."""
+    percepts of known types) to the free search, "" when it keeps it
+    (:func:`~worldgraph.gravity._unsupported`, with the pass's status)."""
     if not plan.fallback or plan.up is None or method == "paper" or result.search != "gravity":
         return ""
     if result.status == "too_few_percepts":
         return ""  # the free search has no more percepts
-    if not bool(np.all(np.isfinite(result.transformation))):
-        return f"no pose ({result.status})"
-    n_inliers = len(result.correspondences)
-    if not _supported(n_inliers, n_used, tol):
-        return f"{n_inliers} of {n_used} percepts as inliers ({result.status})"
-    if not _within_allowance(result.transformation, plan.up, tol):
-        return (f"a pose tilted {math.degrees(tilt_angle(result.transformation, plan.up)):.1f} deg "
-                f"(allowance {math.degrees(tol.tilt_allowance):.1f} deg + {math.degrees(TILT_SLACK):.0f} deg "
-                "slack)")
-    return ""
+    why = _unsupported(result.transformation, len(result.correspondences), n_used, plan.up, tol)
+    return f"{why} ({result.status})" if why else ""
 
 
 def _answered_by_free_search(free: LocalizationResult, gravity_pass: LocalizationResult, why: str
