@@ -77,7 +77,7 @@ from .errors import (
     UnknownTypeError,
     WorldGraphError,
 )
-from .tolerances import COINCIDENT_TOLERANCE, FAR_PAIR_SLACK, QUERY_WIDEN  # noqa: F401 - re-exported
+from .tolerances import COINCIDENT_TOLERANCE, FAR_PAIR_SLACK, QUERY_WIDEN, RIGID_TOLERANCE  # noqa: F401 - re-exported
 
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
@@ -130,21 +130,21 @@ def _check_size(name: str, value: Any) -> NDArray[np.float64]:
     return size
 
 
-def _rotation_errors(rot: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``(max |R^T R - I|, det R)`` of each rotation of a stack ``(n, 3, 3)``."""
+def _rotation_errors(rot: NDArray[np.float64]
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """``(max |R^T R - I|, det R, improper)`` of each rotation of a stack ``(n, 3, 3)``;
+    ``improper`` where either is off by more than :data:`~worldgraph.tolerances.RIGID_TOLERANCE`."""
     if not len(rot):
-        return np.zeros(0), np.ones(0)
+        return np.zeros(0), np.ones(0), np.zeros(0, dtype=bool)
     orth = np.abs(np.einsum("nji,njk->nik", rot, rot) - np.eye(3)).max(axis=(1, 2))
-    return orth, np.linalg.det(rot)
+    det = np.linalg.det(rot)
+    return orth, det, ~((orth <= RIGID_TOLERANCE) & (np.abs(det - 1.0) <= RIGID_TOLERANCE))
 
 
 def _check_rotations(name: str, rot: NDArray[np.float64]) -> None:
     """Raise :class:`~worldgraph.errors.NonRigidError` naming the first rotation of a finite stack
     ``(n, 3, 3)`` that is not proper within :data:`~worldgraph.tolerances.RIGID_TOLERANCE`."""
-    from .tolerances import RIGID_TOLERANCE
-
-    orth, det = _rotation_errors(rot)
-    bad = ~((orth <= RIGID_TOLERANCE) & (np.abs(det - 1.0) <= RIGID_TOLERANCE))
+    orth, det, bad = _rotation_errors(rot)
     if bad.any():
         from .errors import NonRigidError
 
@@ -1013,12 +1013,8 @@ def _trimesh_table(nodes: list[Any], matrices: NDArray[np.float64], geom_names: 
     sizes = (hi - lo) * scale
     ids = [str(nodes[k]) for k in keep]
     keys = [str(geom_names[k]) for k in keep]
-    from .tolerances import RIGID_TOLERANCE
-
-    orth, det = _rotation_errors(rot)
     bad = ((np.abs(positions) > MAX_COORDINATE).any(axis=1) | ~np.isfinite(sizes).all(axis=1)
-           | (sizes < 0).any(axis=1) | (sizes > MAX_COORDINATE).any(axis=1)
-           | ~((orth <= RIGID_TOLERANCE) & (np.abs(det - 1.0) <= RIGID_TOLERANCE)))
+           | (sizes < 0).any(axis=1) | (sizes > MAX_COORDINATE).any(axis=1) | _rotation_errors(rot)[2])
     for i in np.flatnonzero(bad).tolist():  # the per-node construction raises its error
         pose = np.eye(4)
         pose[:3, :3], pose[:3, 3] = rot[i], positions[i]
