@@ -16,7 +16,16 @@ import pytest
 
 import perception as pc
 import worldgraph as wg
-from worldgraph.active import gaze_angles, merge_percepts, tells_apart, view_scores
+from worldgraph.active import (
+    VAGUE_POSE_STD,
+    depth_factor_of,
+    gaze_angles,
+    merge_percepts,
+    sight_information,
+    tells_apart,
+    view_information,
+    view_scores,
+)
 from worldgraph.errors import (
     ArgumentTypeError,
     NonFiniteError,
@@ -128,8 +137,177 @@ def test_unique_result_plans_a_single_hypothesis_view():
     world = _two_rooms()
     plan = wg.plan_view(world, _result([np.eye(4)], [0.0], world), types=["handle", "knob", "door"])
     assert plan.status == "single_hypothesis" and plan.score == 0.0 and len(plan.hypotheses) == 1
-    # it looks where the most objects are: the four handles in front
+    # with nothing known but a vague prior, the four handles in front (3 m, spread over 2 m) tell the
+    # most about the pose
     assert all(_angle(plan.direction, h) <= HALF_FOV for h in HANDLES)
+    assert plan.information > 0
+
+
+KINDS = ["handle", "knob", "door", "drawer"]
+
+
+def _cluster_and_spread() -> tuple[wg.WorldModel, np.ndarray, np.ndarray]:
+    """Eight objects in a 0.1 m x 0.3 m patch 3 m ahead (+x; same types 0.1 m apart, beyond the
+    matching gate), four spread over a 60 deg cone 2.5-3.5 m behind (-x)."""
+    cluster = np.array([[3.0, y, z] for y in (-0.05, 0.05) for z in (-0.15, -0.05, 0.05, 0.15)])
+    spread = np.array([[-3.0, -1.4, 0.0], [-3.0, 1.4, 0.6], [-2.5, 0.0, -1.0], [-3.5, 0.6, 1.2]])
+    world = wg.WorldModel.from_arrays(KINDS * 3, np.vstack([cluster, spread]), max_link_length=8.0)
+    return world, cluster, spread
+
+
+def _weak(pose_cov: np.ndarray) -> LocalizationResult:
+    T = np.eye(4)
+    return LocalizationResult(T, T[:3, 3].copy(), pose_cov[:3, :3].copy(), ((0, 8), (1, 9), (2, 10)), (), False,
+                              "weak", pose_covariance=pose_cov)
+
+
+def test_a_weak_answer_looks_at_spread_objects_not_at_a_cluster():
+    """A unique but weak answer: the cluster has twice the objects, but they pin the rotation about
+    the axis through them hardly at all; the spread ones pin every direction."""
+    world, cluster, spread = _cluster_and_spread()
+    res = _weak(np.diag([0.02**2] * 3 + [math.radians(2.0) ** 2] * 3))
+    plan = wg.plan_view(world, res, types=KINDS)
+    assert plan.status == "single_hypothesis"
+    assert all(_angle(plan.direction, x) <= HALF_FOV for x in spread)
+    assert all(_angle(plan.direction, x) > HALF_FOV for x in cluster)
+    ahead, behind = view_information(world, res, [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]], types=KINDS)
+    assert ahead > 5.0  # the cluster is informative (not dropped as ambiguous), less so
+    assert behind > ahead + 0.5
+    # counting objects (the planner before) would look at the cluster: eight in view against four
+    assert view_scores(world, res, [[1.0, 0.0, 0.0]], types=KINDS).tolist() == [0.0]
+    n_ahead = sum(_angle(np.array([1.0, 0.0, 0.0]), x) <= HALF_FOV for x in np.vstack([cluster, spread]))
+    assert n_ahead == 8 and len(plan.expected[0]) == 4
+
+
+def _skew(q):
+    return np.array([[0.0, -q[2], q[1]], [q[2], 0.0, -q[0]], [-q[1], q[0], 0.0]])
+
+
+def _expm(w):
+    """Rotation matrix of a rotation vector (Rodrigues)."""
+    a = float(np.linalg.norm(w))
+    if a == 0:
+        return np.eye(3)
+    K = _skew(w / a)
+    return np.eye(3) + math.sin(a) * K + (1 - math.cos(a)) * K @ K
+
+
+def _numeric_jacobian(pose, X, eps=1e-6):
+    """d(ego point)/d(dt, dtheta): t -> t + dt, R -> expm(dtheta) R (pose_covariance's axes), by
+    central differences."""
+    J = np.zeros((3, 6))
+    for k in range(6):
+        for sign in (1.0, -1.0):
+            d = np.zeros(6)
+            d[k] = sign * eps
+            R = _expm(d[3:]) @ pose[:3, :3]
+            J[:, k] += sign * (R.T @ (X - pose[:3, 3] - d[:3])) / (2 * eps)
+    return J
+
+
+def _rotvec(R):
+    c = np.clip((np.trace(R) - 1) / 2, -1, 1)
+    a = math.acos(c)
+    if a < 1e-12:
+        return np.zeros(3)
+    return a / (2 * math.sin(a)) * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+
+
+def _slow_information(world, poses, weights, pose_cov, types, directions, fov_deg, max_range, detection,
+                      margin, depth_factor=1000.0, max_sights=None):
+    """The expected information of the module docstring by loops: numeric Jacobians, brute-force
+    matchability and rule-out counts, the mixture's log-determinants one direction at a time."""
+    cos_half = math.cos(math.radians(fov_deg / 2))
+    objs = [o for o in range(len(world)) if world.types[o] in types]
+    prior = np.linalg.inv(pose_cov) + np.eye(6) / VAGUE_POSE_STD**2
+    H = len(poses)
+    mu = np.array([np.concatenate([p[:3, 3] - poses[0][:3, 3], _rotvec(p[:3, :3] @ poses[0][:3, :3].T)])
+                   for p in poses])
+    mean = weights @ mu
+    S = sum(w * np.outer(m - mean, m - mean) for w, m in zip(weights, mu))
+    before = np.linalg.slogdet(np.linalg.inv(prior) + S)[1]  # no look: no information
+    out = []
+    for d in directions:
+        d = d / np.linalg.norm(d)
+        covs, ruled = [], []
+        for h, pose in enumerate(poses):
+            info = np.zeros((6, 6))
+            view = []
+            for o in objs:
+                x = pose[:3, :3].T @ (world.positions[o] - pose[:3, 3])
+                rho = float(np.linalg.norm(x))
+                if 0 < rho <= max_range and x @ d >= cos_half * rho - 1e-12:
+                    view.append((o, x, rho))
+            kept = detection if max_sights is None else min(detection, max_sights / max(len(view), 1))
+            prob = 1.0
+            counts = np.zeros(H)
+            for o, x, rho in view:
+                sigma = max(1e-4, rho**2 / depth_factor)
+                gate = 3 * math.sqrt(2) * sigma + margin
+                twins = [q for q in objs if q != o and world.types[q] == world.types[o]]
+                if all(np.linalg.norm(world.positions[q] - world.positions[o]) > gate for q in twins):
+                    J = _numeric_jacobian(pose, world.positions[o])
+                    info += kept * J.T @ J / sigma**2
+                for j, other in enumerate(poses):
+                    if j != h and all(world.types[q] != world.types[o] or
+                                      np.linalg.norm(other[:3, :3].T @ (world.positions[q] - other[:3, 3]) - x)
+                                      > gate for q in objs):
+                        counts[j] += 1
+            for j in range(H):
+                if j != h:
+                    prob *= 1 - (1 - kept) ** counts[j]
+            covs.append(np.linalg.inv(prior + info))
+            ruled.append(prob)
+        if H == 1:
+            out.append(0.5 * (before - np.linalg.slogdet(covs[0])[1]))
+            continue
+        mixed = np.linalg.slogdet(sum(w * c for w, c in zip(weights, covs)) + S)[1]
+        after = sum(w * (r * np.linalg.slogdet(c)[1] + (1 - r) * mixed) for w, r, c in zip(weights, ruled, covs))
+        out.append(0.5 * (before - after))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("n_hyp, max_sights", [(1, None), (3, None), (3, 2)])
+def test_view_information_matches_a_slow_reference(n_hyp, max_sights):
+    rng = np.random.default_rng(40 + n_hyp)
+    world = _random_world(rng)
+    poses = [_random_pose(rng, [4.5, 3.5, 1.2]) for _ in range(n_hyp)]
+    costs = [0.0, 1.0, 3.0][:n_hyp]
+    A = rng.standard_normal((6, 6))
+    pose_cov = 1e-3 * (A @ A.T + 0.1 * np.eye(6))
+    T = poses[0]
+    res = LocalizationResult(T, T[:3, 3].copy(), pose_cov[:3, :3].copy(), ((0, 0),), (), n_hyp > 1,
+                             "ambiguous" if n_hyp > 1 else "weak", alternatives=tuple(poses[1:]),
+                             near_best_costs=tuple(costs), pose_covariance=pose_cov)
+    types = ["door", "handle", "knob"]
+    dirs = rng.standard_normal((25, 3))
+    kw = dict(types=types, fov_deg=50.0, max_range=5.0, detection=0.7, margin=0.3, max_sights=max_sights)
+    fast = view_information(world, res, dirs, **kw)
+    w = np.exp(-np.array(costs) / 2)
+    slow = _slow_information(world, poses, w / w.sum(), pose_cov, types, dirs, 50.0, 5.0, 0.7, 0.3,
+                             max_sights=max_sights)
+    assert np.allclose(fast, slow, rtol=1e-6, atol=1e-6)
+    assert fast.max() > 1.0 and fast.min() < fast.max()  # the check compares something
+    if n_hyp == 1:  # one hypothesis: the D-optimal gain 0.5 log det (I + C dI) >= 0
+        assert fast.min() >= -1e-9
+
+
+def test_sight_information_is_the_numeric_fisher_information():
+    rng = np.random.default_rng(7)
+    pose = _random_pose(rng, [1.0, 2.0, 0.5])
+    X = rng.uniform(-4, 4, (5, 3))
+    sigma = rng.uniform(0.01, 0.1, 5)
+    fast = sight_information(X - pose[:3, 3], sigma).reshape(5, 6, 6)
+    for k in range(5):
+        J = _numeric_jacobian(pose, X[k])
+        assert np.allclose(fast[k], J.T @ J / sigma[k] ** 2, rtol=1e-6, atol=1e-3)
+
+
+def test_depth_factor_of_reads_eq6_from_percepts():
+    ps = [pc.Percept("door", [r, 0.0, 0.0], r**2 / 500.0) for r in (0.5, 2.0, 3.0, 6.0)]
+    assert depth_factor_of(ps) == pytest.approx(500.0)  # 0.5 m is left out (below 1 m)
+    assert depth_factor_of(ps[:1]) == 1000.0  # none far enough: the default
+    assert depth_factor_of([pc.Percept("door", [0.0, 3.0, 4.0], 25.0 / 250.0)]) == pytest.approx(250.0)
 
 
 def test_localize_then_one_look_resolves_the_two_rooms():
@@ -228,7 +406,12 @@ def test_view_scores_match_a_slow_reference():
     assert fast.max() > 0.1 and fast.min() < fast.max()  # the check compares something
     plan = wg.plan_view(world, res, types=types, fov_deg=50.0, max_range=5.0, detection=0.7, margin=0.3,
                         candidates=dirs)
-    assert plan.score >= slow.max() - 1e-12  # the plan beats every direction given
+    # the plan maximises the expected information over its candidates, the given ones among them
+    given = view_information(world, res, dirs, types=types, fov_deg=50.0, max_range=5.0, detection=0.7,
+                             margin=0.3)
+    assert plan.information >= given.max() - 1e-9
+    assert plan.score == pytest.approx(float(view_scores(world, res, [plan.direction], types=types, fov_deg=50.0,
+                                                         max_range=5.0, detection=0.7, margin=0.3)[0]))
 
 
 def test_score_is_a_lower_bound_of_the_monte_carlo_probability():

@@ -18,15 +18,28 @@ same sight.  :func:`plan_view` scores gaze directions by what would actually be 
    the gaze, so it is computed once per hypothesis pair (a k-d tree per hypothesis whose fourth
    coordinate separates the types).
 3. A look in direction ``d`` sees the objects whose direction lies within ``fov_deg / 2`` of
-   ``d`` and whose range is at most ``max_range``.  If ``h`` is true, the look rules out ``j``
-   when at least one object that tells h from j is in view and detected (each independently
-   with probability ``detection``).  The score is the probability that the look rules out every
-   other hypothesis: ``sum_h w_h prod_{j != h} (1 - (1 - detection)^{n_hj(d)})``.  The product
-   is exact for two hypotheses and a lower bound for more (the events increase with the
-   detections, so they are positively correlated: Harris' inequality).
-4. Candidates are the directions to every object that tells any two hypotheses apart, under
-   every hypothesis, a fixed set of directions spread over the sphere and any given by the
-   caller; one matrix product per hypothesis scores them all.
+   ``d`` and whose range is at most ``max_range``; each comes back with probability
+   ``detection`` (with a cap of ``max_sights`` percepts per look, about ``min(detection,
+   max_sights / n_in_view)``).  If ``h`` is true, the look rules out ``j`` when at least one
+   object that tells h from j comes back.  The *score* is the probability that the look rules
+   out every other hypothesis: ``sum_h w_h prod_{j != h} (1 - (1 - detection)^{n_hj(d)})``.
+   The product is exact for two hypotheses and a lower bound for more (the events increase
+   with the detections, so they are positively correlated: Harris' inequality).
+4. The look also refines the pose.  Each sight of an object that would be matched to it alone
+   (no other object of its type within the gate) adds the Fisher information
+   ``J^T J / sigma^2`` about the 6D pose (:func:`sight_information`).  The planner maximises
+   the *expected information* of the look (nats): the expected drop in half the log-determinant
+   of the pose's covariance, the mixture of the hypotheses treated as one Gaussian (its
+   covariance the result's ``pose_covariance`` plus the hypotheses' scatter), with the
+   hypotheses ruled out with the score's probability (:func:`_information`).  For a unique
+   answer this is the D-optimal gain ``0.5 log det (I + C dI)``: a look at a tight cluster of
+   objects pins the cluster's position but hardly the rotation, while objects spread across
+   the view pin both.  For hypotheses far apart, telling them apart dominates; for close ones,
+   refining the pose counts as much.
+5. Candidates are the directions to every object that tells any two hypotheses apart, under
+   every hypothesis, to every informative object under the chosen pose, a fixed set of
+   directions spread over the sphere and any given by the caller; one matrix product per
+   hypothesis scores them all.
 
 :func:`active_localize` is the loop: localise, plan, look (a user callback returning new
 percepts in the same ego frame), localise again with the old and new percepts, until the
@@ -38,7 +51,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, get_args
+from typing import Any, Literal, cast, get_args
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,9 +73,12 @@ from .tolerances import (
     COSINE_ROUNDING,
     JOINT_LIMIT_MARGIN,
     NORM_FLOOR,
+    PD_RTOL,
+    TINY,
     AssociationTolerances,
     _tol_argument,
 )
+from .validation import _pose_error
 
 __all__ = [
     "ActiveLocalization",
@@ -72,10 +88,13 @@ __all__ = [
     "LookStatus",
     "ViewStatus",
     "active_localize",
+    "depth_factor_of",
     "gaze_angles",
     "merge_percepts",
     "plan_view",
+    "sight_information",
     "tells_apart",
+    "view_information",
     "view_scores",
 ]
 
@@ -89,6 +108,14 @@ VIEW_STATUSES: tuple[str, ...] = get_args(ViewStatus)
 #: Fixed candidate directions spread over the sphere (Fibonacci lattice) added to the
 #: object directions.
 N_FIXED_DIRECTIONS = 64
+#: Standard deviation (m and rad) of the vague pose prior the planner adds to the result's pose
+#: information (and uses alone when the result has no finite covariance): a look is worth what
+#: it adds beyond a pose known to about a metre and a radian.
+VAGUE_POSE_STD = 1.0
+#: :func:`depth_factor_of` reads the eq. 6 factor from percepts at least this far (m) ...
+MIN_FACTOR_RANGE = 1.0
+#: ... and falls back to this one (1/m; ``plan_view``'s default).
+DEFAULT_DEPTH_FACTOR = 1000.0
 #: Random candidate directions added when ``rng`` is given.
 N_RANDOM_DIRECTIONS = 32
 #: Largest pointing error (rad) of the head's optical axis at which ``gaze_reached`` is True.
@@ -128,6 +155,9 @@ class ViewPlan:
     weights : (H,) float
         Prior probability of each hypothesis (``exp(-cost / 2)`` normalised).
     status : ViewStatus
+    information : float
+        Expected information (nats) of the look about the 6D pose, what the direction maximises
+        (see :func:`plan_view`).
     joint_angles : (n_joints,) float or None
         With a ``head``: joint angles (radians, in ``head.names`` order, the right eye parallel
         to the left) that point the left camera's optical axis (+z of the OpenCV camera frame)
@@ -152,6 +182,7 @@ class ViewPlan:
     hypotheses: tuple[NDArray[np.float64], ...]
     weights: NDArray[np.float64]
     status: ViewStatus
+    information: float = 0.0
     joint_angles: NDArray[np.float64] | None = None
     pointing_error: float = math.nan
     gaze_reached: bool | None = None
@@ -168,6 +199,13 @@ def _fibonacci_sphere(n: int) -> NDArray[np.float64]:
 
 
 _FIXED = _fibonacci_sphere(N_FIXED_DIRECTIONS)
+
+
+def _distinct_directions(D: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The rows of ``D`` (unit directions) without repeats closer than about half a degree (the
+    first of each cell of a 1/128 grid on the unit cube), in their order."""
+    _, first = np.unique(np.round(D * 128.0).astype(np.int64), axis=0, return_index=True)
+    return D[np.sort(first)]
 
 
 def _unit_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -371,6 +409,9 @@ class _Prediction:
     rho: list[NDArray[np.float64]]        # per hypothesis (n,) ranges
     in_range: list[NDArray[np.bool_]]     # per hypothesis (n,)
     tells: NDArray[np.bool_]              # (H, H, n): see tells_apart
+    info: list[NDArray[np.float64]]       # per hypothesis (n, 36): Fisher information of a sight
+    prior: NDArray[np.float64]            # (6, 6) the result's pose information
+    spread: NDArray[np.float64]           # (6, 6) weighted scatter of the hypotheses' poses
 
 
 def _predict(world: WorldModel, result: LocalizationResult, types: object, max_range: float,
@@ -390,8 +431,79 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, max_r
     rho = [np.linalg.norm(e, axis=1) for e in ego]
     in_range = [(r <= max_range) & (r > 0) for r in rho]
     gate = [_gate(r, depth_factor, min_sigma, n_sigma, margin) for r in rho]
+    neighbour = _same_type_neighbour(X, codes)
+    info = []
+    for T, r, g, inr in zip(poses, rho, gate, in_range, strict=True):
+        sigma = np.asarray(depth_sigma(np.maximum(r, min_sigma), depth_factor, min_sigma=min_sigma),
+                           dtype=np.float64)
+        matchable = inr & (neighbour > g)  # a sight that lands near one object of its type only
+        info.append(sight_information(X - T[:3, 3], sigma) * matchable[:, None])
+    prior, spread = _prior(result, poses, weights)
     return _Prediction(poses, weights, obj, ego, [_unit_rows(e) for e in ego], rho, in_range,
-                       tells_apart(ego, codes, in_range, gate))
+                       tells_apart(ego, codes, in_range, gate), info, prior, spread)
+
+
+def _same_type_neighbour(X: NDArray[np.float64], codes: NDArray[np.intp]) -> NDArray[np.float64]:
+    """Distance (m) from each object to the nearest other object of its type (inf if none)."""
+    out = np.full(len(X), np.inf)
+    for c in np.unique(codes):
+        idx = np.flatnonzero(codes == c)
+        if idx.size > 1:
+            d, _ = cKDTree(X[idx]).query(X[idx], k=2)
+            out[idx] = d[:, 1]
+    return out
+
+
+def sight_information(offsets: object, sigma: object) -> NDArray[np.float64]:
+    """Fisher information about the 6D pose of one sight of each object, flattened (n, 36).
+
+    A sight is the object's ego position ``p = R^T (X - t)`` with isotropic noise ``sigma``.
+    In the order and axes of ``LocalizationResult.pose_covariance`` (translation error ``dt``
+    and rotation vector ``dtheta`` of ``R_true R^T``, both in world axes),
+    ``dp = R^T (-dt + [q]_x dtheta)`` with ``q = X - t``, so the information is
+    ``[-I, [q]_x]^T [-I, [q]_x] / sigma^2 = [[I, -[q]_x], [[q]_x, |q|^2 I - q q^T]] / sigma^2``
+    (``R`` drops out: the noise is isotropic).
+
+    Parameters
+    ----------
+    offsets : (n, 3) float
+        ``X - t``: each object's position relative to the ego origin, world axes (m).
+    sigma : (n,) float
+        Each sight's standard deviation (m), > 0.
+    """
+    q = np.asarray(offsets, dtype=np.float64).reshape(-1, 3)
+    w = 1.0 / np.asarray(sigma, dtype=np.float64).reshape(-1) ** 2
+    n = len(q)
+    A = np.zeros((n, 6, 6))
+    Q = np.zeros((n, 3, 3))
+    Q[:, 0, 1], Q[:, 0, 2], Q[:, 1, 2] = -q[:, 2], q[:, 1], -q[:, 0]
+    Q[:, 1, 0], Q[:, 2, 0], Q[:, 2, 1] = q[:, 2], -q[:, 1], q[:, 0]
+    eye = np.eye(3)
+    A[:, :3, :3] = eye
+    A[:, :3, 3:] = -Q
+    A[:, 3:, :3] = Q
+    A[:, 3:, 3:] = (q * q).sum(axis=1)[:, None, None] * eye - q[:, :, None] * q[:, None, :]
+    return (A * w[:, None, None]).reshape(n, 36)
+
+
+def _prior(result: LocalizationResult, poses: list[NDArray[np.float64]], weights: NDArray[np.float64]
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The result's pose information (the inverse of ``pose_covariance``, floored at
+    :data:`VAGUE_POSE_STD` when it holds none) and the weighted scatter of the hypotheses' poses
+    about their mean (6D, at the chosen pose, in the order and axes of ``pose_covariance``)."""
+    vague = np.diag(np.full(6, 1.0 / VAGUE_POSE_STD**2))
+    cov = np.asarray(result.pose_covariance, dtype=np.float64)
+    if cov.shape == (6, 6) and np.all(np.isfinite(cov)):
+        vals, vecs = np.linalg.eigh(0.5 * (cov + cov.T))
+        top = max(float(vals.max()), TINY)
+        vals = np.clip(vals, top * PD_RTOL, None)
+        prior = (vecs / vals) @ vecs.T + vague
+    else:
+        prior = vague
+    T0 = poses[0]
+    dev = np.array([_pose_error(T0, T) for T in poses])
+    centred = dev - weights @ dev
+    return 0.5 * (prior + prior.T), (centred * weights[:, None]).T @ centred
 
 
 def _in_view(pred: _Prediction, h: int, directions: NDArray[np.float64], cos_half: float
@@ -404,26 +516,72 @@ def _in_view(pred: _Prediction, h: int, directions: NDArray[np.float64], cos_hal
     return (cosines >= cos_half - COSINE_ROUNDING) & pred.in_range[h]
 
 
-def _score(pred: _Prediction, directions: NDArray[np.float64], cos_half: float, detection: float
-           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Per direction: the probability that the look rules out all but the true hypothesis, the
-    expected number of discriminating objects in view and of objects in view."""
-    H = len(pred.poses)
-    miss = 1.0 - detection
-    score = np.zeros(len(directions))
-    count = np.zeros(len(directions))
-    seen = np.zeros(len(directions))
+def _kept(view: NDArray[np.bool_], detection: float, max_sights: int | None) -> NDArray[np.float64]:
+    """(C,): the probability that an object in view comes back from the look: ``detection``, or
+    with a cap of ``max_sights`` percepts per look (a random subset of those detected) about
+    ``min(detection, max_sights / n_view)``."""
+    n_view = np.count_nonzero(view, axis=1).astype(np.float64)
+    if max_sights is None:
+        return np.full(len(view), detection)
+    return np.minimum(detection, max_sights / np.maximum(n_view, 1.0))
+
+
+def _look_values(pred: _Prediction, directions: NDArray[np.float64], cos_half: float, detection: float,
+                 max_sights: int | None) -> tuple[NDArray[np.float64], ...]:
+    """Per candidate direction: the probability that the look rules out all but the true
+    hypothesis (module docstring, step 3), its expected information about the 6D pose (nats,
+    :func:`_information`), and the expected number of objects in view (weighted over the
+    hypotheses)."""
+    H, C = len(pred.poses), len(directions)
+    per_h = np.zeros((H, C))
+    seen = np.zeros(C)
+    covs = np.empty((H, C, 6, 6))
     for h in range(H):
         view = _in_view(pred, h, directions, cos_half)                     # (C, n)
+        kept = _kept(view, detection, max_sights)                          # (C,)
         n_hj = np.stack([np.count_nonzero(view & pred.tells[h, j], axis=1) for j in range(H)],
                         axis=1).astype(np.float64)                          # (C, H)
-        ruled_out = 1.0 - miss ** n_hj
+        ruled_out = 1.0 - (1.0 - kept[:, None]) ** n_hj
         ruled_out[:, h] = 1.0
         if H > 1:
-            score += pred.weights[h] * np.prod(ruled_out, axis=1)
-        count += pred.weights[h] * n_hj.sum(axis=1)
+            per_h[h] = np.prod(ruled_out, axis=1)
         seen += pred.weights[h] * np.count_nonzero(view, axis=1)
-    return score, count, seen
+        added = kept[:, None] * (view.astype(np.float64) @ pred.info[h])     # (C, 36)
+        covs[h] = np.linalg.inv(pred.prior + added.reshape(C, 6, 6))
+    score = pred.weights @ per_h
+    return score, _information(pred, covs, per_h), seen
+
+
+def _logdet(M: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Log det of a stack of symmetric positive definite matrices."""
+    sign, value = np.linalg.slogdet(M)
+    return np.where(sign > 0, value, -np.inf)
+
+
+def _information(pred: _Prediction, covs: NDArray[np.float64], per_h: NDArray[np.float64]
+                 ) -> NDArray[np.float64]:
+    """Expected information (nats) of a look in each direction about the 6D pose.
+
+    The pose's belief is the mixture of the hypotheses (weights ``w_h``) with the covariance
+    ``C`` each (``C^-1``: the result's pose information plus the vague prior of
+    :data:`VAGUE_POSE_STD`, :func:`_prior`); as a Gaussian it has covariance ``C + S`` (``S`` the
+    weighted scatter of the hypotheses).  If ``h`` is true, a look adds the information ``dI_h(d)``:
+    the sights in view (:func:`sight_information`, objects that would be matched to one
+    object only) times the probability that each comes back (:func:`_kept`); and with
+    probability ``s_h(d)`` (``per_h``) it rules out every other hypothesis.  The expected
+    posterior log-determinant is ``sum_h w_h [s_h log det C_h+ + (1 - s_h) log det (sum_j w_j
+    C_j+ + S)]`` with ``C_h+ = (C^-1 + dI_h)^-1`` (``covs``, (H, C, 6, 6)); the information
+    is half its drop from ``log det (C + S)``.  With one hypothesis it is the D-optimal gain
+    ``0.5 log det (I + C dI)``; for hypotheses far apart ruling them out dominates, for close
+    ones refining the pose counts as much."""
+    H = len(pred.poses)
+    logdet_h = _logdet(covs)                                                     # (H, C)
+    before = float(_logdet(np.linalg.inv(pred.prior) + pred.spread))
+    if H == 1:
+        return 0.5 * (before - logdet_h[0])
+    mixed = _logdet(np.einsum("h,hcij->cij", pred.weights, covs) + pred.spread)  # (C,)
+    after = (pred.weights[:, None] * (per_h * logdet_h + (1.0 - per_h) * mixed[None, :])).sum(axis=0)
+    return 0.5 * (before - after)
 
 
 def _check_common(world: object, result: object, fov_deg: object, max_range: object, detection: object,
@@ -453,33 +611,58 @@ def _directions(name: str, value: object) -> NDArray[np.float64]:
     return _unit_rows(arr)
 
 
+def _view_values(world: object, result: object, directions: object, fov_deg: object, max_range: object,
+                 types: object, detection: object, depth_factor: object, min_sigma: object, n_sigma: object,
+                 margin: object, max_sights: object) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    fov, max_r, det, df, floor, ns, mg = _check_common(world, result, fov_deg, max_range, detection,
+                                                       depth_factor, min_sigma, n_sigma, margin)
+    D = _directions("directions", directions)
+    cap = None if max_sights is None else strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
+    pred = _predict(cast(WorldModel, world), cast(LocalizationResult, result), types, max_r, df, floor, ns,
+                    mg)
+    score, information, _ = _look_values(pred, D, math.cos(math.radians(fov / 2.0)), det, cap)
+    return score, information
+
+
 def view_scores(world: WorldModel, result: LocalizationResult, directions: object, *, fov_deg: float = 60.0,
                 max_range: float = 8.0, types: Sequence[str] | None = None, detection: float = 0.9,
-                depth_factor: float = 1000.0, min_sigma: float = 1e-4, n_sigma: float = 3.0,
-                margin: float = 0.05) -> NDArray[np.float64]:
-    """The score of :func:`plan_view` (the probability that a look rules out every hypothesis but
-    the true one) of each of the given ego directions (m, 3); arguments as for :func:`plan_view`.
+                depth_factor: float = DEFAULT_DEPTH_FACTOR, min_sigma: float = 1e-4, n_sigma: float = 3.0,
+                margin: float = 0.05, max_sights: int | None = None) -> NDArray[np.float64]:
+    """The probability that a look rules out every hypothesis but the true one (``ViewPlan.score``)
+    for each of the given ego directions (m, 3); arguments as for :func:`plan_view`.
     0 for every direction when the result has a single hypothesis."""
-    fov, max_range, detection, depth_factor, min_sigma, n_sigma, margin = _check_common(
-        world, result, fov_deg, max_range, detection, depth_factor, min_sigma, n_sigma, margin)
-    D = _directions("directions", directions)
-    pred = _predict(world, result, types, max_range, depth_factor, min_sigma, n_sigma, margin)
-    return _score(pred, D, math.cos(math.radians(fov / 2.0)), detection)[0]
+    return _view_values(world, result, directions, fov_deg, max_range, types, detection, depth_factor,
+                        min_sigma, n_sigma, margin, max_sights)[0]
+
+
+def view_information(world: WorldModel, result: LocalizationResult, directions: object, *,
+                     fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
+                     detection: float = 0.9, depth_factor: float = DEFAULT_DEPTH_FACTOR,
+                     min_sigma: float = 1e-4, n_sigma: float = 3.0, margin: float = 0.05,
+                     max_sights: int | None = None) -> NDArray[np.float64]:
+    """The expected information (nats) of a look about the 6D pose (``ViewPlan.information``, what
+    :func:`plan_view` maximises) for each of the given ego directions (m, 3); arguments as for
+    :func:`plan_view`."""
+    return _view_values(world, result, directions, fov_deg, max_range, types, detection, depth_factor,
+                        min_sigma, n_sigma, margin, max_sights)[1]
 
 
 def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float = 60.0, max_range: float = 8.0,
               head: KinematicChain | None = None, candidates: object = None,
               rng: np.random.Generator | None = None, types: Sequence[str] | None = None,
-              detection: float = 0.9, depth_factor: float = 1000.0, min_sigma: float = 1e-4,
+              detection: float = 0.9, depth_factor: float = DEFAULT_DEPTH_FACTOR, min_sigma: float = 1e-4,
               n_sigma: float = 3.0, margin: float = 0.05,
-              joint_limits: Mapping[str, Any] | None = None) -> ViewPlan:
-    """The gaze direction that best tells the near-best pose hypotheses of ``result`` apart.
+              joint_limits: Mapping[str, Any] | None = None, max_sights: int | None = None) -> ViewPlan:
+    """The gaze direction whose look is expected to tell the most about the pose: it tells the
+    near-best hypotheses of ``result`` apart and refines the pose.
 
-    See the module docstring for the model.  The score is a probability (not an information
-    gain).  A result with a single hypothesis (a unique answer: no ``alternatives``) gives
-    status ``"single_hypothesis"`` and score 0, looking where the most recognisable objects are
-    expected (a look there only refines the pose); when no candidate tells the hypotheses
-    apart, status ``"not_discriminating"``, score 0, the same choice.
+    See the module docstring for the model.  The direction maximises the expected information
+    (``ViewPlan.information``, nats); ties go to the higher probability of ruling the other
+    hypotheses out (``ViewPlan.score``), then to more objects in view.  A result with a single
+    hypothesis (a unique answer: no ``alternatives``) gives status ``"single_hypothesis"`` and
+    score 0: the look only refines the pose, where the sights pin it best (objects spread
+    across the view, near ones first, rather than the most objects).  When no candidate tells
+    several hypotheses apart, status ``"not_discriminating"`` and score 0.
 
     Parameters
     ----------
@@ -508,6 +691,9 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
         same; ``margin`` (m) covers the pose error of the hypotheses and the model's inaccuracy.
     joint_limits : mapping joint name -> (lower, upper), optional
         Radians, for ``head``; they narrow the head's own limits (``head.limits``).
+    max_sights : int, optional
+        At most this many percepts come back from a look (a random subset of those detected);
+        default no cap.
 
     Returns
     -------
@@ -530,24 +716,24 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
         rng = generator("rng", rng)
     if head is not None and joint_limits is not None:
         _check_limits(head, joint_limits)
+    if max_sights is not None:
+        max_sights = strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
     pred = _predict(world, result, types, max_range, depth_factor, min_sigma, n_sigma, margin)
     H = len(pred.poses)
     disc = np.asarray(pred.tells.any(axis=1))                        # (H, n): tells h from some j
-    dirs = [_FIXED, extra] + [pred.unit[h][disc[h] & pred.in_range[h]] for h in range(H)]
+    informative = np.any(pred.info[0] != 0.0, axis=1)                # matchable sights, chosen pose
+    dirs = [_FIXED, extra, pred.unit[0][informative]] + [pred.unit[h][disc[h] & pred.in_range[h]]
+                                                         for h in range(H)]
     if rng is not None:
         dirs.append(_unit_rows(rng.standard_normal((N_RANDOM_DIRECTIONS, 3))))
-    D = np.vstack(dirs)
+    D = _distinct_directions(np.vstack(dirs))
     cos_half = math.cos(math.radians(fov / 2.0))
-    score, count, seen = _score(pred, D, cos_half, detection)
-    status: ViewStatus
-    if H == 1 or float(score.max()) <= 0.0:
-        status = "single_hypothesis" if H == 1 else "not_discriminating"
-        best = int(np.argmax(seen))
-    else:
-        status = "ok"
-        # highest probability; ties (saturated at 1) by the expected number of discriminating
-        # objects, then of objects in view
-        best = int(np.lexsort((-seen, -count, -np.round(score, 12)))[0])
+    score, gain, seen = _look_values(pred, D, cos_half, detection, max_sights)
+    status: ViewStatus = ("single_hypothesis" if H == 1 else
+                          "not_discriminating" if float(score.max()) <= 0.0 else "ok")
+    # the most expected information; ties by the probability of ruling the others out, then by
+    # the expected number of objects in view
+    best = int(np.lexsort((-seen, -np.round(score, 12), -np.round(gain, 9)))[0])
     d = D[best]
     expected, disc_in_view, ranges, all_ranges = [], [], [], []
     for h in range(H):
@@ -565,6 +751,7 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
         angles, err, within = gaze_angles(head, target, joint_limits=joint_limits)
         reached = bool(err <= GAZE_TOLERANCE and within is not False)
     return ViewPlan(direction=d.copy(), target=target, score=float(score[best]) if status == "ok" else 0.0,
+                    information=float(gain[best]),
                     expected=tuple(expected), discriminating=tuple(disc_in_view),
                     hypotheses=tuple(p.copy() for p in pred.poses), weights=pred.weights, status=status,
                     joint_angles=angles, pointing_error=err, gaze_reached=reached, within_limits=within,
@@ -613,6 +800,15 @@ def merge_percepts(old: Sequence[Percept], new: Sequence[Percept], n_sigma: floa
     return old + keep
 
 
+def depth_factor_of(percepts: Sequence[Percept], default: float = DEFAULT_DEPTH_FACTOR) -> float:
+    """The eq. 6 factor of percepts (1/m): the median of ``rho^2 / sigma`` over those at least
+    :data:`MIN_FACTOR_RANGE` from the ego origin (nearer ones may sit on the sigma floor);
+    ``default`` when there are none."""
+    values = [float(p.position @ p.position) / p.sigma for p in percepts
+              if float(np.linalg.norm(p.position)) >= MIN_FACTOR_RANGE and p.sigma > 0]
+    return float(np.median(values)) if values else default
+
+
 def _imprecise(result: LocalizationResult, goal_rotation_3sigma: float | None) -> bool:
     """An "ok" result whose 3-sigma rotation bound exceeds the goal (or is not finite)."""
     if goal_rotation_3sigma is None or result.status != "ok":
@@ -627,6 +823,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                     fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
                     head: KinematicChain | None = None, look_while: Sequence[str] = ("ambiguous", "weak"),
                     goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA, gravity: Gravity = "auto",
+                    depth_factor: float | None = None, detection: float = 0.9, max_sights: int | None = None,
                     tolerances: AssociationTolerances | None = None) -> ActiveLocalization:
     """Localise; while the status is in ``look_while`` (default ``"ambiguous"`` and ``"weak"``) and
     looks remain:
@@ -661,6 +858,12 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     gravity : "auto", (3,) float or None
         Passed to every :func:`~worldgraph.localize` call (:mod:`worldgraph.gravity`; the head
         turns, the ego frame does not, so one up vector holds for all the looks).
+    depth_factor : float, optional
+        Eq. 6 noise of the predicted sights for the default planner (``sigma = rho^2 /
+        depth_factor``); default estimated from the percepts passed in (:func:`depth_factor_of`).
+    detection, max_sights
+        The default planner's look model (:func:`plan_view`): the probability that an object in
+        view is recognised, and at most how many percepts a look returns (default no cap).
     tolerances : AssociationTolerances, optional
         Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
         :class:`~worldgraph.errors.ArgumentTypeError`).
@@ -693,6 +896,10 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     tol = ASSOCIATION_TOLERANCES if tol is None else tol
     current = check_world_and_percepts(world, percepts)
     _check_gravity(gravity, tol)  # a bad gravity fails before the first look
+    if depth_factor is None:
+        depth_factor = depth_factor_of(current)
+    else:
+        depth_factor = positive_float("depth_factor", depth_factor, maximum=1e12)
     result = localize(world, current, method, tol=tol, gravity=gravity)
     results, plans = [result], []
     directions: list[NDArray[np.float64]] = []
@@ -700,7 +907,9 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                                            or _imprecise(result, goal_rotation_3sigma)):
         if planner is None:
             plan: ViewPlan | NDArray[np.float64] = plan_view(world, result, fov_deg=fov_deg,
-                                                             max_range=max_range, types=types, head=head)
+                                                             max_range=max_range, types=types, head=head,
+                                                             depth_factor=depth_factor, detection=detection,
+                                                             max_sights=max_sights)
         else:
             plan = planner(result)
         if isinstance(plan, ViewPlan):

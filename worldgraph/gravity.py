@@ -9,7 +9,7 @@ Every entry point that associates percepts (:func:`~worldgraph.association.assoc
     the *gravity search* compares the horizontal distance and the height difference of percept
     pairs separately (storeys drop out; the gates are widened by what a tilt up to the allowance
     can change, :func:`tilt_widening`).  When that pass finds no answer with enough support
-    (fewer inliers than :data:`MIN_GRAVITY_SUPPORT` of the percepts, or no pose at all) or its
+    (it explains fewer than :data:`MIN_GRAVITY_SUPPORT` of the percepts, or no pose at all) or its
     pose tilts the ego z axis beyond the allowance (plus :data:`TILT_SLACK`), the *free search*
     (3D distances only, any rotation) answers instead.
 a (3,) up vector in the ego frame
@@ -50,7 +50,10 @@ Gravity = Literal["auto"] | ArrayLike | None
 SearchKind = Literal["gravity", "free"]
 #: The string modes of ``gravity``.
 GRAVITY_MODES = ("auto",)
-#: ``gravity="auto"`` keeps the gravity pass's answer only when its inliers are at least this
+#: ``gravity="auto"`` keeps the gravity pass's answer only when the percepts it explains (for
+#: ``localize``: its matches, or more when more percepts lie within the 3-dof chi-square gate of
+#: an object of their type, as a percept between two neighbouring objects does; for
+#: ``associate``: the best hypothesis' inliers) are at least this
 #: fraction of the percepts of known types (rounded up; and at least ``min_clique_size``): a
 #: robot tilted beyond the allowance breaks most pair gates, so the gravity pass then explains
 #: few percepts.  At 0.5 a kitchen robot tilted by 15 degrees got a level pose 0.8 m off, "ok",
@@ -204,8 +207,8 @@ def _unlevelled_pose(pose: NDArray[np.float64], level: NDArray[np.float64] | Non
 
 def _unsupported(pose: NDArray[np.float64], n_inliers: int, n_used: int, up: NDArray[np.float64],
                  tol: AssociationTolerances) -> str:
-    """Why ``gravity="auto"`` does not keep a gravity-pass answer (its pose and inliers, of
-    ``n_used`` percepts), "" when it does: no pose, fewer inliers than
+    """Why ``gravity="auto"`` does not keep a gravity-pass answer (its pose and the number of
+    percepts it explains, of ``n_used``), "" when it does: no pose, fewer explained than
     :data:`MIN_GRAVITY_SUPPORT` of the percepts (and than ``min_clique_size``), or a pose that
     tilts the ego up vector beyond ``tol.tilt_allowance`` plus :data:`TILT_SLACK`.  The one rule
     of :func:`~worldgraph.associate` (on its best hypothesis), :func:`~worldgraph.localize` and
@@ -213,7 +216,7 @@ def _unsupported(pose: NDArray[np.float64], n_inliers: int, n_used: int, up: NDA
     if not bool(np.all(np.isfinite(pose))):
         return "no pose"
     if n_inliers < max(int(tol.min_clique_size), math.ceil(MIN_GRAVITY_SUPPORT * n_used)):
-        return f"{n_inliers} of {n_used} percepts as inliers"
+        return f"{n_inliers} of {n_used} percepts explained"
     tilt = tilt_angle(pose, up)
     if not tilt <= tol.tilt_allowance + TILT_SLACK:
         allowance = math.degrees(tol.tilt_allowance)

@@ -579,7 +579,12 @@ def _gravity_unsupported(result: LocalizationResult, plan: _Plan, tol: Associati
         return ""
     if result.status == "too_few_percepts":
         return ""  # the free search has no more percepts
-    why = _unsupported(result.transformation, len(result.correspondences), n_used, plan.up, tol)
+    # support: the percepts the pose explains (chi-square inliers of the answer, whether or not
+    # its fit rests on them: a percept between two neighbouring objects of its type is explained
+    # but not matched), at least its matches
+    explained = int(np.count_nonzero(result.residuals ** 2 <= CHI2_3_GATE))
+    support = max(len(result.correspondences), explained)
+    why = _unsupported(result.transformation, support, n_used, plan.up, tol)
     return f"{why} ({result.status})" if why else ""
 
 
