@@ -148,17 +148,17 @@ KINDS = ["handle", "knob", "door", "drawer"]
 
 def _cluster_and_spread() -> tuple[wg.WorldModel, np.ndarray, np.ndarray]:
     """Eight objects in a 0.1 m x 0.3 m patch 3 m ahead (+x; same types 0.1 m apart, beyond the
-    matching gate), four spread over a 60 deg cone 2.5-3.5 m behind (-x)."""
+    matching gate), four spread over a 40 deg cone 2.5-3.5 m behind (-x)."""
     cluster = np.array([[3.0, y, z] for y in (-0.05, 0.05) for z in (-0.15, -0.05, 0.05, 0.15)])
-    spread = np.array([[-3.0, -1.4, 0.0], [-3.0, 1.4, 0.6], [-2.5, 0.0, -1.0], [-3.5, 0.6, 1.2]])
+    spread = np.array([[-3.0, -1.1, 0.0], [-3.0, 1.0, 0.5], [-2.5, 0.0, -0.9], [-3.5, 0.5, 1.0]])
     world = wg.WorldModel.from_arrays(KINDS * 3, np.vstack([cluster, spread]), max_link_length=8.0)
     return world, cluster, spread
 
 
 def _weak(pose_cov: np.ndarray) -> LocalizationResult:
     T = np.eye(4)
-    return LocalizationResult(T, T[:3, 3].copy(), pose_cov[:3, :3].copy(), ((0, 8), (1, 9), (2, 10)), (), False,
-                              "weak", pose_covariance=pose_cov)
+    return LocalizationResult(T, T[:3, 3].copy(), pose_cov[:3, :3].copy(), ((0, 8), (1, 9), (2, 10)), (),
+                              False, "weak", pose_covariance=pose_cov)
 
 
 def test_a_weak_answer_looks_at_spread_objects_not_at_a_cluster():
@@ -177,6 +177,39 @@ def test_a_weak_answer_looks_at_spread_objects_not_at_a_cluster():
     assert view_scores(world, res, [[1.0, 0.0, 0.0]], types=KINDS).tolist() == [0.0]
     n_ahead = sum(_angle(np.array([1.0, 0.0, 0.0]), x) <= HALF_FOV for x in np.vstack([cluster, spread]))
     assert n_ahead == 8 and len(plan.expected[0]) == 4
+
+
+def test_sights_that_repeat_percepts_in_hand_add_nothing():
+    """The loop merges a second sight of a percept away: looking again at the spread objects, whose
+    percepts are in hand, tells nothing; the planner turns to the cluster."""
+    world, cluster, spread = _cluster_and_spread()
+    res = _weak(np.diag([0.02**2] * 3 + [math.radians(2.0) ** 2] * 3))
+    seen = [pc.Percept(t, x, 0.01) for t, x in zip(KINDS, spread, strict=True)]
+    behind = np.array([[-1.0, 0.0, 0.0]])
+    assert view_information(world, res, behind, types=KINDS)[0] > 5.0
+    again = view_information(world, res, behind, types=KINDS, percepts=seen)[0]
+    assert again == pytest.approx(0.0, abs=1e-12)
+    plan = wg.plan_view(world, res, types=KINDS, percepts=seen)
+    assert all(_angle(plan.direction, x) <= HALF_FOV for x in cluster)
+    # one percept of another type at a spread object's spot repeats nothing
+    other = [pc.Percept("knob", spread[0], 0.01)]
+    assert view_information(world, res, behind, types=KINDS, percepts=other)[0] == pytest.approx(
+        view_information(world, res, behind, types=KINDS)[0])
+    with pytest.raises(ArgumentTypeError, match=r"percepts\[1\]"):
+        wg.plan_view(world, res, types=KINDS, percepts=[seen[0], "door"])
+
+
+def test_a_near_object_counts_in_view_only_when_the_pose_pins_its_direction():
+    """An object 0.4 m ahead: with a 5 cm (1 sigma) position uncertainty its direction may be off
+    by some 14 deg (2 sigma), so a look 20 deg off it need not see it; with 5 mm it would."""
+    world = wg.WorldModel.from_arrays(["door", "knob", "handle"], [[0.4, 0.0, 0.0], [-3.0, 2.0, 0.0],
+                                                                   [-3.0, -2.0, 1.0]], max_link_length=8.0)
+    d = [[math.cos(math.radians(20.0)), math.sin(math.radians(20.0)), 0.0]]
+    tight = _weak(np.diag([0.005**2] * 3 + [math.radians(0.2) ** 2] * 3))
+    loose = _weak(np.diag([0.05**2] * 3 + [math.radians(0.2) ** 2] * 3))
+    assert view_information(world, tight, d, types=["door"])[0] > 1.0
+    assert view_information(world, loose, d, types=["door"])[0] == pytest.approx(0.0, abs=1e-12)
+    assert view_information(world, loose, [[1.0, 0.0, 0.0]], types=["door"])[0] > 1.0  # straight at it
 
 
 def _skew(q):
@@ -217,15 +250,18 @@ def _slow_information(world, poses, weights, pose_cov, types, directions, fov_de
                       margin, depth_factor=1000.0, max_sights=None):
     """The expected information of the module docstring by loops: numeric Jacobians, brute-force
     matchability and rule-out counts, the mixture's log-determinants one direction at a time."""
-    cos_half = math.cos(math.radians(fov_deg / 2))
     objs = [o for o in range(len(world)) if world.types[o] in types]
     prior = np.linalg.inv(pose_cov) + np.eye(6) / VAGUE_POSE_STD**2
     H = len(poses)
     mu = np.array([np.concatenate([p[:3, 3] - poses[0][:3, 3], _rotvec(p[:3, :3] @ poses[0][:3, :3].T)])
                    for p in poses])
     mean = weights @ mu
-    S = sum(w * np.outer(m - mean, m - mean) for w, m in zip(weights, mu))
+    S = sum(w * np.outer(m - mean, m - mean) for w, m in zip(weights, mu, strict=True))
     before = np.linalg.slogdet(np.linalg.inv(prior) + S)[1]  # no look: no information
+    # an object is in view when within the half angle less 2 sigma of its direction's uncertainty
+    blur_t = 2 * math.sqrt(np.linalg.eigvalsh(pose_cov[:3, :3])[-1])
+    blur_r = 2 * math.sqrt(np.linalg.eigvalsh(pose_cov[3:, 3:])[-1])
+    half = math.radians(fov_deg / 2)
     out = []
     for d in directions:
         d = d / np.linalg.norm(d)
@@ -236,7 +272,8 @@ def _slow_information(world, poses, weights, pose_cov, types, directions, fov_de
             for o in objs:
                 x = pose[:3, :3].T @ (world.positions[o] - pose[:3, 3])
                 rho = float(np.linalg.norm(x))
-                if 0 < rho <= max_range and x @ d >= cos_half * rho - 1e-12:
+                left = half - min(math.atan2(blur_t, rho) + blur_r, half / 2)  # the margin: at most half
+                if 0 < rho <= max_range and x @ d >= math.cos(left) * rho - 1e-12:
                     view.append((o, x, rho))
             kept = detection if max_sights is None else min(detection, max_sights / max(len(view), 1))
             prob = 1.0
@@ -249,9 +286,9 @@ def _slow_information(world, poses, weights, pose_cov, types, directions, fov_de
                     J = _numeric_jacobian(pose, world.positions[o])
                     info += kept * J.T @ J / sigma**2
                 for j, other in enumerate(poses):
-                    if j != h and all(world.types[q] != world.types[o] or
-                                      np.linalg.norm(other[:3, :3].T @ (world.positions[q] - other[:3, 3]) - x)
-                                      > gate for q in objs):
+                    ego_j = {q: other[:3, :3].T @ (world.positions[q] - other[:3, 3]) for q in objs}
+                    if j != h and all(world.types[q] != world.types[o] or np.linalg.norm(ego_j[q] - x) > gate
+                                      for q in objs):
                         counts[j] += 1
             for j in range(H):
                 if j != h:
@@ -261,8 +298,9 @@ def _slow_information(world, poses, weights, pose_cov, types, directions, fov_de
         if H == 1:
             out.append(0.5 * (before - np.linalg.slogdet(covs[0])[1]))
             continue
-        mixed = np.linalg.slogdet(sum(w * c for w, c in zip(weights, covs)) + S)[1]
-        after = sum(w * (r * np.linalg.slogdet(c)[1] + (1 - r) * mixed) for w, r, c in zip(weights, ruled, covs))
+        mixed = np.linalg.slogdet(sum(w * c for w, c in zip(weights, covs, strict=True)) + S)[1]
+        after = sum(w * (r * np.linalg.slogdet(c)[1] + (1 - r) * mixed)
+                    for w, r, c in zip(weights, ruled, covs, strict=True))
         out.append(0.5 * (before - after))
     return np.array(out)
 
@@ -410,8 +448,9 @@ def test_view_scores_match_a_slow_reference():
     given = view_information(world, res, dirs, types=types, fov_deg=50.0, max_range=5.0, detection=0.7,
                              margin=0.3)
     assert plan.information >= given.max() - 1e-9
-    assert plan.score == pytest.approx(float(view_scores(world, res, [plan.direction], types=types, fov_deg=50.0,
-                                                         max_range=5.0, detection=0.7, margin=0.3)[0]))
+    at_plan = view_scores(world, res, [plan.direction], types=types, fov_deg=50.0, max_range=5.0,
+                          detection=0.7, margin=0.3)
+    assert plan.score == pytest.approx(float(at_plan[0]))
 
 
 def test_score_is_a_lower_bound_of_the_monte_carlo_probability():
@@ -570,7 +609,7 @@ def test_far_objects_are_left_out_of_the_prediction_without_changing_the_scores(
     costs = [0.0, 1.0, 3.0]
     res = _result(poses, costs, world)
     kinds = ["door", "handle", "knob"]
-    pred = _predict(world, res, kinds, 5.0, 1000.0, 1e-4, 3.0, 0.3)
+    pred = _predict(world, res, kinds, 50.0, 5.0, 1000.0, 1e-4, 3.0, 0.3)
     assert 0 < len(pred.objects) < np.count_nonzero(np.isin(world.types, kinds)) // 4
     dirs = rng.standard_normal((30, 3))
     fast = view_scores(world, res, dirs, types=kinds, fov_deg=50.0, max_range=5.0, detection=0.7, margin=0.3)

@@ -116,6 +116,19 @@ VAGUE_POSE_STD = 1.0
 MIN_FACTOR_RANGE = 1.0
 #: ... and falls back to this one (1/m; ``plan_view``'s default).
 DEFAULT_DEPTH_FACTOR = 1000.0
+#: A predicted object counts as in view when its direction lies within the half angle less this
+#: many standard deviations of its direction under the result's pose (position and rotation):
+#: a near object's direction is uncertain, a far one's hardly.
+VIEW_MARGIN_SIGMAS = 2.0
+#: ... at most this fraction of the half angle.
+MAX_VIEW_MARGIN = 0.5
+#: :func:`merge_percepts`' defaults: a new percept within ``MERGE_SIGMAS sqrt(s_old^2 + s_new^2)
+#: + MERGE_FLOOR`` (m) of an old one of its type is a second sight.
+MERGE_SIGMAS = 3.0
+MERGE_FLOOR = 0.01
+#: The planner recentres its candidates on the objects they would see this many times
+#: (:func:`_recentred`; the first time on those within the full view angle).
+RECENTRE_STEPS = 2
 #: Random candidate directions added when ``rng`` is given.
 N_RANDOM_DIRECTIONS = 32
 #: Largest pointing error (rad) of the head's optical axis at which ``gaze_reached`` is True.
@@ -199,6 +212,24 @@ def _fibonacci_sphere(n: int) -> NDArray[np.float64]:
 
 
 _FIXED = _fibonacci_sphere(N_FIXED_DIRECTIONS)
+
+
+def _recentred(pred: _Prediction, directions: NDArray[np.float64], cos_kernel: float | None = None
+               ) -> NDArray[np.float64]:
+    """For each direction, the mean direction of the objects it would see under every hypothesis
+    (weighted by the hypotheses' weights; a mean-shift step on the candidates), where it has any;
+    with ``cos_kernel``, of the objects in range within that cosine of it instead (a wider
+    kernel gathers objects that no one view of an object's direction holds together)."""
+    total = np.zeros((len(directions), 3))
+    for h in range(len(pred.poses)):
+        if cos_kernel is None:
+            view = _in_view(pred, h, directions).astype(np.float64)    # (C, n)
+        else:
+            view = ((directions @ pred.unit[h].T >= cos_kernel) & pred.in_range[h]).astype(np.float64)
+        total += pred.weights[h] * (view @ pred.unit[h])
+    norm = np.linalg.norm(total, axis=1)
+    keep = norm > NORM_FLOOR
+    return total[keep] / norm[keep, None]
 
 
 def _distinct_directions(D: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -409,13 +440,15 @@ class _Prediction:
     rho: list[NDArray[np.float64]]        # per hypothesis (n,) ranges
     in_range: list[NDArray[np.bool_]]     # per hypothesis (n,)
     tells: NDArray[np.bool_]              # (H, H, n): see tells_apart
+    cos_lim: list[NDArray[np.float64]]    # per hypothesis (n,): in view when cos(angle) >= this
     info: list[NDArray[np.float64]]       # per hypothesis (n, 36): Fisher information of a sight
     prior: NDArray[np.float64]            # (6, 6) the result's pose information
     spread: NDArray[np.float64]           # (6, 6) weighted scatter of the hypotheses' poses
 
 
-def _predict(world: WorldModel, result: LocalizationResult, types: object, max_range: float,
-             depth_factor: float, min_sigma: float, n_sigma: float, margin: float) -> _Prediction:
+def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: float, max_range: float,
+             depth_factor: float, min_sigma: float, n_sigma: float, margin: float,
+             percepts: Sequence[Percept] = ()) -> _Prediction:
     recog = _check_types(world, types, result)
     poses, weights = _hypotheses(result)
     # only objects within reach of some hypothesis matter: one farther from every hypothesis than
@@ -432,15 +465,58 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, max_r
     in_range = [(r <= max_range) & (r > 0) for r in rho]
     gate = [_gate(r, depth_factor, min_sigma, n_sigma, margin) for r in rho]
     neighbour = _same_type_neighbour(X, codes)
-    info = []
-    for T, r, g, inr in zip(poses, rho, gate, in_range, strict=True):
+    tells = tells_apart(ego, codes, in_range, gate)
+    type_names = world.types[obj]
+    blur = _view_blur(result)
+    half = math.radians(fov / 2.0)
+    info, cos_lim = [], []
+    for h, (T, r, g, inr) in enumerate(zip(poses, rho, gate, in_range, strict=True)):
         sigma = np.asarray(depth_sigma(np.maximum(r, min_sigma), depth_factor, min_sigma=min_sigma),
                            dtype=np.float64)
-        matchable = inr & (neighbour > g)  # a sight that lands near one object of its type only
+        repeat = _repeats(ego[h], type_names, sigma, percepts)
+        tells[h, :, repeat] = False            # a second sight is merged away: it tells nothing
+        matchable = inr & (neighbour > g) & ~repeat  # lands near one object of its type only
         info.append(sight_information(X - T[:3, 3], sigma) * matchable[:, None])
+        # surely in view: within the half angle less the direction's uncertainty under the pose (at
+        # most a share of it: a pose known too poorly to aim at anything still aims at the objects)
+        margin_angle = np.arctan2(blur[0], np.maximum(r, NORM_FLOOR)) + blur[1]
+        left = half - np.minimum(margin_angle, MAX_VIEW_MARGIN * half)
+        cos_lim.append(np.cos(np.clip(left, 0.0, math.pi)))
     prior, spread = _prior(result, poses, weights)
-    return _Prediction(poses, weights, obj, ego, [_unit_rows(e) for e in ego], rho, in_range,
-                       tells_apart(ego, codes, in_range, gate), info, prior, spread)
+    return _Prediction(poses, weights, obj, ego, [_unit_rows(e) for e in ego], rho, in_range, tells, cos_lim,
+                       info, prior, spread)
+
+
+def _view_blur(result: LocalizationResult) -> tuple[float, float]:
+    """:data:`VIEW_MARGIN_SIGMAS` times the largest standard deviation of the result's position
+    (m) and of its rotation (rad), from ``pose_covariance`` (0 when it holds none): what a
+    predicted object's direction may be off by."""
+    cov = np.asarray(result.pose_covariance, dtype=np.float64)
+    if cov.shape != (6, 6) or not np.all(np.isfinite(cov)):
+        return 0.0, 0.0
+    top = [float(np.linalg.eigvalsh(0.5 * (b + b.T))[-1]) for b in (cov[:3, :3], cov[3:, 3:])]
+    return (VIEW_MARGIN_SIGMAS * math.sqrt(max(top[0], 0.0)),
+            min(math.pi, VIEW_MARGIN_SIGMAS * math.sqrt(max(top[1], 0.0))))
+
+
+def _repeats(ego: NDArray[np.float64], type_names: NDArray, sigma: NDArray[np.float64],
+             percepts: Sequence[Percept]) -> NDArray[np.bool_]:
+    """(n,): the predicted sight (ego point, eq. 6 sigma) repeats a percept in hand, as
+    :func:`merge_percepts` judges it (so a look would add nothing for it)."""
+    out = np.zeros(len(ego), dtype=bool)
+    by_type: dict[str, list[Percept]] = {}
+    for p in percepts:
+        by_type.setdefault(p.type, []).append(p)
+    for t, ps in by_type.items():
+        idx = np.flatnonzero(type_names == t)
+        if idx.size == 0:
+            continue
+        P = np.array([p.position for p in ps])
+        s = np.array([p.sigma for p in ps])
+        d = np.linalg.norm(ego[idx, None, :] - P[None, :, :], axis=2)
+        lim = MERGE_SIGMAS * np.hypot(sigma[idx, None], s[None, :]) + MERGE_FLOOR
+        out[idx] = np.any(d <= lim, axis=1)
+    return out
 
 
 def _same_type_neighbour(X: NDArray[np.float64], codes: NDArray[np.intp]) -> NDArray[np.float64]:
@@ -450,7 +526,7 @@ def _same_type_neighbour(X: NDArray[np.float64], codes: NDArray[np.intp]) -> NDA
         idx = np.flatnonzero(codes == c)
         if idx.size > 1:
             d, _ = cKDTree(X[idx]).query(X[idx], k=2)
-            out[idx] = d[:, 1]
+            out[idx] = np.asarray(d)[:, 1]
     return out
 
 
@@ -506,14 +582,13 @@ def _prior(result: LocalizationResult, poses: list[NDArray[np.float64]], weights
     return 0.5 * (prior + prior.T), (centred * weights[:, None]).T @ centred
 
 
-def _in_view(pred: _Prediction, h: int, directions: NDArray[np.float64], cos_half: float
-             ) -> NDArray[np.bool_]:
+def _in_view(pred: _Prediction, h: int, directions: NDArray[np.float64]) -> NDArray[np.bool_]:
     """(C, n): object in view of each direction under hypothesis h."""
     # element-wise, not BLAS: these thin products (inner size 3) ran 10-100x slower through a
     # multithreaded OpenBLAS on a loaded 2-core machine
     u = pred.unit[h]
     cosines = directions[:, 0:1] * u[:, 0] + directions[:, 1:2] * u[:, 1] + directions[:, 2:3] * u[:, 2]
-    return (cosines >= cos_half - COSINE_ROUNDING) & pred.in_range[h]
+    return (cosines >= pred.cos_lim[h] - COSINE_ROUNDING) & pred.in_range[h]
 
 
 def _kept(view: NDArray[np.bool_], detection: float, max_sights: int | None) -> NDArray[np.float64]:
@@ -526,7 +601,7 @@ def _kept(view: NDArray[np.bool_], detection: float, max_sights: int | None) -> 
     return np.minimum(detection, max_sights / np.maximum(n_view, 1.0))
 
 
-def _look_values(pred: _Prediction, directions: NDArray[np.float64], cos_half: float, detection: float,
+def _look_values(pred: _Prediction, directions: NDArray[np.float64], detection: float,
                  max_sights: int | None) -> tuple[NDArray[np.float64], ...]:
     """Per candidate direction: the probability that the look rules out all but the true
     hypothesis (module docstring, step 3), its expected information about the 6D pose (nats,
@@ -537,7 +612,7 @@ def _look_values(pred: _Prediction, directions: NDArray[np.float64], cos_half: f
     seen = np.zeros(C)
     covs = np.empty((H, C, 6, 6))
     for h in range(H):
-        view = _in_view(pred, h, directions, cos_half)                     # (C, n)
+        view = _in_view(pred, h, directions)                               # (C, n)
         kept = _kept(view, detection, max_sights)                          # (C,)
         n_hj = np.stack([np.count_nonzero(view & pred.tells[h, j], axis=1) for j in range(H)],
                         axis=1).astype(np.float64)                          # (C, H)
@@ -613,38 +688,51 @@ def _directions(name: str, value: object) -> NDArray[np.float64]:
 
 def _view_values(world: object, result: object, directions: object, fov_deg: object, max_range: object,
                  types: object, detection: object, depth_factor: object, min_sigma: object, n_sigma: object,
-                 margin: object, max_sights: object) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                 margin: object, max_sights: object, percepts: object
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     fov, max_r, det, df, floor, ns, mg = _check_common(world, result, fov_deg, max_range, detection,
                                                        depth_factor, min_sigma, n_sigma, margin)
     D = _directions("directions", directions)
     cap = None if max_sights is None else strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
-    pred = _predict(cast(WorldModel, world), cast(LocalizationResult, result), types, max_r, df, floor, ns,
-                    mg)
-    score, information, _ = _look_values(pred, D, math.cos(math.radians(fov / 2.0)), det, cap)
+    pred = _predict(cast(WorldModel, world), cast(LocalizationResult, result), types, fov, max_r, df, floor,
+                    ns, mg, _percepts_in_hand(percepts))
+    score, information, _ = _look_values(pred, D, det, cap)
     return score, information
+
+
+def _percepts_in_hand(percepts: object) -> list[Percept]:
+    if percepts is None:
+        return []
+    out = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
+    for i, p in enumerate(out):
+        if not isinstance(p, Percept):
+            raise ArgumentTypeError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
+    return out
 
 
 def view_scores(world: WorldModel, result: LocalizationResult, directions: object, *, fov_deg: float = 60.0,
                 max_range: float = 8.0, types: Sequence[str] | None = None, detection: float = 0.9,
                 depth_factor: float = DEFAULT_DEPTH_FACTOR, min_sigma: float = 1e-4, n_sigma: float = 3.0,
-                margin: float = 0.05, max_sights: int | None = None) -> NDArray[np.float64]:
+                margin: float = 0.05, max_sights: int | None = None,
+                percepts: Sequence[Percept] | None = None) -> NDArray[np.float64]:
     """The probability that a look rules out every hypothesis but the true one (``ViewPlan.score``)
     for each of the given ego directions (m, 3); arguments as for :func:`plan_view`.
     0 for every direction when the result has a single hypothesis."""
     return _view_values(world, result, directions, fov_deg, max_range, types, detection, depth_factor,
-                        min_sigma, n_sigma, margin, max_sights)[0]
+                        min_sigma, n_sigma, margin, max_sights, percepts)[0]
 
 
 def view_information(world: WorldModel, result: LocalizationResult, directions: object, *,
                      fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
                      detection: float = 0.9, depth_factor: float = DEFAULT_DEPTH_FACTOR,
                      min_sigma: float = 1e-4, n_sigma: float = 3.0, margin: float = 0.05,
-                     max_sights: int | None = None) -> NDArray[np.float64]:
+                     max_sights: int | None = None, percepts: Sequence[Percept] | None = None
+                     ) -> NDArray[np.float64]:
     """The expected information (nats) of a look about the 6D pose (``ViewPlan.information``, what
     :func:`plan_view` maximises) for each of the given ego directions (m, 3); arguments as for
     :func:`plan_view`."""
     return _view_values(world, result, directions, fov_deg, max_range, types, detection, depth_factor,
-                        min_sigma, n_sigma, margin, max_sights)[1]
+                        min_sigma, n_sigma, margin, max_sights, percepts)[1]
 
 
 def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float = 60.0, max_range: float = 8.0,
@@ -652,7 +740,8 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
               rng: np.random.Generator | None = None, types: Sequence[str] | None = None,
               detection: float = 0.9, depth_factor: float = DEFAULT_DEPTH_FACTOR, min_sigma: float = 1e-4,
               n_sigma: float = 3.0, margin: float = 0.05,
-              joint_limits: Mapping[str, Any] | None = None, max_sights: int | None = None) -> ViewPlan:
+              joint_limits: Mapping[str, Any] | None = None, max_sights: int | None = None,
+              percepts: Sequence[Percept] | None = None) -> ViewPlan:
     """The gaze direction whose look is expected to tell the most about the pose: it tells the
     near-best hypotheses of ``result`` apart and refines the pose.
 
@@ -694,6 +783,9 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
     max_sights : int, optional
         At most this many percepts come back from a look (a random subset of those detected);
         default no cap.
+    percepts : sequence of perception.Percept, optional
+        The percepts in hand (ego frame): a predicted sight that repeats one of them
+        (:func:`merge_percepts`) adds nothing, as the loop merges it away.
 
     Returns
     -------
@@ -718,7 +810,8 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
         _check_limits(head, joint_limits)
     if max_sights is not None:
         max_sights = strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
-    pred = _predict(world, result, types, max_range, depth_factor, min_sigma, n_sigma, margin)
+    pred = _predict(world, result, types, fov, max_range, depth_factor, min_sigma, n_sigma, margin,
+                    _percepts_in_hand(percepts))
     H = len(pred.poses)
     disc = np.asarray(pred.tells.any(axis=1))                        # (H, n): tells h from some j
     informative = np.any(pred.info[0] != 0.0, axis=1)                # matchable sights, chosen pose
@@ -727,24 +820,37 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
     if rng is not None:
         dirs.append(_unit_rows(rng.standard_normal((N_RANDOM_DIRECTIONS, 3))))
     D = _distinct_directions(np.vstack(dirs))
-    cos_half = math.cos(math.radians(fov / 2.0))
-    score, gain, seen = _look_values(pred, D, cos_half, detection, max_sights)
+    score, gain, seen = _look_values(pred, D, detection, max_sights)
+    shifted = D
+    kernels = [math.cos(min(math.pi, math.radians(fov)))] + [None] * (RECENTRE_STEPS - 1)
+    for kernel in kernels:  # recentre the candidates on what they would see (mean shift)
+        shifted = _distinct_directions(_recentred(pred, shifted, kernel))
+        if not len(shifted):
+            break
+        D = np.vstack([D, shifted])
+        more = _look_values(pred, shifted, detection, max_sights)
+        score, gain, seen = (np.concatenate([a, b]) for a, b in zip((score, gain, seen), more, strict=True))
     status: ViewStatus = ("single_hypothesis" if H == 1 else
                           "not_discriminating" if float(score.max()) <= 0.0 else "ok")
     # the most expected information; ties by the probability of ruling the others out, then by
     # the expected number of objects in view
     best = int(np.lexsort((-seen, -np.round(score, 12), -np.round(gain, 9)))[0])
     d = D[best]
-    expected, disc_in_view, ranges, all_ranges = [], [], [], []
+    expected, disc_in_view = [], []
+    ranges: list[list[NDArray[np.float64]]] = [[], [], []]  # discriminating, informative, all in view
     for h in range(H):
-        view = _in_view(pred, h, d[None], cos_half)[0]
+        view = _in_view(pred, h, d[None])[0]
         expected.append(pred.objects[view])
         disc_in_view.append(disc[h][view])
-        ranges.append(pred.rho[h][view & disc[h]])
-        all_ranges.append(pred.rho[h][view])
-    r_disc, r_all = np.concatenate(ranges), np.concatenate(all_ranges)
-    dist = float(np.median(r_disc)) if r_disc.size else float(np.median(r_all)) if r_all.size \
-        else 0.5 * max_range
+        ranges[0].append(pred.rho[h][view & disc[h]])
+        ranges[1].append(pred.rho[h][view & np.any(pred.info[h] != 0.0, axis=1)])
+        ranges[2].append(pred.rho[h][view])
+    dist = 0.5 * max_range
+    for group in ranges:
+        r = np.concatenate(group)
+        if r.size:
+            dist = float(np.median(r))
+            break
     target = d * dist
     angles, err, within, reached = None, math.nan, None, None
     if head is not None:
@@ -785,8 +891,8 @@ class ActiveLocalization:
     looks: int
 
 
-def merge_percepts(old: Sequence[Percept], new: Sequence[Percept], n_sigma: float = 3.0,
-                   floor: float = 0.01) -> list[Percept]:
+def merge_percepts(old: Sequence[Percept], new: Sequence[Percept], n_sigma: float = MERGE_SIGMAS,
+                   floor: float = MERGE_FLOOR) -> list[Percept]:
     """``old`` followed by the percepts of ``new`` that are not a second sight of an old one: a new
     percept within ``n_sigma sqrt(s_old^2 + s_new^2) + floor`` (m) of an old percept of its type
     is dropped (an object seen again; the association matches one percept per object)."""
@@ -909,7 +1015,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
             plan: ViewPlan | NDArray[np.float64] = plan_view(world, result, fov_deg=fov_deg,
                                                              max_range=max_range, types=types, head=head,
                                                              depth_factor=depth_factor, detection=detection,
-                                                             max_sights=max_sights)
+                                                             max_sights=max_sights, percepts=current)
         else:
             plan = planner(result)
         if isinstance(plan, ViewPlan):

@@ -109,6 +109,12 @@ def _hypotheses_from_cliques(world: WorldModel, percepts: list[Percept],
     return _fit_all(world, percepts, sets, tol)
 
 
+#: A truncated clique search is retried on this many fewer percepts (the most certain ones) ...
+RETRY_STEP = 2
+#: ... while at least this many remain (and ``min_clique_size + RETRY_STEP``).
+MIN_RETRY_PERCEPTS = 6
+
+
 def _search_subset(percepts: list[Percept], limit: int) -> NDArray[np.intp]:
     """Indices of the ``limit`` most certain percepts (smallest sigma; ties by type and position,
     so the choice does not depend on the percept order), in increasing index order."""
@@ -213,6 +219,30 @@ def _associate(world: WorldModel, percepts: list[Percept], tol: AssociationToler
         hyps = _hypotheses_from_cliques(world, percepts, filt["objects"], search.cliques, tol, searched)
         return _rank(hyps, tol, limit)
 
+    # a truncated search (a repetitive world around many percepts: the near-maximum cliques
+    # explode) is retried on fewer, the most certain, percepts: the searched subset is what the
+    # search is complete over in any case (max_search_percepts), every hypothesis is still fitted
+    # to all percepts, and a complete search on fewer percepts beats a truncated one on more
+    while True:
+        fewer = len(searched) - RETRY_STEP
+        last = fewer < max(tol.min_clique_size + RETRY_STEP, MIN_RETRY_PERCEPTS)
+        hyps, complete = _clique_search(world, percepts, searched, tol, last)
+        if complete or last:
+            break
+        searched = _search_subset(percepts, fewer)
+    ranked = _rank(hyps, tol, limit)
+    if not complete:
+        ranked = [replace(h, complete=False) for h in ranked]
+    return ranked
+
+
+def _clique_search(world: WorldModel, percepts: list[Percept], searched: NDArray[np.intp],
+                   tol: AssociationTolerances, last: bool) -> tuple[list[AssociationHypothesis], bool]:
+    """The consistency-graph search over the percepts ``searched`` (indices into ``percepts``):
+    the hypotheses of the maximum and near-maximum cliques and whether the search was
+    complete (when it was not and this is not the ``last`` try, no hypotheses)."""
+    sub = [percepts[i] for i in searched]
+    k = len(sub)
     lazy = _LazyGraph(world, sub, tol)
     # find the maximum size with strong pruning first (the first clique found of size ``need``
     # is a maximum one: larger ones were ruled out before), then enumerate down to max - near
@@ -228,13 +258,15 @@ def _associate(world: WorldModel, percepts: list[Percept], tol: AssociationToler
             best = search.maximum
             break
     if best == 0:
-        return []
+        return [], True
     floor = max(best - tol.near_maximum, tol.min_clique_size)
     graph, alive = lazy.prune(floor)
     objects, adjacency = graph.compact(alive)
     search = maximum_cliques([len(o) for o in objects], adjacency, min_size=floor,
                              near_maximum=tol.near_maximum, max_nodes=tol.max_nodes,
                              max_cliques=tol.max_cliques)
+    if not search.complete and not last:
+        return [], False  # retried on fewer percepts: skip building its hypotheses
     cliques = search.cliques
     if not search.complete and best > floor:
         # truncated: make sure the maximum cliques themselves are among the candidates, searched
@@ -253,9 +285,6 @@ def _associate(world: WorldModel, percepts: list[Percept], tol: AssociationToler
         search = maximum_cliques([len(o) for o in objects], adjacency, min_size=tol.min_clique_size,
                                  near_maximum=k, max_nodes=tol.max_nodes, max_cliques=tol.max_cliques)
         hyps = _hypotheses_from_cliques(world, percepts, objects, search.cliques, tol, searched)
-    ranked = _rank(hyps, tol, limit)
-    if not search.complete:
-        ranked = [replace(h, complete=False) for h in ranked]
-    return ranked
+    return hyps, bool(search.complete)
 
 

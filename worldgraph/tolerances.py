@@ -201,7 +201,9 @@ class AssociationTolerances:
         The clique search (and the paper's filters) use at most this many percepts, the most
         certain ones (smallest sigma); the others are validated against each hypothesis' pose
         and enter its cost (the paper generates candidates from at most 6 spheres and
-        validates with the rest).
+        validates with the rest).  A search that hits ``max_nodes`` or ``max_cliques`` is
+        retried on two fewer percepts (down to 6), so that a repetitive world around many
+        percepts still gets a complete search (``AssociationHypothesis.complete``).
     """
 
     n_sigma: float = 3.0
