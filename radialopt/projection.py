@@ -389,20 +389,22 @@ def _pair_rows(
     closer than ``tol.coincident``."""
     q = _Q
     n = len(radii)
+    coincident = tol.coincident
     rows: _PairRows = []
     dist: list[float] = []
     for i in range(n - 1):
-        ci, ri, si = centers[i], radii[i], sigmas[i]
+        xi, yi, zi = centers[i]
+        ri, gi = radii[i], q * sigmas[i]
         for j in range(i + 1, n):
-            cj, rj, sj = centers[j], radii[j], sigmas[j]
-            d = math.sqrt((ci[0] - cj[0]) ** 2 + (ci[1] - cj[1]) ** 2 + (ci[2] - cj[2]) ** 2)
-            if d <= tol.coincident:
+            xj, yj, zj = centers[j]
+            d = math.sqrt((xi - xj) ** 2 + (yi - yj) ** 2 + (zi - zj) ** 2)
+            if d <= coincident:
                 check_distinct_centers(centers_array, tol)  # raises, naming the pair
             dist.append(d)
-            qd = q * d
-            rows.append((i, j, -q * si, -q * sj, -qd + q * (ri + rj)))  # chi: -r_i - r_j <= -d
-            rows.append((i, j, -q * si, q * sj, qd - q * (rj - ri)))   # alpha: r_j - r_i <= d
-            rows.append((i, j, q * si, -q * sj, qd - q * (ri - rj)))   # beta: r_i - r_j <= d
+            rj, gj, qd = radii[j], q * sigmas[j], q * d
+            rows += ((i, j, -gi, -gj, -qd + q * (ri + rj)),  # chi: -r_i - r_j <= -d
+                     (i, j, -gi, gj, qd - q * (rj - ri)),    # alpha: r_j - r_i <= d
+                     (i, j, gi, -gj, qd - q * (ri - rj)))    # beta: r_i - r_j <= d
     return rows, dist
 
 
@@ -468,10 +470,9 @@ def _ldp_pairs(rows: _PairRows, n: int) -> tuple[list[float], list[float]] | Non
     on the working rows (the sign of infeasibility) or a singular working set: the caller then
     runs the NNLS route, which decides.
     """
-    hs = [row[4] for row in rows]
-    tol = ROUNDING_RTOL * max(max(hs), -min(hs), 1.0)
+    excess = [-row[4] for row in rows]  # G z - h at z = 0
+    tol = ROUNDING_RTOL * max(max(excess), -min(excess), 1.0)
     z = [0.0] * n
-    excess = [-hk for hk in hs]  # G z - h at z = 0
     act: list[int] = []
     dense: list[list[float]] = []
     gram: list[list[float]] = []
