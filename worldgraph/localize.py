@@ -198,7 +198,8 @@ class LocalizationResult:
         ``world.objects``.
     hypotheses : tuple of AssociationHypothesis
         The association's hypotheses, the validated ones first in their validated order;
-        percept indices refer to the ``percepts`` passed in.
+        percept indices refer to the ``percepts`` passed in.  Each carries its radial solution
+        (``radial``, see ``solver`` and ``check`` of :func:`localize`).
     ambiguous : bool
     status : LocalizeStatus
         One of :data:`LOCALIZE_STATUSES`.
