@@ -1,6 +1,6 @@
 """Benchmark: the design card's radial problem inside localize, active set against Clarabel.
 
-``localize(world, percepts, solver=...)`` turns every validated hypothesis into the card's
+``localize(world, percepts, solver=...)`` turns every returned hypothesis into the card's
 convex problem (its Gaussian spheres projected onto their restriction polytope) and keeps the
 solution on ``AssociationHypothesis.radial``.  For the same percepts (seeded robot poses in the
 kitchen layouts and the paper's kitchen, 7 true percepts + 1 false, sigma = rho^2 / 1000) this

@@ -4,8 +4,12 @@
 
 Prints a Markdown table: the median wall time per solve of every method, of a freshly built
 cvxpy problem (compiled on each call, the naive use of cvxpy), of the bare least-distance
-core of the active set, and of vertex enumeration alone; ratios against the fresh cvxpy
-problem from the same run; then the batch throughput of the active-set path.
+core of the active set (the plain-Python dual active set on the pair rows up to
+``SMALL_CORE_SPHERES`` spheres, NNLS beyond), of the unchecked internal route that localize
+and the estimators call (``_project_radii_trusted``, arrays in), and of vertex enumeration
+alone; ratios against the fresh cvxpy problem from the same run; then the batch throughput of
+the active-set path.  The paper's rule reports "over budget" when an instance needs more than
+``PAPER_MAX_FLATS`` flats.
 Instances are infeasible (the projection does work), seeded, shared by every method.
 """
 
@@ -24,7 +28,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import radialopt as ro  # noqa: E402
 from perception import depth_sigma  # noqa: E402
 from radialopt.projection import (  # noqa: E402
+    SMALL_CORE_SPHERES,
+    _ldp_pairs,
+    _pair_rows,
     _Problem,
+    _project_radii_trusted,
     fresh_cvxpy_problem,
     least_distance,
     solver_options,
@@ -83,19 +91,29 @@ def main() -> None:
     args = ap.parse_args()
     rng = np.random.default_rng(2026)
 
-    print("| n | rows | active_set | LDP core | cvxpy (cached) | cvxpy (fresh) | vertex enum | "
+    print("| n | rows | active_set | unchecked | LDP core | cvxpy (cached) | cvxpy (fresh) | vertex enum | "
           "vertices (V-form) | paper | fresh/active | fresh/cached |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for n in range(3, args.max_n + 1):
         items = instances(rng, n, args.instances)
         probs = [_Problem.build(s, ro.TOLERANCES) for s in items]
         ro.project_radii(items[0], method="cvxpy")  # compile once per n (the cached path)
         rep = args.repeat
         t_act = median_time(lambda s: ro.project_radii(s), items, rep)
-        t_core = median_time(lambda p: least_distance(p.G, p.h), probs, rep)
+        arrays = [(p.centers, p.radii, p.sigmas) for p in probs]
+        t_trusted = median_time(lambda a: _project_radii_trusted(*a), arrays, rep)
+        if n <= SMALL_CORE_SPHERES:
+            rows = [_pair_rows(c.tolist(), r.tolist(), s.tolist(), ro.TOLERANCES, c)[0]
+                    for c, r, s in arrays]
+            t_core = median_time(lambda rw, n=n: _ldp_pairs(rw, n), rows, rep)
+        else:
+            t_core = median_time(lambda p: least_distance(p.G, p.h), probs, rep)
         t_cvx = median_time(lambda s: ro.project_radii(s, method="cvxpy"), items, rep)
         t_fresh = median_time(fresh_cvxpy, items[: max(5, args.instances // 3)], 1)
-        t_paper = median_time(lambda s: ro.project_radii(s, method="paper"), items, 1)
+        try:
+            paper_s = fmt(median_time(lambda s: ro.project_radii(s, method="paper"), items, 1))
+        except ro.TooManySpheresError:  # an instance beyond PAPER_MAX_FLATS (n = 8 here)
+            paper_s = "over budget"
         if n <= args.max_vertices_n:
             few = items[: max(3, args.instances // (1 if n <= 5 else 6))]
             t_enum = median_time(
@@ -104,8 +122,9 @@ def main() -> None:
             enum_s, vert_s = fmt(t_enum), fmt(t_vert)
         else:
             enum_s = vert_s = "-"
-        print(f"| {n} | {3 * n * (n - 1) // 2} | {fmt(t_act)} | {fmt(t_core)} | {fmt(t_cvx)} | "
-              f"{fmt(t_fresh)} | {enum_s} | {vert_s} | {fmt(t_paper)} | "
+        print(f"| {n} | {3 * n * (n - 1) // 2} | {fmt(t_act)} | {fmt(t_trusted)} | {fmt(t_core)} | "
+              f"{fmt(t_cvx)} | "
+              f"{fmt(t_fresh)} | {enum_s} | {vert_s} | {paper_s} | "
               f"{t_fresh / t_act:.0f}x | {t_fresh / t_cvx:.1f}x |")
 
     print()

@@ -624,10 +624,13 @@ def _random_seeds(d: _Data, rng: np.random.Generator | None, region: Region | No
 
 def _paper_candidates(spheres: Sequence[GaussianSphere], d: _Data, region: Region | None,
                       limit: int) -> NDArray:
-    from .projection import project_radii  # imported where used: only "paper" and "ml" need it
+    # imported where used: only "paper" and "ml" need it; the unchecked route, since
+    # estimate_position checked the spheres (sphere_arrays) before any method runs
+    from .projection import _project_radii_trusted
 
-    spheres = [spheres[i] for i in _generation_subset(d.sigmas, limit)]
-    sol = project_radii(spheres, method="active_set")
+    keep = _generation_subset(d.sigmas, limit)
+    spheres = [spheres[i] for i in keep]
+    sol = _project_radii_trusted(d.centers[keep], d.radii[keep], d.sigmas[keep], method="active_set")
     adjusted = [s.with_radius(max(float(r), 0.0)) for s, r in zip(spheres, sol.radii, strict=True)]
     return generate_hypotheses(adjusted, region=region, keep_imaginary=True).positions
 

@@ -18,6 +18,7 @@ from scipy.spatial import cKDTree
 from ._checks import (
     MAX_LENGTH,
     MAX_SIGMA,
+    MIN_SIGMA_RELATIVE,
     instance,
     point3,
     real_array,
@@ -129,13 +130,24 @@ def sphere_arrays(
     if len(spheres) < min_count:
         raise TooFewSpheresError(f"need at least {min_count} spheres, got {len(spheres)}")
     centers = np.array([s.center for s in spheres], dtype=np.float64).reshape(-1, 3)
-    radii = np.array([s.radius for s in spheres], dtype=np.float64)
-    sigmas = np.array([s.sigma for s in spheres], dtype=np.float64)
+    radius_list = [s.radius for s in spheres]
+    sigma_list = [s.sigma for s in spheres]
+    radii = np.array(radius_list, dtype=np.float64)
+    sigmas = np.array(sigma_list, dtype=np.float64)
     if len(spheres):
-        sigma_range(sigmas, "sigmas", max(float(np.abs(centers).max()), float(radii.max())))
+        scale = max(float(np.abs(centers).max()), max(radius_list))
+        floor, ceiling = _sigma_bounds(scale)
+        if not all(floor <= s <= ceiling for s in sigma_list):  # sigma_range names the first
+            sigma_range(sigmas, "sigmas", scale)
     if check_centers:
         check_distinct_centers(centers, tol)
     return centers, radii, sigmas
+
+
+def _sigma_bounds(length_scale: float) -> tuple[float, float]:
+    """The range :func:`~radialopt._checks.sigma_range` accepts at this length scale."""
+    scale = max(float(length_scale), 1.0)
+    return MIN_SIGMA_RELATIVE * scale, scale / MIN_SIGMA_RELATIVE
 
 
 def check_distinct_centers(centers: NDArray[np.float64], tol: Tolerances = TOLERANCES) -> None:

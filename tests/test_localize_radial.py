@@ -1,5 +1,6 @@
-"""The design card's convex problem inside localize: every validated hypothesis keeps its radial
-solution, solved by the solver asked for and checked against vertex enumeration."""
+"""The design card's convex problem inside localize: every returned hypothesis keeps its radial
+solution, solved by the solver asked for (the validated ones checked against vertex enumeration
+with check=True), through radialopt's unchecked route."""
 
 from __future__ import annotations
 
@@ -95,3 +96,81 @@ def test_localize_certificate_agrees_with_brute_force_multistart() -> None:
     assert localize(world, percepts).certificate is None
     with pytest.raises(WorldGraphError, match="certify"):
         localize(world, percepts, certify="yes")
+
+
+def _kitchen_views(count: int, seed: int = 11):
+    """Kitchen views of 8-10 percepts (one or two false) from random poses."""
+    world = scenes.kitchen(seed=0)
+    keep = np.isin(world.types, ["door", "handle", "drawer", "knob"])
+    rng = np.random.default_rng(seed)
+    lo, hi = world.bounds
+    views = []
+    while len(views) < count:
+        pose = np.eye(4)
+        yaw = rng.uniform(-np.pi, np.pi)
+        pose[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
+        pose[:3, 3] = [*rng.uniform(lo[:2] + 1.0, hi[:2] - 1.0), 1.5]
+        percepts, truth = simulate_percepts(list(world.types[keep]), world.positions[keep], pose, rng,
+                                            max_range=6.0, n_false=2, false_types=["handle", "knob"])
+        true = [p for p, t in zip(percepts, truth, strict=True) if t >= 0]
+        false = [p for p, t in zip(percepts, truth, strict=True) if t < 0]
+        if len(true) >= 6:
+            views.append(true[:int(rng.integers(6, 9))] + false)
+    return world, views
+
+
+def _assert_every_hypothesis_has_its_radial(world, percepts, res, method: str, solver: str | None = None):
+    for h in res.hypotheses:
+        assert h.radial is not None, (h.all_pairs, res.message)
+        assert h.radial.method == method and h.radial.solver == solver
+        exact = ro.project_radii(match_spheres(world, percepts, h.all_pairs)[2], method="active_set")
+        assert np.max(np.abs(h.radial.radii - exact.radii)) <= 1e-7
+        assert h.radial.status == "optimal"
+
+
+@pytest.mark.parametrize("method", ["ml", "spheres", "paper"])
+def test_every_returned_hypothesis_carries_its_radial_solution(kitchen_case, method: str) -> None:
+    world, views = _kitchen_views(5)
+    views = [kitchen_case[1], *views]  # a view the paper's association matches too
+    counted = 0
+    for percepts in views:
+        res = localize(world, percepts, method)
+        _assert_every_hypothesis_has_its_radial(world, percepts, res, "active_set")
+        counted += len(res.hypotheses)
+    assert counted > (3 * len(views) if method != "paper" else 1)  # not only the validated few
+    res = localize(world, views[0], method, solver="CLARABEL")
+    _assert_every_hypothesis_has_its_radial(world, views[0], res, "cvxpy", "CLARABEL")
+
+
+def test_check_true_verifies_the_validated_hypotheses_and_solves_the_others(monkeypatch) -> None:
+    import radialopt.projection as proj
+
+    world, views = _kitchen_views(1, seed=3)
+    verified = []
+    real = proj._verify
+    monkeypatch.setattr(proj, "_verify",
+                        lambda problem, sol, tol: verified.append(sol) or real(problem, sol, tol))
+    res = localize(world, views[0], check=True)
+    assert len(res.hypotheses) > 1, res.message
+    _assert_every_hypothesis_has_its_radial(world, views[0], res, "active_set")
+    assert 0 < len(verified) < len(res.hypotheses)  # one enumeration per validated hypothesis
+
+
+def test_localize_solves_through_the_unchecked_route(monkeypatch) -> None:
+    """localize's radial solutions do not re-validate the spheres: radialopt's checking entry
+    (project_radii -> sphere_arrays) is never reached, the unchecked route is."""
+    import importlib
+
+    import radialopt.projection as proj
+
+    loc = importlib.import_module("worldgraph.localize")  # the package's `localize` is the function
+    world, views = _kitchen_views(2, seed=5)
+    checks, trusted = [], []
+    real_arrays, real_trusted = proj.sphere_arrays, loc._project_radii_trusted
+    monkeypatch.setattr(proj, "sphere_arrays", lambda *a, **k: checks.append(1) or real_arrays(*a, **k))
+    monkeypatch.setattr(loc, "_project_radii_trusted",
+                        lambda *a, **k: trusted.append(1) or real_trusted(*a, **k))
+    for percepts in views:
+        res = localize(world, percepts)
+        assert all(h.radial is not None for h in res.hypotheses)
+    assert trusted and not checks

@@ -48,9 +48,12 @@ class AssociationHypothesis:
         False when the clique search hit ``max_nodes`` or ``max_cliques``: other hypotheses
         of the same size may exist (a highly repetitive world); treat as ambiguous.
     radial : radialopt.RadialSolution or None
-        Filled by :func:`~worldgraph.localize`: the projection of the hypothesis' Gaussian
-        spheres (centre = model object, radius = percept range, sigma) onto their restriction
-        polytope, the paper's range-consistency score (its ``normalized_displacement``).
+        Filled by :func:`~worldgraph.localize` on every hypothesis it returns: the projection
+        of the hypothesis' Gaussian spheres (its clique and validated matches, one per distinct
+        model position; centre = model object, radius = percept range, sigma) onto their
+        restriction polytope, the paper's range-consistency score (its
+        ``normalized_displacement``); None when those matches have fewer than two distinct
+        model positions, and on hypotheses that did not come from ``localize``.
     search : {"gravity", "free"}
         The search that made it (:mod:`worldgraph.gravity`): the storey-aware gravity search or
         the free 3D search.

@@ -55,6 +55,7 @@ from scipy.stats import chi2
 
 import radialopt as ro
 from perception import Percept
+from radialopt.projection import _project_radii_trusted
 
 from ._checks import float_array, generator, positive_float, strict_int
 from .association import _associate_searched
@@ -197,7 +198,8 @@ class LocalizationResult:
         ``world.objects``.
     hypotheses : tuple of AssociationHypothesis
         The association's hypotheses, the validated ones first in their validated order;
-        percept indices refer to the ``percepts`` passed in.
+        percept indices refer to the ``percepts`` passed in.  Each carries its radial solution
+        (``radial``, see ``solver`` and ``check`` of :func:`localize`).
     ambiguous : bool
     status : LocalizeStatus
         One of :data:`LOCALIZE_STATUSES`.
@@ -511,15 +513,21 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     max_rotation_3sigma : float
         Radians; likewise for the rotation (worst axis).
     solver : str
-        How every validated hypothesis' radial problem (the design card's convex problem: its
+        How every returned hypothesis' radial problem (the design card's convex problem: its
         Gaussian spheres projected onto their restriction polytope, kept as
         ``AssociationHypothesis.radial``) is solved: ``"active_set"`` (exact, default) or the
         name of an installed cvxpy solver (``"CLARABEL"``, ...), compiled once per sphere count.
+        Every hypothesis in ``hypotheses`` carries its solution (None only when its matches
+        have fewer than two distinct model positions).
     check : bool
-        Verify every radial solution of at most ``radialopt.MAX_VERTEX_SPHERES`` spheres against
-        explicit vertex enumeration (raises :class:`~worldgraph.errors.WorldGraphError` from
-        ``radialopt.VerificationError`` on disagreement); larger ones are solved unchecked and
-        the message says so (enumeration grows combinatorially: 8 spheres take ~20 s).
+        Verify the radial solutions the pose steps use (those of the validated hypotheses, the
+        ones behind an ML fit; with ``method="paper"`` every hypothesis) of at most
+        ``radialopt.MAX_VERTEX_SPHERES`` spheres against explicit vertex enumeration (raises
+        :class:`~worldgraph.errors.WorldGraphError` from ``radialopt.VerificationError`` on
+        disagreement); larger ones are solved unchecked and the message says so (enumeration
+        grows combinatorially: 8 spheres take ~20 s).  The other hypotheses' solutions are
+        solved by the same solver unchecked, so that ``check=True`` costs one enumeration per
+        validated hypothesis, not one per hypothesis.
     certify : bool
         Fill ``certificate``: the rotation SDP's proof (or not) that the returned pose is the
         global minimum of the ML cost of its matched percepts.  With 3 or 4 matches the SDP is
@@ -762,6 +770,8 @@ class _Context(_Call):
     ego: NDArray[np.float64]
     covs: NDArray[np.float64]
     nearest: NearestObjects
+    ranges: NDArray[np.float64]  # each percept's Gaussian-sphere radius (Percept.range)
+    sigmas: NDArray[np.float64]  # and its sigma
 
 
 def _known_percepts_step(world: WorldModel, percepts: list[Percept], settings: _Settings, t_start: float
@@ -801,7 +811,9 @@ def _measurement_step(call: _Call) -> _Context:
     covs = percept_covariances(call.used)
     nearest = NearestObjects(call.world, [p.type for p in call.used])
     return _Context(**{f.name: getattr(call, f.name) for f in fields(_Call)}, region=region,
-                    explicit_region=explicit, ego=ego, covs=covs, nearest=nearest)
+                    explicit_region=explicit, ego=ego, covs=covs, nearest=nearest,
+                    ranges=np.array([p.range for p in call.used], dtype=np.float64),
+                    sigmas=np.array([p.sigma for p in call.used], dtype=np.float64))
 
 
 def _distinct_centres(world: WorldModel, pairs: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
@@ -874,13 +886,22 @@ def _fit_step(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> _Fits:
 def _range_step(ctx: _Context, hyps_local: list[AssociationHypothesis], fits: _Fits
                 ) -> tuple[list[tuple[PoseFit, int]], tuple[AssociationHypothesis, ...]]:
     """Step 6: the fits whose ranges meet, best first, and every hypothesis with its radial
-    solution (the ranked ones first)."""
+    solution (the ranked ones first).
+
+    Every returned hypothesis carries the radial projection of its matches' spheres (clique and
+    validated percepts, :attr:`AssociationHypothesis.all_pairs`), solved by the call's
+    ``solver``; with ``check=True`` the validated ones (those behind a fit, the ones the range
+    test and the ranking use) are verified against vertex enumeration, the others are solved
+    unchecked (the active set's answer is a certified KKT point; enumeration on every
+    hypothesis would multiply the time of ``check=True``)."""
     # the card's convex problem for every validated hypothesis: the Gaussian spheres of its
     # matches (clique and validated percepts, one per distinct centre) projected
     # onto their restriction polytope; a displacement beyond the chi-square gate means ranges
     # that cannot belong to one robot position (the paper's range-consistency test)
     t0 = time.perf_counter()
-    radial = {key: _radial(ctx, hyps_local[h_i].all_pairs) for key, (_, h_i) in fits.items()}
+    fitted = sorted({h_i for _, h_i in fits.values()})
+    of_hyp = {h_i: _radial(ctx, hyps_local[h_i].all_pairs) for h_i in fitted}
+    radial = {key: of_hyp[h_i] for key, (_, h_i) in fits.items()}
     ctx.timings["radial"] = time.perf_counter() - t0
     consistent = {key: v for key, v in fits.items() if _range_consistent(radial[key])}
     if len(consistent) < len(fits):
@@ -889,9 +910,17 @@ def _range_step(ctx: _Context, hyps_local: list[AssociationHypothesis], fits: _F
     distinct = sorted(consistent.values(), key=lambda f: (f[0].cost, _radial_score(radial[f[0].pairs]),
                                                            -f[0].inliers, f[1]))
     order = [h_i for _, h_i in distinct]
-    sol_of = {h_i: radial[f.pairs] for f, h_i in fits.values()}
+    sol_of = dict(of_hyp)
+    t0 = time.perf_counter()
+    by_pairs = {hyps_local[i].all_pairs: sol for i, sol in sol_of.items()}
+    for i, h in enumerate(hyps_local):  # the hypotheses without a fit: solved, not verified
+        if i not in sol_of:
+            if h.all_pairs not in by_pairs:
+                by_pairs[h.all_pairs] = _radial(ctx, h.all_pairs, check=False)
+            sol_of[i] = by_pairs[h.all_pairs]
+    ctx.timings["radial"] += time.perf_counter() - t0
     hyps = tuple(replace(_remap(hyps_local[i], ctx.idx), radial=sol_of[i]) for i in order) + tuple(
-        replace(_remap(h, ctx.idx), radial=sol_of.get(i)) for i, h in enumerate(hyps_local) if i not in order)
+        replace(_remap(h, ctx.idx), radial=sol_of[i]) for i, h in enumerate(hyps_local) if i not in order)
     return distinct, hyps
 
 
@@ -1095,24 +1124,36 @@ def _check_pairs(pairs: object, n_percepts: int, n_objects: int) -> list[tuple[i
     return out
 
 
-def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]]) -> ro.RadialSolution | None:
-    """:func:`radialopt.project_radii` of the spheres of ``pairs`` (:func:`match_spheres`) with
-    the solver asked for; None with fewer than two spheres."""
-    p_i, o_i, spheres = _match_spheres(ctx.world, ctx.used, pairs)
-    limit = MAX_RADIAL_SPHERES if ctx.settings.solver == "active_set" else MAX_CVXPY_SPHERES
-    _, _, spheres = _most_certain(ctx, p_i, o_i, spheres, limit)
-    if len(spheres) < 2:
+def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]], check: bool | None = None
+            ) -> ro.RadialSolution | None:
+    """:func:`radialopt.project_radii` of the spheres of ``pairs`` (as :func:`match_spheres` makes
+    them) with the solver asked for; None with fewer than two spheres.
+
+    ``check`` (default: the call's ``check``) verifies the answer against vertex enumeration up
+    to ``radialopt.MAX_VERTEX_SPHERES`` spheres.  The world and the percepts were checked on
+    entry (:func:`check_world_and_percepts`), so the spheres' arrays go to radialopt's unchecked
+    route (``radialopt.projection._project_radii_trusted``): the same answer as
+    ``project_radii(match_spheres(...)[2], ...)`` without validating them again per hypothesis.
+    """
+    sph = _distinct_centres(ctx.world, pairs)
+    if len(sph) < 2:
         return None
-    check = ctx.settings.check
-    if check and len(spheres) > ro.MAX_VERTEX_SPHERES:  # enumeration would take minutes
+    p_i = np.array([p for p, _ in sph], dtype=np.intp)
+    o_i = np.array([o for _, o in sph], dtype=np.intp)
+    limit = MAX_RADIAL_SPHERES if ctx.settings.solver == "active_set" else MAX_CVXPY_SPHERES
+    p_i, o_i, _ = _most_certain(ctx, p_i, o_i, list(sph), limit)
+    check = ctx.settings.check if check is None else check
+    if check and len(p_i) > ro.MAX_VERTEX_SPHERES:  # enumeration would take minutes
         check = False
         note = (f"the vertex-enumeration check ran only on hypotheses of at most {ro.MAX_VERTEX_SPHERES} "
                 "spheres (radialopt.MAX_VERTEX_SPHERES); larger ones were solved unchecked")
         if note not in ctx.notes:
             ctx.notes.append(note)
+    centers, radii, sigmas = ctx.world.positions[o_i], ctx.ranges[p_i], ctx.sigmas[p_i]
     if ctx.settings.solver == "active_set":
-        return ro.project_radii(spheres, method="active_set", check=check)
-    return ro.project_radii(spheres, method="cvxpy", solver=ctx.settings.solver, check=check)
+        return _project_radii_trusted(centers, radii, sigmas, method="active_set", check=check)
+    return _project_radii_trusted(centers, radii, sigmas, method="cvxpy", solver=ctx.settings.solver,
+                                  check=check)
 
 
 def _radial_score(sol: ro.RadialSolution | None) -> float:
