@@ -272,8 +272,8 @@ def _slow_information(world, poses, weights, pose_cov, types, directions, fov_de
             for o in objs:
                 x = pose[:3, :3].T @ (world.positions[o] - pose[:3, 3])
                 rho = float(np.linalg.norm(x))
-                left = half - min(math.atan2(blur_t, rho) + blur_r, half / 2)  # the margin: at most half
-                if 0 < rho <= max_range and x @ d >= math.cos(left) * rho - 1e-12:
+                left = half - math.atan2(blur_t, rho) - min(blur_r, half / 2)  # rotation's share <= half
+                if 0 < rho <= max_range and left > 0 and x @ d >= math.cos(left) * rho - 1e-12:
                     view.append((o, x, rho))
             kept = detection if max_sights is None else min(detection, max_sights / max(len(view), 1))
             prob = 1.0

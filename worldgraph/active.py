@@ -120,8 +120,10 @@ DEFAULT_DEPTH_FACTOR = 1000.0
 #: many standard deviations of its direction under the result's pose (position and rotation):
 #: a near object's direction is uncertain, a far one's hardly.
 VIEW_MARGIN_SIGMAS = 2.0
-#: ... at most this fraction of the half angle.
+#: ... its rotation's share at most this fraction of the half angle.
 MAX_VIEW_MARGIN = 0.5
+#: Cosine limit of an object that is in no view (its direction too uncertain).
+NEVER_IN_VIEW = 2.0
 #: :func:`merge_percepts`' defaults: a new percept within ``MERGE_SIGMAS sqrt(s_old^2 + s_new^2)
 #: + MERGE_FLOOR`` (m) of an old one of its type is a second sight.
 MERGE_SIGMAS = 3.0
@@ -129,6 +131,9 @@ MERGE_FLOOR = 0.01
 #: The planner recentres its candidates on the objects they would see this many times
 #: (:func:`_recentred`; the first time on those within the full view angle).
 RECENTRE_STEPS = 2
+#: ``active_localize`` infers a cap on percepts per look only from a look whose plan expected at
+#: least this many detections.
+MIN_CAP_EVIDENCE = 4.0
 #: Random candidate directions added when ``rng`` is given.
 N_RANDOM_DIRECTIONS = 32
 #: Largest pointing error (rad) of the head's optical axis at which ``gaze_reached`` is True.
@@ -477,11 +482,12 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: 
         tells[h, :, repeat] = False            # a second sight is merged away: it tells nothing
         matchable = inr & (neighbour > g) & ~repeat  # lands near one object of its type only
         info.append(sight_information(X - T[:3, 3], sigma) * matchable[:, None])
-        # surely in view: within the half angle less the direction's uncertainty under the pose (at
-        # most a share of it: a pose known too poorly to aim at anything still aims at the objects)
-        margin_angle = np.arctan2(blur[0], np.maximum(r, NORM_FLOOR)) + blur[1]
-        left = half - np.minimum(margin_angle, MAX_VIEW_MARGIN * half)
-        cos_lim.append(np.cos(np.clip(left, 0.0, math.pi)))
+        # surely in view: within the half angle less the direction's uncertainty under the pose: its
+        # position's share (an object as near as the position is uncertain is in no view), and its
+        # rotation's, at most a share of the half angle (the same for every object: a pose whose
+        # rotation is known too poorly to aim at anything still aims at the objects)
+        left = half - np.arctan2(blur[0], np.maximum(r, NORM_FLOOR)) - min(blur[1], MAX_VIEW_MARGIN * half)
+        cos_lim.append(np.where(left > 0, np.cos(np.clip(left, 0.0, math.pi)), NEVER_IN_VIEW))
     prior, spread = _prior(result, poses, weights)
     return _Prediction(poses, weights, obj, ego, [_unit_rows(e) for e in ego], rho, in_range, tells, cos_lim,
                        info, prior, spread)
@@ -915,6 +921,18 @@ def depth_factor_of(percepts: Sequence[Percept], default: float = DEFAULT_DEPTH_
     return float(np.median(values)) if values else default
 
 
+def _learned_cap(cap: int | None, plan: ViewPlan, returned: int, detection: float) -> int | None:
+    """The cap on percepts per look that the looks so far reveal: a look that returned fewer than
+    half the detections its plan expected (:data:`MIN_CAP_EVIDENCE` at least) caps at the most
+    any look returned."""
+    expected = detection * float(np.mean([len(e) for e in plan.expected])) if plan.expected else 0.0
+    if expected >= MIN_CAP_EVIDENCE and returned < 0.5 * expected:
+        return max(returned, cap or 0, 1)
+    if cap is not None and returned > cap:
+        return returned
+    return cap
+
+
 def _imprecise(result: LocalizationResult, goal_rotation_3sigma: float | None) -> bool:
     """An "ok" result whose 3-sigma rotation bound exceeds the goal (or is not finite)."""
     if goal_rotation_3sigma is None or result.status != "ok":
@@ -969,7 +987,9 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         depth_factor``); default estimated from the percepts passed in (:func:`depth_factor_of`).
     detection, max_sights
         The default planner's look model (:func:`plan_view`): the probability that an object in
-        view is recognised, and at most how many percepts a look returns (default no cap).
+        view is recognised, and at most how many percepts a look returns.  Default: no cap until
+        a look returns fewer than half the detections its plan expected; from then on the most
+        any look returned (a recogniser that reports a few objects per view).
     tolerances : AssociationTolerances, optional
         Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
         :class:`~worldgraph.errors.ArgumentTypeError`).
@@ -1002,6 +1022,9 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     tol = ASSOCIATION_TOLERANCES if tol is None else tol
     current = check_world_and_percepts(world, percepts)
     _check_gravity(gravity, tol)  # a bad gravity fails before the first look
+    learn_cap = max_sights is None
+    cap = None if max_sights is None else strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
+    detection = positive_float("detection", detection, maximum=1.0)
     if depth_factor is None:
         depth_factor = depth_factor_of(current)
     else:
@@ -1015,7 +1038,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
             plan: ViewPlan | NDArray[np.float64] = plan_view(world, result, fov_deg=fov_deg,
                                                              max_range=max_range, types=types, head=head,
                                                              depth_factor=depth_factor, detection=detection,
-                                                             max_sights=max_sights, percepts=current)
+                                                             max_sights=cap, percepts=current)
         else:
             plan = planner(result)
         if isinstance(plan, ViewPlan):
@@ -1032,6 +1055,8 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                 raise ArgumentTypeError(f"look(direction)[{i}] must be a perception.Percept, "
                                         f"got {type(p).__name__}")
         directions.append(d)
+        if planner is None and learn_cap and isinstance(plan, ViewPlan):
+            cap = _learned_cap(cap, plan, len(new), detection)
         current = merge_percepts(current, new)
         result = localize(world, current, method, tol=tol, gravity=gravity)
         results.append(result)
