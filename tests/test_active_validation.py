@@ -212,6 +212,40 @@ def test_a_near_object_counts_in_view_only_when_the_pose_pins_its_direction():
     assert view_information(world, loose, [[1.0, 0.0, 0.0]], types=["door"])[0] > 1.0  # straight at it
 
 
+def test_active_localize_learns_a_cap_on_percepts_per_look(monkeypatch):
+    """A looker that reports at most one object of the many in view: after its first look the
+    default planner models the cap; a given max_sights is used from the start and kept."""
+    import worldgraph.active as active
+
+    calls = []
+    real = active.plan_view
+
+    def spy(*args, **kwargs):
+        calls.append(kwargs.get("max_sights"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(active, "plan_view", spy)
+    world, cluster, spread = _cluster_and_spread()
+    look_all = _look_at(world, np.eye(4))
+    percepts = [pc.Percept(t, x, 0.002, covariance=0.002**2 * np.eye(3))
+                for t, x in zip(KINDS[:3], spread[:3], strict=True)]
+
+    def one(d):
+        return look_all(d)[:1]
+
+    goal = math.radians(0.001)  # never met: both looks are taken
+    out = wg.active_localize(world, percepts, one, types=KINDS, max_looks=2, goal_rotation_3sigma=goal)
+    assert out.looks == 2 and len(out.plans) == 2
+    assert 0.9 * len(out.plans[0].expected[0]) >= 4  # the first plan expected many, one came back
+    assert calls == [None, 1]
+    calls.clear()
+    wg.active_localize(world, percepts, one, types=KINDS, max_looks=2, max_sights=3, goal_rotation_3sigma=goal)
+    assert calls == [3, 3]
+    calls.clear()
+    wg.active_localize(world, percepts, look_all, types=KINDS, max_looks=2, goal_rotation_3sigma=goal)
+    assert calls == [None, None]  # a looker that returns what is in view is not capped
+
+
 def _skew(q):
     return np.array([[0.0, -q[2], q[1]], [q[2], 0.0, -q[0]], [-q[1], q[0], 0.0]])
 
