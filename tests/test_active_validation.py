@@ -212,6 +212,16 @@ def test_a_near_object_counts_in_view_only_when_the_pose_pins_its_direction():
     assert view_information(world, loose, [[1.0, 0.0, 0.0]], types=["door"])[0] > 1.0  # straight at it
 
 
+def test_a_pose_known_too_poorly_to_aim_still_looks_at_the_objects():
+    """Position known to 3 m (1 sigma): no object is surely in any view, so the plan aims at the
+    predicted directions as they are rather than at nothing."""
+    world, cluster, spread = _cluster_and_spread()
+    res = _weak(np.diag([3.0**2] * 3 + [math.radians(30.0) ** 2] * 3))
+    plan = wg.plan_view(world, res, types=KINDS)
+    assert len(plan.expected[0]) >= 4 and plan.information > 0
+    assert all(_angle(plan.direction, x) <= HALF_FOV for x in world.positions[plan.expected[0]])
+
+
 def test_active_localize_learns_a_cap_on_percepts_per_look(monkeypatch):
     """A looker that reports at most one object of the many in view: after its first look the
     default planner models the cap; a given max_sights is used from the start and kept."""

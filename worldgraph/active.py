@@ -453,7 +453,7 @@ class _Prediction:
 
 def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: float, max_range: float,
              depth_factor: float, min_sigma: float, n_sigma: float, margin: float,
-             percepts: Sequence[Percept] = ()) -> _Prediction:
+             percepts: Sequence[Percept] = (), blurred: bool = True) -> _Prediction:
     recog = _check_types(world, types, result)
     poses, weights = _hypotheses(result)
     # only objects within reach of some hypothesis matter: one farther from every hypothesis than
@@ -472,7 +472,7 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: 
     neighbour = _same_type_neighbour(X, codes)
     tells = tells_apart(ego, codes, in_range, gate)
     type_names = world.types[obj]
-    blur = _view_blur(result)
+    blur = _view_blur(result) if blurred else (0.0, 0.0)
     half = math.radians(fov / 2.0)
     info, cos_lim = [], []
     for h, (T, r, g, inr) in enumerate(zip(poses, rho, gate, in_range, strict=True)):
@@ -491,6 +491,16 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: 
     prior, spread = _prior(result, poses, weights)
     return _Prediction(poses, weights, obj, ego, [_unit_rows(e) for e in ego], rho, in_range, tells, cos_lim,
                        info, prior, spread)
+
+
+def _aimable(pred: _Prediction) -> bool:
+    """Whether some object that would tell something (information or a hypothesis ruled out) can
+    be in view at all under some hypothesis."""
+    for h in range(len(pred.poses)):
+        useful = np.any(pred.info[h] != 0.0, axis=1) | pred.tells[h].any(axis=0)
+        if np.any(useful & (pred.cos_lim[h] < NEVER_IN_VIEW) & pred.in_range[h]):
+            return True
+    return False
 
 
 def _view_blur(result: LocalizationResult) -> tuple[float, float]:
@@ -816,8 +826,13 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
         _check_limits(head, joint_limits)
     if max_sights is not None:
         max_sights = strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
-    pred = _predict(world, result, types, fov, max_range, depth_factor, min_sigma, n_sigma, margin,
-                    _percepts_in_hand(percepts))
+    in_hand = _percepts_in_hand(percepts)
+    pred = _predict(world, result, types, fov, max_range, depth_factor, min_sigma, n_sigma, margin, in_hand)
+    if not _aimable(pred):
+        # the pose is known too poorly to be sure of any object in view: aim at the predicted
+        # directions as they are (a look where the objects should be beats a look at nothing)
+        pred = _predict(world, result, types, fov, max_range, depth_factor, min_sigma, n_sigma, margin,
+                        in_hand, blurred=False)
     H = len(pred.poses)
     disc = np.asarray(pred.tells.any(axis=1))                        # (H, n): tells h from some j
     informative = np.any(pred.info[0] != 0.0, axis=1)                # matchable sights, chosen pose
