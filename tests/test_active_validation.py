@@ -249,7 +249,8 @@ def test_active_localize_learns_a_cap_on_percepts_per_look(monkeypatch):
     assert 0.9 * len(out.plans[0].expected[0]) >= 4  # the first plan expected many, one came back
     assert calls == [None, 1]
     calls.clear()
-    wg.active_localize(world, percepts, one, types=KINDS, max_looks=2, max_sights=3, goal_rotation_3sigma=goal)
+    wg.active_localize(world, percepts, one, types=KINDS, max_looks=2, max_sights=3,
+                       goal_rotation_3sigma=goal)
     assert calls == [3, 3]
     calls.clear()
     wg.active_localize(world, percepts, look_all, types=KINDS, max_looks=2, goal_rotation_3sigma=goal)

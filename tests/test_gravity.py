@@ -12,12 +12,14 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
+import perception as pc
 import worldgraph as wg
 from perception import Percept
 from perception.simulate import simulate_percepts
 from worldgraph import gravity as gr
 from worldgraph import scenes
 from worldgraph.errors import ArgumentTypeError, OutOfRangeError, WorldGraphError
+from worldgraph.validation import CHI2_3_GATE
 
 EZ = np.array([0.0, 0.0, 1.0])
 
@@ -260,3 +262,24 @@ def test_active_localize_passes_gravity_on(site, flat_world):
     assert wg.active_localize(flat_world, percepts, look, max_looks=1, gravity=None).result.search == "free"
     with pytest.raises(ArgumentTypeError, match="gravity"):
         wg.active_localize(flat_world, percepts, look, gravity="level")
+
+
+def test_auto_keeps_a_gravity_answer_whose_unmatched_percepts_it_explains():
+    """Four handles each sit between two handles 6 cm apart (2 cm noise): the pose explains them
+    (residuals within the gate) but matches none (either twin fits), so only 4 of 8 percepts are
+    matches.  Support counts the percepts the pose explains: "auto" keeps the gravity answer
+    (before, 4 of 8 < 3/4 sent a level robot to the free search)."""
+    rng = np.random.default_rng(3)
+    uniq = np.array([[3.0, 0.0, 0.0], [0.0, 3.0, 0.5], [-3.0, 0.5, -0.4], [0.5, -3.0, 0.8]])
+    kinds = ["door", "knob", "drawer", "lamp"]
+    centres = np.array([[2.0, 2.0, 0.2], [-2.0, 2.0, -0.3], [-2.0, -2.0, 0.4], [2.0, -2.0, -0.1]])
+    twins = np.vstack([centres + [0.03, 0, 0], centres - [0.03, 0, 0]])
+    world = wg.WorldModel.from_arrays(kinds + ["handle"] * 8, np.vstack([uniq, twins]), max_link_length=8.0)
+    s = 0.02
+    percepts = [pc.Percept(t, x + rng.normal(0, s, 3), s, covariance=s**2 * np.eye(3))
+                for t, x in zip(kinds + ["handle"] * 4, np.vstack([uniq, centres]), strict=True)]
+    res = wg.localize(world, percepts)
+    assert res.status == "ok" and res.search == "gravity"
+    assert len(res.correspondences) == 4  # the handles are explained, not matched
+    assert np.count_nonzero(res.residuals**2 <= CHI2_3_GATE) == 8
+    assert np.allclose(res.transformation, np.eye(4), atol=0.05)
