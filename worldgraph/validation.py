@@ -48,13 +48,22 @@ from ._checks import as_list, float_array, positive_float, rigid_transform, stri
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
 from .model import WorldModel
 from .pose import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, pose_information, refine_pose
-from .tolerances import INFORMATION_SYMMETRY_RTOL, PSD_RTOL, RANK_RTOL, RISE_FLOOR, SIGNIFICANCE, TINY
+from .tolerances import (
+    CONSTRAINED_VARIANCE_RATIO,
+    INFORMATION_SYMMETRY_RTOL,
+    PSD_RTOL,
+    RANK_RTOL,
+    RISE_FLOOR,
+    SIGNIFICANCE,
+    TINY,
+)
 
 __all__ = [
     "CHI2_3_GATE",
     "CHI2_6_GATE",
     "PoseFit",
     "calibrated_pose_covariance",
+    "constrained_directions",
     "curved_pose_covariance",
     "fit_hypothesis",
     "laplace_inflate",
@@ -134,6 +143,23 @@ def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
             raise OutOfRangeError(f"percepts[{k}].sigma = {p.sigma!r} m: its variance sigma^2 overflows")
         out[k] = p.covariance if p.covariance is not None else p.sigma**2 * np.eye(3)
     return out
+
+
+def constrained_directions(covs: NDArray[np.float64]) -> NDArray[np.intp]:
+    """How many directions each percept constrains, ``(k,)`` from its ``(k, 3, 3)`` covariance.
+
+    The eigen-directions whose variance is at most :data:`~worldgraph.tolerances.
+    CONSTRAINED_VARIANCE_RATIO` times the percept's smallest variance (3 for an isotropic or a
+    stereo-shaped percept, 2 for a needle, 1 for a pancake).  The inlier count of an answer sums
+    these rather than counting percepts: a needle agrees with any pose that puts its object
+    anywhere along its long axis, so it checks a pose in two directions only.
+    """
+    C = float_array("covs", covs, (None, 3, 3))
+    C = _covariances(C, len(C), "covs")
+    if not len(C):
+        return np.zeros(0, dtype=np.intp)
+    ev = np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, 1, 2)))
+    return np.sum(ev <= CONSTRAINED_VARIANCE_RATIO * ev[:, :1], axis=1).astype(np.intp)
 
 
 def ros_pose_covariance(information: NDArray[np.float64]) -> NDArray[np.float64]:
