@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import worldgraph as wg
@@ -92,3 +94,91 @@ def test_three_isotropic_percepts_still_suffice(seed: int) -> None:
     res = wg.localize(world, percepts)
     assert res.status == "ok", res.summary()
     assert np.linalg.norm(res.position - truth[:3, 3]) < 0.05
+
+
+def _brute_force_nearest(world, T, ego, covs, types):
+    """Best and second-best squared Mahalanobis distance of each placed percept over every
+    object of its type (no k-d tree, no candidates)."""
+    R = T[:3, :3]
+    pred = ego @ R.T + T[:3, 3]
+    best, second, obj = [], [], []
+    for x, C, t in zip(pred, covs, types, strict=True):
+        objs = world.indices_of(t)
+        r = world.positions[objs] - x
+        m2 = np.einsum("ma,ab,mb->m", r, np.linalg.inv(R @ C @ R.T), r)
+        order = np.argsort(m2)
+        best.append(m2[order[0]])
+        second.append(m2[order[1]] if len(order) > 1 else np.inf)
+        obj.append(objs[order[0]])
+    return np.array(best), np.array(second), np.array(obj)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_nearest_objects_of_a_needle_lie_along_it(seed: int) -> None:
+    """The Mahalanobis-nearest object of a needle may be 30 m away along its long axis while
+    the Euclidean-nearest objects of its type sit a metre off it: the candidates must reach
+    along the needle (the k Euclidean nearest did not, so the true object was missed, and an
+    equally likely second object along the needle too, which made the percept look unique)."""
+    from worldgraph.validation import NearestObjects
+
+    rng = np.random.default_rng(seed)
+    axis = Rotation.random(random_state=rng).as_matrix()
+    long_axis, side = axis[:, 2], axis[:, 0]
+    C = axis @ np.diag([1e-6, 1e-6, 1e4]) @ axis.T
+    C = 0.5 * (C + C.T)
+    T = np.eye(4)
+    T[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+    T[:3, 3] = rng.uniform(-2, 2, 3)
+    x = np.array([0.5, 1.0, 2.0])                           # ego position of the percept
+    X = T[:3, :3] @ x + T[:3, 3]                            # where it lands in the world
+    Cw = T[:3, :3] @ C @ T[:3, :3].T
+    along = T[:3, :3] @ long_axis
+    off = T[:3, :3] @ side
+    pos = [X + 30.0 * along, X - 45.0 * along]              # on the needle: d2 (0.09, 0.2)
+    pos += [X + d * off for d in (0.8, -0.9, 1.0, 1.1, -1.2, 1.3)]  # nearer, off it: d2 ~ 1e6
+    pos += [rng.uniform(-5, 5, 3) for _ in range(3)]        # the percepts that fix the pose
+    world = wg.WorldModel.from_arrays(["h"] * 8 + ["a", "b", "c"], np.array(pos))
+    types = ["h", "a", "b", "c"]
+    ego = np.vstack([x, (world.positions[8:] - T[:3, 3]) @ T[:3, :3]])
+    covs = np.array([C] + [1e-4 * np.eye(3)] * 3)
+    assert float(np.einsum("a,ab,b->", 30 * along, np.linalg.inv(Cw), 30 * along)) < 1.0
+    d2, obj, second = NearestObjects(world, types).query(T, ego, covs, None)
+    ref_d2, ref_second, ref_obj = _brute_force_nearest(world, T, ego, covs, types)
+    np.testing.assert_array_equal(obj, ref_obj)
+    assert obj[0] == 0
+    # the inverse of a covariance of condition 1e10 is good to ~1e-6 relative
+    np.testing.assert_allclose(d2, ref_d2, rtol=1e-4)
+    np.testing.assert_allclose(second, ref_second, rtol=1e-4)
+
+
+SHAPES = {"isotropic": (1.0, 1.0, 1.0), "stereo": (1.0, 1.0, 30.0), "needle": (1e-8, 1e-6, 1e4),
+          "pancake": (1e-6, 1e3, 1e3)}
+
+
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(2, 40), shape=st.sampled_from(sorted(SHAPES)),
+       scale=st.sampled_from([1e-4, 1e-2, 1.0]), k=st.integers(1, 6))
+def test_nearest_objects_are_exact_for_any_covariance(seed, n, shape, scale, k) -> None:
+    """NearestObjects.query against brute force over every object of the type, for randomly
+    oriented isotropic, stereo-shaped, needle and pancake covariances (the Euclidean nearest
+    are no candidates to trust for the last three)."""
+    from worldgraph.validation import NearestObjects
+
+    rng = np.random.default_rng(seed)
+    world = wg.WorldModel.from_arrays(["h"] * n + ["a", "b"], rng.uniform(-20, 20, (n + 2, 3)))
+    T = np.eye(4)
+    T[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+    T[:3, 3] = rng.uniform(-3, 3, 3)
+    m = 6
+    ego = rng.uniform(-15, 15, (m, 3))
+    covs = np.array([_covariance(tuple(scale * v for v in SHAPES[shape]), rng) for _ in range(m)])
+    types = ["h"] * (m - 2) + ["a", "b"]
+    d2, obj, second = NearestObjects(world, types, k=k).query(T, ego, covs, None)
+    ref_d2, ref_second, ref_obj = _brute_force_nearest(world, T, ego, covs, types)
+    # both invert an ill-conditioned covariance: good to ~1e-16 times its condition number
+    rtol = max(1e-6, 1e-13 * SHAPES[shape][2] / SHAPES[shape][0])
+    np.testing.assert_allclose(d2, ref_d2, rtol=rtol)
+    # the object itself may differ only where two are equally near (to rounding)
+    same = obj == ref_obj
+    np.testing.assert_allclose(ref_second[~same], ref_d2[~same], rtol=rtol)
+    if k > 1:
+        np.testing.assert_allclose(second, ref_second, rtol=rtol)

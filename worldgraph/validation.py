@@ -52,6 +52,8 @@ from .tolerances import (
     CONSTRAINED_VARIANCE_RATIO,
     INFORMATION_SYMMETRY_RTOL,
     PSD_RTOL,
+    QUERY_FLOOR,
+    QUERY_WIDEN,
     RANK_RTOL,
     RISE_FLOOR,
     SIGNIFICANCE,
@@ -299,8 +301,13 @@ class NearestObjects:
     def query(self, world_from_ego: NDArray, ego: NDArray, covs: NDArray, pose_covariance: NDArray | None
               ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]:
         """``(d2, object, d2 of the runner-up object)`` of every percept, ``(k,)`` each; ``inf``
-        (object -1) where no object of the type exists.  The ``k`` Euclidean nearest objects of
-        each type are the candidates (:func:`placed_mahalanobis`' covariance, computed once)."""
+        (object -1) where no object of the type exists.  Exact over all objects of the type for
+        any covariance (:func:`placed_mahalanobis`' covariance ``S``, computed once): the ``k``
+        Euclidean nearest objects are the first candidates, and since ``r^T S^-1 r >= |r|^2 /
+        lambda_max(S)``, every object that could beat the runner-up among them lies within
+        ``sqrt(d2_runner_up * lambda_max(S))`` of the placed percept; a ball query of that radius
+        adds them where it reaches beyond the ``k`` nearest (a needle-shaped covariance: the
+        nearest object by Mahalanobis distance may lie far along the needle)."""
         n = len(ego)
         d2 = np.full(n, np.inf)
         second = np.full(n, np.inf)
@@ -315,7 +322,8 @@ class NearestObjects:
         for t, idx in self.groups.items():
             objs = self.objects[t]
             kk = min(self.k, len(objs))
-            _, j = self.trees[t].query(pred[idx], k=kk)
+            tree = self.trees[t]
+            dist, j = tree.query(pred[idx], k=kk)
             cand = objs[np.asarray(j).reshape(len(idx), kk)]
             r = self.world.positions[cand] - pred[idx][:, None, :]
             m2 = np.einsum("mca,mab,mcb->mc", r, S_inv[idx], r)
@@ -325,6 +333,19 @@ class NearestObjects:
             obj[idx] = cand[rows, order[:, 0]]
             if kk > 1:
                 second[idx] = m2[rows, order[:, 1]]
+            if kk == len(objs):
+                continue  # every object of the type was a candidate
+            bound = m2[rows, order[:, min(1, kk - 1)]]
+            reach = np.sqrt(bound * np.linalg.eigvalsh(S[idx])[:, -1]) * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
+            kth = np.asarray(dist).reshape(len(idx), kk)[:, -1]
+            for m in np.flatnonzero(reach > kth):
+                more = objs[np.asarray(tree.query_ball_point(pred[idx[m]], reach[m]), dtype=np.intp)]
+                rm = self.world.positions[more] - pred[idx[m]]
+                mm = np.einsum("ca,ab,cb->c", rm, S_inv[idx[m]], rm)
+                top = np.argsort(mm, kind="stable")[:2]
+                d2[idx[m]], obj[idx[m]] = mm[top[0]], more[top[0]]
+                if kk > 1:
+                    second[idx[m]] = mm[top[1]]
         return d2, obj, second
 
 
