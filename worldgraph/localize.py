@@ -823,6 +823,9 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Locali
     fits = _fit_step(ctx, hyps_local)
     distinct, hyps = _range_step(ctx, hyps_local, fits)
     incomplete = not hyps_local[0].complete
+    if not distinct and fits:  # fits exist, but the range test rejected every one of them
+        return ctx.failed("inconsistent", "every hypothesis fit was rejected by the range test: no "
+                          "pose fits the matched percepts' ranges", hyps, incomplete)
     if not distinct:
         return ctx.failed("degenerate", "no hypothesis keeps 3 inliers whose pose information is "
                           "regular: the matched landmarks fix no 6D pose (collinear, or their "
