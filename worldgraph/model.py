@@ -488,8 +488,7 @@ def _empty_far_pairs(gravity: bool) -> FarPairIndex:
                         dz=np.zeros(0, np.float32) if gravity else None)
 
 
-def _build_far_pairs(world: WorldModel, a: str, b: str, gravity: bool,
-                     cache: dict[tuple[str, str, bool], FarPairIndex | None]) -> FarPairIndex | None:
+def _build_far_pairs(world: WorldModel, a: str, b: str, gravity: bool) -> FarPairIndex | None:
     """The :class:`FarPairIndex` of types ``a <= b`` (see :meth:`WorldModel.far_pairs`)."""
     # gravity: z scaled so that the ball of radius R sqrt(2) holds every pair with horizontal
     # distance <= R and |dz| <= H; then the exact box is kept
@@ -497,7 +496,7 @@ def _build_far_pairs(world: WorldModel, a: str, b: str, gravity: bool,
     ta, tb = world.type_tree(a, scale), world.type_tree(b, scale)
     ia, ib = world.indices_of(a), world.indices_of(b)
     estimate = _far_pair_estimate(world, a, b, gravity)
-    used = sum(len(x.key) for x in cache.values() if x is not None)
+    used = world._far_pairs_held[0]  # the pairs the cache holds (a running total, not a sum)
     if estimate > FAR_PAIR_MAX_PAIRS or used + estimate > FAR_PAIR_BUDGET:
         return None
     pairs = ta.sparse_distance_matrix(tb, radius, output_type="ndarray")
@@ -1649,7 +1648,9 @@ class WorldModel:
                 return _empty_far_pairs(gravity), flip
             if lazy and not FAR_PAIR_BUILD_ON_USE:
                 return None, flip
-            cache[key] = _build_far_pairs(self, a, b, gravity, cache)
+            index = cache[key] = _build_far_pairs(self, a, b, gravity)
+            if index is not None:
+                self._far_pairs_held[0] += len(index.key)
         return cache[key], flip
 
     @cached_property
@@ -1659,6 +1660,12 @@ class WorldModel:
     @cached_property
     def _far_estimates(self) -> dict[tuple[str, str, bool], float]:
         return {}
+
+    @cached_property
+    def _far_pairs_held(self) -> list[int]:
+        """``[number of pairs in the kept far-pair indices]``, kept up to date as they are built
+        (summing over the indices at every build was quadratic in the number of type pairs)."""
+        return [0]
 
     @cached_property
     def _far_pairs_complete(self) -> set[bool]:
@@ -1704,7 +1711,7 @@ class WorldModel:
         for _, (a, b) in sorted(zip(sizes, pairs, strict=True)):
             self.far_pairs(a, b, gravity)
         self._far_pairs_complete.add(gravity)
-        return sum(len(x.key) for x in self._far_pairs.values() if x is not None)
+        return self._far_pairs_held[0]
 
     def indices_of(self, type_name: str) -> NDArray[np.intp]:
         """Object indices of one type (``UnknownTypeError`` if absent)."""
