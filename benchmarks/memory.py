@@ -93,6 +93,19 @@ world = wg.WorldModel.from_arrays([f"part{k}" for k in range(N)], pos)
 result = f"{len(world.type_index)} types, {len(world.links)} link tables"
 """,
     ),
+    "build_far_pairs part types": (
+        5_000,
+        "(issue 25, at the failing size) the 5,000-type world above: every one of 12.5M type pairs "
+        "estimated, and the held pairs summed at each build",
+        """
+import numpy as np, worldgraph as wg
+rng = np.random.default_rng(0)
+pos = rng.uniform(0, 50, (N, 3))
+world = wg.WorldModel.from_arrays([f"part{k}" for k in range(N)], pos)
+held = world.build_far_pairs()
+result = f"{held} pairs in {sum(v is not None for v in world._far_pairs.values())} indices"
+""",
+    ),
     "mirror check": (
         1_200,
         "max_search_percepts=120: O(C(m, 4)) quadruples",

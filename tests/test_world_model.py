@@ -714,3 +714,77 @@ def test_link_order_is_the_lexsort_of_pair_length_and_indices(m: int, n_keys: in
     length = np.round(rng.uniform(0.0, 5.0, m), 1)
     key = rng.integers(0, n_keys, m).astype(np.int64)
     assert np.array_equal(_link_order(pi, pj, length, key, 300), np.lexsort((pj, pi, length, key)))
+
+
+def test_build_far_pairs_visits_only_type_pairs_within_reach(monkeypatch) -> None:
+    """150 types, one object each, 40 m apart on a grid but for a cluster of five: 11,325 type
+    pairs, of which 10 hold objects within the far-pair reach.  The per-pair estimate and build
+    run for those, not for every type pair (they did: 11,325 calls each)."""
+    import worldgraph.model as model
+
+    g = np.arange(15) * 40.0
+    pos = np.array([[x, y, 0.0] for x in g for y in g[:10]])
+    pos[1:5] = pos[0] + np.array([[1.0, 0, 0], [0, 2.0, 0], [3.0, 3.0, 1.0], [5.0, 0, 2.0]])
+    world = WorldModel.from_arrays([f"part{k:03d}" for k in range(150)], pos)
+    calls = {"estimate": 0, "build": 0}
+    estimate, build = model._far_pair_estimate, model._build_far_pairs
+
+    def counted_estimate(*args, **kwargs):
+        calls["estimate"] += 1
+        return estimate(*args, **kwargs)
+
+    def counted_build(*args, **kwargs):
+        calls["build"] += 1
+        return build(*args, **kwargs)
+
+    monkeypatch.setattr(model, "_far_pair_estimate", counted_estimate)
+    monkeypatch.setattr(model, "_build_far_pairs", counted_build)
+    for gravity in (False, True):
+        calls.update(estimate=0, build=0)
+        held = world.build_far_pairs(gravity)
+        assert calls["build"] == 10
+        assert calls["estimate"] <= 2 * 10  # each estimated once to order, once on build (kept)
+        assert held == 10 * (2 if gravity else 1)  # one ordered pair per type pair (and gravity)
+        # the other type pairs read as built and empty, without a build
+        far = world.far_pairs("part000", "part149", gravity)
+        assert far is not None and len(far.key) == 0 and (far.dz is not None) == gravity
+        assert world._far_pair_index("part149", "part005", gravity, lazy=True)[0] is not None
+        assert calls["build"] == 10
+
+
+def _far_reference(world: WorldModel, a: str, b: str, gravity: bool) -> set[tuple[int, int]]:
+    """Every ordered pair (type-a object, type-b object), distinct objects, within the far-pair
+    reach, by brute force (16 m apart, or gravity-aligned 16 m horizontally and 4 m in z)."""
+    ia, ib = world.indices_of(a), world.indices_of(b)
+    d = world.positions[ib][None, :, :] - world.positions[ia][:, None, :]
+    if gravity:
+        near = (np.hypot(d[..., 0], d[..., 1]) <= 16.0) & (np.abs(d[..., 2]) <= 4.0)
+    else:
+        near = np.linalg.norm(d, axis=2) <= 16.0
+    i, j = np.nonzero(near)
+    return {(int(ia[p]), int(ib[q])) for p, q in zip(i, j, strict=True) if ia[p] != ib[q]}
+
+
+@pytest.mark.parametrize("gravity", [False, True])
+def test_build_far_pairs_holds_what_brute_force_finds(gravity: bool) -> None:
+    """A small mixed world (repeated types, one far-off group, single-object types): after
+    build_far_pairs every type pair's index holds exactly the brute-force pairs within reach,
+    with their distances, and the type pairs out of reach are empty, not missing."""
+    rng = np.random.default_rng(12)
+    types = list(rng.choice(["door", "knob", "lamp"], 120)) + ["tap", "sink", "door", "oven", "oven"]
+    pos = np.vstack([rng.uniform([0, 0, 0], [40, 30, 9], (120, 3)),
+                     [[200, 0, 0], [205, 3, 1], [300, 300, 0], [210, 5, 0.5], [212, 9, 0.0]]])
+    world = WorldModel.from_arrays(types, pos)
+    world.build_far_pairs(gravity)
+    names = sorted(set(types))
+    for a in names:
+        for b in names:
+            ref = _far_reference(world, a, b, gravity)
+            index = world.far_pairs(a, b, gravity)
+            assert index is not None, (a, b)
+            got = set(zip(index.i.tolist(), index.j.tolist(), strict=True))
+            assert got == ref and len(index.i) == len(ref), (a, b)
+            d = world.positions[index.j] - world.positions[index.i]
+            key = np.hypot(d[:, 0], d[:, 1]) if gravity else np.linalg.norm(d, axis=1)
+            np.testing.assert_allclose(index.key, key, rtol=1e-6, atol=1e-5)
+            assert np.all(np.diff(index.key) >= 0)

@@ -23,8 +23,10 @@
    where the cost is flatter than its quadratic model (:func:`~worldgraph.validation.laplace_inflate`),
    and the sandwich covariance of the two-stage estimator for the range-only methods;
 5. the answer checks itself: a chi-square test of its matched percepts placed by its pose
-   (``"inconsistent"`` when it fails), at least 3 inliers, and the 3-sigma rotation and position
-   bounds against ``max_rotation_3sigma`` and ``max_position_3sigma`` (``"weak"`` beyond them).
+   (``"inconsistent"`` when it fails), at least 3 inliers (counted in constrained directions,
+   :data:`~worldgraph.tolerances.MIN_INLIER_DIRECTIONS` = 9: a needle-shaped percept counts two
+   thirds), and the 3-sigma rotation and position bounds against ``max_rotation_3sigma`` and
+   ``max_position_3sigma`` (``"weak"`` beyond them).
 
 The default region is where the robot could stand and see what it saw: the room when the world
 knows a plausible one (``world.room``, from an importer's floor and walls, holding the objects),
@@ -77,6 +79,7 @@ from .tolerances import (
     ASSOCIATION_TOLERANCES,
     COST_ROUNDING,
     DUPLICATE_DISTANCE,
+    MIN_INLIER_DIRECTIONS,
     REGION_SLACK,
     RIGID_TOLERANCE,
     SIGNIFICANCE,
@@ -92,6 +95,7 @@ from .validation import (
     _pose_error,
     _pose_nees,
     calibrated_pose_covariance,
+    constrained_directions,
     fit_hypothesis,
     percept_covariances,
     pose_cost,
@@ -550,7 +554,8 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     -------
     LocalizationResult
         Never a silently wrong pose: "ok" only for a unique, well-determined pose that passes
-        its own chi-square check with at least 3 inliers; otherwise the status says why (the
+        its own chi-square check with at least 3 inliers (9 constrained directions: a
+        needle-shaped percept counts 2 of 3); otherwise the status says why (the
         best pose is still returned for "ambiguous", "weak", "inconsistent" and
         "outside_region"; NaN when no pose can be determined).
 
@@ -835,6 +840,9 @@ def _validated(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> Locali
     fits = _fit_step(ctx, hyps_local)
     distinct, hyps = _range_step(ctx, hyps_local, fits)
     incomplete = not hyps_local[0].complete
+    if not distinct and fits:  # fits exist, but the range test rejected every one of them
+        return ctx.failed("inconsistent", "every hypothesis fit was rejected by the range test: no "
+                          "pose fits the matched percepts' ranges", hyps, incomplete)
     if not distinct:
         return ctx.failed("degenerate", "no hypothesis keeps 3 inliers whose pose information is "
                           "regular: the matched landmarks fix no 6D pose (collinear, or their "
@@ -1241,9 +1249,9 @@ def _finish(ctx: _Context, answer: _Answer, hyps: tuple, choice: _Choice) -> Loc
     p_i = np.array([p for p, _ in answer.pairs])
     centers = ctx.world.positions[np.array([o for _, o in answer.pairs])]
     status = _self_check_step(ctx, answer, p_i, centers)
-    n_inl, rmse, residuals = _inlier_step(ctx, answer)
+    n_inl, n_dir, rmse, residuals = _inlier_step(ctx, answer)
     ambiguous = choice.ambiguous or answer.status_hint == "ambiguous"
-    status = _status_step(ctx, answer, status, n_inl, ambiguous)
+    status = _status_step(ctx, answer, status, n_inl, n_dir, ambiguous)
     certificate = _certificate_step(ctx, answer, p_i, centers)
     ctx.timings["total"] = time.perf_counter() - ctx.t_start
     pose, cov6 = answer.pose, answer.cov6
@@ -1269,9 +1277,11 @@ def _self_check_step(ctx: _Context, answer: _Answer, p_i: NDArray, centers: NDAr
     return status
 
 
-def _inlier_step(ctx: _Context, answer: _Answer) -> tuple[int, float, NDArray[np.float64]]:
+def _inlier_step(ctx: _Context, answer: _Answer) -> tuple[int, int, float, NDArray[np.float64]]:
     """Every percept against its nearest same-type object under the pose: the number of inliers
-    (chi-square gate, 3 dof), their RMS distance (m) and every percept's Mahalanobis residual."""
+    (chi-square gate, 3 dof), the directions they constrain
+    (:func:`~worldgraph.validation.constrained_directions`: 3 per isotropic percept, 2 per
+    needle), their RMS distance (m) and every percept's Mahalanobis residual."""
     pose, cov6 = answer.pose, answer.cov6
     finite_cov = np.all(np.isfinite(cov6))
     d2, obj, _ = ctx.nearest.query(pose, ctx.ego, ctx.covs, cov6 if finite_cov else None)
@@ -1279,18 +1289,24 @@ def _inlier_step(ctx: _Context, answer: _Answer) -> tuple[int, float, NDArray[np
     pred = ctx.ego @ pose[:3, :3].T + pose[:3, 3]
     dist = np.linalg.norm(pred[inl] - ctx.world.positions[obj[inl]], axis=1) if inl.any() else np.zeros(0)
     n_inl = int(inl.sum())
+    n_dir = int(constrained_directions(ctx.covs[inl]).sum())
     residuals = np.full(ctx.n_all, np.nan)
     residuals[ctx.idx] = np.sqrt(d2)
-    return n_inl, float(np.sqrt(np.mean(dist**2))) if n_inl else math.nan, residuals
+    return n_inl, n_dir, float(np.sqrt(np.mean(dist**2))) if n_inl else math.nan, residuals
 
 
-def _status_step(ctx: _Context, answer: _Answer, status: str, n_inl: int, ambiguous: bool) -> str:
-    """The status: the self-check's, then too few inliers, the estimator's, ambiguity, the
-    region, and the 3-sigma bounds against the tolerances (``"weak"``), first failure wins."""
+def _status_step(ctx: _Context, answer: _Answer, status: str, n_inl: int, n_dir: int, ambiguous: bool
+                 ) -> str:
+    """The status: the self-check's, then too few inliers (``n_inl`` percepts constraining
+    ``n_dir`` directions, fewer than :data:`~worldgraph.tolerances.MIN_INLIER_DIRECTIONS`), the
+    estimator's, ambiguity, the region, and the 3-sigma bounds against the tolerances
+    (``"weak"``), first failure wins."""
     pose, cov6 = answer.pose, answer.cov6
-    if status == "ok" and n_inl < 3:
+    if status == "ok" and n_dir < MIN_INLIER_DIRECTIONS:
         status = "inconsistent"
-        ctx.notes.append(f"only {n_inl} percept(s) agree with the pose (3 needed)")
+        ctx.notes.append(f"only {n_inl} percept(s) agree with the pose, constraining {n_dir} directions "
+                         f"({MIN_INLIER_DIRECTIONS} needed: three isotropic percepts' worth; a needle-shaped "
+                         "covariance constrains two)")
     if status == "ok" and answer.status_hint not in ("ok", "ambiguous"):
         # a radialopt status that localize does not know is no success
         status = answer.status_hint if answer.status_hint in LOCALIZE_STATUSES else "degenerate"

@@ -11,6 +11,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
+from scipy.stats import chi2
 
 from ._checks import float_array, positive_float, rigid_transform, strict_int
 from .errors import PoseError, ShapeError
@@ -25,6 +26,7 @@ from .tolerances import (
     PD_RTOL,
     REFINE_TOL,
     SAME_ROTATION,
+    SIGNIFICANCE,
     SMALL_ANGLE,
     START_IMPROVEMENT,
     STEP_RTOL,
@@ -442,7 +444,11 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
     eliminated in closed form (``min_t cost = l^T Q l`` with a 10x10 ``Q``,
     :mod:`worldgraph.pose_certificate`), a fixed grid of 2048 rotations is screened on that
     reduced cost, and damped Gauss-Newton on SO(3) runs from ``world_from_ego``, from the
-    weighted Kabsch pose (weights ``3 / trace C_i``) and from the best grid rotations; the best
+    weighted Kabsch pose (weights ``3 / trace C_i``) and from the best grid rotations (those
+    below the best minimum so far, or, when that minimum's cost is implausible, above the
+    ``1 - SIGNIFICANCE`` quantile of chi-square with ``3 k`` degrees of freedom, the lowest
+    ones: needles of 1e-8 m^2 make the cost so sharp that every grid rotation costs more than a
+    far local minimum); the best
     is polished by Levenberg-Marquardt on the full residuals until the relative cost decrease
     falls below ``tol`` and the step below 1e-10.  For isotropic ``C_i = s_i^2 I`` the optimum
     is :func:`weighted_kabsch` with weights ``1 / s_i^2`` (closed form).
@@ -530,6 +536,11 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
     grid = _rotation_grid()
     vals = np.sum((grid[:, :10] @ Q) * grid[:, :10], axis=1)
     lower = np.flatnonzero(vals < best_f - START_IMPROVEMENT * max(best_f, 1.0))
+    if best_f > float(chi2.ppf(1.0 - SIGNIFICANCE, 3 * len(x))):
+        # an implausible fit (cost far above chi-square with 3k degrees of freedom): a sharp cost
+        # (needles of 1e-8 m^2) can put every grid rotation above it, yet a better basin lies
+        # between them; descend from the lowest grid rotations regardless
+        lower = np.arange(len(vals))
     tried: list[NDArray] = []
     for i in lower[np.argsort(vals[lower])][:64]:
         Rg = grid[i, 10:].reshape(3, 3)

@@ -53,6 +53,17 @@ RIGID_TOLERANCE = 1e-6
 #: Three points whose triangle area is below this fraction of the squared longest side are
 #: collinear (:func:`~worldgraph.pose.percept_frame`, the orientation filter's triples).
 COLLINEAR_TOL = 1e-9
+#: A percept constrains the eigen-directions of its covariance whose variance is at most this
+#: times its smallest variance (a standard deviation at most 1000 times its best one).  Along the
+#: others it carries less than a millionth of its best information and agrees with almost any
+#: pose: a needle (variances 1e-8, 1e-6 and 1e4 m^2) constrains two directions, a pancake one,
+#: an isotropic or stereo-shaped percept three.  Shape only: how large the variances are is the
+#: pose covariance's business (``"weak"``).
+CONSTRAINED_VARIANCE_RATIO = 1e6
+#: An answer's inliers must constrain at least this many directions in all
+#: (:data:`CONSTRAINED_VARIANCE_RATIO`): three isotropic percepts' worth, 6 to fix the 6D pose
+#: and 3 more to check it.  Three needles (6 directions) fix a pose but leave nothing to check.
+MIN_INLIER_DIRECTIONS = 9
 #: Pose hypotheses: three matched points whose second singular value is below this times the
 #: first are (nearly) collinear and fix no rotation.
 PLANAR_RTOL = 1e-6

@@ -48,13 +48,24 @@ from ._checks import as_list, float_array, positive_float, rigid_transform, stri
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
 from .model import WorldModel
 from .pose import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, pose_information, refine_pose
-from .tolerances import INFORMATION_SYMMETRY_RTOL, PSD_RTOL, RANK_RTOL, RISE_FLOOR, SIGNIFICANCE, TINY
+from .tolerances import (
+    CONSTRAINED_VARIANCE_RATIO,
+    INFORMATION_SYMMETRY_RTOL,
+    PSD_RTOL,
+    QUERY_FLOOR,
+    QUERY_WIDEN,
+    RANK_RTOL,
+    RISE_FLOOR,
+    SIGNIFICANCE,
+    TINY,
+)
 
 __all__ = [
     "CHI2_3_GATE",
     "CHI2_6_GATE",
     "PoseFit",
     "calibrated_pose_covariance",
+    "constrained_directions",
     "curved_pose_covariance",
     "fit_hypothesis",
     "laplace_inflate",
@@ -134,6 +145,23 @@ def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
             raise OutOfRangeError(f"percepts[{k}].sigma = {p.sigma!r} m: its variance sigma^2 overflows")
         out[k] = p.covariance if p.covariance is not None else p.sigma**2 * np.eye(3)
     return out
+
+
+def constrained_directions(covs: NDArray[np.float64]) -> NDArray[np.intp]:
+    """How many directions each percept constrains, ``(k,)`` from its ``(k, 3, 3)`` covariance.
+
+    The eigen-directions whose variance is at most :data:`~worldgraph.tolerances.
+    CONSTRAINED_VARIANCE_RATIO` times the percept's smallest variance (3 for an isotropic or a
+    stereo-shaped percept, 2 for a needle, 1 for a pancake).  The inlier count of an answer sums
+    these rather than counting percepts: a needle agrees with any pose that puts its object
+    anywhere along its long axis, so it checks a pose in two directions only.
+    """
+    C = float_array("covs", covs, (None, 3, 3))
+    C = _covariances(C, len(C), "covs")
+    if not len(C):
+        return np.zeros(0, dtype=np.intp)
+    ev = np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, 1, 2)))
+    return np.sum(ev <= CONSTRAINED_VARIANCE_RATIO * ev[:, :1], axis=1).astype(np.intp)
 
 
 def ros_pose_covariance(information: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -273,8 +301,13 @@ class NearestObjects:
     def query(self, world_from_ego: NDArray, ego: NDArray, covs: NDArray, pose_covariance: NDArray | None
               ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]:
         """``(d2, object, d2 of the runner-up object)`` of every percept, ``(k,)`` each; ``inf``
-        (object -1) where no object of the type exists.  The ``k`` Euclidean nearest objects of
-        each type are the candidates (:func:`placed_mahalanobis`' covariance, computed once)."""
+        (object -1) where no object of the type exists.  Exact over all objects of the type for
+        any covariance (:func:`placed_mahalanobis`' covariance ``S``, computed once): the ``k``
+        Euclidean nearest objects are the first candidates, and since ``r^T S^-1 r >= |r|^2 /
+        lambda_max(S)``, every object that could beat the runner-up among them lies within
+        ``sqrt(d2_runner_up * lambda_max(S))`` of the placed percept; a ball query of that radius
+        adds them where it reaches beyond the ``k`` nearest (a needle-shaped covariance: the
+        nearest object by Mahalanobis distance may lie far along the needle)."""
         n = len(ego)
         d2 = np.full(n, np.inf)
         second = np.full(n, np.inf)
@@ -289,7 +322,8 @@ class NearestObjects:
         for t, idx in self.groups.items():
             objs = self.objects[t]
             kk = min(self.k, len(objs))
-            _, j = self.trees[t].query(pred[idx], k=kk)
+            tree = self.trees[t]
+            dist, j = tree.query(pred[idx], k=kk)
             cand = objs[np.asarray(j).reshape(len(idx), kk)]
             r = self.world.positions[cand] - pred[idx][:, None, :]
             m2 = np.einsum("mca,mab,mcb->mc", r, S_inv[idx], r)
@@ -299,6 +333,19 @@ class NearestObjects:
             obj[idx] = cand[rows, order[:, 0]]
             if kk > 1:
                 second[idx] = m2[rows, order[:, 1]]
+            if kk == len(objs):
+                continue  # every object of the type was a candidate
+            bound = m2[rows, order[:, min(1, kk - 1)]]
+            reach = np.sqrt(bound * np.linalg.eigvalsh(S[idx])[:, -1]) * (1.0 + QUERY_WIDEN) + QUERY_FLOOR
+            kth = np.asarray(dist).reshape(len(idx), kk)[:, -1]
+            for m in np.flatnonzero(reach > kth):
+                more = objs[np.asarray(tree.query_ball_point(pred[idx[m]], reach[m]), dtype=np.intp)]
+                rm = self.world.positions[more] - pred[idx[m]]
+                mm = np.einsum("ca,ab,cb->c", rm, S_inv[idx[m]], rm)
+                top = np.argsort(mm, kind="stable")[:2]
+                d2[idx[m]], obj[idx[m]] = mm[top[0]], more[top[0]]
+                if kk > 1:
+                    second[idx[m]] = mm[top[1]]
         return d2, obj, second
 
 
