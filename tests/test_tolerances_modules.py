@@ -29,7 +29,7 @@ ALLOWED: dict[str, list[str]] = {
     # input range of percept sigmas (SIGMA_RANGE, m)
     "worldgraph/consistency.py": ["1e-12"],
     # input range of depth_factor (1/m); physical min_sigma defaults (m)
-    "worldgraph/active.py": ["1e-3", "1e-4", "1e-4"],
+    "worldgraph/active.py": ["1e-3", "1e-4"],
     # a rendered plane's physical thickness (m)
     "worldgraph/franka.py": ["1e-3"],
     # input ranges of pose weights and covariance eigenvalues (the messages quote them)

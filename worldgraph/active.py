@@ -134,6 +134,8 @@ RECENTRE_STEPS = 2
 #: ``active_localize`` infers a cap on percepts per look only from a look whose plan expected at
 #: least this many detections.
 MIN_CAP_EVIDENCE = 4.0
+#: Default eq. 6 floor (m) of the predicted sights' sigma (``min_sigma``), as the simulators use.
+SIGMA_FLOOR = 1e-4
 #: Random candidate directions added when ``rng`` is given.
 N_RANDOM_DIRECTIONS = 32
 #: Largest pointing error (rad) of the head's optical axis at which ``gaze_reached`` is True.
@@ -728,8 +730,8 @@ def _percepts_in_hand(percepts: object) -> list[Percept]:
 
 def view_scores(world: WorldModel, result: LocalizationResult, directions: object, *, fov_deg: float = 60.0,
                 max_range: float = 8.0, types: Sequence[str] | None = None, detection: float = 0.9,
-                depth_factor: float = DEFAULT_DEPTH_FACTOR, min_sigma: float = 1e-4, n_sigma: float = 3.0,
-                margin: float = 0.05, max_sights: int | None = None,
+                depth_factor: float = DEFAULT_DEPTH_FACTOR, min_sigma: float = SIGMA_FLOOR,
+                n_sigma: float = 3.0, margin: float = 0.05, max_sights: int | None = None,
                 percepts: Sequence[Percept] | None = None) -> NDArray[np.float64]:
     """The probability that a look rules out every hypothesis but the true one (``ViewPlan.score``)
     for each of the given ego directions (m, 3); arguments as for :func:`plan_view`.
@@ -741,7 +743,7 @@ def view_scores(world: WorldModel, result: LocalizationResult, directions: objec
 def view_information(world: WorldModel, result: LocalizationResult, directions: object, *,
                      fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
                      detection: float = 0.9, depth_factor: float = DEFAULT_DEPTH_FACTOR,
-                     min_sigma: float = 1e-4, n_sigma: float = 3.0, margin: float = 0.05,
+                     min_sigma: float = SIGMA_FLOOR, n_sigma: float = 3.0, margin: float = 0.05,
                      max_sights: int | None = None, percepts: Sequence[Percept] | None = None
                      ) -> NDArray[np.float64]:
     """The expected information (nats) of a look about the 6D pose (``ViewPlan.information``, what
@@ -754,8 +756,8 @@ def view_information(world: WorldModel, result: LocalizationResult, directions: 
 def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float = 60.0, max_range: float = 8.0,
               head: KinematicChain | None = None, candidates: object = None,
               rng: np.random.Generator | None = None, types: Sequence[str] | None = None,
-              detection: float = 0.9, depth_factor: float = DEFAULT_DEPTH_FACTOR, min_sigma: float = 1e-4,
-              n_sigma: float = 3.0, margin: float = 0.05,
+              detection: float = 0.9, depth_factor: float = DEFAULT_DEPTH_FACTOR,
+              min_sigma: float = SIGMA_FLOOR, n_sigma: float = 3.0, margin: float = 0.05,
               joint_limits: Mapping[str, Any] | None = None, max_sights: int | None = None,
               percepts: Sequence[Percept] | None = None) -> ViewPlan:
     """The gaze direction whose look is expected to tell the most about the pose: it tells the
