@@ -11,10 +11,17 @@ import sys
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
-from .tolerances import SPD_RTOL, SYM_RTOL
+from .errors import (
+    InvalidPoseError,
+    NonFiniteError,
+    NonPositiveSigmaError,
+    PerceptionError,
+    ShapeError,
+    UnknownClassError,
+)
+from .tolerances import RIGID_TOLERANCE, SPD_RTOL, SYM_RTOL
 
 
 def _short(value: Any) -> str:
@@ -260,3 +267,33 @@ def guard(func: Any) -> Any:
             ) from exc
 
     return wrapper
+
+
+MAX_TRANSLATION = 1e150
+"""Largest translation (metres) of a rigid transform accepted."""
+
+
+def check_transform(name: str, value: ArrayLike, atol: float = RIGID_TOLERANCE) -> NDArray[np.float64]:
+    """Validate a 4x4 rigid transform and return it as float64.
+
+    Raises
+    ------
+    ShapeError, NonFiniteError, InvalidPoseError
+        Wrong shape, non-finite entries, or not a rigid motion (rotation block, last row).
+    """
+    if not isinstance(name, str):
+        raise ShapeError(f"name must be a str, got {type(name).__name__}")
+    atol = real_scalar("atol", atol, positive=True)
+    M = real_array(name, value, (4, 4))
+    if np.any(np.abs(M[:3, 3]) > MAX_TRANSLATION):
+        raise InvalidPoseError(
+            f"{name}: translation must be at most {MAX_TRANSLATION:g} m, got {M[:3, 3].tolist()}"
+        )
+    if not np.allclose(M[3], [0.0, 0.0, 0.0, 1.0], atol=atol):
+        raise InvalidPoseError(f"{name} must be a rigid transform with last row (0, 0, 0, 1), "
+                               f"got {M[3].tolist()}")
+    R = M[:3, :3]
+    if np.max(np.abs(R)) > 2.0 or not np.allclose(R @ R.T, np.eye(3), atol=atol) or np.linalg.det(R) <= 0:
+        raise InvalidPoseError(f"{name} must be a rigid transform: its rotation block must be a proper "
+                               f"rotation (R R^T = I, det R = +1), got {R.tolist()}")
+    return M

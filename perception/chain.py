@@ -15,17 +15,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import guard, name_str, real_array, real_scalar, vector3
+from ._checks import MAX_TRANSLATION, check_transform, guard, name_str, real_array, real_scalar, vector3
+from ._urdf import urdf_joint_specs
 from .errors import (
-    InvalidPoseError,
     JointLimitError,
     KinematicsError,
     NonFiniteError,
     NonPositiveSigmaError,
     PerceptionError,
     ShapeError,
+    URDFError,
 )
-from .tolerances import PSD_ATOL, RIGID_TOLERANCE, SYM_RTOL, TINY
+from .tolerances import PSD_ATOL, SYM_RTOL, TINY
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 MAX_ANGLE = 2.0 * np.pi
@@ -57,8 +58,6 @@ def _check_limits(joint: Joint, index: int | None, value: float) -> float:
     return value
 
 
-MAX_TRANSLATION = 1e150
-"""Largest translation (metres) of a rigid transform accepted."""
 # tip (x forward, y left, z up) from OpenCV camera (x right, y down, z forward)
 TIP_FROM_OPENCV = np.array(
     [[0.0, 0.0, 1.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
@@ -66,32 +65,6 @@ TIP_FROM_OPENCV = np.array(
 
 
 @guard
-def check_transform(name: str, value: ArrayLike, atol: float = RIGID_TOLERANCE) -> NDArray[np.float64]:
-    """Validate a 4x4 rigid transform and return it as float64.
-
-    Raises
-    ------
-    ShapeError, NonFiniteError, InvalidPoseError
-        Wrong shape, non-finite entries, or not a rigid motion (rotation block, last row).
-    """
-    if not isinstance(name, str):
-        raise ShapeError(f"name must be a str, got {type(name).__name__}")
-    atol = real_scalar("atol", atol, positive=True)
-    M = real_array(name, value, (4, 4))
-    if np.any(np.abs(M[:3, 3]) > MAX_TRANSLATION):
-        raise InvalidPoseError(
-            f"{name}: translation must be at most {MAX_TRANSLATION:g} m, got {M[:3, 3].tolist()}"
-        )
-    if not np.allclose(M[3], [0.0, 0.0, 0.0, 1.0], atol=atol):
-        raise InvalidPoseError(f"{name} must be a rigid transform with last row (0, 0, 0, 1), "
-                               f"got {M[3].tolist()}")
-    R = M[:3, :3]
-    if np.max(np.abs(R)) > 2.0 or not np.allclose(R @ R.T, np.eye(3), atol=atol) or np.linalg.det(R) <= 0:
-        raise InvalidPoseError(f"{name} must be a rigid transform: its rotation block must be a proper "
-                               f"rotation (R R^T = I, det R = +1), got {R.tolist()}")
-    return M
-
-
 def rotation(axis: str, angle: float) -> NDArray[np.float64]:
     """4x4 rotation by ``angle`` (radians) about the ``axis`` ('x', 'y' or 'z') of the frame."""
     c, s = np.cos(angle), np.sin(angle)
@@ -258,9 +231,16 @@ class KinematicChain:
             ``base_link``, no revolute joint lies between them, or a joint on the way is
             prismatic, planar, floating or a mimic joint.
         """
-        from .urdf import chain_from_urdf
-
-        return chain_from_urdf(path, base_link, camera_link, link_from_camera)
+        specs, tip_from_camera, where = urdf_joint_specs(path, base_link, camera_link, link_from_camera)
+        joints: list[Joint] = []
+        for name, letter, origin, lower, upper, index in specs:
+            try:
+                joints.append(Joint(name, letter, origin, lower, upper))
+            except JointLimitError as exc:
+                raise URDFError(f"joint {name!r} (index {index} on the path): {exc}") from exc
+            except PerceptionError as exc:
+                raise URDFError(f"joint {name!r} (index {index} on the path) of {where}: {exc}") from exc
+        return cls(tuple(joints), np.eye(4), tip_from_camera)
 
     @property
     def names(self) -> tuple[str, ...]:
