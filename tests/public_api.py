@@ -9,9 +9,11 @@ after a move: a restructuring keeps every old import path working.
 from __future__ import annotations
 
 import importlib
+import inspect
 import json
 import pkgutil
 import sys
+import types
 from pathlib import Path
 
 PACKAGES = ("perception", "worldgraph", "radialopt")
@@ -19,12 +21,15 @@ SNAPSHOT = Path(__file__).parent / "data" / "public_api.json"
 
 
 def public_names(module: object) -> list[str]:
-    """``__all__`` when the module has one, else its names without a leading underscore that are
-    not modules."""
+    """``__all__`` when the module has one, else its names without a leading underscore, less
+    modules, ``__future__`` features and the functions and classes it imports from elsewhere."""
     names = getattr(module, "__all__", None)
     if names is None:
+        own = getattr(module, "__name__", "")
         names = [n for n, v in vars(module).items()
-                 if not n.startswith("_") and type(v).__name__ != "module"]
+                 if not n.startswith("_") and not isinstance(v, types.ModuleType)
+                 and type(v).__name__ != "_Feature"
+                 and not ((inspect.isfunction(v) or inspect.isclass(v)) and v.__module__ != own)]
     return sorted(str(n) for n in names)
 
 
