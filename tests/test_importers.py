@@ -359,7 +359,7 @@ def test_dae_without_pycollada(tmp_path, monkeypatch):
     path = tmp_path / "scene.dae"
     path.write_text("<COLLADA/>")
     real = importlib.util.find_spec
-    monkeypatch.setattr(importers.importlib.util, "find_spec",
+    monkeypatch.setattr(importlib.util, "find_spec",
                         lambda name, *a: None if name == "collada" else real(name, *a))
     with pytest.raises(wg.ImporterError, match="pip install pycollada"):
         wg.WorldModel.from_file(path)

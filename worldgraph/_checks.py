@@ -9,8 +9,9 @@ a float64 array, a :class:`numpy.random.Generator`).
   optionally bounded by ``max_abs``; complex, bool, str, None, ragged input rejected.
 * :func:`finite_float`, :func:`positive_float` -- a real scalar (int or float, not bool).
 * :func:`strict_int` -- an integer (Python or numpy int, not bool/float/NaN/None/str), in range.
-* :func:`rigid_transform` -- a (4, 4) rigid transform: finite, last row ``0 0 0 1``, rotation
-  orthonormal with determinant +1 (no scale, shear or reflection).
+* :func:`worldgraph._rigid.rigid_transform` -- a (4, 4) rigid transform: finite, last row
+  ``0 0 0 1``, rotation orthonormal with determinant +1 (no scale, shear or reflection); apart,
+  because its default tolerance lives in :mod:`worldgraph.tolerances`, which uses these checks.
 * :func:`generator`, :func:`rng_from_seed` -- a :class:`numpy.random.Generator`, or a seed.
 * :func:`name_string` -- a non-empty ``str`` without NUL characters.
 """
@@ -28,7 +29,6 @@ from .errors import (
     ArgumentTypeError,
     NonFiniteError,
     NonPositiveError,
-    NonRigidError,
     OutOfRangeError,
     ShapeError,
     WorldGraphError,
@@ -42,7 +42,6 @@ __all__ = [
     "real_float",
     "name_string",
     "positive_float",
-    "rigid_transform",
     "rng_from_seed",
     "strict_int",
 ]
@@ -196,38 +195,6 @@ def strict_int(name: str, value: Any, *, minimum: int | None = None, maximum: in
     if maximum is not None and n > maximum:
         raise OutOfRangeError(f"{name} must be <= {maximum}, got {n}")
     return n
-
-
-def rigid_transform(name: str, value: Any, *, tol: float | None = None,
-                    max_translation: float | None = None) -> NDArray[np.float64]:
-    """A (4, 4) rigid transform as a new float64 array.
-
-    Finite, last row ``[0, 0, 0, 1]`` (within ``tol``, else :class:`ShapeError`), rotation block ``R`` with
-    ``max |R^T R - I| <= tol`` and ``|det R - 1| <= tol``: scaled, sheared and reflected
-    transforms raise :class:`NonRigidError` naming the determinant and the orthogonality error.
-    ``max_translation`` bounds ``|t_i|`` (:class:`OutOfRangeError`).  ``tol`` defaults to
-    :data:`~worldgraph.tolerances.RIGID_TOLERANCE`.
-    """
-    if tol is None:
-        from .tolerances import RIGID_TOLERANCE  # not at the top: worldgraph.tolerances imports this module
-        tol = RIGID_TOLERANCE
-    m = float_array(name, value, (4, 4))
-    if np.abs(m[3] - _LAST_ROW).max() > tol:
-        raise ShapeError(f"{name} last row must be [0, 0, 0, 1], got {m[3].tolist()}")
-    rot = m[:3, :3]
-    orth = float(np.abs(rot.T @ rot - np.eye(3)).max())
-    det = float(np.linalg.det(rot))
-    if not (orth <= tol and abs(det - 1.0) <= tol):
-        kind = "a reflection" if det < 0 else "scaled or sheared"
-        raise NonRigidError(f"{name} must be rigid (rotation with R^T R = I, det R = +1), but it is {kind}: "
-                            f"det R = {det:.6g}, max |R^T R - I| = {orth:.3g} (tolerance {tol:g})")
-    if max_translation is not None:
-        over = np.abs(m[:3, 3]) > max_translation
-        if over.any():
-            i = int(np.argmax(over))
-            raise OutOfRangeError(f"{name}[{i}, 3] = {float(m[i, 3])!r} is out of range: "
-                                  f"|translation| must be <= {max_translation:g}")
-    return m
 
 
 def generator(name: str, value: Any) -> np.random.Generator:

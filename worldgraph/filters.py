@@ -14,7 +14,8 @@ from numpy.typing import NDArray
 
 from perception import Percept
 
-from ._checks import positive_float, rigid_transform, strict_int
+from ._checks import positive_float, strict_int
+from ._rigid import rigid_transform
 from .consistency import _check_inputs, _consistency_graph, _Graph, _pair_candidates, _prune
 from .errors import (
     ArgumentTypeError,

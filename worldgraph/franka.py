@@ -62,6 +62,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from . import _checks
+from ._rigid import quat_matrix as _quat_matrix
 from .errors import ImporterError, MalformedFileError, WorldGraphError
 from .model import WorldModel
 from .tolerances import NORM_FLOOR, SIZE_MATCH, UPRIGHT_TOL
@@ -106,15 +107,6 @@ def _axis_rotation(axis: str, angle: float) -> NDArray[np.float64]:
     if axis == "y":
         return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
-
-
-def _quat_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
 
 
 def _rodrigues(axis: NDArray[np.float64], angle: float) -> NDArray[np.float64]:

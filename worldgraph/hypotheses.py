@@ -14,7 +14,8 @@ from numpy.typing import NDArray
 
 from perception import Percept
 
-from ._checks import finite_float, rigid_transform
+from ._checks import finite_float
+from ._rigid import rigid_transform
 from .errors import (
     ArgumentTypeError,
 )

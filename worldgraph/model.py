@@ -64,7 +64,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from . import _checks, ring_join
+from . import _checks, _rigid, ring_join
 from .errors import (
     ArgumentTypeError,
     CoincidentObjectsError,
@@ -77,6 +77,7 @@ from .errors import (
     UnknownTypeError,
     WorldGraphError,
 )
+from .scene_files import typed_scene
 from .tolerances import COINCIDENT_TOLERANCE, FAR_PAIR_SLACK, QUERY_WIDEN, RIGID_TOLERANCE  # noqa: F401 - re-exported
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -566,7 +567,7 @@ class ObjectModel:
         _checks.name_string("ObjectModel.id", self.id)
         _check_type_name(self.type, f"ObjectModel {self.id!r} type")
         _checks.name_string(f"ObjectModel {self.id!r} geometry", self.geometry, UnknownGeometryError)
-        pose = _checks.rigid_transform(f"ObjectModel {self.id!r} pose", self.pose,
+        pose = _rigid.rigid_transform(f"ObjectModel {self.id!r} pose", self.pose,
                                        max_translation=MAX_COORDINATE)
         pose[3] = _LAST_ROW
         size = _check_size(f"ObjectModel {self.id!r} size", self.size)
@@ -1455,14 +1456,16 @@ class WorldModel:
         return world._warn_units()
 
     @classmethod
-    def from_file(cls, path: str | os.PathLike[str], type_of: Any = None, **options: Any) -> WorldModel:
+    def from_file(cls, path: str | os.PathLike[str], type_of: Any = None, *, max_link_length: float = 5.0,
+                  link_margin: float = 0.0, room: Any = "auto", mjcf_objects: str = "bodies",
+                  file_format: str | None = None) -> WorldModel:
         """World model from a scene file: GLB/GLTF/OBJ/PLY/STL/OFF/DAE through trimesh, MJCF through
         MuJoCo (``mjcf`` extra); see :func:`worldgraph.importers.world_from_file` for ``type_of``
-        (``None``, a callable ``name -> type or None``, or a mapping ``regex -> type``) and
-        ``options`` (``max_link_length``, ``link_margin``, ``room``, ``mjcf_objects``, ``file_format``)."""
-        from .importers import world_from_file
-
-        return world_from_file(path, type_of, world_class=cls, **options)
+        (``None``, a callable ``name -> type or None``, or a mapping ``regex -> type``) and the
+        options (``max_link_length``, ``link_margin``, ``room``, ``mjcf_objects``, ``file_format``)."""
+        scene, types = typed_scene(path, type_of, mjcf_objects=mjcf_objects, file_format=file_format)
+        return cls.from_trimesh(scene, type_of=lambda node, _geometry: types.get(str(node)),
+                                max_link_length=max_link_length, link_margin=link_margin, room=room)
 
     # -- derived data ----------------------------------------------------------------------------
     @property

@@ -21,7 +21,8 @@ from typing import Any, TypeGuard
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import _short, as_list, float_array, positive_float, rigid_transform, strict_int
+from ._checks import _short, as_list, float_array, positive_float, strict_int
+from ._rigid import rigid_transform
 from .errors import ArgumentTypeError, ImporterError, ShapeError
 from .localize import LocalizationResult
 from .model import WorldModel

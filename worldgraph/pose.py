@@ -13,7 +13,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from ._checks import float_array, positive_float, rigid_transform, strict_int
+from ._checks import float_array, positive_float, strict_int
+from ._rigid import rigid_transform
 from .errors import PoseError, ShapeError
 from .tolerances import COLLINEAR_TOL as COLLINEAR_TOL  # re-exported: worldgraph.pose.COLLINEAR_TOL
 from .tolerances import (

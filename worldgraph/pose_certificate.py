@@ -64,7 +64,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from radialopt.certificates import Certificate
 
-from ._checks import positive_float, rigid_transform
+from ._checks import positive_float
+from ._rigid import rigid_transform
 from .errors import ArgumentTypeError, PoseError, TooFewPerceptsError, WorldGraphError
 from .pose import MAX_POSE_COORDINATE, _covariances, _points, refine_pose, transformation
 from .tolerances import (

@@ -41,7 +41,8 @@ from scipy.spatial.transform import Rotation
 
 from perception import Percept
 
-from ._checks import _short, as_list, name_string, positive_float, rigid_transform
+from ._checks import _short, as_list, name_string, positive_float
+from ._rigid import rigid_transform
 from .errors import ArgumentTypeError, ImporterError
 from .localize import LocalizationResult
 from .model import WorldModel

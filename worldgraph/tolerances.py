@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, cast
+from typing import Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,8 +25,14 @@ from .errors import (
     ShapeError,
 )
 
-if TYPE_CHECKING:  # model imports this module
-    from .model import WorldModel
+
+class _GravityNoted(Protocol):
+    """A world's own gravity note (:attr:`worldgraph.WorldModel.gravity_aligned`): what the
+    tolerances read of a world (a protocol: the model imports this module)."""
+
+    @property
+    def gravity_aligned(self) -> bool: ...
+
 
 # --- fixed internal thresholds ---------------------------------------------------------------
 # Relative ones multiply the scale named in their comment; none of them is a physical size.
@@ -297,7 +303,7 @@ class AssociationTolerances:
 ASSOCIATION_TOLERANCES = AssociationTolerances()
 
 
-def _check_tolerances(tolerances: object, name: str = "tolerances", world: WorldModel | None = None
+def _check_tolerances(tolerances: object, name: str = "tolerances", world: _GravityNoted | None = None
                       ) -> AssociationTolerances:
     """The tolerances, with ``gravity_aligned=None`` resolved to the world's flag when a world is
     given."""
@@ -324,7 +330,7 @@ def _tol_argument(function: str, tol: AssociationTolerances | None, tolerances: 
 
 
 def _resolved_tol(function: str, tol: AssociationTolerances | None, tolerances: object,
-                  world: WorldModel | None = None) -> AssociationTolerances:
+                  world: _GravityNoted | None = None) -> AssociationTolerances:
     """:func:`_tol_argument`, ``None`` as :data:`ASSOCIATION_TOLERANCES`, then checked (and
     ``gravity_aligned`` resolved against ``world``) by :func:`_check_tolerances`."""
     tol = _tol_argument(function, tol, tolerances, stacklevel=4)

@@ -21,12 +21,12 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from typing import Any, Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 
 from perception import Percept
-
-from .model import WorldModel
 
 __all__ = [
     "LONG_RANGE",
@@ -53,6 +53,26 @@ class UnitsWarning(UserWarning):
     """Positions whose scale looks like millimetres where metres are expected."""
 
 
+class _WorldLike(Protocol):
+    """What these hints read of a :class:`worldgraph.WorldModel` (a protocol, so that the model,
+    which gives its own hint, does not import this module back)."""
+
+    @property
+    def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+
+    @property
+    def objects(self) -> Sequence[Any]: ...
+
+    @property
+    def positions(self) -> NDArray[np.float64]: ...
+
+    @property
+    def tree(self) -> Any: ...
+
+    @property
+    def units_hint(self) -> str | None: ...
+
+
 def _extent(points: np.ndarray) -> float:
     """Diagonal of the axis-aligned bounding box of ``points (n, 3)`` (0 for fewer than 2)."""
     if points.shape[0] < 2:
@@ -60,12 +80,12 @@ def _extent(points: np.ndarray) -> float:
     return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
 
 
-def _world_extent(world: WorldModel) -> float:
+def _world_extent(world: _WorldLike) -> float:
     lo, hi = world.bounds
     return float(np.linalg.norm(hi - lo))
 
 
-def percept_units_hint(world: WorldModel, percepts: Sequence[Percept]) -> str | None:
+def percept_units_hint(world: _WorldLike, percepts: Sequence[Percept]) -> str | None:
     """A sentence when the percepts and the world disagree in scale by about 1000, else None.
 
     Parameters
@@ -99,7 +119,7 @@ def percept_units_hint(world: WorldModel, percepts: Sequence[Percept]) -> str | 
     return None
 
 
-def world_units_hint(world: WorldModel) -> str | None:
+def world_units_hint(world: _WorldLike) -> str | None:
     """A sentence when a big world's objects sit about 1000 of their sizes apart, else None.
 
     Parameters
@@ -136,13 +156,13 @@ def world_units_hint(world: WorldModel) -> str | None:
     return None
 
 
-def units_hint(world: WorldModel, percepts: Sequence[Percept]) -> str | None:
+def units_hint(world: _WorldLike, percepts: Sequence[Percept]) -> str | None:
     """:func:`percept_units_hint`, else the world's own (:attr:`WorldModel.units_hint`, computed
     once per world): the one sentence ``localize`` and ``associate`` give when nothing matched."""
     return percept_units_hint(world, percepts) or world.units_hint
 
 
-def check_world_units(world: WorldModel) -> str | None:
+def check_world_units(world: _WorldLike) -> str | None:
     """Warn (:class:`UnitsWarning`) when :func:`world_units_hint` finds the world suspect.
 
     Parameters

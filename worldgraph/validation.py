@@ -44,7 +44,8 @@ from scipy.stats import chi2
 
 from perception import Percept
 
-from ._checks import as_list, float_array, positive_float, rigid_transform, strict_int
+from ._checks import as_list, float_array, positive_float, strict_int
+from ._rigid import rigid_transform
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
 from .model import WorldModel
 from .pose import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, pose_information, refine_pose

@@ -1,0 +1,54 @@
+"""Rigid transforms as arguments: :func:`rigid_transform` (apart from :mod:`worldgraph._checks`
+because its default tolerance lives in :mod:`worldgraph.tolerances`, which uses those checks)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._checks import _LAST_ROW, float_array
+from .errors import NonRigidError, OutOfRangeError, ShapeError
+from .tolerances import RIGID_TOLERANCE
+
+
+def rigid_transform(name: str, value: Any, *, tol: float | None = None,
+                    max_translation: float | None = None) -> NDArray[np.float64]:
+    """A (4, 4) rigid transform as a new float64 array.
+
+    Finite, last row ``[0, 0, 0, 1]`` (within ``tol``, else :class:`ShapeError`), rotation block ``R`` with
+    ``max |R^T R - I| <= tol`` and ``|det R - 1| <= tol``: scaled, sheared and reflected
+    transforms raise :class:`NonRigidError` naming the determinant and the orthogonality error.
+    ``max_translation`` bounds ``|t_i|`` (:class:`OutOfRangeError`).  ``tol`` defaults to
+    :data:`~worldgraph.tolerances.RIGID_TOLERANCE`.
+    """
+    if tol is None:
+        tol = RIGID_TOLERANCE
+    m = float_array(name, value, (4, 4))
+    if np.abs(m[3] - _LAST_ROW).max() > tol:
+        raise ShapeError(f"{name} last row must be [0, 0, 0, 1], got {m[3].tolist()}")
+    rot = m[:3, :3]
+    orth = float(np.abs(rot.T @ rot - np.eye(3)).max())
+    det = float(np.linalg.det(rot))
+    if not (orth <= tol and abs(det - 1.0) <= tol):
+        kind = "a reflection" if det < 0 else "scaled or sheared"
+        raise NonRigidError(f"{name} must be rigid (rotation with R^T R = I, det R = +1), but it is {kind}: "
+                            f"det R = {det:.6g}, max |R^T R - I| = {orth:.3g} (tolerance {tol:g})")
+    if max_translation is not None:
+        over = np.abs(m[:3, 3]) > max_translation
+        if over.any():
+            i = int(np.argmax(over))
+            raise OutOfRangeError(f"{name}[{i}, 3] = {float(m[i, 3])!r} is out of range: "
+                                  f"|translation| must be <= {max_translation:g}")
+    return m
+
+
+def quat_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrix of a quaternion ``(w, x, y, z)`` (MuJoCo's order; normalised here)."""
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])

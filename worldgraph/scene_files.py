@@ -1,0 +1,473 @@
+"""Reading scene files into typed :class:`trimesh.Scene` s, for
+:meth:`WorldModel.from_file <worldgraph.WorldModel.from_file>` (the formats, the type rules and
+the errors are described in :mod:`worldgraph.importers`, whose public names live here; this
+module does not build the world, so that the model reads files without an import cycle).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import pathlib
+import re
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from . import _checks
+from ._rigid import quat_matrix as _quat_matrix  # MuJoCo quaternion (w, x, y, z) -> rotation matrix
+from .errors import (
+    ArgumentTypeError,
+    EmptyWorldError,
+    ImporterError,
+    MalformedFileError,
+    WorldGraphError,
+)
+
+if TYPE_CHECKING:  # pragma: no cover
+    import trimesh
+
+__all__ = [
+    "typed_scene",
+    "KNOWN_TYPES",
+    "MJCF_OBJECTS",
+    "MJCF_SUFFIXES",
+    "OBJ_SUFFIXES",
+    "TRIMESH_SUFFIXES",
+    "default_type_of",
+    "scene_from_file",
+    "type_rule",
+]
+
+#: Types the default rule (:func:`default_type_of`) recognises as the leading word of a name.
+KNOWN_TYPES = (
+    "appliance", "burner", "button", "cabinet", "chair", "dishwasher", "door", "drawer", "faucet",
+    "fridge", "handle", "hood", "kettle", "knob", "lamp", "microwave", "oven", "panel", "radiator",
+    "shelf", "sink", "socket", "stove", "switch", "table", "window",
+)
+#: File suffixes read with :func:`trimesh.load_scene`.
+TRIMESH_SUFFIXES = (".glb", ".gltf", ".ply", ".stl", ".off", ".dae")
+#: File suffixes read by this module's OBJ reader.
+OBJ_SUFFIXES = (".obj",)
+#: File suffixes read as MJCF by MuJoCo's compiler.
+MJCF_SUFFIXES = (".xml", ".mjcf")
+#: Values of ``mjcf_objects``.
+MJCF_OBJECTS = ("bodies", "geoms")
+
+_MJCF_PIP = "pip install gaussian-spheres[mjcf]"
+_LEADING_WORD = re.compile(r"[^\W\d_]+")
+
+
+# ----------------------------------------------------------------------------------------------
+# typing rules
+# ----------------------------------------------------------------------------------------------
+def default_type_of(name: str) -> str | None:
+    """The type of a name by the default rule: its leading word if that is a known type.
+
+    Parameters
+    ----------
+    name : str
+        A node, body or geom name.
+
+    Returns
+    -------
+    str or None
+        The letters of ``name`` before the first character that is not a letter, lower-cased,
+        when they are one of :data:`KNOWN_TYPES`; else ``None``.
+
+    Examples
+    --------
+    >>> default_type_of("door_3"), default_type_of("Knob 1"), default_type_of("hingeleftdoor")
+    ('door', 'knob', None)
+    """
+    match = _LEADING_WORD.match(str(name))
+    if match is None:
+        return None
+    word = match.group(0).lower()
+    return word if word in KNOWN_TYPES else None
+
+
+def type_rule(type_of: Any) -> Callable[[str], str | None]:
+    """The callable ``name -> type or None`` that a ``type_of`` argument stands for.
+
+    Parameters
+    ----------
+    type_of : None, callable or mapping
+        ``None`` gives :func:`default_type_of`; a callable is returned as is; a mapping of
+        regex patterns (``str`` or compiled) to type names gives the rule "first pattern that
+        :func:`re.search` finds in the name".
+
+    Returns
+    -------
+    callable
+        ``name -> type or None``.
+
+    Raises
+    ------
+    ArgumentTypeError
+        ``type_of`` of another kind, an empty mapping, a pattern that does not compile (naming
+        it) or a type that is not a non-empty string.
+    """
+    if type_of is None:
+        return default_type_of
+    if isinstance(type_of, Mapping):
+        if not type_of:
+            raise ArgumentTypeError("type_of must map at least one regex pattern to a type, got {}")
+        rules: list[tuple[re.Pattern[str], str]] = []
+        for pattern, typ in type_of.items():
+            if isinstance(pattern, re.Pattern):
+                compiled = pattern
+            elif isinstance(pattern, str):
+                try:
+                    compiled = re.compile(pattern)
+                except re.error as exc:
+                    raise ArgumentTypeError(f"type_of pattern {pattern!r} is not a valid regular "
+                                            f"expression: {exc}") from exc
+            else:
+                raise ArgumentTypeError(f"type_of keys must be regex patterns (str or re.Pattern), got "
+                                        f"{_checks._short(pattern)}")
+            _checks.name_string(f"type_of[{pattern!r}]", typ, ArgumentTypeError)
+            rules.append((compiled, typ))
+
+        def by_pattern(name: str) -> str | None:
+            for compiled, typ in rules:
+                if compiled.search(name):
+                    return typ
+            return None
+
+        return by_pattern
+    if callable(type_of):
+        return type_of
+    raise ArgumentTypeError("type_of must be None, a callable name -> type or None, or a mapping of regex "
+                            f"patterns to types, got {_checks._short(type_of)}")
+
+
+# ----------------------------------------------------------------------------------------------
+# files
+# ----------------------------------------------------------------------------------------------
+def _file_kind(path: str, file_format: str | None) -> str:
+    """``"trimesh"``, ``"obj"`` or ``"mjcf"`` from the suffix (or ``file_format``)."""
+    if file_format is None:
+        suffix = pathlib.Path(path).suffix.lower()
+        what = f"{path}: file suffix {suffix!r}"
+    else:
+        if not isinstance(file_format, str):
+            raise ArgumentTypeError(f"file_format must be None or a suffix such as '.obj', got "
+                                    f"{_checks._short(file_format)}")
+        suffix = file_format.lower() if file_format.startswith(".") else "." + file_format.lower()
+        what = f"file_format = {file_format!r}"
+    if suffix in OBJ_SUFFIXES:
+        return "obj"
+    if suffix in TRIMESH_SUFFIXES:
+        return "trimesh"
+    if suffix in MJCF_SUFFIXES:
+        return "mjcf"
+    known = ", ".join(OBJ_SUFFIXES + TRIMESH_SUFFIXES + MJCF_SUFFIXES)
+    raise MalformedFileError(f"{what} is not a known scene format; known: {known} (pass file_format= "
+                             "to read a file with another suffix)")
+
+
+def scene_from_file(path: str | os.PathLike[str], *, file_format: str | None = None,
+                    mjcf_objects: str = "bodies") -> trimesh.Scene:
+    """Read a scene file into a :class:`trimesh.Scene` of named candidate nodes.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file (see the module docstring for the formats).
+    file_format : str, optional
+        A suffix (``".obj"``, ``"glb"``, ``".xml"``, ...) to use instead of the path's.
+    mjcf_objects : {"bodies", "geoms"}
+        For MJCF: one node per named body or per geom.
+
+    Returns
+    -------
+    trimesh.Scene
+        For MJCF with ``metadata["mujoco_model"]`` and ``metadata["mujoco_data"]``.
+
+    Raises
+    ------
+    MalformedFileError
+        Missing or unreadable file, unknown suffix, a file its reader rejects.
+    ImporterError
+        ``mujoco`` (MJCF) or ``pycollada`` (``.dae``) not installed.
+    """
+    text = _checks.file_path("path", path)
+    if not isinstance(mjcf_objects, str) or mjcf_objects not in MJCF_OBJECTS:
+        raise ArgumentTypeError(f"mjcf_objects must be one of {MJCF_OBJECTS}, got "
+                                f"{_checks._short(mjcf_objects)}")
+    kind = _file_kind(text, file_format)
+    if not os.path.isfile(text):
+        raise MalformedFileError(f"{text}: no such file" if not os.path.exists(text)
+                                 else f"{text}: not a regular file")
+    if kind == "obj":
+        return _obj_scene(text)
+    if kind == "mjcf":
+        return _mjcf_scene(text, mjcf_objects)
+    return _trimesh_scene(text, file_format)
+
+
+def _trimesh_scene(path: str, file_format: str | None) -> trimesh.Scene:
+    import trimesh
+
+    suffix = (file_format or pathlib.Path(path).suffix).lower().lstrip(".")
+    if suffix == "dae" and importlib.util.find_spec("collada") is None:
+        raise ImporterError(f"{path}: reading COLLADA (.dae) needs pycollada: pip install pycollada")
+    try:
+        scene = trimesh.load_scene(path, file_type=suffix)
+    except (ValueError, TypeError, KeyError, IndexError, AttributeError, OSError, EOFError) as exc:
+        raise MalformedFileError(f"{path}: trimesh cannot read it as {suffix}: "
+                                 f"{type(exc).__name__}: {exc}") from exc
+    return scene
+
+
+# -- OBJ ---------------------------------------------------------------------------------------
+def _obj_scene(path: str) -> trimesh.Scene:
+    """One node per ``o``/``g`` part of an OBJ file, identity transforms."""
+    import trimesh
+
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            lines = fh.read().splitlines()
+    except OSError as exc:
+        raise MalformedFileError(f"{path}: cannot read: {exc}") from exc
+    vertices: list[tuple[float, float, float]] = []
+    parts: list[tuple[str, list[list[int]]]] = []
+    current: list[list[int]] | None = None
+    for lineno, raw in enumerate(lines, start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        head, _, rest = line.partition(" ")
+        fields = rest.split()
+        if head == "v":
+            if len(fields) < 3:
+                raise MalformedFileError(f"{path}:{lineno}: a vertex needs 3 coordinates, got {raw!r}")
+            try:
+                xyz = (float(fields[0]), float(fields[1]), float(fields[2]))
+            except ValueError as exc:
+                raise MalformedFileError(f"{path}:{lineno}: cannot read the vertex {raw!r}") from exc
+            if not all(np.isfinite(xyz)):
+                raise MalformedFileError(f"{path}:{lineno}: vertex coordinates must be finite, got {raw!r}")
+            vertices.append(xyz)
+        elif head in ("o", "g"):
+            name = fields[0] if fields else ""
+            current = []
+            parts.append((name, current))
+        elif head == "f":
+            if len(fields) < 3:
+                raise MalformedFileError(f"{path}:{lineno}: a face needs at least 3 vertices, got {raw!r}")
+            face = []
+            for ref in fields:
+                try:
+                    k = int(ref.split("/", 1)[0])
+                except ValueError as exc:
+                    raise MalformedFileError(f"{path}:{lineno}: cannot read the face {raw!r}") from exc
+                index = k - 1 if k > 0 else len(vertices) + k  # negative: relative to the end
+                if k == 0 or not 0 <= index < len(vertices):
+                    raise MalformedFileError(f"{path}:{lineno}: face refers to vertex {k}, but "
+                                             f"{len(vertices)} vertices are defined so far")
+                face.append(index)
+            if current is None:
+                current = []
+                parts.append((pathlib.Path(path).name, current))
+            current.append(face)
+    verts = np.array(vertices, dtype=np.float64).reshape(-1, 3)
+    scene = trimesh.Scene()
+    used_names: set[str] = set()
+    for name, faces in parts:
+        if not faces or not name:
+            continue
+        tris = np.array([[f[0], f[k], f[k + 1]] for f in faces for k in range(1, len(f) - 1)], dtype=np.int64)
+        keep, inverse = np.unique(tris, return_inverse=True)
+        mesh = trimesh.Trimesh(vertices=verts[keep], faces=inverse.reshape(-1, 3), process=False)
+        node = _unique(name, used_names)
+        scene.add_geometry(mesh, node_name=node, geom_name=node)
+    return scene
+
+
+def _unique(name: str, used: set[str]) -> str:
+    """``name``, or ``name.1``, ``name.2``, ... if taken; recorded in ``used``."""
+    out, k = name, 0
+    while out in used:
+        k += 1
+        out = f"{name}.{k}"
+    used.add(out)
+    return out
+
+
+# -- MJCF --------------------------------------------------------------------------------------
+def _import_mujoco() -> Any:
+    try:
+        import mujoco
+    except ImportError as exc:
+        raise ImporterError(f"reading MJCF needs the mujoco package: {_MJCF_PIP}") from exc
+    return mujoco
+
+
+def _pose(position: NDArray[np.float64], xmat: NDArray[np.float64]) -> NDArray[np.float64]:
+    m = np.eye(4)
+    m[:3, :3] = np.asarray(xmat, dtype=np.float64).reshape(3, 3)
+    m[:3, 3] = position
+    return m
+
+
+def _geom_shape(mujoco: Any, model: Any, g: int) -> tuple[trimesh.Trimesh, NDArray[np.float64]] | None:
+    """``(mesh, geom_from_mesh (4, 4))`` of geom ``g``; ``None`` for an infinite plane."""
+    import trimesh
+
+    kind = int(model.geom_type[g])
+    size = np.asarray(model.geom_size[g], dtype=np.float64)
+    T = mujoco.mjtGeom
+    eye = np.eye(4)
+    if kind == int(T.mjGEOM_BOX):
+        return trimesh.creation.box(extents=2.0 * size), eye
+    if kind == int(T.mjGEOM_SPHERE):
+        return trimesh.creation.icosphere(subdivisions=1, radius=size[0]), eye
+    if kind == int(T.mjGEOM_ELLIPSOID):
+        mesh = trimesh.creation.icosphere(subdivisions=1, radius=1.0)
+        mesh.apply_scale(size)
+        return mesh, eye
+    if kind == int(T.mjGEOM_CYLINDER):
+        return trimesh.creation.cylinder(radius=size[0], height=2.0 * size[1], sections=24), eye
+    if kind == int(T.mjGEOM_CAPSULE):
+        return trimesh.creation.capsule(height=2.0 * size[1], radius=size[0], count=[12, 12]), eye
+    if kind == int(T.mjGEOM_PLANE):
+        if size[0] <= 0 or size[1] <= 0:
+            return None  # infinite plane: no box
+        sx, sy = size[0], size[1]
+        quad = np.array([[-sx, -sy, 0.0], [sx, -sy, 0.0], [sx, sy, 0.0], [-sx, sy, 0.0]])
+        return trimesh.Trimesh(vertices=quad, faces=[[0, 1, 2], [0, 2, 3]], process=False), eye
+    if kind == int(T.mjGEOM_MESH) and int(model.geom_dataid[g]) >= 0:
+        k = int(model.geom_dataid[g])
+        v0, nv = int(model.mesh_vertadr[k]), int(model.mesh_vertnum[k])
+        f0, nf = int(model.mesh_faceadr[k]), int(model.mesh_facenum[k])
+        verts = np.asarray(model.mesh_vert[v0:v0 + nv], dtype=np.float64)
+        faces = np.asarray(model.mesh_face[f0:f0 + nf], dtype=np.int64)
+        geom_from_mesh = np.eye(4)
+        if hasattr(model, "mesh_pos") and hasattr(model, "mesh_quat"):
+            # MuJoCo stores vertices in the mesh's inertia frame: asset = R @ stored + pos
+            rot = _quat_matrix(model.mesh_quat[k])
+            pos = np.asarray(model.mesh_pos[k], dtype=np.float64)
+            verts = verts @ rot.T + pos
+            geom_from_mesh[:3, :3] = rot.T
+            geom_from_mesh[:3, 3] = -rot.T @ pos
+        return trimesh.Trimesh(vertices=verts, faces=faces, process=False), geom_from_mesh
+    # height fields, SDFs, ...: the geom's bounding box
+    aabb = np.asarray(model.geom_aabb[g], dtype=np.float64)
+    centre, half = aabb[:3], aabb[3:]
+    box = trimesh.creation.box(extents=2.0 * half)
+    box.apply_translation(centre)
+    return box, eye
+
+
+def _mjcf_scene(path: str, mjcf_objects: str) -> trimesh.Scene:
+    import trimesh
+
+    mujoco = _import_mujoco()
+    try:
+        model = mujoco.MjModel.from_xml_path(path)
+    except ValueError as exc:
+        raise MalformedFileError(f"{path}: MuJoCo cannot compile it: {exc}") from exc
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    scene = trimesh.Scene()
+    scene.metadata["mujoco_model"] = model
+    scene.metadata["mujoco_data"] = data
+    used: set[str] = set()
+
+    def body_name(b: int) -> str:
+        return model.body(b).name or f"body{b}"
+
+    if mjcf_objects == "geoms":
+        for g in range(model.ngeom):
+            b = int(model.geom_bodyid[g])
+            name = model.geom(g).name or f"{body_name(b)}:{g - int(model.body_geomadr[b])}"
+            shape = _geom_shape(mujoco, model, g)
+            if shape is None:
+                continue
+            mesh, geom_from_mesh = shape
+            node = _unique(name, used)
+            world = _pose(data.geom_xpos[g], data.geom_xmat[g]) @ geom_from_mesh
+            scene.add_geometry(mesh, node_name=node, geom_name=node, transform=world)
+        return scene
+    first = int(model.body_geomadr[0])  # named geoms of the world body: their own nodes
+    for g in range(first, first + int(model.body_geomnum[0])):
+        shape = _geom_shape(mujoco, model, g)
+        if model.geom(g).name and shape is not None:
+            node = _unique(model.geom(g).name, used)
+            world = _pose(data.geom_xpos[g], data.geom_xmat[g]) @ shape[1]
+            scene.add_geometry(shape[0], node_name=node, geom_name=node, transform=world)
+    for b in range(1, model.nbody):
+        name = model.body(b).name
+        if not name:
+            continue
+        world_from_body = _pose(data.xpos[b], data.xmat[b])
+        body_from_world = np.linalg.inv(world_from_body)
+        pieces = []
+        start, count = int(model.body_geomadr[b]), int(model.body_geomnum[b])
+        for g in range(start, start + count):  # count 0 when start is -1
+            shape = _geom_shape(mujoco, model, g)
+            if shape is None:
+                continue
+            mesh, geom_from_mesh = shape
+            mesh = mesh.copy()
+            world_from_geom = _pose(data.geom_xpos[g], data.geom_xmat[g])
+            mesh.apply_transform(body_from_world @ world_from_geom @ geom_from_mesh)
+            pieces.append(mesh)
+        geometry: Any
+        if pieces:
+            geometry = trimesh.util.concatenate(pieces) if len(pieces) > 1 else pieces[0]
+        else:
+            geometry = trimesh.PointCloud(np.zeros((1, 3)))
+        node = _unique(name, used)
+        scene.add_geometry(geometry, node_name=node, geom_name=node, transform=world_from_body)
+    return scene
+
+
+# ----------------------------------------------------------------------------------------------
+# world
+# ----------------------------------------------------------------------------------------------
+def _node_metadata_type(scene: trimesh.Scene, node: str) -> tuple[bool, Any]:
+    """``(True, type)`` when the node carries ``metadata["type"]``, else ``(False, None)``."""
+    parent = scene.graph.transforms.parents.get(node)
+    if parent is None:
+        return False, None
+    meta = scene.graph.transforms.edge_data.get((parent, node), {}).get("metadata")
+    if isinstance(meta, dict) and "type" in meta:
+        return True, meta["type"]
+    return False, None
+
+
+def typed_scene(path: str | os.PathLike[str], type_of: Any = None, *, mjcf_objects: str = "bodies",
+                file_format: str | None = None) -> tuple[trimesh.Scene, dict[str, Any]]:
+    """The scene of a file (:func:`scene_from_file`) and the type of each typed node name (the
+    type rules of :func:`worldgraph.importers.world_from_file`); :class:`EmptyWorldError` when
+    no node gets a type."""
+    rule = type_rule(type_of)
+    text = _checks.file_path("path", path)
+    scene = scene_from_file(text, file_format=file_format, mjcf_objects=mjcf_objects)
+    names = [str(n) for n in scene.graph.nodes_geometry]
+    types: dict[str, Any] = {}
+    for node in names:
+        if type_of is None:
+            has_meta, typ = _node_metadata_type(scene, node)
+            if not has_meta:
+                typ = rule(node)
+        else:
+            try:
+                typ = rule(node)
+            except Exception as exc:
+                raise WorldGraphError(f"type_of({node!r}) raised {type(exc).__name__}: {exc}") from exc
+        if typ is not None:
+            types[node] = typ
+    if not types:
+        shown = sorted(names)[:20]
+        more = f" and {len(names) - 20} more" if len(names) > 20 else ""
+        how = ("the leading word of a name must be one of worldgraph.importers.KNOWN_TYPES"
+               if type_of is None else "type_of gave None for every name")
+        raise EmptyWorldError(f"{text}: no object recognised among the {len(names)} names {shown}{more} "
+                              f"({how}; pass type_of= to type them)")
+    return scene, types
