@@ -22,13 +22,14 @@ SNAPSHOT = Path(__file__).parent / "data" / "public_api.json"
 
 def public_names(module: object) -> list[str]:
     """``__all__`` when the module has one, else its names without a leading underscore, less
-    modules, ``__future__`` features and the functions and classes it imports from elsewhere."""
+    modules, ``__future__`` features, ``typing.TYPE_CHECKING`` and the functions and classes it
+    imports from elsewhere."""
     names = getattr(module, "__all__", None)
     if names is None:
         own = getattr(module, "__name__", "")
         names = [n for n, v in vars(module).items()
                  if not n.startswith("_") and not isinstance(v, types.ModuleType)
-                 and type(v).__name__ != "_Feature"
+                 and type(v).__name__ != "_Feature" and n != "TYPE_CHECKING"
                  and not ((inspect.isfunction(v) or inspect.isclass(v)) and v.__module__ != own)]
     return sorted(str(n) for n in names)
 
