@@ -10,6 +10,7 @@ behind, so both poses predict those at the same ego spots; the door of room 1 is
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -212,6 +213,21 @@ def test_a_near_object_counts_in_view_only_when_the_pose_pins_its_direction():
     assert view_information(world, loose, [[1.0, 0.0, 0.0]], types=["door"])[0] > 1.0  # straight at it
 
 
+@pytest.mark.parametrize("cov", [np.zeros((6, 6)), -np.eye(6), 1e-30 * np.eye(6), 1e30 * np.eye(6),
+                                 np.diag([1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), np.triu(np.ones((6, 6))),
+                                 np.full((6, 6), np.nan)])
+def test_odd_pose_covariances_plan_finite_looks(cov):
+    """Zero, negative, tiny, huge, singular, asymmetric or NaN covariances: a finite plan, no
+    overflow (the planner floors the variances, and ignores a covariance with none positive)."""
+    world, cluster, spread = _cluster_and_spread()
+    res = _weak(np.asarray(cov, dtype=float))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        plan = wg.plan_view(world, res, types=KINDS)
+    assert np.isfinite(plan.information) and plan.information >= -1e-9
+    assert np.linalg.norm(plan.direction) == pytest.approx(1.0)
+
+
 def test_a_pose_known_too_poorly_to_aim_still_looks_at_the_objects():
     """Position known to 3 m (1 sigma): no object is surely in any view, so the plan aims at the
     predicted directions as they are rather than at nothing."""
@@ -255,6 +271,23 @@ def test_active_localize_learns_a_cap_on_percepts_per_look(monkeypatch):
     calls.clear()
     wg.active_localize(world, percepts, look_all, types=KINDS, max_looks=2, goal_rotation_3sigma=goal)
     assert calls == [None, None]  # a looker that returns what is in view is not capped
+
+
+@pytest.mark.parametrize("kwargs, error, name", [
+    (dict(depth_factor=1e-6), OutOfRangeError, "depth_factor"),
+    (dict(depth_factor=float("nan")), NonFiniteError, "depth_factor"),
+    (dict(detection=1.5), OutOfRangeError, "detection"),
+    (dict(detection=0.0), NonPositiveError, "detection"),
+    (dict(max_sights=0), OutOfRangeError, "max_sights"),
+    (dict(max_sights=2.5), ArgumentTypeError, "max_sights"),
+])
+def test_active_localize_checks_its_look_model_before_the_first_look(kwargs, error, name):
+    world, cluster, spread = _cluster_and_spread()
+    percepts = [pc.Percept(t, x, 0.01) for t, x in zip(KINDS[:3], spread[:3], strict=True)]
+    looked = []
+    with pytest.raises(error, match=name):
+        wg.active_localize(world, percepts, lambda d: looked.append(d) or [], types=KINDS, **kwargs)
+    assert looked == []
 
 
 def _skew(q):

@@ -74,7 +74,7 @@ from .tolerances import (
     JOINT_LIMIT_MARGIN,
     NORM_FLOOR,
     PD_RTOL,
-    TINY,
+    POSE_VARIANCE_FLOOR,
     AssociationTolerances,
     _tol_argument,
 )
@@ -587,13 +587,13 @@ def _prior(result: LocalizationResult, poses: list[NDArray[np.float64]], weights
     about their mean (6D, at the chosen pose, in the order and axes of ``pose_covariance``)."""
     vague = np.diag(np.full(6, 1.0 / VAGUE_POSE_STD**2))
     cov = np.asarray(result.pose_covariance, dtype=np.float64)
+    prior = vague
     if cov.shape == (6, 6) and np.all(np.isfinite(cov)):
         vals, vecs = np.linalg.eigh(0.5 * (cov + cov.T))
-        top = max(float(vals.max()), TINY)
-        vals = np.clip(vals, top * PD_RTOL, None)
-        prior = (vecs / vals) @ vecs.T + vague
-    else:
-        prior = vague
+        top = float(vals.max())
+        if top > 0:  # (a covariance without a positive variance holds nothing to plan with)
+            vals = np.clip(vals, max(top * PD_RTOL, POSE_VARIANCE_FLOOR), None)
+            prior = (vecs / vals) @ vecs.T + vague
     T0 = poses[0]
     dev = np.array([_pose_error(T0, T) for T in poses])
     centred = dev - weights @ dev
@@ -677,6 +677,14 @@ def _information(pred: _Prediction, covs: NDArray[np.float64], per_h: NDArray[np
     return 0.5 * (before - after)
 
 
+def _depth_factor(value: object) -> float:
+    """The eq. 6 factor (1/m), in [0.001, 1e12]."""
+    depth_factor = positive_float("depth_factor", value, maximum=1e12)
+    if depth_factor < 1e-3:
+        raise OutOfRangeError(f"depth_factor = {depth_factor!r} is out of range: must be >= 0.001 (1/m)")
+    return depth_factor
+
+
 def _check_common(world: object, result: object, fov_deg: object, max_range: object, detection: object,
                   depth_factor: object, min_sigma: object, n_sigma: object, margin: object
                   ) -> tuple[float, float, float, float, float, float, float]:
@@ -684,9 +692,7 @@ def _check_common(world: object, result: object, fov_deg: object, max_range: obj
         raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
     if not isinstance(result, LocalizationResult):
         raise ArgumentTypeError(f"result must be a LocalizationResult, got {type(result).__name__}")
-    depth_factor = positive_float("depth_factor", depth_factor, maximum=1e12)
-    if depth_factor < 1e-3:
-        raise OutOfRangeError(f"depth_factor = {depth_factor!r} is out of range: must be >= 0.001 (1/m)")
+    depth_factor = _depth_factor(depth_factor)
     return (positive_float("fov_deg", fov_deg, maximum=360.0),
             positive_float("max_range", max_range, maximum=1e6),
             positive_float("detection", detection, maximum=1.0), depth_factor,
@@ -1045,7 +1051,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     if depth_factor is None:
         depth_factor = depth_factor_of(current)
     else:
-        depth_factor = positive_float("depth_factor", depth_factor, maximum=1e12)
+        depth_factor = _depth_factor(depth_factor)
     result = localize(world, current, method, tol=tol, gravity=gravity)
     results, plans = [result], []
     directions: list[NDArray[np.float64]] = []

@@ -115,6 +115,9 @@ RISE_FLOOR = 1e-3
 #: Pose refinement (LM): a Hessian is positive definite when its smallest eigenvalue exceeds
 #: this times its scale; otherwise it is shifted by :data:`LM_SHIFT` times the scale.
 PD_RTOL = 1e-12
+#: Active looks: the smallest pose variance (m^2, rad^2) the planner takes from a result's
+#: covariance (a pose known exactly to the planner would overflow its information).
+POSE_VARIANCE_FLOOR = 1e-24
 #: Pose refinement (LM): the smallest diagonal shift, times the Hessian's scale.
 LM_SHIFT = 1e-6
 #: Pose refinement: converged when the cost falls by less than this relative amount.
