@@ -241,7 +241,7 @@ def test_a_pose_known_too_poorly_to_aim_still_looks_at_the_objects():
 def test_active_localize_learns_a_cap_on_percepts_per_look(monkeypatch):
     """A looker that reports at most one object of the many in view: after its first look the
     default planner models the cap; a given max_sights is used from the start and kept."""
-    import worldgraph.active as active
+    import worldgraph.active.loop as active
 
     calls = []
     real = active.plan_view

@@ -1,0 +1,238 @@
+"""The loop: localise, plan, look, localise again (:func:`active_localize`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Literal, get_args
+
+import numpy as np
+from numpy.typing import NDArray
+
+from perception import KinematicChain, Percept
+
+from .._checks import as_list, float_array, positive_float, strict_int
+from ..consistency import check_world_and_percepts
+from ..errors import ArgumentTypeError, OutOfRangeError
+from ..gravity import Gravity, _check_gravity
+from ..localize import LocalizationResult, PoseStatus, localize
+from ..model import WorldModel
+from ..tolerances import (
+    ASSOCIATION_TOLERANCES,
+    AssociationTolerances,
+    _tol_argument,
+)
+from .plan import ViewPlan, _depth_factor, plan_view
+from .predict import DEFAULT_DEPTH_FACTOR, MERGE_FLOOR, MERGE_SIGMAS
+
+#: :func:`depth_factor_of` reads the eq. 6 factor from percepts at least this far (m) ...
+MIN_FACTOR_RANGE = 1.0
+#: ``active_localize`` infers a cap on percepts per look only from a look whose plan expected at
+#: least this many detections.
+MIN_CAP_EVIDENCE = 4.0
+
+#: Localisation statuses that come with a pose to plan a view from (the trusted ones and the
+#: poses that failed their own check or the caller's region): what ``look_while`` may hold.
+LookStatus = Literal[PoseStatus, "inconsistent", "outside_region"]
+_LOOK_STATUSES: tuple[str, ...] = get_args(LookStatus)
+#: :func:`active_localize` also looks while an "ok" answer's 3-sigma rotation bound is wider than
+#: this (radians): 2 degrees, what a pose judged correct may be off by in the benchmarks.
+GOAL_ROTATION_3SIGMA = math.radians(2.0)
+
+
+
+
+
+@dataclass(frozen=True)
+class ActiveLocalization:
+    """Result of :func:`active_localize`.
+
+    Attributes
+    ----------
+    result : LocalizationResult
+        The last localisation (of ``percepts``).
+    results : tuple of LocalizationResult
+        Before any look, then after each look.
+    plans : tuple of ViewPlan
+        One per look.
+    directions : tuple of (3,) float
+        The gaze direction of each look (ego frame).
+    percepts : tuple of Percept
+        The percepts passed in followed by the new ones each look added.
+    looks : int
+    """
+
+    result: LocalizationResult
+    results: tuple[LocalizationResult, ...]
+    plans: tuple[ViewPlan, ...]
+    directions: tuple[NDArray[np.float64], ...]
+    percepts: tuple[Percept, ...]
+    looks: int
+
+
+def merge_percepts(old: Sequence[Percept], new: Sequence[Percept], n_sigma: float = MERGE_SIGMAS,
+                   floor: float = MERGE_FLOOR) -> list[Percept]:
+    """``old`` followed by the percepts of ``new`` that are not a second sight of an old one: a new
+    percept within ``n_sigma sqrt(s_old^2 + s_new^2) + floor`` (m) of an old percept of its type
+    is dropped (an object seen again; the association matches one percept per object)."""
+    old, new = list(old), list(new)
+    keep = []
+    for q in new:
+        again = any(p.type == q.type and float(np.linalg.norm(p.position - q.position))
+                    <= n_sigma * math.hypot(p.sigma, q.sigma) + floor for p in old)
+        if not again:
+            keep.append(q)
+    return old + keep
+
+
+def depth_factor_of(percepts: Sequence[Percept], default: float = DEFAULT_DEPTH_FACTOR) -> float:
+    """The eq. 6 factor of percepts (1/m): the median of ``rho^2 / sigma`` over those at least
+    :data:`MIN_FACTOR_RANGE` from the ego origin (nearer ones may sit on the sigma floor);
+    ``default`` when there are none."""
+    values = [float(p.position @ p.position) / p.sigma for p in percepts
+              if float(np.linalg.norm(p.position)) >= MIN_FACTOR_RANGE and p.sigma > 0]
+    return float(np.median(values)) if values else default
+
+
+def _learned_cap(cap: int | None, plan: ViewPlan, returned: int, detection: float) -> int | None:
+    """The cap on percepts per look that the looks so far reveal: a look that returned fewer than
+    half the detections its plan expected (:data:`MIN_CAP_EVIDENCE` at least) caps at the most
+    any look returned."""
+    expected = detection * float(np.mean([len(e) for e in plan.expected])) if plan.expected else 0.0
+    if expected >= MIN_CAP_EVIDENCE and returned < 0.5 * expected:
+        return max(returned, cap or 0, 1)
+    if cap is not None and returned > cap:
+        return returned
+    return cap
+
+
+def _imprecise(result: LocalizationResult, goal_rotation_3sigma: float | None) -> bool:
+    """An "ok" result whose 3-sigma rotation bound exceeds the goal (or is not finite)."""
+    if goal_rotation_3sigma is None or result.status != "ok":
+        return False
+    return not result.rotation_3sigma <= goal_rotation_3sigma  # NaN: not finite
+
+
+def active_localize(world: WorldModel, percepts: Sequence[Percept],
+                    look: Callable[[NDArray[np.float64]], Sequence[Percept]], *, max_looks: int = 2,
+                    planner: Callable[[LocalizationResult], NDArray[np.float64] | ViewPlan] | None = None,
+                    method: str = "ml", tol: AssociationTolerances | None = None,
+                    fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
+                    head: KinematicChain | None = None, look_while: Sequence[str] = ("ambiguous", "weak"),
+                    goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA, gravity: Gravity = "auto",
+                    depth_factor: float | None = None, detection: float = 0.9, max_sights: int | None = None,
+                    tolerances: AssociationTolerances | None = None) -> ActiveLocalization:
+    """Localise; while the status is in ``look_while`` (default ``"ambiguous"`` and ``"weak"``) and
+    looks remain:
+    plan a view, look, and localise again with the old and new percepts (:func:`merge_percepts`
+    drops second sights).
+
+    Parameters
+    ----------
+    world : WorldModel
+    percepts : sequence of perception.Percept
+        Ego frame.
+    look : callable direction -> sequence of Percept
+        Turns the head to the (3,) ego direction and returns what it recognises, in the same
+        ego frame (the robot does not move).
+    max_looks : int
+        At most this many looks (>= 0).
+    planner : callable result -> ViewPlan or (3,) direction, optional
+        Default :func:`plan_view` with ``fov_deg``, ``max_range``, ``types`` and ``head``.
+    method, tol
+        Passed to :func:`~worldgraph.localize`.
+    look_while : sequence of str
+        Statuses that call for another look, among those that come with a pose (``"ambiguous"``,
+        ``"weak"``, ``"inconsistent"``, ``"outside_region"``, ``"ok"``); with ``"weak"`` (the
+        default) a unique but poorly determined pose also gets looks (plan_view's
+        ``"single_hypothesis"`` view, where the most objects are expected): in the kitchen at 5
+        percepts (1 false) that lifts unique-correct after two looks from 87.5 % to 99 %.
+    goal_rotation_3sigma : float or None
+        Radians (default :data:`GOAL_ROTATION_3SIGMA`, 2 degrees). An ``"ok"`` answer whose 3-sigma
+        rotation bound (about the worst axis, from ``pose_covariance``) is wider than this also
+        gets looks, to add landmarks that pin the rotation; the final status is still the one
+        ``localize`` gives. ``None`` looks only while the status is in ``look_while``.
+    gravity : "auto", (3,) float or None
+        Passed to every :func:`~worldgraph.localize` call (:mod:`worldgraph.gravity`; the head
+        turns, the ego frame does not, so one up vector holds for all the looks).
+    depth_factor : float, optional
+        Eq. 6 noise of the predicted sights for the default planner (``sigma = rho^2 /
+        depth_factor``); default estimated from the percepts passed in (:func:`depth_factor_of`).
+    detection, max_sights
+        The default planner's look model (:func:`plan_view`): the probability that an object in
+        view is recognised, and at most how many percepts a look returns.  Default: no cap until
+        a look returns fewer than half the detections its plan expected; from then on the most
+        any look returned (a recogniser that reports a few objects per view).
+    tolerances : AssociationTolerances, optional
+        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
+        :class:`~worldgraph.errors.ArgumentTypeError`).
+
+    Returns
+    -------
+    ActiveLocalization
+        Stops early when the status is not in ``look_while`` (a unique answer, or a failure no
+        look is planned for).
+    """
+    if not callable(look):
+        raise ArgumentTypeError(f"look must be a callable direction -> list of Percept, "
+                                f"got {type(look).__name__}")
+    if planner is not None and not callable(planner):
+        raise ArgumentTypeError(f"planner must be None or a callable result -> ViewPlan or direction, got "
+                                f"{type(planner).__name__}")
+    max_looks = strict_int("max_looks", max_looks, minimum=0, maximum=1000)
+    statuses = as_list("look_while", look_while, "status names")
+    if goal_rotation_3sigma is not None:
+        goal_rotation_3sigma = positive_float("goal_rotation_3sigma", goal_rotation_3sigma)
+        g = goal_rotation_3sigma
+        if g > math.pi:
+            raise OutOfRangeError(f"goal_rotation_3sigma = {g!r} is an angle in radians and must be <= pi; "
+                                  f"did you mean degrees? np.radians({g:g}) = {math.radians(g):.4g}")
+    for i, st in enumerate(statuses):
+        if st not in _LOOK_STATUSES:
+            raise OutOfRangeError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
+                                  f"choose among {_LOOK_STATUSES}")
+    tol = _tol_argument("active_localize", tol, tolerances)
+    tol = ASSOCIATION_TOLERANCES if tol is None else tol
+    current = check_world_and_percepts(world, percepts)
+    _check_gravity(gravity, tol)  # a bad gravity fails before the first look
+    learn_cap = max_sights is None
+    cap = None if max_sights is None else strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
+    detection = positive_float("detection", detection, maximum=1.0)
+    if depth_factor is None:
+        depth_factor = depth_factor_of(current)
+    else:
+        depth_factor = _depth_factor(depth_factor)
+    result = localize(world, current, method, tol=tol, gravity=gravity)
+    results, plans = [result], []
+    directions: list[NDArray[np.float64]] = []
+    while len(directions) < max_looks and (result.status in statuses
+                                           or _imprecise(result, goal_rotation_3sigma)):
+        if planner is None:
+            plan: ViewPlan | NDArray[np.float64] = plan_view(world, result, fov_deg=fov_deg,
+                                                             max_range=max_range, types=types, head=head,
+                                                             depth_factor=depth_factor, detection=detection,
+                                                             max_sights=cap, percepts=current)
+        else:
+            plan = planner(result)
+        if isinstance(plan, ViewPlan):
+            plans.append(plan)
+            d = plan.direction
+        else:
+            d = float_array("planner(result)", plan, (3,))
+            if not np.linalg.norm(d) > 0:
+                raise OutOfRangeError(f"planner(result) returned a zero direction {d.tolist()}")
+            d = d / np.linalg.norm(d)
+        new = as_list("look(direction)", look(d.copy()), "perception.Percept", exclude=(Percept,))
+        for i, p in enumerate(new):
+            if not isinstance(p, Percept):
+                raise ArgumentTypeError(f"look(direction)[{i}] must be a perception.Percept, "
+                                        f"got {type(p).__name__}")
+        directions.append(d)
+        if planner is None and learn_cap and isinstance(plan, ViewPlan):
+            cap = _learned_cap(cap, plan, len(new), detection)
+        current = merge_percepts(current, new)
+        result = localize(world, current, method, tol=tol, gravity=gravity)
+        results.append(result)
+    return ActiveLocalization(result=result, results=tuple(results), plans=tuple(plans),
+                              directions=tuple(directions), percepts=tuple(current), looks=len(directions))
