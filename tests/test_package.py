@@ -167,7 +167,7 @@ def _status_sets():
     return {
         "worldgraph/localize.py": localize_module.LOCALIZE_STATUSES,
         "worldgraph/tiles.py": localize_module.LOCALIZE_STATUSES,
-        "worldgraph/active.py": worldgraph.active.VIEW_STATUSES,
+        "worldgraph/active/plan.py": worldgraph.active.VIEW_STATUSES,
         "radialopt/position.py": radialopt.POSITION_STATUSES,
         "radialopt/projection.py": radialopt.STATUSES,
         "radialopt/formulation.py": radialopt.STATUSES,

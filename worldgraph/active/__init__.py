@@ -51,6 +51,7 @@ from __future__ import annotations
 
 from .gaze import GAZE_TOLERANCE, gaze_angles
 from .loop import (
+    _LOOK_STATUSES,
     GOAL_ROTATION_3SIGMA,
     MIN_CAP_EVIDENCE,
     MIN_FACTOR_RANGE,
@@ -80,6 +81,7 @@ from .predict import (
     SIGMA_FLOOR,
     VAGUE_POSE_STD,
     VIEW_MARGIN_SIGMAS,
+    _gate,
     _predict,
     sight_information,
     tells_apart,
