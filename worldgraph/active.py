@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal, cast, get_args
 
 import numpy as np
@@ -455,7 +455,7 @@ class _Prediction:
 
 def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: float, max_range: float,
              depth_factor: float, min_sigma: float, n_sigma: float, margin: float,
-             percepts: Sequence[Percept] = (), blurred: bool = True) -> _Prediction:
+             percepts: Sequence[Percept] = ()) -> _Prediction:
     recog = _check_types(world, types, result)
     poses, weights = _hypotheses(result)
     # only objects within reach of some hypothesis matter: one farther from every hypothesis than
@@ -474,9 +474,7 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: 
     neighbour = _same_type_neighbour(X, codes)
     tells = tells_apart(ego, codes, in_range, gate)
     type_names = world.types[obj]
-    blur = _view_blur(result) if blurred else (0.0, 0.0)
-    half = math.radians(fov / 2.0)
-    info, cos_lim = [], []
+    info = []
     for h, (T, r, g, inr) in enumerate(zip(poses, rho, gate, in_range, strict=True)):
         sigma = np.asarray(depth_sigma(np.maximum(r, min_sigma), depth_factor, min_sigma=min_sigma),
                            dtype=np.float64)
@@ -484,15 +482,24 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: 
         tells[h, :, repeat] = False            # a second sight is merged away: it tells nothing
         matchable = inr & (neighbour > g) & ~repeat  # lands near one object of its type only
         info.append(sight_information(X - T[:3, 3], sigma) * matchable[:, None])
-        # surely in view: within the half angle less the direction's uncertainty under the pose: its
-        # position's share (an object as near as the position is uncertain is in no view), and its
-        # rotation's, at most a share of the half angle (the same for every object: a pose whose
-        # rotation is known too poorly to aim at anything still aims at the objects)
-        left = half - np.arctan2(blur[0], np.maximum(r, NORM_FLOOR)) - min(blur[1], MAX_VIEW_MARGIN * half)
-        cos_lim.append(np.where(left > 0, np.cos(np.clip(left, 0.0, math.pi)), NEVER_IN_VIEW))
+    cos_lim = _cos_limits(rho, math.radians(fov / 2.0), _view_blur(result))
     prior, spread = _prior(result, poses, weights)
     return _Prediction(poses, weights, obj, ego, [_unit_rows(e) for e in ego], rho, in_range, tells, cos_lim,
                        info, prior, spread)
+
+
+def _cos_limits(rho: Sequence[NDArray[np.float64]], half: float, blur: tuple[float, float]
+                ) -> list[NDArray[np.float64]]:
+    """Per hypothesis, the cosine above which each object is surely in view: within the half angle
+    ``half`` less its direction's uncertainty under the pose (``blur``, :func:`_view_blur`): the
+    position's share (an object as near as the position is uncertain is in no view), and the
+    rotation's, at most a share of the half angle (the same for every object: a pose whose
+    rotation is known too poorly to aim at anything still aims at the objects)."""
+    out = []
+    for r in rho:
+        left = half - np.arctan2(blur[0], np.maximum(r, NORM_FLOOR)) - min(blur[1], MAX_VIEW_MARGIN * half)
+        out.append(np.where(left > 0, np.cos(np.clip(left, 0.0, math.pi)), NEVER_IN_VIEW))
+    return out
 
 
 def _aimable(pred: _Prediction) -> bool:
@@ -518,9 +525,11 @@ def _view_blur(result: LocalizationResult) -> tuple[float, float]:
 
 
 def _repeats(ego: NDArray[np.float64], type_names: NDArray, sigma: NDArray[np.float64],
-             percepts: Sequence[Percept]) -> NDArray[np.bool_]:
-    """(n,): the predicted sight (ego point, eq. 6 sigma) repeats a percept in hand, as
-    :func:`merge_percepts` judges it (so a look would add nothing for it)."""
+             percepts: Sequence[Percept], n_sigma: float = MERGE_SIGMAS, floor: float = MERGE_FLOOR
+             ) -> NDArray[np.bool_]:
+    """(n,): the sight (ego point, sigma) repeats one of ``percepts`` of its type: it lies within
+    ``n_sigma sqrt(s^2 + s_percept^2) + floor`` (m) of it.  The one rule of :func:`merge_percepts`
+    and of the planner (a predicted sight that repeats a percept in hand adds nothing)."""
     out = np.zeros(len(ego), dtype=bool)
     by_type: dict[str, list[Percept]] = {}
     for p in percepts:
@@ -532,7 +541,7 @@ def _repeats(ego: NDArray[np.float64], type_names: NDArray, sigma: NDArray[np.fl
         P = np.array([p.position for p in ps])
         s = np.array([p.sigma for p in ps])
         d = np.linalg.norm(ego[idx, None, :] - P[None, :, :], axis=2)
-        lim = MERGE_SIGMAS * np.hypot(sigma[idx, None], s[None, :]) + MERGE_FLOOR
+        lim = n_sigma * np.hypot(sigma[idx, None], s[None, :]) + floor
         out[idx] = np.any(d <= lim, axis=1)
     return out
 
@@ -613,9 +622,9 @@ def _kept(view: NDArray[np.bool_], detection: float, max_sights: int | None) -> 
     """(C,): the probability that an object in view comes back from the look: ``detection``, or
     with a cap of ``max_sights`` percepts per look (a random subset of those detected) about
     ``min(detection, max_sights / n_view)``."""
-    n_view = np.count_nonzero(view, axis=1).astype(np.float64)
     if max_sights is None:
         return np.full(len(view), detection)
+    n_view = np.count_nonzero(view, axis=1).astype(np.float64)
     return np.minimum(detection, max_sights / np.maximum(n_view, 1.0))
 
 
@@ -839,8 +848,7 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
     if not _aimable(pred):
         # the pose is known too poorly to be sure of any object in view: aim at the predicted
         # directions as they are (a look where the objects should be beats a look at nothing)
-        pred = _predict(world, result, types, fov, max_range, depth_factor, min_sigma, n_sigma, margin,
-                        in_hand, blurred=False)
+        pred = replace(pred, cos_lim=_cos_limits(pred.rho, math.radians(fov / 2.0), (0.0, 0.0)))
     H = len(pred.poses)
     disc = np.asarray(pred.tells.any(axis=1))                        # (H, n): tells h from some j
     informative = np.any(pred.info[0] != 0.0, axis=1)                # matchable sights, chosen pose
@@ -926,13 +934,11 @@ def merge_percepts(old: Sequence[Percept], new: Sequence[Percept], n_sigma: floa
     percept within ``n_sigma sqrt(s_old^2 + s_new^2) + floor`` (m) of an old percept of its type
     is dropped (an object seen again; the association matches one percept per object)."""
     old, new = list(old), list(new)
-    keep = []
-    for q in new:
-        again = any(p.type == q.type and float(np.linalg.norm(p.position - q.position))
-                    <= n_sigma * math.hypot(p.sigma, q.sigma) + floor for p in old)
-        if not again:
-            keep.append(q)
-    return old + keep
+    if not new:
+        return old
+    again = _repeats(np.array([q.position for q in new], dtype=np.float64), np.array([q.type for q in new]),
+                     np.array([q.sigma for q in new], dtype=np.float64), old, n_sigma, floor)
+    return old + [q for q, rep in zip(new, again, strict=True) if not rep]
 
 
 def depth_factor_of(percepts: Sequence[Percept], default: float = DEFAULT_DEPTH_FACTOR) -> float:
