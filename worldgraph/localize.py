@@ -539,10 +539,11 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     gravity : "auto", (3,) float or None
         Which way is up in the ego frame (:mod:`worldgraph.gravity`).  ``"auto"`` (default): the
         storey-aware gravity search about the ego z axis, within ``tol.tilt_allowance`` (a level
-        base); when its answer has no pose, fewer inliers than
-        :data:`~worldgraph.gravity.MIN_GRAVITY_SUPPORT` (three quarters) of the percepts, or a
-        pose that tilts the ego z axis beyond the allowance (plus 1 degree), the free 3D search
-        answers instead.  A (3,) up vector (an IMU's, in the ego frame): the gravity search
+        base); when its answer has no pose, explains fewer than
+        :data:`~worldgraph.gravity.MIN_GRAVITY_SUPPORT` (three quarters) of the percepts (its
+        matches, or the percepts within the chi-square gate of an object of their type when
+        more), or has a pose that tilts the ego z axis beyond the allowance (plus 1 degree), the
+        free 3D search answers instead.  A (3,) up vector (an IMU's, in the ego frame): the gravity search
         about it, no fallback.
         ``None``: the free 3D search.  :attr:`LocalizationResult.search` says which search
         answered.  The paper's method uses no gravity.

@@ -24,7 +24,7 @@ from ..tolerances import (
     _tol_argument,
 )
 from .plan import ViewPlan, _depth_factor, plan_view
-from .predict import DEFAULT_DEPTH_FACTOR, MERGE_FLOOR, MERGE_SIGMAS
+from .predict import DEFAULT_DEPTH_FACTOR, MERGE_FLOOR, MERGE_SIGMAS, _repeats
 
 #: :func:`depth_factor_of` reads the eq. 6 factor from percepts at least this far (m) ...
 MIN_FACTOR_RANGE = 1.0
@@ -77,13 +77,11 @@ def merge_percepts(old: Sequence[Percept], new: Sequence[Percept], n_sigma: floa
     percept within ``n_sigma sqrt(s_old^2 + s_new^2) + floor`` (m) of an old percept of its type
     is dropped (an object seen again; the association matches one percept per object)."""
     old, new = list(old), list(new)
-    keep = []
-    for q in new:
-        again = any(p.type == q.type and float(np.linalg.norm(p.position - q.position))
-                    <= n_sigma * math.hypot(p.sigma, q.sigma) + floor for p in old)
-        if not again:
-            keep.append(q)
-    return old + keep
+    if not new:
+        return old
+    again = _repeats(np.array([q.position for q in new], dtype=np.float64), np.array([q.type for q in new]),
+                     np.array([q.sigma for q in new], dtype=np.float64), old, n_sigma, floor)
+    return old + [q for q, rep in zip(new, again, strict=True) if not rep]
 
 
 def depth_factor_of(percepts: Sequence[Percept], default: float = DEFAULT_DEPTH_FACTOR) -> float:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal, cast, get_args
 
 import numpy as np
@@ -26,6 +26,7 @@ from .predict import (
     DEFAULT_DEPTH_FACTOR,
     SIGMA_FLOOR,
     _aimable,
+    _cos_limits,
     _in_view,
     _look_values,
     _predict,
@@ -311,8 +312,7 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
     if not _aimable(pred):
         # the pose is known too poorly to be sure of any object in view: aim at the predicted
         # directions as they are (a look where the objects should be beats a look at nothing)
-        pred = _predict(world, result, types, fov, max_range, depth_factor, min_sigma, n_sigma, margin,
-                        in_hand, blurred=False)
+        pred = replace(pred, cos_lim=_cos_limits(pred.rho, math.radians(fov / 2.0), (0.0, 0.0)))
     H = len(pred.poses)
     disc = np.asarray(pred.tells.any(axis=1))                        # (H, n): tells h from some j
     informative = np.any(pred.info[0] != 0.0, axis=1)                # matchable sights, chosen pose
@@ -363,5 +363,3 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
                     hypotheses=tuple(p.copy() for p in pred.poses), weights=pred.weights, status=status,
                     joint_angles=angles, pointing_error=err, gaze_reached=reached, within_limits=within,
                     candidates=len(D))
-
-

@@ -141,7 +141,7 @@ class _Prediction:
 
 def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: float, max_range: float,
              depth_factor: float, min_sigma: float, n_sigma: float, margin: float,
-             percepts: Sequence[Percept] = (), blurred: bool = True) -> _Prediction:
+             percepts: Sequence[Percept] = ()) -> _Prediction:
     recog = _check_types(world, types, result)
     poses, weights = _hypotheses(result)
     # only objects within reach of some hypothesis matter: one farther from every hypothesis than
@@ -160,9 +160,7 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: 
     neighbour = _same_type_neighbour(X, codes)
     tells = tells_apart(ego, codes, in_range, gate)
     type_names = world.types[obj]
-    blur = _view_blur(result) if blurred else (0.0, 0.0)
-    half = math.radians(fov / 2.0)
-    info, cos_lim = [], []
+    info = []
     for h, (T, r, g, inr) in enumerate(zip(poses, rho, gate, in_range, strict=True)):
         sigma = np.asarray(depth_sigma(np.maximum(r, min_sigma), depth_factor, min_sigma=min_sigma),
                            dtype=np.float64)
@@ -170,15 +168,26 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: 
         tells[h, :, repeat] = False            # a second sight is merged away: it tells nothing
         matchable = inr & (neighbour > g) & ~repeat  # lands near one object of its type only
         info.append(sight_information(X - T[:3, 3], sigma) * matchable[:, None])
-        # surely in view: within the half angle less the direction's uncertainty under the pose: its
-        # position's share (an object as near as the position is uncertain is in no view), and its
-        # rotation's, at most a share of the half angle (the same for every object: a pose whose
-        # rotation is known too poorly to aim at anything still aims at the objects)
-        left = half - np.arctan2(blur[0], np.maximum(r, NORM_FLOOR)) - min(blur[1], MAX_VIEW_MARGIN * half)
-        cos_lim.append(np.where(left > 0, np.cos(np.clip(left, 0.0, math.pi)), NEVER_IN_VIEW))
+    cos_lim = _cos_limits(rho, math.radians(fov / 2.0), _view_blur(result))
     prior, spread = _prior(result, poses, weights)
     return _Prediction(poses, weights, obj, ego, [_unit_rows(e) for e in ego], rho, in_range, tells, cos_lim,
                        info, prior, spread)
+
+
+def _cos_limits(rho: Sequence[NDArray[np.float64]], half: float, blur: tuple[float, float]
+                ) -> list[NDArray[np.float64]]:
+    """Per hypothesis, the cosine above which each object is surely in view: within the half angle
+    ``half`` less its direction's uncertainty under the pose (``blur``, :func:`_view_blur`): the
+    position's share (an object as near as the position is uncertain is in no view), and the
+    rotation's, at most a share of the half angle (the same for every object: a pose whose
+    rotation is known too poorly to aim at anything still aims at the objects)."""
+    out = []
+    for r in rho:
+        left = half - np.arctan2(blur[0], np.maximum(r, NORM_FLOOR)) - min(blur[1], MAX_VIEW_MARGIN * half)
+        out.append(np.where(left > 0, np.cos(np.clip(left, 0.0, math.pi)), NEVER_IN_VIEW))
+    return out
+
+
 
 
 def _aimable(pred: _Prediction) -> bool:
@@ -204,9 +213,11 @@ def _view_blur(result: LocalizationResult) -> tuple[float, float]:
 
 
 def _repeats(ego: NDArray[np.float64], type_names: NDArray, sigma: NDArray[np.float64],
-             percepts: Sequence[Percept]) -> NDArray[np.bool_]:
-    """(n,): the predicted sight (ego point, eq. 6 sigma) repeats a percept in hand, as
-    :func:`merge_percepts` judges it (so a look would add nothing for it)."""
+             percepts: Sequence[Percept], n_sigma: float = MERGE_SIGMAS, floor: float = MERGE_FLOOR
+             ) -> NDArray[np.bool_]:
+    """(n,): the sight (ego point, sigma) repeats one of ``percepts`` of its type: it lies within
+    ``n_sigma sqrt(s^2 + s_percept^2) + floor`` (m) of it.  The one rule of :func:`merge_percepts`
+    and of the planner (a predicted sight that repeats a percept in hand adds nothing)."""
     out = np.zeros(len(ego), dtype=bool)
     by_type: dict[str, list[Percept]] = {}
     for p in percepts:
@@ -218,7 +229,7 @@ def _repeats(ego: NDArray[np.float64], type_names: NDArray, sigma: NDArray[np.fl
         P = np.array([p.position for p in ps])
         s = np.array([p.sigma for p in ps])
         d = np.linalg.norm(ego[idx, None, :] - P[None, :, :], axis=2)
-        lim = MERGE_SIGMAS * np.hypot(sigma[idx, None], s[None, :]) + MERGE_FLOOR
+        lim = n_sigma * np.hypot(sigma[idx, None], s[None, :]) + floor
         out[idx] = np.any(d <= lim, axis=1)
     return out
 
@@ -299,9 +310,9 @@ def _kept(view: NDArray[np.bool_], detection: float, max_sights: int | None) -> 
     """(C,): the probability that an object in view comes back from the look: ``detection``, or
     with a cap of ``max_sights`` percepts per look (a random subset of those detected) about
     ``min(detection, max_sights / n_view)``."""
-    n_view = np.count_nonzero(view, axis=1).astype(np.float64)
     if max_sights is None:
         return np.full(len(view), detection)
+    n_view = np.count_nonzero(view, axis=1).astype(np.float64)
     return np.minimum(detection, max_sights / np.maximum(n_view, 1.0))
 
 
