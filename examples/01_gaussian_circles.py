@@ -1,4 +1,8 @@
-"""Gaussian circles: the sum and product densities of three 2D Gaussian spheres (paper Figs. 12-13).
+"""
+Gaussian circles: the sum and product densities of three 2D Gaussian spheres (paper Figs. 12-13)
+================================================================================================
+
+Run it from the repository root::
 
     python examples/01_gaussian_circles.py [--out out]
 
@@ -16,7 +20,7 @@ import radialopt as ro
 
 
 def main() -> None:
-    args = parse_args(__doc__.splitlines()[0])
+    args = parse_args(__doc__)
     plt = pyplot()
     centers = np.array([[0.0, 0.0, 0.0], [4.0, 0.5, 0.0], [1.5, 3.5, 0.0]])
     truth = np.array([2.2, 1.4, 0.0])

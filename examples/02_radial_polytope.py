@@ -1,4 +1,8 @@
-"""The radial configuration space of 2 and 3 spheres (paper Figs. 14-15).
+"""
+The radial configuration space of 2 and 3 spheres (paper Figs. 14-15)
+=====================================================================
+
+Run it from the repository root::
 
     python examples/02_radial_polytope.py [--out out]
 
@@ -72,7 +76,7 @@ def three_spheres(ax, rng: np.random.Generator) -> None:
 
 
 def main() -> None:
-    args = parse_args(__doc__.splitlines()[0])
+    args = parse_args(__doc__)
     plt = pyplot()
     fig = plt.figure(figsize=(12, 5.5), constrained_layout=True)
     two_spheres(fig.add_subplot(1, 2, 1))

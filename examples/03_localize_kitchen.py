@@ -1,4 +1,8 @@
-"""Localise a robot in the embedded kitchen: scan, fuse, associate, estimate the 6D pose.
+"""
+Localise a robot in the embedded kitchen: scan, fuse, associate, estimate the 6D pose
+=====================================================================================
+
+Run it from the repository root::
 
     python examples/03_localize_kitchen.py [--seed 0] [--depth-factor 1000] [--out out]
                                            [--rerun out/kitchen.rrd]
@@ -81,7 +85,7 @@ def report(name: str, res: wg.LocalizationResult, truth: np.ndarray) -> None:
 
 
 def main() -> None:
-    args = parse_args_with(__doc__.splitlines()[0], [
+    args = parse_args_with(__doc__, [
         ("--depth-factor", {"type": float, "default": 1000.0, "help": "eq. 6 (1/m)"}),
         ("--views", {"type": int, "default": 20, "help": "head poses in the scan"}),
         ("--rerun", {"type": Path, "default": None, "metavar": "FILE.rrd",

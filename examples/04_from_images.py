@@ -1,4 +1,8 @@
-"""From pixels to pose: rendered stereo images -> detections -> percepts -> localisation.
+"""
+From pixels to pose: rendered stereo images -> detections -> percepts -> localisation
+=====================================================================================
+
+Run it from the repository root::
 
     python examples/04_from_images.py [--seed 0] [--views 9] [--out out]
 
@@ -52,7 +56,7 @@ LIGHT_IN_CAMERA = np.array([0.25, -0.55, -0.8])
 
 
 def main() -> None:
-    args = parse_args_with(__doc__.splitlines()[0], [
+    args = parse_args_with(__doc__, [
         ("--views", {"type": int, "default": 9, "help": "head poses in the scan"}),
     ])
     rng = np.random.default_rng(args.seed)

@@ -1,4 +1,8 @@
-"""Compare every installed solver on seeded radial projection problems.
+"""
+Compare every installed solver on seeded radial projection problems
+===================================================================
+
+Run it from the repository root::
 
     python examples/05_compare_solvers.py [--per-case 5] [--workers N] [--scheduler tcp://host:8786]
 
@@ -89,7 +93,7 @@ def save_figure(path, summaries, n_problems: int) -> None:
 
 
 def main() -> None:
-    args = parse_args_with(__doc__.splitlines()[0], [
+    args = parse_args_with(__doc__, [
         ("--per-case", {"type": int, "default": 5, "help": "problems per (n, feasible, scaling)"}),
         ("--workers", {"type": int, "default": None, "help": "local processes (default: cores)"}),
         ("--scheduler", {"default": None, "help": "Dask scheduler address"}),

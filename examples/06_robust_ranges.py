@@ -1,4 +1,8 @@
-"""One grossly wrong range: the L2 projection spreads it, L1 and Huber isolate it.
+"""
+One grossly wrong range: the L2 projection spreads it, L1 and Huber isolate it
+==============================================================================
+
+Run it from the repository root::
 
     python examples/06_robust_ranges.py [--out out] [--seed 0] [--error -2.5]
 
@@ -29,7 +33,7 @@ def scene(rng: np.random.Generator, n: int, bad: int, error: float, sigma: float
 
 
 def main() -> None:
-    args = parse_args_with(__doc__.splitlines()[0], [
+    args = parse_args_with(__doc__, [
         ("--error", {"type": float, "default": -2.5, "help": "error of the bad range, metres"}),
         ("--bad", {"type": int, "default": 2, "help": "index of the bad range"}),
     ])

@@ -1,4 +1,8 @@
-"""Active validation in the kitchen: ambiguous, plan a look, look, unique (paper section 2.3).
+"""
+Active validation in the kitchen: ambiguous, plan a look, look, unique (paper section 2.3)
+==========================================================================================
+
+Run it from the repository root::
 
     python examples/07_active_validation.py [--seed 0] [--out out]
 
@@ -88,7 +92,7 @@ def robot(ax, T: np.ndarray, colour: str, label: str, marker: str = "o", arrow: 
 
 
 def main() -> None:
-    args = parse_args(__doc__.splitlines()[0])
+    args = parse_args(__doc__)
     t_start = time.perf_counter()
     world = wg.scenes.kitchen(seed=0)
     rng = np.random.default_rng(args.seed)

@@ -6,9 +6,12 @@ import argparse
 from pathlib import Path
 
 
-def parse_args_with(description: str, extra: list[tuple[str, dict]]) -> argparse.Namespace:
-    """Common flags (--out, --seed, --smoke) plus ``extra`` (flag, add_argument kwargs)."""
-    ap = argparse.ArgumentParser(description=description)
+def parse_args_with(doc: str | None, extra: list[tuple[str, dict]]) -> argparse.Namespace:
+    """Common flags (--out, --seed, --smoke) plus ``extra`` (flag, add_argument kwargs); the help
+    text is the title of the example's docstring ``doc`` (its first line that is not blank; none
+    when the docstring is absent, as when the documentation's gallery runs the example)."""
+    title = next((line.strip() for line in (doc or "").splitlines() if line.strip()), "")
+    ap = argparse.ArgumentParser(description=title)
     ap.add_argument("--out", type=Path, default=Path("out"), help="folder for figures")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--smoke", action="store_true", help="smaller, faster run (tests)")
@@ -19,9 +22,9 @@ def parse_args_with(description: str, extra: list[tuple[str, dict]]) -> argparse
     return args
 
 
-def parse_args(description: str) -> argparse.Namespace:
+def parse_args(doc: str | None) -> argparse.Namespace:
     """Only the common flags."""
-    return parse_args_with(description, [])
+    return parse_args_with(doc, [])
 
 
 def pyplot():

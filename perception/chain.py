@@ -58,7 +58,8 @@ def _check_limits(joint: Joint, index: int | None, value: float) -> float:
     return value
 
 
-# tip (x forward, y left, z up) from OpenCV camera (x right, y down, z forward)
+#: The left camera in the OpenCV convention (x right, y down, z ahead) seen from a URDF camera
+#: link in the ROS convention (x ahead, y left, z up): the default ``link_from_camera``.
 TIP_FROM_OPENCV = np.array(
     [[0.0, 0.0, 1.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
 )
