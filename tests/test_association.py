@@ -36,16 +36,16 @@ def far_path(path: str) -> Iterator[None]:
     """Far percept pairs through the far-pair index ("index"), the k-d trees ("tree": the index
     budget at zero, the ring join off) or the compiled ring join ("ring": numba, every size)."""
     import worldgraph.consistency as consistency
-    import worldgraph.model as model
+    import worldgraph.model.far_pairs as far_pairs
 
-    saved = model.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS, model.FAR_PAIR_BUILD_ON_USE
-    model.FAR_PAIR_MAX_PAIRS = saved[0] if path == "index" else 0
-    model.FAR_PAIR_BUILD_ON_USE = path == "index"  # the association builds the index it needs
+    saved = far_pairs.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS, far_pairs.FAR_PAIR_BUILD_ON_USE
+    far_pairs.FAR_PAIR_MAX_PAIRS = saved[0] if path == "index" else 0
+    far_pairs.FAR_PAIR_BUILD_ON_USE = path == "index"  # the association builds the index it needs
     consistency.RING_JOIN_MIN_PAIRS = 0 if path == "ring" else None
     try:
         yield
     finally:
-        model.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS, model.FAR_PAIR_BUILD_ON_USE = saved
+        far_pairs.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS, far_pairs.FAR_PAIR_BUILD_ON_USE = saved
 
 
 FAR_PATHS = ["index", "tree", "ring"]
@@ -583,10 +583,10 @@ def test_orientation_filter_names_percepts_when_they_do_not_match_the_proximity_
 def test_far_pair_cost_estimate_counts_the_query_hits(gravity: bool, monkeypatch) -> None:
     """The rounds' cost per row (k-d tree path, the far-pair index off) is the mean number of
     objects the query of a sampled row visits, counted here by brute force over all objects."""
-    import worldgraph.model as model
+    import worldgraph.model.far_pairs as far_pairs
     from worldgraph.consistency import FAR_COST_SAMPLE, GRAVITY_Z_SCALE, _far_hits_per_row
 
-    monkeypatch.setattr(model, "FAR_PAIR_BUDGET", 0)
+    monkeypatch.setattr(far_pairs, "FAR_PAIR_BUDGET", 0)
 
     rng = np.random.default_rng(3)
     world = WorldModel.from_arrays(rng.choice(["a", "b"], 400), rng.uniform([0, 0, 0], [30, 20, 6], (400, 3)),

@@ -32,7 +32,7 @@ ALLOWED: dict[str, list[str]] = {
     "worldgraph/active/plan.py": ["1e-3"],
     "worldgraph/active/predict.py": ["1e-4"],
     # a rendered plane's physical thickness (m)
-    "worldgraph/franka.py": ["1e-3"],
+    "worldgraph/importers/franka.py": ["1e-3"],
     # input ranges of pose weights and covariance eigenvalues (the messages quote them)
     "worldgraph/pose.py": ["1e-150", "1e-100"],
     # input ranges of sigmas and variances

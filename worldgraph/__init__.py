@@ -29,8 +29,8 @@ from .errors import (
     WorldGraphError,
 )
 from .filters import discriminator, orientation_filter, proximity_filter
-from .franka import franka_kitchen_path, load_franka_kitchen
 from .hypotheses import AssociationHypothesis
+from .importers.franka import franka_kitchen_path, load_franka_kitchen
 from .localize import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
 from .model import LinkTable, ObjectModel, ObjectTable, WorldModel, box_vertices
 from .pose import percept_frame, pose_from_frames, weighted_kabsch

@@ -39,7 +39,8 @@ from numpy.typing import NDArray
 
 from . import _checks
 from .errors import WorldGraphError
-from .model import MAX_COORDINATE, WorldModel, _check_scene, _default_type
+from .model import MAX_COORDINATE, WorldModel
+from .model.scene_nodes import _check_scene, _default_type
 from .tolerances import FIT_SLACK
 
 __all__ = [

@@ -64,7 +64,7 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from .model import WorldModel
+from ..model import WorldModel
 from .scene_files import (
     KNOWN_TYPES,
     MJCF_OBJECTS,
