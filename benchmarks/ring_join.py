@@ -27,7 +27,7 @@ import time
 import numpy as np
 from scipy.spatial import cKDTree
 
-from worldgraph.ring_join import ring_pairs
+from worldgraph.model.ring_join import ring_pairs
 
 H_LO, H_HI = 5.9, 6.1
 Z_LO, Z_HI = 0.2, 0.4

@@ -72,8 +72,8 @@ from .gravity import (
 )
 from .hypotheses import AssociationHypothesis, _fit_all, _rank, is_ambiguous, same_pose
 from .model import WorldModel
+from .model.units import UnitsWarning, units_hint
 from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _resolved_tol
-from .units import UnitsWarning, units_hint
 
 __all__ = [
     "ASSOCIATION_METHODS",

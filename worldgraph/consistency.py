@@ -16,7 +16,6 @@ from scipy.spatial import cKDTree
 
 from perception import Percept
 
-from . import ring_join
 from ._checks import as_list
 from .errors import (
     ArgumentTypeError,
@@ -25,7 +24,7 @@ from .errors import (
     UnknownTypeError,
 )
 from .gravity import tilt_widening
-from .model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE, FarPairIndex, WorldModel
+from .model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE, FarPairIndex, WorldModel, ring_join
 from .tolerances import FAR_PAIR_SLACK, QUERY_FLOOR, QUERY_WIDEN, AssociationTolerances
 
 # ----------------------------------------------------------------------------------------------

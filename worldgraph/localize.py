@@ -73,6 +73,7 @@ from .gravity import (
 )
 from .hypotheses import AssociationHypothesis, is_ambiguous
 from .model import WorldModel
+from .model.units import units_hint
 from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
 from .pose_certificate import certify_pose, solve_pose_sdp
 from .tolerances import (
@@ -86,7 +87,6 @@ from .tolerances import (
     AssociationTolerances,
     _tol_argument,
 )
-from .units import units_hint
 from .validation import (
     CHI2_3_GATE,
     CHI2_6_GATE,
