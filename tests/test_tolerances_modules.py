@@ -38,7 +38,7 @@ ALLOWED: dict[str, list[str]] = {
     # input ranges of sigmas and variances
     "perception/fusion.py": ["1e-150", "1e-300"],
     # input range of covariance entries; the classifier's regularisation default (a user option)
-    "perception/recognition.py": ["1e-150", "1e-4"],
+    "perception/classifier.py": ["1e-150", "1e-4"],
     # input range of sigmas; physical min_sigma defaults (m)
     "perception/simulate.py": ["1e-150", "1e-4", "1e-4"],
     # input range of the field of view (degrees)
