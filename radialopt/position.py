@@ -39,7 +39,7 @@ centres the mirror image of every candidate across that plane has the same densi
 returned and the status is ``"ambiguous"`` unless the region keeps only one.
 
 :class:`EstimatorOptions` lives in :mod:`radialopt._estimator_options`, :func:`fisher_information`
-and :func:`crlb` in :mod:`radialopt._fisher`, :func:`srls` in :mod:`radialopt._srls`; this module
+and :func:`crlb` in :mod:`radialopt.fisher`, :func:`srls` in :mod:`radialopt._srls`; this module
 imports and re-exports them.
 """
 
@@ -58,7 +58,6 @@ from scipy.spatial import cKDTree
 
 from ._checks import instance
 from ._estimator_options import ESTIMATOR_OPTIONS, EstimatorOptions
-from ._fisher import crlb, fisher_information
 from ._srls import _Frame, srls
 from .certificates import Certificate, certify_arrays
 from .conformal import MeetStatus, meet3_batch
@@ -68,6 +67,7 @@ from .errors import (
     SolverError,
     UnknownMethodError,
 )
+from .fisher import crlb, fisher_information
 from .hypotheses import Region, generate_hypotheses
 from .spheres import GaussianSphere, sphere_arrays
 from .tolerances import (

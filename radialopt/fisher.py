@@ -15,6 +15,8 @@ from ._estimator_options import ESTIMATOR_OPTIONS
 from .errors import ShapeError, SingularFisherError
 from .tolerances import FISHER_SINGULAR, ON_CENTRE_RTOL
 
+__all__ = ["crlb", "fisher_information"]
+
 
 def _check_crlb_input(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike
                       ) -> tuple[NDArray, NDArray, NDArray]:
