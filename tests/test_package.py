@@ -170,6 +170,8 @@ def _status_sets():
         "worldgraph/active/plan.py": worldgraph.active.VIEW_STATUSES,
         "radialopt/position.py": radialopt.POSITION_STATUSES,
         "radialopt/projection.py": radialopt.STATUSES,
+        "radialopt/_ldp.py": radialopt.STATUSES,
+        "radialopt/_dual_active_set.py": radialopt.STATUSES,
         "radialopt/formulation.py": radialopt.STATUSES,
         "radialopt/comparison.py": radialopt.comparison.RUN_STATUSES,
     }
