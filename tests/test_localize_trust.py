@@ -379,7 +379,7 @@ def skew(v: np.ndarray) -> np.ndarray:
 # neighbouring objects of one type: a right pose is neither thrown away nor called ambiguous
 # ----------------------------------------------------------------------------------------------
 def test_unique_inliers_keep_a_percept_much_nearer_one_of_two_objects() -> None:
-    from worldgraph.validation import CHI2_3_GATE, UNIQUE_MARGIN, _unique_inliers
+    from worldgraph.pose.validation import CHI2_3_GATE, UNIQUE_MARGIN, _unique_inliers
 
     assert UNIQUE_MARGIN == pytest.approx(2 * math.log(100))  # the nearer is 100 times as likely
     # percept: squared Mahalanobis distance to its nearest object, that object, to the second

@@ -4,7 +4,7 @@
 
 1. association (:func:`worldgraph.association.associate`; ``method="paper"`` uses the paper's
    proximity and orientation filters, every other method the typed consistency-graph cliques);
-2. hypothesis validation (:mod:`worldgraph.validation`; every method but ``"paper"``): the
+2. hypothesis validation (:mod:`worldgraph.pose.validation`; every method but ``"paper"``): the
    best association hypotheses are fitted by maximum likelihood, every percept is re-associated
    to its nearest same-type object by Mahalanobis distance and the fit repeated on the inliers;
    the fits are ranked by their robust cost (a log-likelihood ratio), poses outside the region
@@ -20,7 +20,7 @@
    best-conditioned matched triple; the others: the proper rotation minimising ``sum w_p |R x_p
    - (X_o - t)|^2``, ``w_p = 1 / (sigma_p^2 + var_t)``);
 4. the 6x6 ``pose_covariance`` (ROS order): the inverse Fisher information for ``"ml"``, widened
-   where the cost is flatter than its quadratic model (:func:`~worldgraph.validation.laplace_inflate`),
+   where the cost is flatter than its quadratic model (:func:`~worldgraph.pose.validation.laplace_inflate`),
    and the sandwich covariance of the two-stage estimator for the range-only methods;
 5. the answer checks itself: a chi-square test of its matched percepts placed by its pose
    (``"inconsistent"`` when it fails), at least 3 inliers (counted in constrained directions,
@@ -60,10 +60,14 @@ from perception import Percept
 from radialopt.projection import _project_radii_trusted
 
 from ._checks import float_array, generator, positive_float, strict_int
-from .association import _associate_searched
-from .consistency import MAX_COORDINATE, check_world_and_percepts
+from .association.associate import _associate_searched
+from .association.consistency import MAX_COORDINATE, check_world_and_percepts
+from .association.hypotheses import AssociationHypothesis, is_ambiguous
 from .errors import ArgumentTypeError, OutOfRangeError, PoseError, UnknownTypeError, WorldGraphError
-from .gravity import (
+from .model import WorldModel
+from .pose.certificate import certify_pose, solve_pose_sdp
+from .pose.frames import percept_frame, pose_from_frames, transformation, weighted_rotation
+from .pose.gravity import (
     _FREE,
     Gravity,
     SearchKind,
@@ -71,23 +75,7 @@ from .gravity import (
     _Plan,
     _unsupported,
 )
-from .hypotheses import AssociationHypothesis, is_ambiguous
-from .model import WorldModel
-from .pose import percept_frame, pose_from_frames, transformation, weighted_rotation
-from .pose_certificate import certify_pose, solve_pose_sdp
-from .tolerances import (
-    ASSOCIATION_TOLERANCES,
-    COST_ROUNDING,
-    DUPLICATE_DISTANCE,
-    MIN_INLIER_DIRECTIONS,
-    REGION_SLACK,
-    RIGID_TOLERANCE,
-    SIGNIFICANCE,
-    AssociationTolerances,
-    _tol_argument,
-)
-from .units import units_hint
-from .validation import (
+from .pose.validation import (
     CHI2_3_GATE,
     CHI2_6_GATE,
     NearestObjects,
@@ -104,6 +92,18 @@ from .validation import (
     shared_range_covariance,
     shared_view_covariance,
 )
+from .tolerances import (
+    ASSOCIATION_TOLERANCES,
+    COST_ROUNDING,
+    DUPLICATE_DISTANCE,
+    MIN_INLIER_DIRECTIONS,
+    REGION_SLACK,
+    RIGID_TOLERANCE,
+    SIGNIFICANCE,
+    AssociationTolerances,
+    _tol_argument,
+)
+from .units import units_hint
 
 __all__ = [
     "LOCALIZE_METHODS",
@@ -237,7 +237,7 @@ class LocalizationResult:
         ``pose_covariance``.
     certificate : radialopt.Certificate or None
         With ``certify=True``: whether the pose is proven the global minimum of the ML cost of
-        its matches (the rotation SDP of :mod:`worldgraph.pose_certificate`), with the proven
+        its matches (the rotation SDP of :mod:`worldgraph.pose.certificate`), with the proven
         lower bound and the gap.  None otherwise.
     near_best_costs : tuple of float
         Robust costs (twice a negative log-likelihood up to a constant) of the validated fits
@@ -245,7 +245,7 @@ class LocalizationResult:
         ``"paper"`` method and when no pose was determined); what
         :func:`worldgraph.active.plan_view` weights the near-best hypotheses with.
     search : {"gravity", "free"}
-        Which search answered (:mod:`worldgraph.gravity`): the storey-aware gravity search or
+        Which search answered (:mod:`worldgraph.pose.gravity`): the storey-aware gravity search or
         the free 3D search (``gravity=None``, the paper's method, or ``"auto"``'s fallback,
         whose reason the message gives; ``timings["gravity_pass"]`` is then the gravity pass's
         time).
@@ -537,10 +537,10 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         global minimum of the ML cost of its matched percepts.  With 3 or 4 matches the SDP is
         also the solver (``"ml"``).
     gravity : "auto", (3,) float or None
-        Which way is up in the ego frame (:mod:`worldgraph.gravity`).  ``"auto"`` (default): the
+        Which way is up in the ego frame (:mod:`worldgraph.pose.gravity`).  ``"auto"`` (default): the
         storey-aware gravity search about the ego z axis, within ``tol.tilt_allowance`` (a level
         base); when its answer has no pose, explains fewer than
-        :data:`~worldgraph.gravity.MIN_GRAVITY_SUPPORT` (three quarters) of the percepts (its
+        :data:`~worldgraph.pose.gravity.MIN_GRAVITY_SUPPORT` (three quarters) of the percepts (its
         matches, or the percepts within the chi-square gate of an object of their type when
         more), or has a pose that tilts the ego z axis beyond the allowance (plus 1 degree), the
         free 3D search answers instead.  A (3,) up vector (an IMU's, in the ego frame): the gravity search
@@ -588,7 +588,7 @@ def _gravity_unsupported(result: LocalizationResult, plan: _Plan, tol: Associati
                          n_used: int) -> str:
     """Why ``gravity="auto"`` falls back from the gravity pass's ``result`` (of ``n_used``
     percepts of known types) to the free search, "" when it keeps it
-    (:func:`~worldgraph.gravity._unsupported`, with the pass's status)."""
+    (:func:`~worldgraph.pose.gravity._unsupported`, with the pass's status)."""
     if not plan.fallback or plan.up is None or method == "paper" or result.search != "gravity":
         return ""
     if result.status == "too_few_percepts":
@@ -1281,7 +1281,7 @@ def _self_check_step(ctx: _Context, answer: _Answer, p_i: NDArray, centers: NDAr
 def _inlier_step(ctx: _Context, answer: _Answer) -> tuple[int, int, float, NDArray[np.float64]]:
     """Every percept against its nearest same-type object under the pose: the number of inliers
     (chi-square gate, 3 dof), the directions they constrain
-    (:func:`~worldgraph.validation.constrained_directions`: 3 per isotropic percept, 2 per
+    (:func:`~worldgraph.pose.validation.constrained_directions`: 3 per isotropic percept, 2 per
     needle), their RMS distance (m) and every percept's Mahalanobis residual."""
     pose, cov6 = answer.pose, answer.cov6
     finite_cov = np.all(np.isfinite(cov6))

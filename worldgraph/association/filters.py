@@ -14,19 +14,19 @@ from numpy.typing import NDArray
 
 from perception import Percept
 
-from ._checks import positive_float, strict_int
-from ._rigid import rigid_transform
-from .consistency import _check_inputs, _consistency_graph, _Graph, _pair_candidates, _prune
-from .errors import (
+from .._checks import positive_float, strict_int
+from .._rigid import rigid_transform
+from ..errors import (
     ArgumentTypeError,
     ShapeError,
     TooFewPerceptsError,
     WorldGraphError,
 )
+from ..model import WorldModel
+from ..pose.frames import invert_transformation
+from ..tolerances import COLLINEAR_TOL, TINY, AssociationTolerances, _resolved_tol
+from .consistency import _check_inputs, _consistency_graph, _Graph, _pair_candidates, _prune
 from .hypotheses import AssociationHypothesis, _check_hypotheses
-from .model import WorldModel
-from .pose import invert_transformation
-from .tolerances import COLLINEAR_TOL, TINY, AssociationTolerances, _resolved_tol
 
 
 # ----------------------------------------------------------------------------------------------

@@ -44,12 +44,11 @@ from scipy.stats import chi2
 
 from perception import Percept
 
-from ._checks import as_list, float_array, positive_float, strict_int
-from ._rigid import rigid_transform
-from .errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
-from .model import WorldModel
-from .pose import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, pose_information, refine_pose
-from .tolerances import (
+from .._checks import as_list, float_array, positive_float, strict_int
+from .._rigid import rigid_transform
+from ..errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
+from ..model import WorldModel
+from ..tolerances import (
     CONSTRAINED_VARIANCE_RATIO,
     INFORMATION_SYMMETRY_RTOL,
     PSD_RTOL,
@@ -60,6 +59,7 @@ from .tolerances import (
     SIGNIFICANCE,
     TINY,
 )
+from .frames import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, pose_information, refine_pose
 
 __all__ = [
     "CHI2_3_GATE",

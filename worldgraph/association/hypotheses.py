@@ -14,15 +14,15 @@ from numpy.typing import NDArray
 
 from perception import Percept
 
-from ._checks import finite_float
-from ._rigid import rigid_transform
-from .errors import (
+from .._checks import finite_float
+from .._rigid import rigid_transform
+from ..errors import (
     ArgumentTypeError,
 )
-from .gravity import SearchKind
-from .model import WorldModel
-from .pose import weighted_kabsch_batch
-from .tolerances import PLANAR_RTOL, TINY, AssociationTolerances, _check_tolerances, _resolved_tol
+from ..model import WorldModel
+from ..pose.frames import weighted_kabsch_batch
+from ..pose.gravity import SearchKind
+from ..tolerances import PLANAR_RTOL, TINY, AssociationTolerances, _check_tolerances, _resolved_tol
 
 
 @dataclass(frozen=True)
@@ -56,7 +56,7 @@ class AssociationHypothesis:
         ``normalized_displacement``); None when those matches have fewer than two distinct
         model positions, and on hypotheses that did not come from ``localize``.
     search : {"gravity", "free"}
-        The search that made it (:mod:`worldgraph.gravity`): the storey-aware gravity search or
+        The search that made it (:mod:`worldgraph.pose.gravity`): the storey-aware gravity search or
         the free 3D search.
     """
 

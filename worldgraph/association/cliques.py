@@ -37,8 +37,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import strict_int
-from .errors import (
+from .._checks import strict_int
+from ..errors import (
     ArgumentTypeError,
     OutOfRangeError,
     ShapeError,

@@ -16,17 +16,17 @@ from scipy.spatial import cKDTree
 
 from perception import Percept
 
-from . import ring_join
-from ._checks import as_list
-from .errors import (
+from .. import ring_join
+from .._checks import as_list
+from ..errors import (
     ArgumentTypeError,
     EmptyWorldError,
     OutOfRangeError,
     UnknownTypeError,
 )
-from .gravity import tilt_widening
-from .model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE, FarPairIndex, WorldModel
-from .tolerances import FAR_PAIR_SLACK, QUERY_FLOOR, QUERY_WIDEN, AssociationTolerances
+from ..model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE, FarPairIndex, WorldModel
+from ..pose.gravity import tilt_widening
+from ..tolerances import FAR_PAIR_SLACK, QUERY_FLOOR, QUERY_WIDEN, AssociationTolerances
 
 # ----------------------------------------------------------------------------------------------
 # input checks and the consistency graph
@@ -207,7 +207,7 @@ def _pair_reach(world: WorldModel, percepts: list[Percept], p: int, q: int, tau:
     """``(diff, d, htol, ztol, reach, covered)`` of the percept pair: the offset from p to q and
     its length; gravity-aligned, the tolerances of the horizontal length and of the height
     difference (``tau`` and the height tolerance, each widened by what a tilt of
-    ``tol.tilt_allowance`` can change, :func:`~worldgraph.gravity.tilt_widening`); how far a
+    ``tol.tilt_allowance`` can change, :func:`~worldgraph.pose.gravity.tilt_widening`); how far a
     model distance may differ from ``d`` (``tau`` in both searches: a rotation keeps lengths,
     so the gravity search tests the 3D length too, which cuts the widened gates down to the
     model pairs a tilt can explain); and whether the link table holds every pair within reach."""

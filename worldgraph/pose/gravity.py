@@ -37,9 +37,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from perception import Percept
 
-from ._checks import float_array
-from .errors import ArgumentTypeError, OutOfRangeError
-from .tolerances import LEVEL_TOLERANCE, MIN_UP_NORM, TINY, AssociationTolerances
+from .._checks import float_array
+from ..errors import ArgumentTypeError, OutOfRangeError
+from ..tolerances import LEVEL_TOLERANCE, MIN_UP_NORM, TINY, AssociationTolerances
 
 __all__ = ["GRAVITY_MODES", "MIN_GRAVITY_SUPPORT", "TILT_SLACK", "Gravity", "SearchKind", "level_rotation",
            "tilt_angle", "tilt_widening"]

@@ -64,17 +64,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from radialopt.certificates import Certificate
 
-from ._checks import positive_float
-from ._rigid import rigid_transform
-from .errors import ArgumentTypeError, PoseError, TooFewPerceptsError, WorldGraphError
-from .pose import MAX_POSE_COORDINATE, _covariances, _points, refine_pose, transformation
-from .tolerances import (
+from .._checks import positive_float
+from .._rigid import rigid_transform
+from ..errors import ArgumentTypeError, PoseError, TooFewPerceptsError, WorldGraphError
+from ..tolerances import (
     CERTIFICATE_COST_ROUNDING,
     CERTIFICATE_GAP,
     CERTIFICATE_ROUNDING,
     HOMOGENEOUS_ZERO,
 )
-from .tolerances import CLARABEL_OPTIONS as CLARABEL_OPTIONS  # re-exported
+from ..tolerances import CLARABEL_OPTIONS as CLARABEL_OPTIONS  # re-exported
+from .frames import MAX_POSE_COORDINATE, _covariances, _points, refine_pose, transformation
 
 __all__ = ["certify_pose", "pose_cost", "reduced_cost_matrix", "solve_pose_sdp"]
 
