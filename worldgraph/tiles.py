@@ -48,15 +48,8 @@ from perception import Percept
 from . import _checks
 from .association.hypotheses import AssociationHypothesis
 from .errors import ArgumentTypeError, EmptyWorldError, ShapeError, UnknownTypeError, WorldGraphError
-from .localize import (
-    LOCALIZE_METHODS,
-    POSE_STATUSES,
-    UNIQUE_STATUSES,
-    LocalizationResult,
-    _answered_by_free_search,
-    _gravity_unsupported,
-    localize,
-)
+from .localize.pipeline import LOCALIZE_METHODS, _answered_by_free_search, _gravity_unsupported, localize
+from .localize.result import POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult
 from .model import WorldModel
 from .pose.gravity import Gravity, _check_gravity
 from .pose.validation import (
