@@ -156,5 +156,6 @@ def test_the_shims_are_their_new_homes():
 def test_nothing_inside_the_packages_imports_a_shim():
     shims = set(_shims())
     graph = _graph()
-    offenders = sorted(f"{m} imports {s}" for m, deps in graph.items() if m not in shims for s in deps & shims)
+    offenders = sorted(f"{m} imports {s}" for m, deps in graph.items() if m not in shims
+                       for s in deps & shims)
     assert offenders == []

@@ -15,7 +15,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from .. import _checks
-from ..model import _check_scene
+from ..model.scene_nodes import _check_scene
 
 __all__ = ["scene_statistics"]
 

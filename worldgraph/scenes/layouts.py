@@ -13,7 +13,8 @@ from numpy.typing import NDArray
 
 from .. import _checks
 from ..errors import WorldGraphError
-from ..model import WorldModel, _default_type
+from ..model import WorldModel
+from ..model.scene_nodes import _default_type
 from ..tolerances import FIT_SLACK
 from .builder import _UP, _Builder, _frame, _link_args, _seed, _translate
 from .furniture import (
