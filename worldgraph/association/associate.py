@@ -161,8 +161,8 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
         By increasing robust cost; poses within ``distinct_translation``/``distinct_angle`` of
         a better hypothesis are merged into it.  Empty when no clique of ``min_clique_size``
         (or, for "paper", no complete assignment) exists; then a
-        :class:`~worldgraph.units.UnitsWarning` says so when the percepts or the world look like
-        millimetres (:func:`~worldgraph.units.units_hint`).
+        :class:`~worldgraph.model.units.UnitsWarning` says so when the percepts or the world look like
+        millimetres (:func:`~worldgraph.model.units.units_hint`).
 
     Raises
     ------

@@ -58,9 +58,10 @@ naming the path; a file in which no candidate gets a type is an
 optional package (``mujoco``, ``pycollada``) is an :class:`~worldgraph.errors.ImporterError`
 naming what to install.
 
-Where things live: :mod:`worldgraph.importers.scene_files` reads the files into typed scenes
-(the formats, the typing rules, :func:`scene_from_file`; the names are importable from here);
-:mod:`worldgraph.importers.franka` builds the Franka kitchen (also :mod:`worldgraph.franka`);
+Where things live: :mod:`worldgraph.model.scene_files` reads the files into typed scenes
+(the formats, the typing rules, :func:`scene_from_file`; the names are importable from here),
+below the world model, whose :meth:`~worldgraph.WorldModel.from_file` calls it;
+:mod:`worldgraph.importers.franka` builds the Franka kitchen (also ``worldgraph.franka``);
 :func:`world_from_file` is defined here.
 """
 
@@ -70,7 +71,7 @@ import os
 from typing import Any
 
 from ..model import WorldModel
-from .scene_files import (
+from ..model.scene_files import (
     KNOWN_TYPES,
     MJCF_OBJECTS,
     MJCF_SUFFIXES,

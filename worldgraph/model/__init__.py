@@ -53,13 +53,16 @@ Where things live (the names are importable from here, as before):
   :func:`box_vertices`, :data:`DEFAULT_SIZE`, :data:`MAX_COORDINATE` and the value checks;
 * :mod:`worldgraph.model.scene_nodes`: reading a :class:`trimesh.Scene`'s nodes into objects and
   the room (:func:`room_from_trimesh`, :data:`ROOM_TYPES`, :data:`DEFAULT_ROOM_HEIGHT`);
+* :mod:`worldgraph.model.scene_files`: reading scene files (glTF, OBJ, PLY, STL, OFF, DAE, MJCF)
+  into typed scenes, for :meth:`WorldModel.from_file` (the public names are in
+  :mod:`worldgraph.importers`);
 * :mod:`worldgraph.model.links`: :class:`LinkTable`, :data:`MAX_LINK_LENGTH`, :data:`MAX_LINKS`;
 * :mod:`worldgraph.model.far_pairs`: :class:`FarPairIndex` and the ``FAR_PAIR_*`` limits (set
   them on that module: the far-pair code reads them there);
 * :mod:`worldgraph.model.persistence`: the file format (:data:`FILE_FORMAT`, :data:`FILE_VERSION`);
 * :mod:`worldgraph.model.ring_join`: the compiled ring and shell joins (also
-  :mod:`worldgraph.ring_join`);
-* :mod:`worldgraph.model.units`: the millimetre hints (also :mod:`worldgraph.units`).
+  ``worldgraph.ring_join``);
+* :mod:`worldgraph.model.units`: the millimetre hints (also ``worldgraph.units``).
 """
 
 from ..tolerances import COINCIDENT_TOLERANCE, FAR_PAIR_SLACK, QUERY_WIDEN, RIGID_TOLERANCE  # noqa: F401 - re-exported

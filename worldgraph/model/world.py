@@ -50,6 +50,7 @@ from .objects import (
     box_vertices,
 )
 from .persistence import _world_from_dict, load_world, save_world, world_from_dict, world_to_dict
+from .scene_files import typed_scene
 from .scene_nodes import (
     ROOM_TYPES,
     _check_room,
@@ -99,8 +100,8 @@ class WorldModel:
         base z up, along the world's z); kept and saved with the world.  Whether a call
         searches with gravity is a fact of the robot, given per call: ``associate``,
         ``localize``, ``active_localize`` and ``localize_tiled`` take ``gravity`` (default
-        ``"auto"``, :mod:`worldgraph.gravity`) whatever this flag says; only the networkx views
-        and the paper's filters (:func:`~worldgraph.filters.consistency_graph`, ...) follow it
+        ``"auto"``, :mod:`worldgraph.pose.gravity`) whatever this flag says; only the networkx views
+        and the paper's filters (:func:`~worldgraph.association.filters.consistency_graph`, ...) follow it
         when ``AssociationTolerances.gravity_aligned`` is None.  Default False.
 
     Attributes
@@ -405,8 +406,6 @@ class WorldModel:
         MuJoCo (``mjcf`` extra); see :func:`worldgraph.importers.world_from_file` for ``type_of``
         (``None``, a callable ``name -> type or None``, or a mapping ``regex -> type``) and the
         options (``max_link_length``, ``link_margin``, ``room``, ``mjcf_objects``, ``file_format``)."""
-        from ..importers.scene_files import typed_scene  # the importers package imports this one
-
         scene, types = typed_scene(path, type_of, mjcf_objects=mjcf_objects, file_format=file_format)
         return cls.from_trimesh(scene, type_of=lambda node, _geometry: types.get(str(node)),
                                 max_link_length=max_link_length, link_margin=link_margin, room=room)
@@ -542,7 +541,7 @@ class WorldModel:
         return {}
 
     def type_grid(self, type_name: str) -> ring_join.RingGrid:
-        """A :class:`~worldgraph.ring_join.RingGrid` of one type's objects (in the order of
+        """A :class:`~worldgraph.model.ring_join.RingGrid` of one type's objects (in the order of
         :meth:`indices_of`) for the compiled ring joins of far percept pairs.  Built on first
         use (a sort, no numba needed), then kept with the world."""
         self._check_known_type(type_name, "type_name")
@@ -609,7 +608,7 @@ class WorldModel:
         return set()
 
     def _warn_units(self) -> WorldModel:
-        """Warn (:class:`~worldgraph.units.UnitsWarning`) if :attr:`units_hint` says
+        """Warn (:class:`~worldgraph.model.units.UnitsWarning`) if :attr:`units_hint` says
         its positions look like millimetres, and return this world (the ``from_*`` builders call it)."""
         if self.units_hint is not None:
             from .units import UnitsWarning  # units imports this module
@@ -618,7 +617,7 @@ class WorldModel:
 
     @cached_property
     def units_hint(self) -> str | None:
-        """:func:`worldgraph.units.world_units_hint` of this world, computed once (``localize``
+        """:func:`worldgraph.model.units.world_units_hint` of this world, computed once (``localize``
         adds it to its message; it samples the world and queries its k-d tree)."""
         from .units import world_units_hint  # units imports this module
 
