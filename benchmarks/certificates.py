@@ -12,7 +12,7 @@ The second block offers the non-global local minima of nearly coplanar scenes (r
 Run:  python benchmarks/certificates.py [--trials 300] [--seed 0] [--minima-scenes 1000]
 Prints Markdown tables.  Targets: >= 99 % certified, median <= 20 ms, zero false certificates.
 
-``--pose [--pose-trials 200]`` adds the ML 6D pose table (worldgraph.pose_certificate, SDP over
+``--pose [--pose-trials 200]`` adds the ML 6D pose table (worldgraph.pose.certificate, SDP over
 the rotation): scenes of tests/test_pose_certificate.py (4-10 landmarks, anisotropic SPD
 covariances, standard deviations ``noise * U(0.3, 1)``) at noise 3 cm, 10 cm, 30 cm and 1 m; the
 pose certified is the best of a 50-start refine_pose brute force.  A false certificate is
@@ -105,7 +105,7 @@ def pose_rows(trials: int, seed: int) -> list[str]:
     from test_pose_certificate import best_translation, brute_force, scene
 
     from worldgraph.pose import transformation
-    from worldgraph.pose_certificate import certify_pose
+    from worldgraph.pose.certificate import certify_pose
 
     rows = []
     for j, noise in enumerate((0.03, 0.1, 0.3, 1.0)):

@@ -1,5 +1,5 @@
 """Benchmark: the compiled clique search (numba) against the Python search of
-worldgraph.cliques.maximum_cliques, on the same graphs, with the same answer checked.
+worldgraph.association.cliques.maximum_cliques, on the same graphs, with the same answer checked.
 
 Graphs: k = 9 parts (percepts) of n vertices each, random sparse edges (about ``degree``
 neighbours per vertex over all other parts, as (rows, cols) pairs), plus a planted clique of
@@ -13,7 +13,7 @@ size k on one random vertex per part.  Two searches per graph, with the associat
 run twice to see both); "warm" the median of ``--repeats`` further calls; the ratio is
 Python / compiled warm time from this one run.  ``--threshold`` also times both paths on small
 graphs (bool matrices of density ``--density``, n = 1 ... 40 per part), the sizes around
-worldgraph.cliques.COMPILED_MIN_VERTICES.
+worldgraph.association.cliques.COMPILED_MIN_VERTICES.
 
 Run:  python benchmarks/cliques.py [--sizes 200 2000 20000] [--degrees 5 50] [--repeats 3] [--threshold]
 Prints Markdown tables.
@@ -29,8 +29,8 @@ from collections.abc import Iterator
 
 import numpy as np
 
-import worldgraph.cliques as cliques
-from worldgraph.cliques import maximum_cliques
+import worldgraph.association.cliques as cliques
+from worldgraph.association.cliques import maximum_cliques
 
 K = 9
 MAX_NODES = 50_000

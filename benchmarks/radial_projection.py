@@ -27,10 +27,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import radialopt as ro  # noqa: E402
 from perception import depth_sigma  # noqa: E402
+from radialopt._dual_active_set import _ldp_pairs, _pair_rows  # noqa: E402
 from radialopt.projection import (  # noqa: E402
     SMALL_CORE_SPHERES,
-    _ldp_pairs,
-    _pair_rows,
     _Problem,
     _project_radii_trusted,
     fresh_cvxpy_problem,

@@ -6,7 +6,7 @@ on a 100 m grid, as many as the size needs (24k objects each).  A and B are two 
 such sets of the same size.
 Ring: horizontal distance in [5.9, 6.1] m, height offset b_z - a_z in [0.2, 0.4] m.
 
-The k-d tree baseline is the current approach of worldgraph.consistency: z scaled by 10,
+The k-d tree baseline is the current approach of worldgraph.association.consistency: z scaled by 10,
 ``cKDTree((A + (0, 0, dz)) * s).sparse_distance_matrix(cKDTree(B * s), radius)`` with
 ``dz`` the band's centre and ``radius = hypot(h_hi, 10 * z_halfwidth)`` (times 1 + 1e-9), then
 the same exact filter.  Both must give the same pair set (checked on every size).
@@ -27,7 +27,7 @@ import time
 import numpy as np
 from scipy.spatial import cKDTree
 
-from worldgraph.ring_join import ring_pairs
+from worldgraph.model.ring_join import ring_pairs
 
 H_LO, H_HI = 5.9, 6.1
 Z_LO, Z_HI = 0.2, 0.4

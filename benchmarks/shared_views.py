@@ -21,7 +21,7 @@ from scipy.spatial.transform import Rotation
 import perception as pc
 from worldgraph import scenes
 from worldgraph.localize import localize
-from worldgraph.validation import CHI2_6_GATE
+from worldgraph.pose.validation import CHI2_6_GATE
 
 
 def ros_error(true: np.ndarray, est: np.ndarray) -> np.ndarray:

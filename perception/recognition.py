@@ -13,7 +13,9 @@ eigenvectors from color-segmented regions in stereo images"):
    into connected regions (``cv2.connectedComponentsWithStats``), describes every region by
    the eigen-decomposition of its pixel covariance (elongation, orientation), its area, fill
    ratio and mean colour, and classifies it with a :class:`GaussianClassifier` that rejects
-   regions whose log-likelihood is below a per-class threshold (clutter).
+   regions whose log-likelihood is below a per-class threshold (clutter).  The segmentation
+   and the features live in :mod:`perception.segmentation`, the classifier in
+   :mod:`perception.classifier`; their names are re-exported here.
 3. :func:`match_stereo` pairs left and right detections of the same type under the epipolar
    constraint (fundamental matrix from the rig) with positive depth in both cameras.
 4. :func:`recognize` triangulates the pairs with ``rig.triangulate`` and attaches the eq. 6
@@ -31,7 +33,7 @@ Frames follow ``docs/conventions.md``: the scene (world) frame has z up; cameras
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, cast
 
 import numpy as np
@@ -41,6 +43,7 @@ from scipy.optimize import linear_sum_assignment
 from ._checks import boolean, guard, integer, name_str, real_array, real_scalar, sequence, spd
 from ._checks import rng as check_rng
 from .chain import check_transform
+from .classifier import GaussianClassifier
 from .errors import (
     ImageFormatError,
     NonFiniteError,
@@ -66,8 +69,16 @@ from .render import (  # the renderer moved to render.py; its names stay importa
     visible_mask,
 )
 from .render import MAX_COORD as MAX_COORD
+from .segmentation import (
+    COLOR_RANGES,
+    FEATURE_NAMES,
+    ColorRange,
+    _check_image,
+    _region_stats,
+    region_features,
+)
 from .stereo import _matrix as _as_float_array
-from .tolerances import EIGENVALUE_FLOOR, PARALLEL_RAYS
+from .tolerances import PARALLEL_RAYS
 from .uncertainty import depth_sigma, triangulation_jacobian
 
 __all__ = [
@@ -96,48 +107,9 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------------------------
-# Segmentation and features
+# Detection and classification (segmentation: perception.segmentation; classifier:
+# perception.classifier)
 # --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class ColorRange:
-    """An HSV box for ``cv2.inRange`` (OpenCV HSV: H in [0, 180), S and V in [0, 255])."""
-
-    lower: tuple[int, int, int]
-    upper: tuple[int, int, int]
-
-    @guard
-    def __post_init__(self) -> None:
-        lo = real_array("lower", self.lower, (3,))
-        hi = real_array("upper", self.upper, (3,))
-        for name, arr in (("lower", lo), ("upper", hi)):
-            if np.any((arr < 0) | (arr > 255) | (arr != np.round(arr))):
-                raise ShapeError(f"{name} must hold integers in [0, 255], got {arr.tolist()}")
-        if np.any(lo > hi):
-            raise ShapeError(f"lower {lo.tolist()} must not exceed upper {hi.tolist()}")
-
-
-#: Segmentation colours: brown wood (doors, drawers) and bright low-saturation metal (handles).
-COLOR_RANGES: Mapping[str, ColorRange] = {
-    "wood": ColorRange((3, 110, 40), (25, 255, 255)),
-    "metal": ColorRange((0, 0, 110), (180, 50, 255)),
-}
-
-_CLOSE_KERNEL = np.ones((3, 3), dtype=np.uint8)
-_COS_HUE = np.cos(np.arange(256) * (np.pi / 90.0)).astype(np.float32).reshape(1, 256)
-_SIN_HUE = np.sin(np.arange(256) * (np.pi / 90.0)).astype(np.float32).reshape(1, 256)
-
-#: Names of the region features, in order.
-FEATURE_NAMES: tuple[str, ...] = (
-    "log_area",
-    "log_elongation",
-    "horizontalness",
-    "fill_ratio",
-    "chroma_a",
-    "chroma_b",
-    "value",
-)
 
 
 @dataclass(frozen=True)
@@ -189,351 +161,6 @@ class Detection:
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
         object.__setattr__(self, "area", area)
-
-
-def _check_image(name: str, image: Any) -> NDArray[np.uint8]:
-    if not isinstance(image, np.ndarray):
-        raise ImageFormatError(f"{name} must be a numpy array, got {type(image).__name__}")
-    if image.ndim != 3 or image.shape[2] != 3:
-        raise ImageFormatError(f"{name} must have shape (height, width, 3) (BGR), got shape {image.shape}")
-    if image.dtype != np.uint8:
-        raise ImageFormatError(f"{name} must have dtype uint8, got {image.dtype} (shape {image.shape})")
-    if image.shape[0] * image.shape[1] > MAX_RENDER_PIXELS or 0 in image.shape:
-        raise ImageFormatError(
-            f"{name} must have between 1 and {MAX_RENDER_PIXELS} pixels, got shape {image.shape}"
-        )
-    return image
-
-
-@guard
-def region_features(
-    image: NDArray[np.uint8], *, color_ranges: Mapping[str, ColorRange] = COLOR_RANGES, min_area: int = 12
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """Segment by colour and describe every connected region.
-
-    Features (:data:`FEATURE_NAMES`), from the region's pixel covariance with eigenvalues
-    ``l1 >= l2`` and major axis angle ``theta``: ``log(area)``, ``0.5 log(l1 / l2)`` (log
-    elongation), ``|cos theta|`` (1 for a horizontal major axis), the fill ratio
-    ``area / (12 sqrt(l1 l2))`` (1 for a solid rectangle), the mean chroma
-    ``S cos(H), S sin(H)`` (S in [0, 1], H as an angle) and the mean value V in [0, 1].
-
-    Returns
-    -------
-    features : (r, 7) float
-    centroids : (r, 2) float
-        Pixel centroids (u, v).
-    areas : (r,) float
-    touches_border : (r,) bool
-        The region's bounding box touches the image border (it may be cut off).
-    """
-    feats, cents, areas, border, _ = _region_stats(image, color_ranges, min_area)
-    return feats, cents, areas, border
-
-
-def _region_stats(
-    image: NDArray[np.uint8], color_ranges: Mapping[str, ColorRange], min_area: int
-) -> tuple[
-    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]
-]:
-    """:func:`region_features` plus each region's pixel covariance (r, 2, 2), px^2 (u, v)."""
-    import cv2
-    image = _check_image("image", image)
-    min_area = integer("min_area", min_area, minimum=1, maximum=MAX_RENDER_PIXELS)
-    if not isinstance(color_ranges, Mapping) or not all(
-        isinstance(c, ColorRange) for c in color_ranges.values()
-    ):
-        raise ShapeError(f"color_ranges must map names to ColorRange, got {color_ranges!r}")
-    hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
-    # per-pixel chroma (S cos H, S sin H) and value, in [0, 1], through hue look-up tables
-    sat = hsv[:, :, 1].astype(np.float32) * np.float32(1.0 / 255.0)
-    color = cv2.merge(
-        [
-            cv2.LUT(hsv[:, :, 0], _COS_HUE) * sat,
-            cv2.LUT(hsv[:, :, 0], _SIN_HUE) * sat,
-            hsv[:, :, 2].astype(np.float32) * np.float32(1.0 / 255.0),
-        ]
-    )
-    feats, cents, areas, border, moments = [], [], [], [], []
-    for rng_ in color_ranges.values():
-        mask = cv2.inRange(hsv, np.array(rng_.lower, np.uint8), np.array(rng_.upper, np.uint8))
-        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _CLOSE_KERNEL)
-        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-        big = np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] >= min_area) + 1
-        if big.size == 0:
-            continue
-        # per region (on its bounding-box ROI): area, centroid, central second moments, mean
-        # chroma and value
-        stat = np.empty((9, big.size))
-        for j, k in enumerate(big):
-            x0, y0, w, h = (int(v) for v in stats[k, :4])
-            roi = (labels[y0 : y0 + h, x0 : x0 + w] == k).astype(np.uint8)
-            m = cv2.moments(roi, binaryImage=True)
-            mean_color = cv2.mean(color[y0 : y0 + h, x0 : x0 + w], mask=roi)
-            area = m["m00"]
-            stat[:, j] = (
-                area,
-                x0 + m["m10"] / area,
-                y0 + m["m01"] / area,
-                m["mu20"] / area,
-                m["mu02"] / area,
-                m["mu11"] / area,
-                *mean_color[:3],
-            )
-        count, mx, my = stat[0], stat[1], stat[2]
-        # pixel covariance; + 1/12 for the extent of a unit pixel
-        cxx = stat[3] + 1.0 / 12.0
-        cyy = stat[4] + 1.0 / 12.0
-        cxy = stat[5]
-        half_tr = 0.5 * (cxx + cyy)
-        root = np.sqrt(np.maximum((0.5 * (cxx - cyy)) ** 2 + cxy**2, 0.0))
-        l1, l2 = half_tr + root, np.maximum(half_tr - root, EIGENVALUE_FLOOR)
-        theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)
-        feats.append(
-            np.column_stack(
-                [
-                    np.log(count),
-                    0.5 * np.log(l1 / l2),
-                    np.abs(np.cos(theta)),
-                    count / (12.0 * np.sqrt(l1 * l2)),
-                    stat[6],
-                    stat[7],
-                    stat[8],
-                ]
-            )
-        )
-        cents.append(np.column_stack([mx, my]))
-        areas.append(count)
-        moments.append(np.stack([np.column_stack([cxx, cxy]), np.column_stack([cxy, cyy])], axis=1))
-        st = stats[big]
-        height, width = mask.shape
-        border.append(
-            (st[:, cv2.CC_STAT_LEFT] == 0)
-            | (st[:, cv2.CC_STAT_TOP] == 0)
-            | (st[:, cv2.CC_STAT_LEFT] + st[:, cv2.CC_STAT_WIDTH] >= width)
-            | (st[:, cv2.CC_STAT_TOP] + st[:, cv2.CC_STAT_HEIGHT] >= height)
-        )
-    if not feats:
-        return (
-            np.zeros((0, len(FEATURE_NAMES))), np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=bool),
-            np.zeros((0, 2, 2)),
-        )
-    return (
-        np.concatenate(feats), np.concatenate(cents), np.concatenate(areas), np.concatenate(border),
-        np.concatenate(moments),
-    )
-
-
-# --------------------------------------------------------------------------------------------
-# Gaussian classifier
-# --------------------------------------------------------------------------------------------
-
-
-def _thresholds(value: Any, k: int) -> NDArray[np.float64]:
-    """(k,) real thresholds; -inf (never reject) is allowed, NaN and +inf are not."""
-    try:
-        raw = np.asarray(value)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"thresholds must have shape ({k},), got {value!r}") from exc
-    if value is None or raw.dtype.kind not in "fiu":
-        raise ShapeError(f"thresholds must be real numbers of shape ({k},), got {value!r}")
-    thr = np.array(raw, dtype=np.float64)
-    if thr.shape != (k,):
-        raise ShapeError(f"thresholds must have shape ({k},), got shape {thr.shape}")
-    bad = np.flatnonzero(np.isnan(thr) | (thr == np.inf))
-    if bad.size:
-        raise NonFiniteError(f"thresholds[{bad[0]}] must be a number or -inf, got {thr[bad[0]]!r}")
-    return thr
-
-
-@dataclass(frozen=True)
-class GaussianClassifier:
-    """One multivariate Gaussian per class, with a log-likelihood rejection threshold.
-
-    Parameters
-    ----------
-    classes : tuple of str
-        Class names, in the order of the other arrays.
-    means : (k, d) float
-    covariances : (k, d, d) float
-        Symmetric positive definite.
-    log_priors : (k,) float
-        Log class priors.
-    thresholds : (k,) float
-        A sample assigned to class c is rejected when its log-likelihood under c is below
-        ``thresholds[c]``.
-    """
-
-    classes: tuple[str, ...]
-    means: NDArray[np.float64]
-    covariances: NDArray[np.float64]
-    log_priors: NDArray[np.float64]
-    thresholds: NDArray[np.float64]
-    _chol: NDArray[np.float64] = field(init=False, repr=False, compare=False)
-    _log_norm: NDArray[np.float64] = field(init=False, repr=False, compare=False)
-
-    @guard
-    def __post_init__(self) -> None:
-        classes = tuple(sequence("classes", self.classes))
-        k = len(classes)
-        if k == 0:
-            raise UnknownClassError(f"classes must be non-empty strings, got {classes!r}")
-        if len(set(classes)) != k:
-            raise UnknownClassError(f"classes must be unique, got {classes!r}")
-        means = real_array("means", self.means)
-        if means.ndim != 2 or means.shape[0] != k:
-            raise ShapeError(
-                f"means must have shape (k, d) with k = len(classes) = {k}, got shape {means.shape}"
-            )
-        d = means.shape[1]
-        if d < 1:
-            raise ShapeError(f"means must have shape ({k}, d) with d >= 1, got shape {means.shape}")
-        if np.any(np.abs(means) > 1e150):
-            raise NonFiniteError("means must be at most 1e150 in magnitude")
-        covs_in = real_array("covariances", self.covariances)
-        if covs_in.shape != (k, d, d):
-            raise ShapeError(
-                f"covariances must have shape ({k}, {d}, {d}) (k = len(classes), d = means.shape[1]), "
-                f"got shape {covs_in.shape}"
-            )
-        covs = np.stack([spd(f"covariances[{i}]", covs_in[i], d) for i in range(k)])
-        if np.any(np.abs(covs) > 1e150) or np.any(np.abs(covs) < 1e-150 * (covs != 0)):
-            raise NonPositiveSigmaError("covariances entries must lie within [1e-150, 1e150] in magnitude")
-        log_priors = _as_float_array("log_priors", self.log_priors, (k,))
-        thresholds = _thresholds(self.thresholds, k)
-        try:
-            chol = np.linalg.cholesky(covs)
-        except np.linalg.LinAlgError as exc:
-            raise NonPositiveSigmaError("covariances must be positive definite") from exc
-        log_norm = -0.5 * d * np.log(2 * np.pi) - np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1)
-        for name, arr in (
-            ("means", means), ("covariances", covs), ("log_priors", log_priors), ("thresholds", thresholds),
-            ("_chol", chol), ("_log_norm", log_norm),
-        ):
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
-        object.__setattr__(self, "classes", classes)
-
-    @property
-    def n_features(self) -> int:
-        """Feature dimension d."""
-        return int(self.means.shape[1])
-
-    @classmethod
-    @guard
-    def fit(
-        cls,
-        features: ArrayLike,
-        labels: Sequence[str],
-        *,
-        regularization: float = 1e-4,
-        reject_quantile: float = 0.002,
-        threshold_margin: float = 3.0,
-    ) -> GaussianClassifier:
-        """Maximum-likelihood Gaussians per class.
-
-        Parameters
-        ----------
-        features : (n, d) float
-        labels : (n,) str
-        regularization : float
-            Added to the covariance diagonal (features are O(1)), >= 0.
-        reject_quantile : float
-            Per class, the threshold is the ``reject_quantile`` quantile of the training
-            log-likelihoods of that class's own samples ...
-        threshold_margin : float
-            ... minus this margin (nats).
-
-        Returns
-        -------
-        GaussianClassifier
-            Priors are the class frequencies.
-        """
-        x = real_array("features", features, (-1, -1))
-        if x.shape[1] < 1:
-            raise ShapeError(f"features must have shape (n, d) with d >= 1, got shape {x.shape}")
-        big = np.argwhere(np.abs(x) > 1e100)
-        if big.size:
-            i, j = big[0]
-            raise NonFiniteError(f"features[{i}, {j}] = {x[i, j]!r} exceeds 1e100 in magnitude")
-        y = np.asarray(sequence("labels", labels) or [], dtype=object).reshape(-1)
-        if y.shape != (x.shape[0],):
-            raise ShapeError(
-                f"labels must have one entry per row of features (shape ({x.shape[0]},)), got shape {y.shape}"
-            )
-        if x.shape[0] == 0:
-            raise NotFittedError("features must hold at least one sample per class, got none")
-        regularization = real_scalar("regularization", regularization, nonnegative=True, high=1e100)
-        reject_quantile = real_scalar("reject_quantile", reject_quantile, low=0.0, high=1.0)
-        threshold_margin = real_scalar("threshold_margin", threshold_margin, nonnegative=True, high=1e100)
-        classes = tuple(sorted({str(v) for v in y}))
-        d = x.shape[1]
-        means, covs, counts = [], [], []
-        for c in classes:
-            xc = x[y == c]
-            if len(xc) < 2:
-                raise NotFittedError(f"class {c!r} needs at least 2 samples, got {len(xc)}")
-            mu = xc.mean(axis=0)
-            diff = xc - mu
-            means.append(mu)
-            cov = diff.T @ diff / len(xc) + regularization * np.eye(d)
-            try:
-                spd(f"covariance of class {c!r}", cov, d)
-            except PerceptionError as exc:
-                raise NotFittedError(
-                    f"class {c!r}: its features are degenerate (use regularization > 0): {exc}"
-                ) from exc
-            covs.append(cov)
-            counts.append(len(xc))
-        k = len(classes)
-        prov = cls(
-            classes=classes,
-            means=np.array(means),
-            covariances=np.array(covs),
-            log_priors=np.log(np.array(counts) / x.shape[0]),
-            thresholds=np.full(k, -np.inf),
-        )
-        ll = prov.log_likelihood(x)
-        thresholds = np.empty(k)
-        for i, c in enumerate(classes):
-            own = ll[y == c, i]
-            thresholds[i] = np.quantile(own, reject_quantile) - threshold_margin
-        return cls(classes, prov.means, prov.covariances, prov.log_priors, thresholds)
-
-    @guard
-    def log_likelihood(self, features: ArrayLike) -> NDArray[np.float64]:
-        """Class-conditional log densities ``log N(x; mu_c, Sigma_c)``, shape (n, k)."""
-        x = real_array("features", features)
-        if x.ndim == 1:
-            x = x[None, :]
-        if x.ndim != 2 or x.shape[1] != self.n_features:
-            raise ShapeError(f"features must have shape (n, {self.n_features}), got shape {x.shape}")
-        big = np.argwhere(np.abs(x) > 1e100)
-        if big.size:
-            i, j = big[0]
-            raise NonFiniteError(f"features[{i}, {j}] = {x[i, j]!r} exceeds 1e100 in magnitude")
-        diff = x[None, :, :] - self.means[:, None, :]  # (k, n, d)
-        z = np.linalg.solve(self._chol, np.swapaxes(diff, 1, 2))  # (k, d, n)
-        maha = np.einsum("kdn,kdn->kn", z, z)
-        return (self._log_norm[:, None] - 0.5 * maha).T
-
-    @guard
-    def predict(self, features: ArrayLike) -> tuple[list[str | None], NDArray[np.float64]]:
-        """Maximum a-posteriori class of each sample, ``None`` where rejected.
-
-        Returns
-        -------
-        labels : list of (str or None), length n
-            The class maximising ``log N(x; c) + log prior(c)``, or ``None`` when the
-            log-likelihood under that class is below its threshold.
-        log_likelihood : (n,) float
-            Log-likelihood under the chosen class.
-        """
-        ll = self.log_likelihood(features)
-        best = np.argmax(ll + self.log_priors, axis=1)
-        score = ll[np.arange(len(best)), best]
-        accepted = score >= self.thresholds[best]
-        labels = [self.classes[b] if ok else None for b, ok in zip(best, accepted, strict=True)]
-        return labels, score
 
 
 @guard

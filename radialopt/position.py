@@ -37,6 +37,10 @@ Degenerate input never raises from inside numpy: fewer than three spheres, colli
 and a position on the plane of coplanar centres give a status and a message.  With coplanar
 centres the mirror image of every candidate across that plane has the same density: both are
 returned and the status is ``"ambiguous"`` unless the region keeps only one.
+
+:class:`EstimatorOptions` lives in :mod:`radialopt._estimator_options`, :func:`fisher_information`
+and :func:`crlb` in :mod:`radialopt.fisher`, :func:`srls` in :mod:`radialopt._srls`; this module
+imports and re-exports them.
 """
 
 from __future__ import annotations
@@ -48,34 +52,30 @@ from itertools import combinations
 from typing import Literal, get_args
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import eigh
-from scipy.optimize import brentq, least_squares
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
 from scipy.spatial import cKDTree
 
-from ._checks import MAX_SIGMA, dataclass_fields, instance, point3, real_array, real_scalar, sigma_range
+from ._checks import instance
+from ._estimator_options import ESTIMATOR_OPTIONS, EstimatorOptions
+from ._srls import _Frame, srls
 from .certificates import Certificate, certify_arrays
 from .conformal import MeetStatus, meet3_batch
 from .errors import (
-    NegativeRadiusError,
     ShapeError,
     SingularFisherError,
     SolverError,
     UnknownMethodError,
 )
+from .fisher import crlb, fisher_information
 from .hypotheses import Region, generate_hypotheses
 from .spheres import GaussianSphere, sphere_arrays
 from .tolerances import (
     COLLINEAR_RTOL,
     CONVEXITY_RTOL,
-    FISHER_SINGULAR,
     LM_DAMPING_MIN,
     LM_DAMPING_START,
-    ON_CENTRE_RTOL,
-    POLE_OFFSET,
     POLISH_TOL,
-    RANK_RTOL,
-    ROOT_XTOL,
     ROUNDING_RTOL,
     TINY,
 )
@@ -121,90 +121,6 @@ POSITION_SUCCESS: tuple[str, ...] = get_args(PositionSuccess)
 
 
 @dataclass(frozen=True)
-class EstimatorOptions:
-    """Tuning of the estimators, in one frozen place.
-
-    Attributes
-    ----------
-    rank_tol : float
-        Centres are collinear (coplanar) when the second (third) singular value of the
-        centred centres is below ``rank_tol`` times the largest.
-    fisher_rcond : float
-        The Fisher information is singular when the smallest eigenvalue of
-        ``sum_i u_i u_i^T / n`` (geometry only, independent of sigma) is below this.
-    lm_max_iter : int
-        Iteration cap of Levenberg-Marquardt.
-    lm_step_tol : float
-        LM stops when a step is shorter than this times the landmark spread.
-    gradient_max_iter : int
-        Iteration cap of the gradient-ascent baseline.
-    gradient_step_tol : float
-        Gradient ascent stops when every step is shorter than this times the spread.
-    distinct_tol : float
-        Candidates closer than this times the spread are the same candidate.
-    ambiguity_ratio : float
-        A distinct candidate whose density is at least this fraction of the best one's, and
-        which lies more than ``ambiguity_sigmas`` standard deviations (of the CRLB, trace)
-        away, makes the estimate ambiguous.
-    ambiguity_sigmas : float
-    random_seeds : int
-        Extra uniformly drawn seeds for "ml" and "gradient" when an ``rng`` is passed.
-    region_tol : float
-        Slack (metres) of the region test.
-    max_generation_spheres : int
-        Candidates and seeds that grow combinatorially (the paper's level sets, the points
-        and mirror planes of sphere triples) come from at most this many spheres, the most
-        certain ones (smallest sigma); every sphere scores every candidate.  The paper: "the
-        amount of spheres n is never greater than 6 while generating candidates".
-    polish_candidates : int
-        "ml": how many of the best distinct LM results get the trust-region polish.
-    polish_max_nfev : int
-        Evaluation cap of one trust-region polish; reaching it on the chosen point gives the
-        status ``"not_converged"``.
-    polish_recentre : int
-        How many times a polish may re-centre its chart when it walks off its middle.
-    max_range_ratio : float
-        An estimate farther than this many landmark spreads from their centroid is
-        ``"degenerate"`` (ranges that do not fit the landmarks' scale, e.g. shifted by 1e6 m).
-
-    Every field is validated (integers must be ints, not bools or floats; floats finite and in
-    range): a bad value raises :class:`~radialopt.errors.RadialError` naming the field.
-    """
-
-    rank_tol: float = 1e-9
-    fisher_rcond: float = 1e-12
-    lm_max_iter: int = 100
-    lm_step_tol: float = 1e-13
-    gradient_max_iter: int = 5000
-    gradient_step_tol: float = 1e-13
-    distinct_tol: float = 1e-6
-    ambiguity_ratio: float = 0.5
-    ambiguity_sigmas: float = 3.0
-    random_seeds: int = 32
-    region_tol: float = 1e-9
-    max_generation_spheres: int = 6
-    polish_candidates: int = 4
-    polish_max_nfev: int = 400
-    polish_recentre: int = 4
-    max_range_ratio: float = 1e3
-
-    def __post_init__(self) -> None:
-        dataclass_fields(
-            self,
-            {"lm_max_iter": (0, 10**6), "gradient_max_iter": (0, 10**7), "random_seeds": (0, 10**5),
-             "max_generation_spheres": (3, 12), "polish_candidates": (0, 1000),
-             "polish_max_nfev": (1, 10**6), "polish_recentre": (1, 100)},
-            {"rank_tol": (0.0, 1.0, False), "fisher_rcond": (0.0, 1.0, False),
-             "lm_step_tol": (0.0, 1.0, False), "gradient_step_tol": (0.0, 1.0, False),
-             "distinct_tol": (0.0, 1.0, False), "ambiguity_ratio": (0.0, 1.0, False),
-             "ambiguity_sigmas": (0.0, 1e6, False), "region_tol": (0.0, 1e6, False),
-             "max_range_ratio": (1.0, 1e12, False)})
-
-
-ESTIMATOR_OPTIONS = EstimatorOptions()
-
-
-@dataclass(frozen=True)
 class PositionEstimate:
     """Result of :func:`estimate_position`.
 
@@ -244,100 +160,6 @@ class PositionEstimate:
     candidate_density: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     solve_time: float = 0.0
     certificate: Certificate | None = None
-
-
-# --- Fisher information ------------------------------------------------------------------
-
-def _check_crlb_input(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike
-                      ) -> tuple[NDArray, NDArray, NDArray]:
-    c = real_array(centers, "centers", shape=(None, 3))
-    if len(c) == 0:
-        raise ShapeError("centers must hold at least one centre, got shape (0, 3)")
-    s = real_array(sigmas, "sigmas", shape=(len(c),), max_abs=MAX_SIGMA, like="centers")
-    x = point3(position, "position")
-    sigma_range(s, "sigmas", max(float(np.abs(c).max()), float(np.abs(x).max())))
-    return c, s, x
-
-
-def fisher_information(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike
-                       ) -> NDArray[np.float64]:
-    """Fisher information of the position from ranges, ``J = sum_i u_i u_i^T / sigma_i^2``.
-
-    Parameters
-    ----------
-    centers : (n, 3) float
-    sigmas : (n,) float
-    position : (3,) float
-
-    Returns
-    -------
-    (3, 3) float
-
-    Raises
-    ------
-    SingularFisherError
-        The position coincides with a centre (the range is not differentiable there).
-    """
-    c, s, x = _check_crlb_input(centers, sigmas, position)
-    u = _unit_directions(c, x)
-    return np.einsum("ni,nj->ij", u / s[:, None] ** 2, u)
-
-
-def _unit_directions(c: NDArray, x: NDArray) -> NDArray:
-    """Unit vectors ``(n, 3)`` from the centres to ``x``; raises where ``x`` is on a centre."""
-    diff = x - c
-    d = np.linalg.norm(diff, axis=1)
-    scale = max(float(np.max(np.abs(c - c.mean(axis=0)), initial=0.0)), 1.0)
-    if np.any(d <= ON_CENTRE_RTOL * scale):
-        i = int(np.argmin(d))
-        raise SingularFisherError(f"position {x.tolist()} coincides with centre {i} "
-                                  f"({c[i].tolist()}): the range is not differentiable there")
-    return diff / d[:, None]
-
-
-def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
-         rcond: float = ESTIMATOR_OPTIONS.fisher_rcond) -> NDArray[np.float64]:
-    """Cramer-Rao bound ``J^-1`` of the position (covariance of an efficient estimator).
-
-    Parameters
-    ----------
-    centers : (n, 3) float
-        Landmark positions.
-    sigmas : (n,) float
-        Standard deviations of the ranges.
-    position : (3,) float
-        Where to evaluate the bound (the truth, or an estimate).
-    rcond : float
-        Singularity threshold on the smallest eigenvalue of ``sum_i u_i u_i^T / n``
-        (geometry only: it does not depend on the sigmas).
-
-    Returns
-    -------
-    (3, 3) float
-
-    Raises
-    ------
-    SingularFisherError
-        Some direction is unobservable: fewer than three directions, all directions
-        ``u_i`` in a plane (the position on the plane of coplanar centres) or on a line.
-    """
-    c, s, x = _check_crlb_input(centers, sigmas, position)
-    rcond = real_scalar(rcond, "rcond", 0.0, 1.0)
-    u = _unit_directions(c, x)
-    J = np.einsum("ni,nj->ij", u / s[:, None] ** 2, u)
-    geometric = np.linalg.eigvalsh(u.T @ u / len(u))
-    if geometric[0] <= rcond:
-        raise SingularFisherError(
-            f"Fisher information at position = {x.tolist()} is singular: the directions from it to the "
-            f"{len(c)} centers span too few dimensions (smallest eigenvalue {geometric[0]:.3g} <= "
-            f"{rcond:g}); centers = {c.tolist()!r:.300}")
-    w, V = np.linalg.eigh(J)
-    if not (np.all(np.isfinite(w)) and w[0] > FISHER_SINGULAR * w[-1]):
-        raise SingularFisherError(
-            f"Fisher information at position = {x.tolist()} is numerically singular: eigenvalues "
-            f"{w.tolist()} (condition beyond 1e13; sigmas span {float(s.min()):.3g} to "
-            f"{float(s.max()):.3g} m); centers = {c.tolist()!r:.300}")
-    return (V / w) @ V.T
 
 
 # --- residuals, Levenberg-Marquardt, gradient ascent (all batched over seeds) --------------
@@ -421,148 +243,6 @@ def _gradient_ascent(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, spread: fl
         if np.all(length <= opts.gradient_step_tol * spread):
             break
     return x
-
-
-# --- weighted SR-LS (Beck, Stoica, Li 2008) ------------------------------------------------
-
-def _gtrs(a: NDArray, b: NDArray, w: NDArray) -> NDArray | None:
-    """Global minimiser of ``sum w (|x - a_i|^2 - b_i)^2`` over x in R^d (d = 2 or 3).
-
-    Written as ``min |W^1/2 (A y - beta)|^2`` s.t. ``y^T D y + 2 f^T y = 0`` with
-    ``y = (x, |x|^2)``, a generalized trust-region subproblem; its solution is ``y(lam)`` at
-    the root of the decreasing function ``phi(lam) = y^T D y + 2 f^T y`` on
-    ``lam > -1 / mu_max`` (Beck, Stoica, Li 2008, Theorem 3.2).  Returns None when
-    ``A^T W A`` is singular (centres not spanning R^d).
-    """
-    n, dim = a.shape
-    A = np.hstack([-2.0 * a, np.ones((n, 1))])
-    beta = b - np.einsum("ni,ni->n", a, a)
-    M = A.T @ (w[:, None] * A)
-    g = A.T @ (w * beta)
-    D = np.diag(np.r_[np.ones(dim), 0.0])
-    f = np.r_[np.zeros(dim), -0.5]
-    try:
-        ev = np.linalg.eigvalsh(M)
-        if ev[0] <= RANK_RTOL * ev[-1]:
-            return None
-        mu, V = eigh(D, M)  # D V = M V diag(mu), V^T M V = I
-    except np.linalg.LinAlgError:
-        return None
-    Vg, Vf = V.T @ g, V.T @ f
-
-    def y_of(lam: float) -> NDArray:
-        return V @ ((Vg - lam * Vf) / (1.0 + lam * mu))
-
-    def phi(lam: float) -> float:
-        y = y_of(lam)
-        return float(y[:dim] @ y[:dim] - y[dim])
-
-    mu_max = float(mu.max())
-    lo = -1.0 / mu_max
-    width = 1.0 / mu_max
-    lo_in = lo + POLE_OFFSET * width
-    if phi(lo_in) <= 0.0:  # hard case (or root next to the pole): take the boundary
-        return y_of(lo_in)[:dim]
-    hi = max(width, 1.0)
-    for _ in range(200):
-        if phi(hi) < 0.0:
-            break
-        hi *= 2.0
-    else:
-        return y_of(hi)[:dim]
-    lam = brentq(phi, lo_in, hi, xtol=ROOT_XTOL * max(1.0, abs(hi)), rtol=4 * np.finfo(float).eps,
-                 maxiter=500)
-    return y_of(lam)[:dim]
-
-
-@dataclass(frozen=True)
-class _Frame:
-    """Centred, scaled frame of the landmarks and their principal axes."""
-
-    origin: NDArray[np.float64]
-    spread: float
-    axes: NDArray[np.float64]       # (3, 3) rows: principal directions, last = normal
-    singular: NDArray[np.float64]   # (3,)
-
-    @classmethod
-    def of(cls, centers: NDArray) -> _Frame:
-        origin = centers.mean(axis=0)
-        cc = centers - origin
-        _, sv, vt = np.linalg.svd(cc, full_matrices=True)
-        sv = np.r_[sv, np.zeros(3 - len(sv))]
-        spread = float(max(np.linalg.norm(cc, axis=1).max(), np.finfo(float).tiny))
-        return cls(origin, spread, vt, sv)
-
-    def rank(self, tol: float) -> int:
-        return int(np.sum(self.singular > tol * max(self.singular[0], np.finfo(float).tiny)))
-
-    def mirror(self, x: NDArray) -> NDArray:
-        """Reflect points ``(m, 3)`` across the best-fit plane of the centres."""
-        n = self.axes[2]
-        return x - 2.0 * ((x - self.origin) @ n)[:, None] * n
-
-
-def srls(centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike,
-         rank_tol: float = ESTIMATOR_OPTIONS.rank_tol) -> NDArray[np.float64]:
-    """Weighted squared-range least squares, solved globally.
-
-    Parameters
-    ----------
-    centers : (n, 3) float
-    radii, sigmas : (n,) float
-    rank_tol : float
-        Relative singular-value threshold for coplanar / collinear centres.
-
-    Returns
-    -------
-    (k, 3) float
-        One point when the centres span 3-D; with coplanar centres the two mirror images
-        across their plane (one point when the solution lies on the plane); an empty
-        ``(0, 3)`` array when the centres are collinear or fewer than three.
-    """
-    c = real_array(centers, "centers", shape=(None, 3))
-    r = real_array(radii, "radii", shape=(len(c),), like="centers")
-    s = real_array(sigmas, "sigmas", shape=(len(c),), max_abs=MAX_SIGMA, like="centers")
-    rank_tol = real_scalar(rank_tol, "rank_tol", 0.0, 1.0)
-    bad = np.flatnonzero(r < 0)
-    if bad.size:
-        raise NegativeRadiusError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
-    if len(c):
-        sigma_range(s, "sigmas", max(float(np.abs(c).max()), float(r.max())))
-    if len(c) < 3:
-        return np.zeros((0, 3))
-    frame = _Frame.of(c)
-    rank = frame.rank(rank_tol)
-    L = frame.spread
-    local = (c - frame.origin) @ frame.axes.T / L  # principal coordinates, scaled
-    rl, sl = r / L, s / L
-    w = 1.0 / (4.0 * sl**2 * (rl**2 + sl**2))
-    w = w / w.max()
-    if rank == 3:
-        x = _gtrs(local, rl**2, w)
-        if x is None:
-            return np.zeros((0, 3))
-        return ((x @ frame.axes) * L + frame.origin)[None]
-    if rank < 2:
-        return np.zeros((0, 3))
-    # coplanar: |x - c_i|^2 = |u - u_i|^2 + h^2 with u in the plane, h the height; the
-    # relaxed problem is linear in (u, t = |u|^2 + h^2) and is exact when t >= |u|^2
-    u_i = local[:, :2]
-    A = np.hstack([-2.0 * u_i, np.ones((len(u_i), 1))])
-    beta = rl**2 - np.einsum("ni,ni->n", u_i, u_i)
-    sw = np.sqrt(w)
-    sol, *_ = np.linalg.lstsq(A * sw[:, None], beta * sw, rcond=None)
-    u, t = sol[:2], sol[2]
-    h_sq = t - u @ u
-    if h_sq <= 0.0:
-        u2 = _gtrs(u_i, rl**2, w)
-        if u2 is None:
-            return np.zeros((0, 3))
-        pts = np.array([[u2[0], u2[1], 0.0]])
-    else:
-        h = np.sqrt(h_sq)
-        pts = np.array([[u[0], u[1], -h], [u[0], u[1], h]])
-    return (pts @ frame.axes) * L + frame.origin
 
 
 # --- the estimators ----------------------------------------------------------------------

@@ -59,6 +59,10 @@ The cvxpy path rescales the whitened problem for the solver (unit rows, ``z`` in
 largest violation), then polishes the answer exactly on the rows the solver reports active;
 it reports ``"optimal"`` only when the polish ends on an exact KKT point and the solver said
 ``optimal``, otherwise ``"optimal_inaccurate"``.
+
+The least-distance solvers live in :mod:`radialopt._ldp` (the NNLS route and its polish) and
+:mod:`radialopt._dual_active_set` (the small-instance core), the rational arithmetic of
+``check="exact"`` in :mod:`radialopt._exact_check`; this module imports them.
 """
 
 from __future__ import annotations
@@ -66,7 +70,6 @@ from __future__ import annotations
 import contextlib
 import io
 import math
-import operator
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -74,13 +77,18 @@ from fractions import Fraction
 from functools import cached_property, lru_cache
 from itertools import combinations
 from math import comb
-from typing import Literal, cast, get_args
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import nnls
 
 from ._checks import MAX_SIGMA, instance, real_array, sigma_range
+from ._dual_active_set import SMALL_CORE_SPHERES as SMALL_CORE_SPHERES
+from ._dual_active_set import _dot, _ldp_pairs, _pair_rows
+from ._exact_check import _cdd_gmp, _exact_generators, _exact_kkt_point
+from ._ldp import CONSTRAINT_GENERATION_ROWS as CONSTRAINT_GENERATION_ROWS
+from ._ldp import _polish_certified
+from ._ldp import least_distance as least_distance
 from .errors import (
     NegativeRadiusError,
     NonPositiveSigmaError,
@@ -90,7 +98,7 @@ from .errors import (
     UnknownMethodError,
     VerificationError,
 )
-from .polytope import _SQRT_HALF, RestrictionPolytope, pair_pattern
+from .polytope import RestrictionPolytope, pair_pattern
 from .spheres import (
     TOLERANCES,
     GaussianSphere,
@@ -101,17 +109,17 @@ from .spheres import (
 from .tolerances import (
     ACTIVE_SLACK,
     DUAL_FLOOR,
-    FARKAS_LAST_ZERO,
-    FARKAS_ZERO,
     KKT_RTOL,
     RADIUS_ROUNDING,
     RANK_RTOL,
-    ROUNDING_RTOL,
     SUPPORT_DUAL_RTOL,
     SUPPORT_SLACK,
     TINY,
 )
 from .tolerances import CLARABEL_TIGHT as CLARABEL_TIGHT  # re-exported: radialopt.projection.CLARABEL_TIGHT
+from .tolerances import FARKAS_LAST_ZERO as FARKAS_LAST_ZERO  # re-exported (._ldp uses them)
+from .tolerances import FARKAS_ZERO as FARKAS_ZERO
+from .tolerances import ROUNDING_RTOL as ROUNDING_RTOL
 from .tolerances import SOLVER_OPTIONS as SOLVER_OPTIONS
 
 #: The shared status set every backend maps its native status onto.
@@ -242,302 +250,8 @@ def _status_of(violation: float, L: float, rounding: float, status: str, method:
 
 
 # --------------------------------------------------------------------------- active set
-def least_distance(G: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[NDArray[np.float64], str]:
-    """Solve ``min |z|^2 s.t. G z <= h`` exactly (Lawson-Hanson LDP via NNLS, then polish).
-
-    Returns ``(z, status)`` with status ``"optimal"`` or ``"infeasible"``.
-
-    With many more rows than :data:`CONSTRAINT_GENERATION_ROWS` (every pair of many spheres) the
-    rows are generated: solve on the rows violated so far, add every row the answer violates,
-    repeat.  The answer of a subset that violates no row of the whole is the whole's optimum
-    (its feasible set contains the whole's), so this is exact; an infeasible subset means an
-    infeasible whole.
-    """
-    n = G.shape[1]
-    if h.min() >= 0:
-        return np.zeros(n), "optimal"
-    if G.shape[0] > CONSTRAINT_GENERATION_ROWS:
-        tol = ROUNDING_RTOL * max(float(np.abs(h).max()), 1.0)
-        rows = np.flatnonzero(h < 0)
-        for _ in range(G.shape[0]):
-            z, status = _least_distance_dense(G[rows], h[rows])
-            if status != "optimal":
-                return z, status
-            viol = np.flatnonzero(G @ z - h > tol)
-            new = np.setdiff1d(viol, rows, assume_unique=True)
-            if new.size == 0:
-                return z, status
-            rows = np.union1d(rows, new)
-        return _least_distance_dense(G, h)
-    return _least_distance_dense(G, h)
-
-
-#: Row count above which :func:`least_distance` generates its rows instead of passing all.
-CONSTRAINT_GENERATION_ROWS = 200
-
-
-def _least_distance_dense(G: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[NDArray[np.float64], str]:
-    """:func:`least_distance` on every row at once (NNLS, then the exact polish)."""
-    n = G.shape[1]
-    if h.min() >= 0:
-        return np.zeros(n), "optimal"
-    # LDP in Lawson-Hanson form: min |z| s.t. E z >= f with E = -G, f = -h.
-    M = np.empty((n + 1, G.shape[0]))
-    np.negative(G.T, out=M[:n])
-    np.negative(h, out=M[n])
-    e = np.zeros(n + 1)
-    e[n] = 1.0
-    u, _ = nnls(M, e, maxiter=50 * M.shape[1])
-    resid = M @ u - e
-    if abs(resid[n]) <= FARKAS_LAST_ZERO or np.linalg.norm(resid) <= FARKAS_ZERO:
-        return np.full(n, np.nan), "infeasible"
-    z = -resid[:n] / resid[n]
-    return _polish(G, h, z, u > 0), "optimal"
-
-
-def _polish(
-    G: NDArray[np.float64], h: NDArray[np.float64], z: NDArray[np.float64], support: NDArray[np.bool_]
-) -> NDArray[np.float64]:
-    """Finish exactly: an active-set loop on ``min |z|^2 s.t. G_S z = h_S`` seeded by NNLS.
-
-    On a working set S the answer is ``z = -G_S^T y`` with ``(G_S G_S^T) y = -h_S`` and KKT
-    multipliers ``y >= 0``.  Rows with a negative multiplier leave S, the most violated row
-    joins it; at most a few steps are needed from the NNLS support.  Falls back to the NNLS
-    answer if the loop does not settle.
-    """
-    if not np.any(support):
-        return z
-    return _polish_certified(G, h, z, support)[0]
-
-
-def _polish_certified(
-    G: NDArray[np.float64], h: NDArray[np.float64], z: NDArray[np.float64], support: NDArray[np.bool_]
-) -> tuple[NDArray[np.float64], bool]:
-    """:func:`_polish` that also says whether it ended on a KKT point: ``(z, True)`` when the
-    returned ``z`` has multipliers ``>= 0`` on its working set and violates no row (to 1e-12
-    of ``max|h|``), ``(z_in, False)`` when the loop did not settle.  An empty support with a
-    feasible origin is the KKT point ``z = 0``."""
-    tol = ROUNDING_RTOL * max(float(np.abs(h).max()), 1.0)
-    work = np.flatnonzero(support).tolist()
-    if not work:
-        work = [int(np.argmax(G @ np.zeros(G.shape[1]) - h))]
-        if h[work[0]] >= 0:
-            return np.zeros(G.shape[1]), True
-    for _ in range(2 * G.shape[0]):
-        GS = G[work]
-        y = _solve_small(GS @ GS.T, -h[work])
-        k = int(np.argmin(y))
-        if y[k] < -tol:
-            del work[k]
-            if not work:
-                return z, False
-            continue
-        z2 = -(y @ GS)
-        viol = G @ z2 - h
-        j = int(np.argmax(viol))
-        if viol[j] > tol:
-            if j in work:
-                return z, False
-            work.append(j)
-            continue
-        return z2, True
-    return z, False
-
-
-def _solve_small(M: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Solve a small symmetric system; closed form for 1x1 and 2x2 (numpy's per-call overhead
-    dominates there), least squares when the active rows are dependent (degenerate vertex)."""
-    k = len(rhs)
-    if k == 1 and M[0, 0] > 0:
-        return rhs / M[0, 0]
-    if k == 2:
-        det = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
-        if abs(det) > RANK_RTOL * (M[0, 0] * M[1, 1]):
-            return np.array([M[1, 1] * rhs[0] - M[0, 1] * rhs[1],
-                             M[0, 0] * rhs[1] - M[1, 0] * rhs[0]], dtype=np.float64) / float(det)
-    # numpy's stubs widen float64 results of linalg to floating[Any]
-    try:
-        return cast(NDArray[np.float64], np.linalg.solve(M, rhs))
-    except np.linalg.LinAlgError:
-        return cast(NDArray[np.float64], np.linalg.lstsq(M, rhs, rcond=None)[0])
-
-
 def _solve_active_set(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
     return least_distance(p.G, p.h)
-
-
-# ------------------------------------------------------------- active set, small instances
-#: Most spheres the pure-Python dual active-set core (:func:`_ldp_pairs`) handles; beyond it the
-#: NNLS route (:func:`least_distance`) runs.  At these sizes numpy's per-call cost (1-10 us per
-#: operation on arrays of 4-84 numbers) outweighs the arithmetic, a few hundred flops (measured
-#: on a loaded 2-core machine, unchecked route, median of 15 instances: 65 against 174 us at
-#: n = 7, 104 against 125 us at n = 8, 173 against 187 us at n = 10, 439 against 347 us at 12).
-SMALL_CORE_SPHERES = 8
-
-_Q = float(_SQRT_HALF)  # a Python float: numpy scalars are slow in plain arithmetic
-
-_PairRows = list[tuple[int, int, float, float, float]]
-"""Whitened rows ``(i, j, g_i, g_j, h)`` of ``G z <= h``: each restriction row has two nonzeros."""
-
-
-def _pair_rows(
-    centers: list[list[float]], radii: list[float], sigmas: list[float], tol: Tolerances,
-    centers_array: NDArray[np.float64],
-) -> tuple[_PairRows, list[float]]:
-    """The whitened restriction rows of every pair (chi, alpha, beta, as :func:`pair_pattern`)
-    and the centre distances, in plain Python; :class:`CoincidentCentersError` for a pair
-    closer than ``tol.coincident``."""
-    q = _Q
-    n = len(radii)
-    coincident = tol.coincident
-    rows: _PairRows = []
-    dist: list[float] = []
-    for i in range(n - 1):
-        xi, yi, zi = centers[i]
-        ri, gi = radii[i], q * sigmas[i]
-        for j in range(i + 1, n):
-            xj, yj, zj = centers[j]
-            d = math.sqrt((xi - xj) ** 2 + (yi - yj) ** 2 + (zi - zj) ** 2)
-            if d <= coincident:
-                check_distinct_centers(centers_array, tol)  # raises, naming the pair
-            dist.append(d)
-            rj, gj, qd = radii[j], q * sigmas[j], q * d
-            rows += ((i, j, -gi, -gj, -qd + q * (ri + rj)),  # chi: -r_i - r_j <= -d
-                     (i, j, -gi, gj, qd - q * (rj - ri)),    # alpha: r_j - r_i <= d
-                     (i, j, gi, -gj, qd - q * (ri - rj)))    # beta: r_i - r_j <= d
-    return rows, dist
-
-
-def _chol_solve(M: list[list[float]], rhs: list[float]) -> list[float] | None:
-    """Solve the small symmetric positive definite system ``M x = rhs`` (Cholesky, plain
-    Python); None when M is not numerically positive definite."""
-    k = len(rhs)
-    if k == 1:
-        return [rhs[0] / M[0][0]] if M[0][0] > 0.0 else None
-    if k == 2:  # the same test as the Cholesky pivot below, in closed form
-        m00, m01, m11 = M[0][0], M[0][1], M[1][1]
-        det = m00 * m11 - m01 * m01
-        if not (m00 > 0.0 and det > RANK_RTOL * m00 * m11):
-            return None
-        return [(m11 * rhs[0] - m01 * rhs[1]) / det, (m00 * rhs[1] - m01 * rhs[0]) / det]
-    L = [[0.0] * k for _ in range(k)]
-    for a in range(k):
-        La = L[a]
-        for c in range(a + 1):
-            Lc = L[c]
-            s = M[a][c]
-            for t in range(c):
-                s -= La[t] * Lc[t]
-            if a == c:
-                if not s > RANK_RTOL * M[a][a]:
-                    return None
-                La[a] = math.sqrt(s)
-            else:
-                La[c] = s / Lc[c]
-    y = list(rhs)
-    for a in range(k):
-        s = y[a]
-        for t in range(a):
-            s -= L[a][t] * y[t]
-        y[a] = s / L[a][a]
-    for a in range(k - 1, -1, -1):
-        s = y[a]
-        for t in range(a + 1, k):
-            s -= L[t][a] * y[t]
-        y[a] = s / L[a][a]
-    return y
-
-
-def _dot(a: list[float], b: list[float]) -> float:
-    return sum(map(operator.mul, a, b))
-
-
-def _ldp_pairs(rows: _PairRows, n: int) -> tuple[list[float], list[float]] | None:
-    """``min |z|^2 s.t. G z <= h`` for two-nonzero rows: Goldfarb and Idnani's dual active-set
-    method (Math. Programming 27, 1983) with the identity Hessian, in plain Python.
-
-    From ``z = 0`` the most violated row joins the working set; on the way its multiplier
-    grows, the working rows' multipliers change along ``-r`` and ``z`` moves along the
-    projection of the row's normal onto the working rows' null space; a working row whose
-    multiplier reaches zero first leaves (partial step).  The working rows stay independent,
-    so each step solves a positive definite system of at most n rows (Cholesky).  The
-    multipliers stay >= 0 by construction, so the loop ends on a KKT point: it stops when no
-    row is violated by more than ``tol = ROUNDING_RTOL * max(|h|, 1)`` (the test of
-    :func:`_polish_certified`), and the answer is returned only then with every multiplier
-    >= -tol.
-
-    Returns ``(z, G z - h)`` at the optimum, or None when it did not settle, met a violated row dependent
-    on the working rows (the sign of infeasibility) or a singular working set: the caller then
-    runs the NNLS route, which decides.
-    """
-    excess = [-row[4] for row in rows]  # G z - h at z = 0
-    tol = ROUNDING_RTOL * max(max(excess), -min(excess), 1.0)
-    z = [0.0] * n
-    act: list[int] = []
-    dense: list[list[float]] = []
-    gram: list[list[float]] = []
-    u: list[float] = []
-    for _ in range(2 * len(rows) + 2):
-        worst = max(excess)
-        if worst <= tol:
-            return (z, excess) if min(u, default=0.0) >= -tol else None
-        p = excess.index(worst)
-        i, j, a, b, hk = rows[p]
-        gp = [0.0] * n
-        gp[i] += a
-        gp[j] += b
-        gp_sq = a * a + b * b
-        up = 0.0
-        for _inner in range(n + 2):
-            if act:
-                r = _chol_solve(gram, [_dot(g, gp) for g in dense])
-                if r is None:
-                    return None
-                w = list(gp)  # gp projected onto the working rows' null space
-                for rk, g in zip(r, dense, strict=True):
-                    for c in range(n):
-                        w[c] -= rk * g[c]
-            else:
-                r, w = [], gp
-            gd = _dot(w, w)
-            t1, kd = math.inf, -1
-            for k, rk in enumerate(r):
-                if rk > 0.0 and u[k] / rk < t1:
-                    t1, kd = u[k] / rk, k
-            dependent = gd <= RANK_RTOL * gp_sq
-            if dependent and kd < 0:  # a violated row in the working rows' cone: let NNLS decide
-                return None
-            t2 = math.inf if dependent else (a * z[i] + b * z[j] - hk) / gd
-            t = min(t1, t2)
-            if not dependent:
-                z = [zt - t * wt for zt, wt in zip(z, w, strict=True)]
-            u = [uk - t * rk for uk, rk in zip(u, r, strict=True)]
-            up += t
-            if t2 <= t1:  # full step: the row joins the working set
-                gram = [row + [_dot(g, gp)] for row, g in zip(gram, dense, strict=True)]
-                dense.append(gp)
-                gram.append([row[-1] for row in gram] + [gp_sq])
-                act.append(p)
-                u.append(up)
-                break
-            del act[kd], dense[kd], u[kd], gram[kd]  # partial step: row kd leaves
-            for row in gram:
-                del row[kd]
-        else:
-            return None
-        excess = [a * z[i] + b * z[j] - hk for i, j, a, b, hk in rows]
-    return None
-    # the exact KKT point of the final working set, certified
-    y = _chol_solve(gram, [-rows[k][4] for k in act])
-    if y is None or min(y) < -tol:
-        return None
-    z = [0.0] * n
-    for yk, g in zip(y, dense, strict=True):
-        for t in range(n):
-            z[t] -= yk * g[t]
-    if max([a * z[i] + b * z[j] - hk for i, j, a, b, hk in rows]) > tol:
-        return None
-    return z, "optimal"
 
 
 # --------------------------------------------------------------------------------- cvxpy
@@ -1014,92 +728,6 @@ def _verify(problem: _Problem, sol: RadialSolution, tol: Tolerances) -> None:
 
 
 # ------------------------------------------------------------------------ exact check
-def _cdd_gmp():  # noqa: ANN202 - returns (cdd, cdd.gmp)
-    """The pycddlib modules ``(cdd, cdd.gmp)``, or a clear error when the GMP mode is missing."""
-    try:
-        import cdd
-        import cdd.gmp as gmp
-    except ImportError as exc:
-        raise UnknownMethodError(
-            "check='exact' needs pycddlib's exact rational mode (the module cdd.gmp), which is "
-            "not installed here; install a pycddlib built with GMP (e.g. `pip install pycddlib` "
-            "with libcdd and libgmp present), or use check=True (float vertex check)"
-        ) from exc
-    return cdd, gmp
-
-
-def _exact_generators(A: list[list[Fraction]], b: list[Fraction]) -> tuple[list, list]:
-    """Vertices and rays of ``{x : A x <= b}`` in exact rational arithmetic (pycddlib GMP)."""
-    cdd, gmp = _cdd_gmp()
-    rows = [[bi] + [-a for a in row] for row, bi in zip(A, b, strict=True)]
-    mat = gmp.matrix_from_array(rows, rep_type=cdd.RepType.INEQUALITY)
-    gen = gmp.copy_generators(gmp.polyhedron_from_matrix(mat))
-    if gen.lin_set:
-        raise VerificationError("exact enumeration: the polyhedron contains a line")
-    vertices, rays = [], []
-    for row in gen.array:
-        head = Fraction(row[0])
-        if head != 0:
-            vertices.append([Fraction(v) / head for v in row[1:]])
-        else:
-            rays.append([Fraction(v) for v in row[1:]])
-    return vertices, rays
-
-
-def _independent_rows(rows: list[list[Fraction]]) -> list[int]:
-    """Indices of a maximal linearly independent subset of ``rows`` (exact elimination)."""
-    basis: list[tuple[int, list[Fraction]]] = []  # (pivot column, reduced row)
-    keep = []
-    for i, row in enumerate(rows):
-        v = list(row)
-        for col, brow in basis:
-            if v[col] != 0:
-                f = v[col] / brow[col]
-                v = [a - f * c for a, c in zip(v, brow, strict=True)]
-        piv = next((j for j, a in enumerate(v) if a != 0), None)
-        if piv is not None:
-            basis.append((piv, v))
-            keep.append(i)
-    return keep
-
-
-def _solve_rational(M: list[list[Fraction]], rhs: list[Fraction]) -> list[Fraction] | None:
-    """Gauss-Jordan elimination in Fractions; None when M is singular."""
-    k = len(rhs)
-    aug = [list(M[i]) + [rhs[i]] for i in range(k)]
-    for c in range(k):
-        p = next((r for r in range(c, k) if aug[r][c] != 0), None)
-        if p is None:
-            return None
-        aug[c], aug[p] = aug[p], aug[c]
-        piv = aug[c][c]
-        aug[c] = [a / piv for a in aug[c]]
-        for r in range(k):
-            if r != c and aug[r][c] != 0:
-                f = aug[r][c]
-                aug[r] = [a - f * bb for a, bb in zip(aug[r], aug[c], strict=True)]
-    return [aug[i][k] for i in range(k)]
-
-
-def _exact_kkt_point(
-    A: list[list[Fraction]], b: list[Fraction], r: list[Fraction], s2: list[Fraction],
-    active: list[int],
-) -> list[Fraction] | None:
-    """The sigma-weighted projection of r onto the affine set ``A_S x = b_S`` (exact)."""
-    n = len(r)
-    S = [active[i] for i in _independent_rows([A[j] for j in active])]
-    if not S:
-        return list(r)
-    AS = [A[j] for j in S]
-    M = [[sum((AS[i][t] * s2[t] * AS[j][t] for t in range(n)), Fraction(0)) for j in range(len(S))]
-         for i in range(len(S))]
-    rhs = [b[j] - sum((A[j][t] * r[t] for t in range(n)), Fraction(0)) for j in S]
-    y = _solve_rational(M, rhs)
-    if y is None:
-        return None
-    return [r[t] + s2[t] * sum(AS[i][t] * y[i] for i in range(len(S))) for t in range(n)]
-
-
 def verify_solution_exact(
     spheres: Sequence[GaussianSphere], sol: RadialSolution, tol: Tolerances = TOLERANCES
 ) -> None:

@@ -16,8 +16,8 @@ from scipy.spatial.transform import Rotation
 from perception import Percept
 from perception.simulate import simulate_percepts
 from worldgraph.association import associate
+from worldgraph.association.consistency import _Graph, _prune_by_pairs, _prune_vectorised
 from worldgraph.cliques import maximum_cliques
-from worldgraph.consistency import _Graph, _prune_by_pairs, _prune_vectorised
 from worldgraph.errors import TooFewPerceptsError, UnknownTypeError, WorldGraphError
 from worldgraph.filters import discriminator, orientation_filter, proximity_filter
 from worldgraph.hypotheses import is_ambiguous
@@ -35,17 +35,17 @@ seeds = st.integers(0, 2**32 - 1)
 def far_path(path: str) -> Iterator[None]:
     """Far percept pairs through the far-pair index ("index"), the k-d trees ("tree": the index
     budget at zero, the ring join off) or the compiled ring join ("ring": numba, every size)."""
-    import worldgraph.consistency as consistency
-    import worldgraph.model as model
+    import worldgraph.association.consistency as consistency
+    import worldgraph.model.far_pairs as far_pairs
 
-    saved = model.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS, model.FAR_PAIR_BUILD_ON_USE
-    model.FAR_PAIR_MAX_PAIRS = saved[0] if path == "index" else 0
-    model.FAR_PAIR_BUILD_ON_USE = path == "index"  # the association builds the index it needs
+    saved = far_pairs.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS, far_pairs.FAR_PAIR_BUILD_ON_USE
+    far_pairs.FAR_PAIR_MAX_PAIRS = saved[0] if path == "index" else 0
+    far_pairs.FAR_PAIR_BUILD_ON_USE = path == "index"  # the association builds the index it needs
     consistency.RING_JOIN_MIN_PAIRS = 0 if path == "ring" else None
     try:
         yield
     finally:
-        model.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS, model.FAR_PAIR_BUILD_ON_USE = saved
+        far_pairs.FAR_PAIR_MAX_PAIRS, consistency.RING_JOIN_MIN_PAIRS, far_pairs.FAR_PAIR_BUILD_ON_USE = saved
 
 
 FAR_PATHS = ["index", "tree", "ring"]
@@ -122,7 +122,7 @@ def to_networkx(sizes, adjacency) -> nx.Graph:
 def test_maximum_cliques_match_networkx(graph, near: int, min_size: int, form: str) -> None:
     """Dense boolean matrices, or sparse (rows, cols) index pairs packed into bit rows up front or
     kept as CSR rows: the same cliques as networkx."""
-    import worldgraph.cliques as assoc
+    import worldgraph.association.cliques as assoc
 
     sizes, adjacency = graph
     g = to_networkx(sizes, adjacency)
@@ -485,7 +485,7 @@ def storey_world(rng: np.random.Generator, n: int, k: int, spread: float) -> tup
 
 
 def _check_pair_candidates(seed: int, gravity: bool, index: bool) -> None:
-    from worldgraph.consistency import _consistency_graph
+    from worldgraph.association.consistency import _consistency_graph
 
     rng = np.random.default_rng(seed)
     world, percepts = storey_world(rng, 240, 7, 6.0)
@@ -510,7 +510,7 @@ def test_far_pair_candidates_between_chosen_rows_and_columns(path: str, seed: in
     (``cols``; few enough for a k-d tree of their own, or most of q's against the type's kept
     tree) are exactly the all-pairs candidates whose ends are both chosen, through the far-pair
     index, the k-d trees (the index budget at zero) and the compiled ring join."""
-    from worldgraph.consistency import _consistency_graph, _pair_candidates
+    from worldgraph.association.consistency import _consistency_graph, _pair_candidates
 
     rng = np.random.default_rng(seed)
     world, percepts = storey_world(rng, 300, 5, 5.0)
@@ -544,7 +544,7 @@ def test_lazy_far_pairs_give_the_hypotheses_of_the_full_graph(path: str, seed: i
 
 
 def _check_lazy_far_pairs(seed: int, gravity: bool, n_false: int) -> None:
-    import worldgraph.consistency as assoc
+    import worldgraph.association.consistency as assoc
 
     rng = np.random.default_rng(seed)
     world = WorldModel.from_arrays(rng.choice(TYPES, 300), rng.uniform([0, 0, 0], [20, 16, 2.5], (300, 3)),
@@ -583,10 +583,10 @@ def test_orientation_filter_names_percepts_when_they_do_not_match_the_proximity_
 def test_far_pair_cost_estimate_counts_the_query_hits(gravity: bool, monkeypatch) -> None:
     """The rounds' cost per row (k-d tree path, the far-pair index off) is the mean number of
     objects the query of a sampled row visits, counted here by brute force over all objects."""
-    import worldgraph.model as model
-    from worldgraph.consistency import FAR_COST_SAMPLE, GRAVITY_Z_SCALE, _far_hits_per_row
+    import worldgraph.model.far_pairs as far_pairs
+    from worldgraph.association.consistency import FAR_COST_SAMPLE, GRAVITY_Z_SCALE, _far_hits_per_row
 
-    monkeypatch.setattr(model, "FAR_PAIR_BUDGET", 0)
+    monkeypatch.setattr(far_pairs, "FAR_PAIR_BUDGET", 0)
 
     rng = np.random.default_rng(3)
     world = WorldModel.from_arrays(rng.choice(["a", "b"], 400), rng.uniform([0, 0, 0], [30, 20, 6], (400, 3)),
@@ -655,7 +655,7 @@ def test_gravity_link_window_keeps_every_pair_of_the_exact_test(seed: int) -> No
     |d_m - d| < tau (a tilt keeps 3D lengths), computed here over all pairs, with the tilt
     allowance t's widening wh = h (1 - cos t) + |dz| sin t, wz = h sin t + |dz| (1 - cos t)
     (t = 0: the level gates); percepts placed at true objects, so that pairs sit on the window."""
-    from worldgraph.consistency import _pair_candidates
+    from worldgraph.association.consistency import _pair_candidates
 
     rng = np.random.default_rng(seed)
     n = 260

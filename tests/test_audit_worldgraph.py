@@ -98,7 +98,7 @@ def test_a_link_table_beyond_its_budget_is_refused_before_it_is_built(monkeypatc
     """20,000 objects of one type in a 10 m cube would link about 56 million pairs (1.2 GB and
     more while sorting): refused at once, naming max_link_length; the count estimated from a
     strided sample agrees with the exact count on a smaller world."""
-    import worldgraph.model as model
+    import worldgraph.model.links as links
 
     rng = np.random.default_rng(0)
     with pytest.raises(wg.OutOfRangeError, match=r"max_link_length = 5 m .* about 5\d,\d{3},\d{3} object"):
@@ -106,10 +106,10 @@ def test_a_link_table_beyond_its_budget_is_refused_before_it_is_built(monkeypatc
     pos = rng.uniform(0, 40, (3000, 3))
     exact = wg.WorldModel.from_arrays(["door"] * 3000, pos)
     n_links = len(exact.links[("door", "door")])
-    monkeypatch.setattr(model, "MAX_LINKS", int(0.8 * n_links))
+    monkeypatch.setattr(links, "MAX_LINKS", int(0.8 * n_links))
     with pytest.raises(wg.OutOfRangeError, match="lower max_link_length"):
         wg.WorldModel.from_arrays(["door"] * 3000, pos)
-    monkeypatch.setattr(model, "MAX_LINKS", int(1.25 * n_links))
+    monkeypatch.setattr(links, "MAX_LINKS", int(1.25 * n_links))
     assert len(wg.WorldModel.from_arrays(["door"] * 3000, pos).links[("door", "door")]) == n_links
 
 

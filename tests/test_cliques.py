@@ -13,7 +13,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import worldgraph.cliques as cliques
+import worldgraph.association.cliques as cliques
 from worldgraph.cliques import CliqueSearch, maximum_cliques
 
 seeds = st.integers(0, 2**32 - 1)

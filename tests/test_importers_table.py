@@ -21,16 +21,9 @@ from scipy.spatial.transform import Rotation
 import worldgraph as wg
 from perception.simulate import simulate_percepts
 from worldgraph.errors import NonRigidError, OutOfRangeError, UnknownGeometryError
-from worldgraph.model import (
-    ObjectModel,
-    ObjectTable,
-    _check_type_name,
-    _default_type,
-    _geometry_nodes,
-    _rotation_and_scale,
-    _vertices,
-    room_from_trimesh,
-)
+from worldgraph.model import ObjectModel, ObjectTable, room_from_trimesh
+from worldgraph.model.objects import _check_type_name
+from worldgraph.model.scene_nodes import _default_type, _geometry_nodes, _rotation_and_scale, _vertices
 
 SIZES = {"chair": (0.4375, 0.4375, 0.875), "door": (0.875, 0.0625, 2.0),
          "socket": (0.078125, 0.015625, 0.078125), "switch": (0.078125, 0.015625, 0.078125),

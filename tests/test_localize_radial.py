@@ -163,7 +163,7 @@ def test_localize_solves_through_the_unchecked_route(monkeypatch) -> None:
 
     import radialopt.projection as proj
 
-    loc = importlib.import_module("worldgraph.localize")  # the package's `localize` is the function
+    loc = importlib.import_module("worldgraph.localize.radial")  # where _radial looks it up
     world, views = _kitchen_views(2, seed=5)
     checks, trusted = [], []
     real_arrays, real_trusted = proj.sphere_arrays, loc._project_radii_trusted

@@ -331,13 +331,14 @@ def test_paper_method_is_not_ok_when_its_rotation_contradicts_its_matches(monkey
     pose = facing(np.array([2.0, -3.0, 1.5]), math.pi / 2)
     percepts = percepts_of(world, pose, range(6), rng)
     assert localize(world, percepts, "paper").status == "ok"
-    real = wl._eq5_rotation
+    paper = importlib.import_module("worldgraph.localize.paper")  # where _paper looks it up
+    real = paper._eq5_rotation
 
     def off_by_twenty_degrees(*args, **kwargs):
         rot, triple = real(*args, **kwargs)
         return Rotation.from_euler("z", 20, degrees=True).as_matrix() @ rot, triple
 
-    monkeypatch.setattr(wl, "_eq5_rotation", off_by_twenty_degrees)
+    monkeypatch.setattr(paper, "_eq5_rotation", off_by_twenty_degrees)
     res = localize(world, percepts, "paper")
     assert res.status == "inconsistent"
     assert "contradicts its own matches" in res.message
@@ -379,7 +380,7 @@ def skew(v: np.ndarray) -> np.ndarray:
 # neighbouring objects of one type: a right pose is neither thrown away nor called ambiguous
 # ----------------------------------------------------------------------------------------------
 def test_unique_inliers_keep_a_percept_much_nearer_one_of_two_objects() -> None:
-    from worldgraph.validation import CHI2_3_GATE, UNIQUE_MARGIN, _unique_inliers
+    from worldgraph.pose.validation import CHI2_3_GATE, UNIQUE_MARGIN, _unique_inliers
 
     assert UNIQUE_MARGIN == pytest.approx(2 * math.log(100))  # the nearer is 100 times as likely
     # percept: squared Mahalanobis distance to its nearest object, that object, to the second
@@ -446,7 +447,8 @@ def test_fits_at_the_same_pose_widen_the_covariance_instead_of_making_it_ambiguo
     e = e_of(res)
     assert e @ np.linalg.solve(res.pose_covariance, e) <= chi2.ppf(0.9973, 6)
     # the premise: without merging the fits at the same pose, the runner-up makes it ambiguous
-    monkeypatch.setattr(wl, "_same_pose", lambda *args: False)
+    validate = importlib.import_module("worldgraph.localize.validate")  # where _choose_step looks it up
+    monkeypatch.setattr(validate, "_same_pose", lambda *args: False)
     alone = localize(world, percepts)
     assert alone.status == "ambiguous"
     assert np.linalg.norm(alone.alternatives[0][:3, 3] - alone.position) < 0.01

@@ -11,8 +11,8 @@ import pytest
 
 from perception import Percept
 from worldgraph.association import associate
+from worldgraph.association.consistency import _consistency_graph, _prune
 from worldgraph.cliques import maximum_cliques
-from worldgraph.consistency import _consistency_graph, _prune
 from worldgraph.filters import consistency_graph, orientation_filter, proximity_filter
 from worldgraph.model import WorldModel
 from worldgraph.tolerances import ASSOCIATION_TOLERANCES

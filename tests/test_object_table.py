@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from worldgraph import errors as we
-from worldgraph.model import ObjectModel, ObjectTable, WorldModel, _pair_lengths, box_vertices
+from worldgraph.model import ObjectModel, ObjectTable, WorldModel, box_vertices
+from worldgraph.model.links import _pair_lengths
 
 
 def _arrays(rng: np.random.Generator, n: int = 300):
@@ -154,10 +155,10 @@ def test_build_far_pairs_fills_the_budget_smallest_first(monkeypatch) -> None:
     a type pair's index holds n_a * n_b pairs (n (n - 1) for one type).  With a budget of 45,000
     pairs, the five small type pairs (3 x 3,600 or fewer, then 2 x 12,000) fit and (a, a), 39,800
     pairs, does not; built alphabetically, (a, a) would come first and take the budget."""
-    import worldgraph.model as model
+    import worldgraph.model.far_pairs as far_pairs
 
-    monkeypatch.setattr(model, "FAR_PAIR_BUDGET", 45_000)
-    monkeypatch.setattr(model, "FAR_PAIR_MAX_PAIRS", 10**9)
+    monkeypatch.setattr(far_pairs, "FAR_PAIR_BUDGET", 45_000)
+    monkeypatch.setattr(far_pairs, "FAR_PAIR_MAX_PAIRS", 10**9)
     rng = np.random.default_rng(9)
     types = ["a"] * 200 + ["m"] * 60 + ["z"] * 60
     world = WorldModel.from_arrays(types, rng.uniform(0, 8 / np.sqrt(3), (320, 3)), max_link_length=1.0)

@@ -156,6 +156,11 @@ def _returned_statuses(path):
     return found
 
 
+#: The modules of the localize package (``worldgraph/localize.py`` before issue 26).
+_LOCALIZE_FILES = sorted(p.relative_to(ROOT).as_posix()
+                         for p in (ROOT / "worldgraph" / "localize").glob("*.py"))
+
+
 def _status_sets():
     import sys as _sys
 
@@ -165,11 +170,14 @@ def _status_sets():
 
     localize_module = _sys.modules["worldgraph.localize"]  # worldgraph.localize is the function
     return {
-        "worldgraph/localize.py": localize_module.LOCALIZE_STATUSES,
+        # the localize package: every module of the pipeline hands out localisation statuses
+        **{path: localize_module.LOCALIZE_STATUSES for path in _LOCALIZE_FILES},
         "worldgraph/tiles.py": localize_module.LOCALIZE_STATUSES,
         "worldgraph/active/plan.py": worldgraph.active.VIEW_STATUSES,
         "radialopt/position.py": radialopt.POSITION_STATUSES,
         "radialopt/projection.py": radialopt.STATUSES,
+        "radialopt/_ldp.py": radialopt.STATUSES,
+        "radialopt/_dual_active_set.py": radialopt.STATUSES,
         "radialopt/formulation.py": radialopt.STATUSES,
         "radialopt/comparison.py": radialopt.comparison.RUN_STATUSES,
     }
@@ -185,8 +193,8 @@ def test_every_returned_status_is_listed_in_its_literal(path):
 
 def test_status_collector_finds_known_statuses():
     # the collector above must see the statuses these modules are known (by reading them) to return
-    assert {"too_few_percepts", "no_association", "weak", "inconsistent", "degenerate"} <= set(
-        _returned_statuses("worldgraph/localize.py"))
+    assert {"too_few_percepts", "no_association", "weak", "inconsistent", "degenerate"} <= set().union(
+        *(_returned_statuses(path) for path in _LOCALIZE_FILES))
     assert {"too_few_spheres", "not_converged", "outside_region", "ambiguous"} <= set(
         _returned_statuses("radialopt/position.py"))
     assert {"optimal", "optimal_inaccurate", "infeasible", "error"} <= set(

@@ -330,7 +330,7 @@ def _rational_bruteforce(A, b):
     an independent reference for pycddlib's GMP mode."""
     from itertools import combinations
 
-    from radialopt.projection import _solve_rational
+    from radialopt._exact_check import _solve_rational
 
     n = len(A[0])
     verts = set()
@@ -354,8 +354,8 @@ def test_gmp_generators_equal_rational_bruteforce(exact_mode, n):
     """pycddlib's rational enumeration against every n-subset of rows solved in Fractions."""
     from fractions import Fraction
 
+    from radialopt._exact_check import _exact_generators
     from radialopt.polytope import RestrictionPolytope
-    from radialopt.projection import _exact_generators
 
     centers = np.random.default_rng(40 + n).uniform(-3, 3, (n, 3))
     P = RestrictionPolytope.from_centers(centers)
@@ -415,7 +415,8 @@ def test_exact_check_with_gmp_on_a_hard_instance(exact_mode):
 def test_row_generation_equals_the_all_rows_solve(n):
     """Above CONSTRAINT_GENERATION_ROWS rows the active set generates its rows; the answer
     equals the solve on all rows at once and Clarabel's through cvxpy (independent)."""
-    from radialopt.projection import CONSTRAINT_GENERATION_ROWS, _least_distance_dense, least_distance
+    from radialopt._ldp import _least_distance_dense
+    from radialopt.projection import CONSTRAINT_GENERATION_ROWS, least_distance
     from radialopt.spheres import make_spheres
 
     rng = np.random.default_rng(500 + n)

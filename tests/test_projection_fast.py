@@ -8,7 +8,8 @@ from hypothesis import strategies as st
 
 import radialopt as ro
 import radialopt.projection as proj
-from radialopt.projection import _least_distance_dense, _Problem, _project_radii_trusted
+from radialopt._ldp import _least_distance_dense
+from radialopt.projection import _Problem, _project_radii_trusted
 from tests.problems import sphere_sets
 
 

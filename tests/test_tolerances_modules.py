@@ -25,20 +25,20 @@ ALLOWED: dict[str, list[str]] = {
     # timing shift, a generated problem's physical sigma floor (m), a time unit (s)
     "radialopt/comparison.py": ["1e-3", "1e-3", "1e-3"],
     # EstimatorOptions field defaults: user options next to the iteration budgets they go with
-    "radialopt/position.py": ["1e-9", "1e-12", "1e-13", "1e-13", "1e-6", "1e-9"],
+    "radialopt/_estimator_options.py": ["1e-9", "1e-12", "1e-13", "1e-13", "1e-6", "1e-9"],
     # input range of percept sigmas (SIGMA_RANGE, m)
-    "worldgraph/consistency.py": ["1e-12"],
+    "worldgraph/association/consistency.py": ["1e-12"],
     # input range of depth_factor (1/m); the physical min_sigma default (m)
     "worldgraph/active/plan.py": ["1e-3"],
     "worldgraph/active/predict.py": ["1e-4"],
     # a rendered plane's physical thickness (m)
-    "worldgraph/franka.py": ["1e-3"],
+    "worldgraph/importers/franka.py": ["1e-3"],
     # input ranges of pose weights and covariance eigenvalues (the messages quote them)
-    "worldgraph/pose.py": ["1e-150", "1e-100"],
+    "worldgraph/pose/frames.py": ["1e-150", "1e-100"],
     # input ranges of sigmas and variances
     "perception/fusion.py": ["1e-150", "1e-300"],
     # input range of covariance entries; the classifier's regularisation default (a user option)
-    "perception/recognition.py": ["1e-150", "1e-4"],
+    "perception/classifier.py": ["1e-150", "1e-4"],
     # input range of sigmas; physical min_sigma defaults (m)
     "perception/simulate.py": ["1e-150", "1e-4", "1e-4"],
     # input range of the field of view (degrees)

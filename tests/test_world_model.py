@@ -615,7 +615,7 @@ def test_far_pairs_hold_exactly_the_pairs_within_reach(gravity: bool) -> None:
 
 
 def test_build_far_pairs_builds_every_type_pair_within_the_budget(monkeypatch) -> None:
-    import worldgraph.model as model
+    import worldgraph.model.far_pairs as far_pairs
 
     rng = np.random.default_rng(5)
     world = WorldModel.from_arrays(rng.choice(["door", "knob", "lamp"], 300), rng.uniform(0, 30, (300, 3)))
@@ -627,7 +627,7 @@ def test_build_far_pairs_builds_every_type_pair_within_the_budget(monkeypatch) -
                     [("door", "door"), ("door", "knob"), ("door", "lamp"), ("knob", "knob"),
                      ("knob", "lamp"), ("lamp", "lamp")]) > 0
     # over the budget: no index, the association falls back to k-d tree queries
-    monkeypatch.setattr(model, "FAR_PAIR_BUDGET", 0)
+    monkeypatch.setattr(far_pairs, "FAR_PAIR_BUDGET", 0)
     fresh = WorldModel.from_arrays(rng.choice(["door", "knob"], 100), rng.uniform(0, 30, (100, 3)))
     assert fresh.build_far_pairs() == 0 and fresh.far_pairs("door", "knob") is None
 
@@ -707,7 +707,7 @@ def test_link_order_is_the_lexsort_of_pair_length_and_indices(m: int, n_keys: in
     """The link table's order (three stable sorts) is numpy's lexsort over (type pair, length,
     i, j), the slow obvious reference, with many ties in length and type pair; keys above 16
     bits take the general sort."""
-    from worldgraph.model import _link_order
+    from worldgraph.model.links import _link_order
 
     rng = np.random.default_rng(m + n_keys)
     pi, pj = rng.integers(0, 300, m), rng.integers(0, 300, m)
@@ -720,14 +720,14 @@ def test_build_far_pairs_visits_only_type_pairs_within_reach(monkeypatch) -> Non
     """150 types, one object each, 40 m apart on a grid but for a cluster of five: 11,325 type
     pairs, of which 10 hold objects within the far-pair reach.  The per-pair estimate and build
     run for those, not for every type pair (they did: 11,325 calls each)."""
-    import worldgraph.model as model
+    import worldgraph.model.far_pairs as far_pairs
 
     g = np.arange(15) * 40.0
     pos = np.array([[x, y, 0.0] for x in g for y in g[:10]])
     pos[1:5] = pos[0] + np.array([[1.0, 0, 0], [0, 2.0, 0], [3.0, 3.0, 1.0], [5.0, 0, 2.0]])
     world = WorldModel.from_arrays([f"part{k:03d}" for k in range(150)], pos)
     calls = {"estimate": 0, "build": 0}
-    estimate, build = model._far_pair_estimate, model._build_far_pairs
+    estimate, build = far_pairs._far_pair_estimate, far_pairs._build_far_pairs
 
     def counted_estimate(*args, **kwargs):
         calls["estimate"] += 1
@@ -737,8 +737,8 @@ def test_build_far_pairs_visits_only_type_pairs_within_reach(monkeypatch) -> Non
         calls["build"] += 1
         return build(*args, **kwargs)
 
-    monkeypatch.setattr(model, "_far_pair_estimate", counted_estimate)
-    monkeypatch.setattr(model, "_build_far_pairs", counted_build)
+    monkeypatch.setattr(far_pairs, "_far_pair_estimate", counted_estimate)
+    monkeypatch.setattr(far_pairs, "_build_far_pairs", counted_build)
     for gravity in (False, True):
         calls.update(estimate=0, build=0)
         held = world.build_far_pairs(gravity)

@@ -8,9 +8,11 @@ try:
 except _PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "0.1.0"  # keep equal to pyproject.toml's [project] version (a test checks)
 
-from . import gravity, plots, rerun_log, scenes, tiles
+from . import scenes, tiles
 from .active import ActiveLocalization, ViewPlan, active_localize, plan_view
 from .association import associate
+from .association.filters import discriminator, orientation_filter, proximity_filter
+from .association.hypotheses import AssociationHypothesis
 from .errors import (
     ArgumentTypeError,
     CoincidentObjectsError,
@@ -28,12 +30,12 @@ from .errors import (
     UnknownTypeError,
     WorldGraphError,
 )
-from .filters import discriminator, orientation_filter, proximity_filter
-from .franka import franka_kitchen_path, load_franka_kitchen
-from .hypotheses import AssociationHypothesis
+from .figures import plots, rerun_log
+from .importers.franka import franka_kitchen_path, load_franka_kitchen
 from .localize import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
 from .model import LinkTable, ObjectModel, ObjectTable, WorldModel, box_vertices
-from .pose import percept_frame, pose_from_frames, weighted_kabsch
+from .pose import gravity
+from .pose.frames import percept_frame, pose_from_frames, weighted_kabsch
 from .tiles import Tile, TilePool, localize_tiled
 from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 

@@ -11,7 +11,7 @@ indices and ranks the tiles' best poses together by the rule of :func:`localize`
 
 * every tile answer with a pose (status ``"ok"``, ``"weak"`` or ``"ambiguous"``) gets the robust
   cost of its validated fit, ``sum_p min(d_p^2, CHI2_3_GATE)`` over the percepts of the world's
-  types (:func:`~worldgraph.validation.fit_hypothesis` re-run from the tile's pose on its
+  types (:func:`~worldgraph.pose.validation.fit_hypothesis` re-run from the tile's pose on its
   inliers; a percept whose type the tile lacks counts the cap, as it would against a far-away
   object of the whole world);
 * the cheapest answer wins; another tile's answer whose cost is within
@@ -46,21 +46,13 @@ from scipy.spatial import cKDTree
 from perception import Percept
 
 from . import _checks
+from .association.hypotheses import AssociationHypothesis
 from .errors import ArgumentTypeError, EmptyWorldError, ShapeError, UnknownTypeError, WorldGraphError
-from .gravity import Gravity, _check_gravity
-from .hypotheses import AssociationHypothesis
-from .localize import (
-    LOCALIZE_METHODS,
-    POSE_STATUSES,
-    UNIQUE_STATUSES,
-    LocalizationResult,
-    _answered_by_free_search,
-    _gravity_unsupported,
-    localize,
-)
+from .localize.pipeline import LOCALIZE_METHODS, _answered_by_free_search, _gravity_unsupported, localize
+from .localize.result import POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult
 from .model import WorldModel
-from .tolerances import ASSOCIATION_TOLERANCES, HALO_SLACK, AssociationTolerances, _tol_argument
-from .validation import (
+from .pose.gravity import Gravity, _check_gravity
+from .pose.validation import (
     CHI2_3_GATE,
     CHI2_6_GATE,
     NearestObjects,
@@ -68,6 +60,7 @@ from .validation import (
     fit_hypothesis,
     percept_covariances,
 )
+from .tolerances import ASSOCIATION_TOLERANCES, HALO_SLACK, AssociationTolerances, _tol_argument
 
 __all__ = ["FAILURE_ORDER", "MAX_TILES", "Tile", "TilePool", "localize_tiled", "split"]
 

@@ -175,7 +175,7 @@ class AssociationTolerances:
         derives it per triple like ``tau`` from the three sigmas.
     gravity_aligned : bool or None
         ``None`` (default): the call's ``gravity`` argument decides the search
-        (:mod:`worldgraph.gravity`; ``"auto"``: the gravity search, the free search when it finds
+        (:mod:`worldgraph.pose.gravity`; ``"auto"``: the gravity search, the free search when it finds
         no supported level answer).  ``True``: the gravity search about the ego z axis (REP 103
         ego with a levelled base: compare the horizontal distance and the height difference of
         pairs separately, so pairs across storeys drop out), without fallback; ``False``: the
@@ -186,7 +186,7 @@ class AssociationTolerances:
         Radians: how far the ego up vector (z, or the ``gravity`` vector given) may be from the
         true vertical in the gravity search.  Folded into its gates (a pair's horizontal length
         and height difference may each move by what such a tilt can change,
-        :func:`~worldgraph.gravity.tilt_widening`); ``gravity="auto"`` falls back to the free
+        :func:`~worldgraph.pose.gravity.tilt_widening`); ``gravity="auto"`` falls back to the free
         search when the gravity pass's pose tilts beyond it.  Default 5 degrees.
     cost_cap : float
         Cap of a percept's squared normalised residual in the robust fit cost.

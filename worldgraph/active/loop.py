@@ -13,11 +13,12 @@ from numpy.typing import NDArray
 from perception import KinematicChain, Percept
 
 from .._checks import as_list, float_array, positive_float, strict_int
-from ..consistency import check_world_and_percepts
+from ..association.consistency import check_world_and_percepts
 from ..errors import ArgumentTypeError, OutOfRangeError
-from ..gravity import Gravity, _check_gravity
-from ..localize import LocalizationResult, PoseStatus, localize
+from ..localize.pipeline import localize
+from ..localize.result import LocalizationResult, PoseStatus
 from ..model import WorldModel
+from ..pose.gravity import Gravity, _check_gravity
 from ..tolerances import (
     ASSOCIATION_TOLERANCES,
     AssociationTolerances,
@@ -152,7 +153,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         gets looks, to add landmarks that pin the rotation; the final status is still the one
         ``localize`` gives. ``None`` looks only while the status is in ``look_while``.
     gravity : "auto", (3,) float or None
-        Passed to every :func:`~worldgraph.localize` call (:mod:`worldgraph.gravity`; the head
+        Passed to every :func:`~worldgraph.localize` call (:mod:`worldgraph.pose.gravity`; the head
         turns, the ego frame does not, so one up vector holds for all the looks).
     depth_factor : float, optional
         Eq. 6 noise of the predicted sights for the default planner (``sigma = rho^2 /

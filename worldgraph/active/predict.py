@@ -17,15 +17,15 @@ from perception import Percept, PerceptionError, depth_sigma
 
 from .._checks import as_list
 from ..errors import NonFiniteError, UnknownTypeError
-from ..localize import LocalizationResult
+from ..localize.result import LocalizationResult
 from ..model import WorldModel
+from ..pose.validation import _pose_error
 from ..tolerances import (
     COSINE_ROUNDING,
     NORM_FLOOR,
     PD_RTOL,
     POSE_VARIANCE_FLOOR,
 )
-from ..validation import _pose_error
 
 #: Standard deviation (m and rad) of the vague pose prior the planner adds to the result's pose
 #: information (and uses alone when the result has no finite covariance): a look is worth what

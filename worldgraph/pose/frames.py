@@ -13,11 +13,11 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from ._checks import float_array, positive_float, strict_int
-from ._rigid import rigid_transform
-from .errors import PoseError, ShapeError
-from .tolerances import COLLINEAR_TOL as COLLINEAR_TOL  # re-exported: worldgraph.pose.COLLINEAR_TOL
-from .tolerances import (
+from .._checks import float_array, positive_float, strict_int
+from .._rigid import rigid_transform
+from ..errors import PoseError, ShapeError
+from ..tolerances import COLLINEAR_TOL as COLLINEAR_TOL  # re-exported: worldgraph.pose.COLLINEAR_TOL
+from ..tolerances import (
     COST_DECREASE_RTOL,
     GRADIENT_RTOL,
     ISOTROPIC_RTOL,
@@ -352,7 +352,7 @@ def _rotation_grid() -> NDArray[np.float64]:
 def _reduced_matrix(x: NDArray, y: NDArray, Cinv: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """``Q`` (10, 10) with ``min_t cost(R, t) = l^T Q l``, ``l = [vec(R^T); 1]`` (centred points),
     and ``(W^-1 G, cx, cy)`` giving the optimal translation of a rotation (see
-    :mod:`worldgraph.pose_certificate` for the derivation)."""
+    :mod:`worldgraph.pose.certificate` for the derivation)."""
     cx, cy = x.mean(axis=0), y.mean(axis=0)
     xc, yc = x - cx, y - cy
     B = np.zeros((len(x), 3, 10))
@@ -443,7 +443,7 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
     The cost is not convex in the rotation: with elongated (needle-shaped) covariances a local
     method started from a Kabsch pose can end far from the optimum.  So the translation is
     eliminated in closed form (``min_t cost = l^T Q l`` with a 10x10 ``Q``,
-    :mod:`worldgraph.pose_certificate`), a fixed grid of 2048 rotations is screened on that
+    :mod:`worldgraph.pose.certificate`), a fixed grid of 2048 rotations is screened on that
     reduced cost, and damped Gauss-Newton on SO(3) runs from ``world_from_ego``, from the
     weighted Kabsch pose (weights ``3 / trace C_i``) and from the best grid rotations (those
     below the best minimum so far, or, when that minimum's cost is implausible, above the

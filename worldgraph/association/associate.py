@@ -30,9 +30,10 @@ method is what rejects mirror matches.
 
 This module drives both methods and re-exports the public names of the modules that hold the
 pieces: :mod:`worldgraph.tolerances` (:class:`AssociationTolerances`),
-:mod:`worldgraph.consistency` (the typed consistency graph: candidate pairs, far pairs, pruning),
-:mod:`worldgraph.cliques` (the clique search), :mod:`worldgraph.hypotheses` (fits, mirror check,
-ranking) and :mod:`worldgraph.filters` (the paper's filters, eqs. 1-3, and the discriminator).
+:mod:`worldgraph.association.consistency` (the typed consistency graph: candidate pairs, far
+pairs, pruning), :mod:`worldgraph.association.cliques` (the clique search),
+:mod:`worldgraph.association.hypotheses` (fits, mirror check, ranking) and
+:mod:`worldgraph.association.filters` (the paper's filters, eqs. 1-3, and the discriminator).
 """
 
 from __future__ import annotations
@@ -46,21 +47,14 @@ from numpy.typing import NDArray
 
 from perception import Percept
 
-from ._checks import strict_int
-from .cliques import CliqueSearch, maximum_cliques
-from .consistency import _check_inputs, _LazyGraph, _local
-from .errors import (
+from .._checks import strict_int
+from ..errors import (
     TooFewPerceptsError,
     WorldGraphError,
 )
-from .filters import (
-    consistency_graph,
-    discriminator,
-    filtered_graph_view,
-    orientation_filter,
-    proximity_filter,
-)
-from .gravity import (
+from ..model import WorldModel
+from ..model.units import UnitsWarning, units_hint
+from ..pose.gravity import (
     _FREE,
     Gravity,
     _check_gravity,
@@ -70,10 +64,17 @@ from .gravity import (
     _unlevelled_pose,
     _unsupported,
 )
+from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _resolved_tol
+from .cliques import CliqueSearch, maximum_cliques
+from .consistency import _check_inputs, _LazyGraph, _local
+from .filters import (
+    consistency_graph,
+    discriminator,
+    filtered_graph_view,
+    orientation_filter,
+    proximity_filter,
+)
 from .hypotheses import AssociationHypothesis, _fit_all, _rank, is_ambiguous, same_pose
-from .model import WorldModel
-from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _resolved_tol
-from .units import UnitsWarning, units_hint
 
 __all__ = [
     "ASSOCIATION_METHODS",
@@ -144,7 +145,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     max_hypotheses : int, optional
         Default ``tol.max_hypotheses``.
     gravity : "auto", (3,) float or None
-        Which way is up in the ego frame (:mod:`worldgraph.gravity`): ``"auto"`` (default) the
+        Which way is up in the ego frame (:mod:`worldgraph.pose.gravity`): ``"auto"`` (default) the
         gravity search about the ego z axis within ``tol.tilt_allowance``, then the free search
         when its best hypothesis has too few inliers or tilts beyond the allowance; an up
         vector (an IMU's) levels the percepts for the gravity search; ``None`` the free 3D
@@ -160,8 +161,8 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
         By increasing robust cost; poses within ``distinct_translation``/``distinct_angle`` of
         a better hypothesis are merged into it.  Empty when no clique of ``min_clique_size``
         (or, for "paper", no complete assignment) exists; then a
-        :class:`~worldgraph.units.UnitsWarning` says so when the percepts or the world look like
-        millimetres (:func:`~worldgraph.units.units_hint`).
+        :class:`~worldgraph.model.units.UnitsWarning` says so when the percepts or the world look like
+        millimetres (:func:`~worldgraph.model.units.units_hint`).
 
     Raises
     ------

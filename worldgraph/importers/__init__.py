@@ -29,7 +29,7 @@ Formats, chosen by the file suffix (or ``file_format``):
   - ``"geoms"``: every geom, its node in the geom frame (``data.geom_xpos``,
     ``data.geom_xmat``), named by the geom's name, or ``f"{body}:{k}"`` for an unnamed geom,
     the ``k``-th geom of its body in file order (the node names of
-    :func:`worldgraph.franka.franka_kitchen_scene`).
+    :func:`worldgraph.importers.franka.franka_kitchen_scene`).
 
   Geom shapes: boxes, spheres, ellipsoids, cylinders and capsules as trimesh primitives of the
   geom's size; meshes with their vertices as written in the asset file (MuJoCo's re-centring
@@ -57,6 +57,12 @@ naming the path; a file in which no candidate gets a type is an
 :class:`~worldgraph.errors.EmptyWorldError` naming the path and the names seen; a missing
 optional package (``mujoco``, ``pycollada``) is an :class:`~worldgraph.errors.ImporterError`
 naming what to install.
+
+Where things live: :mod:`worldgraph.model.scene_files` reads the files into typed scenes
+(the formats, the typing rules, :func:`scene_from_file`; the names are importable from here),
+below the world model, whose :meth:`~worldgraph.WorldModel.from_file` calls it;
+:mod:`worldgraph.importers.franka` builds the Franka kitchen (also ``worldgraph.franka``);
+:func:`world_from_file` is defined here.
 """
 
 from __future__ import annotations
@@ -64,8 +70,8 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from .model import WorldModel
-from .scene_files import (
+from ..model import WorldModel
+from ..model.scene_files import (
     KNOWN_TYPES,
     MJCF_OBJECTS,
     MJCF_SUFFIXES,

@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from . import _checks
-from ._rigid import quat_matrix as _quat_matrix  # MuJoCo quaternion (w, x, y, z) -> rotation matrix
-from .errors import (
+from .. import _checks
+from .._rigid import quat_matrix as _quat_matrix  # MuJoCo quaternion (w, x, y, z) -> rotation matrix
+from ..errors import (
     ArgumentTypeError,
     EmptyWorldError,
     ImporterError,

@@ -1,0 +1,66 @@
+"""Global self-localisation, the pipeline: association -> validation -> 6D pose with its covariance.
+
+* :mod:`worldgraph.localize.pipeline`: :func:`localize` (the steps in order: the arguments, the
+  percepts of known types, association, the measurements, the gravity search's fallback) and
+  :func:`default_region`; its docstring describes the whole pipeline.
+* :mod:`worldgraph.localize.result`: :class:`LocalizationResult` and the status literals and
+  tuples (:data:`LOCALIZE_STATUSES`, ...).
+* :mod:`worldgraph.localize.context`: one call's checked settings and the state its steps share.
+* :mod:`worldgraph.localize.validate`: the validated pose (ML fits, the range test, the choice
+  among the fits, the pose of the method).
+* :mod:`worldgraph.localize.radial`: :func:`match_spheres`, the radial projection of the matched
+  Gaussian spheres and the range-only position.
+* :mod:`worldgraph.localize.finish`: the answer checks itself and becomes the result.
+* :mod:`worldgraph.localize.paper`: the paper's pipeline (``method="paper"``, eq. 5).
+
+The names of the old module ``worldgraph.localize`` are re-exported here; to patch a function
+the pipeline calls, patch it in the module that holds it.
+"""
+
+from .paper import _eq5_rotation as _eq5_rotation
+from .pipeline import (
+    LOCALIZE_METHODS,
+    MAX_POSITION_3SIGMA,
+    MAX_ROTATION_3SIGMA,
+    REGION_MARGIN,
+    default_region,
+    localize,
+)
+from .pipeline import MIN_ROOM_SIZE as MIN_ROOM_SIZE
+from .pipeline import _answered_by_free_search as _answered_by_free_search
+from .pipeline import _gravity_unsupported as _gravity_unsupported
+from .radial import CANDIDATE_DENSITY_RATIO as CANDIDATE_DENSITY_RATIO
+from .radial import MAX_CVXPY_SPHERES as MAX_CVXPY_SPHERES
+from .radial import MAX_RADIAL_SPHERES as MAX_RADIAL_SPHERES
+from .radial import match_spheres
+from .result import (
+    LOCALIZE_STATUSES,
+    POSE_STATUSES,
+    UNIQUE_STATUSES,
+    FailureStatus,
+    LocalizationResult,
+    LocalizeStatus,
+    PoseStatus,
+    UniqueStatus,
+)
+from .validate import ASSOCIATION_CANDIDATES as ASSOCIATION_CANDIDATES
+from .validate import MAX_VALIDATED as MAX_VALIDATED
+from .validate import _same_pose as _same_pose
+
+__all__ = [
+    "LOCALIZE_METHODS",
+    "LOCALIZE_STATUSES",
+    "MAX_POSITION_3SIGMA",
+    "MAX_ROTATION_3SIGMA",
+    "REGION_MARGIN",
+    "LocalizationResult",
+    "FailureStatus",
+    "LocalizeStatus",
+    "POSE_STATUSES",
+    "PoseStatus",
+    "UNIQUE_STATUSES",
+    "UniqueStatus",
+    "default_region",
+    "localize",
+    "match_spheres",
+]

@@ -1,0 +1,392 @@
+"""Global self-localisation: association -> validation -> 6D pose with its covariance.
+
+:func:`localize` runs the pipeline of the paper (sections 2.2-2.3, 4) on fused percepts:
+
+1. association (:func:`worldgraph.association.associate`; ``method="paper"`` uses the paper's
+   proximity and orientation filters, every other method the typed consistency-graph cliques);
+2. hypothesis validation (:mod:`worldgraph.pose.validation`; every method but ``"paper"``): the
+   best association hypotheses are fitted by maximum likelihood, every percept is re-associated
+   to its nearest same-type object by Mahalanobis distance and the fit repeated on the inliers;
+   the fits are ranked by their robust cost (a log-likelihood ratio), poses outside the region
+   give way to poses inside it, and a runner-up within ``ambiguity_margin`` at another pose
+   makes the answer ``"ambiguous"`` (its pose is in ``alternatives``); runners-up at the same
+   pose (a percept matched to one of two neighbouring objects of its type; closer than a third
+   of the tolerances) widen ``pose_covariance`` by their likelihood-weighted spread instead;
+3. the pose of the chosen hypothesis: ``method="ml"`` (default) is the validated ML 6D pose of the
+   matched percepts' full 3D positions and covariances; the range-only methods (``"spheres"``,
+   ``"paper"``, ``"srls"``, ``"gradient"``) put one Gaussian sphere per matched pair (centre =
+   model object, radius = ``|percept|``, sigma = percept sigma), estimate the position with
+   ``radialopt.estimate_position`` and then the orientation (``"paper"``: eq. 5 from the
+   best-conditioned matched triple; the others: the proper rotation minimising ``sum w_p |R x_p
+   - (X_o - t)|^2``, ``w_p = 1 / (sigma_p^2 + var_t)``);
+4. the 6x6 ``pose_covariance`` (ROS order): the inverse Fisher information for ``"ml"``, widened
+   where the cost is flatter than its quadratic model (:func:`~worldgraph.pose.validation.laplace_inflate`),
+   and the sandwich covariance of the two-stage estimator for the range-only methods;
+5. the answer checks itself: a chi-square test of its matched percepts placed by its pose
+   (``"inconsistent"`` when it fails), at least 3 inliers (counted in constrained directions,
+   :data:`~worldgraph.tolerances.MIN_INLIER_DIRECTIONS` = 9: a needle-shaped percept counts two
+   thirds), and the 3-sigma rotation and position bounds against ``max_rotation_3sigma`` and
+   ``max_position_3sigma`` (``"weak"`` beyond them).
+
+The default region is where the robot could stand and see what it saw: the room when the world
+knows a plausible one (``world.room``, from an importer's floor and walls, holding the objects),
+otherwise the objects' bounds grown sideways by the largest percept range and by
+:data:`REGION_MARGIN` up and down.  The default region chooses between candidates (a pose inside
+it beats a better-fitting one outside) but never fails a unique answer; a region given by the
+caller also rejects poses outside it (``"outside_region"``).
+
+Percepts whose type the world does not have are ignored (named in the result's message);
+when no percept type is known, :class:`~worldgraph.errors.UnknownTypeError` is raised.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import fields, replace
+
+import numpy as np
+
+import radialopt as ro
+from perception import Percept
+
+from .._checks import float_array, generator, positive_float
+from ..association.associate import _associate_searched
+from ..association.consistency import MAX_COORDINATE, check_world_and_percepts
+from ..association.hypotheses import AssociationHypothesis
+from ..errors import ArgumentTypeError, OutOfRangeError, UnknownTypeError, WorldGraphError
+from ..model import WorldModel
+from ..model.units import units_hint
+from ..pose.gravity import _FREE, Gravity, SearchKind, _check_gravity, _Plan, _unsupported
+from ..pose.validation import CHI2_3_GATE, NearestObjects, percept_covariances
+from ..tolerances import ASSOCIATION_TOLERANCES, RIGID_TOLERANCE, AssociationTolerances, _tol_argument
+from .context import _Call, _Context, _Settings
+from .paper import _paper
+from .result import LOCALIZE_STATUSES, POSE_STATUSES, LocalizationResult
+from .validate import ASSOCIATION_CANDIDATES, _validated
+
+#: ``"ml"``: the maximum-likelihood 6D pose from the full 3D percepts (their covariances);
+#: ``"spheres"``: the range-only maximum-likelihood position of the Gaussian spheres
+#: (``radialopt`` method ``"ml"``), then the rotation; ``"paper"``: the paper's association and
+#: its radial-projection position; ``"srls"``, ``"gradient"``: other range-only estimators.
+LOCALIZE_METHODS = ("ml", "spheres", "paper", "srls", "gradient")
+#: Metres added above and below the objects' bounds by the default region (sideways it grows by
+#: the largest percept range).
+REGION_MARGIN = 1.0
+#: A room narrower than this (m) in x or y is no room (a lone wall node, a floor tile).
+MIN_ROOM_SIZE = 1.5
+#: Default largest 3-sigma position bound (m, along the worst direction) of an "ok" pose, and ...
+MAX_POSITION_3SIGMA = 0.25
+#: ... of the rotation (rad, about the worst axis).  Chosen for a mobile manipulator's global
+#: localisation: good enough to drive to a cabinet and turn the head to the handle it wants
+#: (5 degrees move a handle 2 m away by 17 cm, which the head camera then finds and servoes on);
+#: tighten both for grasping from the global pose alone.
+MAX_ROTATION_3SIGMA = math.radians(5.0)
+
+
+def default_region(world: WorldModel, percepts: Sequence[Percept]) -> ro.Region:
+    """Where the robot could stand and see ``percepts``: ``world.room`` when it is a plausible
+    room (at least :data:`MIN_ROOM_SIZE` wide both ways and holding the objects' positions to
+    within :data:`REGION_MARGIN`; a scene whose only "wall" node is one wall is not), else the
+    objects' bounds grown sideways by the largest percept range and by :data:`REGION_MARGIN` up
+    and down."""
+    percepts = check_world_and_percepts(world, percepts)
+    room = getattr(world, "room", None)
+    if room is not None:
+        size = room.upper - room.lower
+        if size[0] >= MIN_ROOM_SIZE and size[1] >= MIN_ROOM_SIZE and bool(
+                np.all(room.contains(world.positions, tol=REGION_MARGIN))):
+            return room
+    lo, hi = world.bounds
+    reach = max((p.range for p in percepts), default=0.0)
+    grow = np.array([reach + REGION_MARGIN, reach + REGION_MARGIN, REGION_MARGIN])
+    return ro.Region(lo - grow, hi + grow)
+
+
+def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml", *,
+             tol: AssociationTolerances | None = None, region: ro.Region | None = None,
+             rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
+             max_rotation_3sigma: float = MAX_ROTATION_3SIGMA, solver: str = "active_set",
+             check: bool = False, certify: bool = False, gravity: Gravity = "auto",
+             tolerances: AssociationTolerances | None = None) -> LocalizationResult:
+    """Pose of the robot (``world_from_ego``) from percepts of known world objects.
+
+    Parameters
+    ----------
+    world : WorldModel
+    percepts : sequence of perception.Percept
+        Fused percepts in the ego frame.
+    method : {"ml", "spheres", "paper", "srls", "gradient"}
+        ``"ml"`` (default): the maximum-likelihood 6D pose of the validated matches, using the
+        percepts' full 3D positions and covariances.  ``"spheres"``: the range-only ML position
+        of the Gaussian spheres (``radialopt`` ``"ml"``), then the rotation; right when the
+        percept directions are unreliable (space-to-ego errors rotate percepts about the ego
+        origin, ranges survive them).  ``"paper"``: the paper's proximity + orientation filters,
+        its radial-projection position and eq. 5; ``"srls"``, ``"gradient"``: other range-only
+        estimators, for comparison.
+    tol : AssociationTolerances, optional
+        Default :data:`~worldgraph.tolerances.ASSOCIATION_TOLERANCES`.
+    region : radialopt.Region or (lower, upper), optional
+        Valid robot positions (a box, metres; a pair of 3-vectors is turned into a Region);
+        poses outside it are rejected.  Default :func:`default_region`.
+    rng : numpy.random.Generator, optional
+        Passed to the position estimator (extra random seeds).
+    max_position_3sigma : float
+        Metres; a unique pose whose 3-sigma position bound (worst direction) is larger is
+        ``"weak"``.
+    max_rotation_3sigma : float
+        Radians; likewise for the rotation (worst axis).
+    solver : str
+        How every returned hypothesis' radial problem (the design card's convex problem: its
+        Gaussian spheres projected onto their restriction polytope, kept as
+        ``AssociationHypothesis.radial``) is solved: ``"active_set"`` (exact, default) or the
+        name of an installed cvxpy solver (``"CLARABEL"``, ...), compiled once per sphere count.
+        Every hypothesis in ``hypotheses`` carries its solution (None only when its matches
+        have fewer than two distinct model positions).
+    check : bool
+        Verify the radial solutions the pose steps use (those of the validated hypotheses, the
+        ones behind an ML fit; with ``method="paper"`` every hypothesis) of at most
+        ``radialopt.MAX_VERTEX_SPHERES`` spheres against explicit vertex enumeration (raises
+        :class:`~worldgraph.errors.WorldGraphError` from ``radialopt.VerificationError`` on
+        disagreement); larger ones are solved unchecked and the message says so (enumeration
+        grows combinatorially: 8 spheres take ~20 s).  The other hypotheses' solutions are
+        solved by the same solver unchecked, so that ``check=True`` costs one enumeration per
+        validated hypothesis, not one per hypothesis.
+    certify : bool
+        Fill ``certificate``: the rotation SDP's proof (or not) that the returned pose is the
+        global minimum of the ML cost of its matched percepts.  With 3 or 4 matches the SDP is
+        also the solver (``"ml"``).
+    gravity : "auto", (3,) float or None
+        Which way is up in the ego frame (:mod:`worldgraph.pose.gravity`).  ``"auto"`` (default): the
+        storey-aware gravity search about the ego z axis, within ``tol.tilt_allowance`` (a level
+        base); when its answer has no pose, explains fewer than
+        :data:`~worldgraph.pose.gravity.MIN_GRAVITY_SUPPORT` (three quarters) of the percepts (its
+        matches, or the percepts within the chi-square gate of an object of their type when
+        more), or has a pose that tilts the ego z axis beyond the allowance (plus 1 degree), the
+        free 3D search answers instead.  A (3,) up vector (an IMU's, in the ego frame): the gravity search
+        about it, no fallback.
+        ``None``: the free 3D search.  :attr:`LocalizationResult.search` says which search
+        answered.  The paper's method uses no gravity.
+    tolerances : AssociationTolerances, optional
+        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
+        :class:`~worldgraph.errors.ArgumentTypeError`).
+
+    Returns
+    -------
+    LocalizationResult
+        Never a silently wrong pose: "ok" only for a unique, well-determined pose that passes
+        its own chi-square check with at least 3 inliers (9 constrained directions: a
+        needle-shaped percept counts 2 of 3); otherwise the status says why (the
+        best pose is still returned for "ambiguous", "weak", "inconsistent" and
+        "outside_region"; NaN when no pose can be determined).
+
+    Raises
+    ------
+    EmptyWorldError
+        The world has no objects.
+    UnknownTypeError
+        Percepts were given but none has a type of the world.
+    WorldGraphError
+        Unknown method, something other than Percepts, a bad region or bound.
+    """
+    t_start = time.perf_counter()
+    tol = _tol_argument("localize", tol, tolerances)
+    percepts, settings = _check_arguments(world, percepts, method, tol, region, rng,
+                                          max_position_3sigma, max_rotation_3sigma, solver, check, certify,
+                                          gravity)
+    with _raised_as_worldgraph_errors(settings.method):
+        result = _localize(world, percepts, settings, t_start)
+        n_used = sum(1 for p in percepts if p.type in world.type_index)
+        why = _gravity_unsupported(result, settings.plan, settings.tol, settings.method, n_used)
+        if why:
+            free = _localize(world, percepts, replace(settings, plan=_FREE), t_start)
+            result = _answered_by_free_search(free, result, why)
+    return _sane(result, len(percepts))
+
+
+def _gravity_unsupported(result: LocalizationResult, plan: _Plan, tol: AssociationTolerances, method: str,
+                         n_used: int) -> str:
+    """Why ``gravity="auto"`` falls back from the gravity pass's ``result`` (of ``n_used``
+    percepts of known types) to the free search, "" when it keeps it
+    (:func:`~worldgraph.pose.gravity._unsupported`, with the pass's status)."""
+    if not plan.fallback or plan.up is None or method == "paper" or result.search != "gravity":
+        return ""
+    if result.status == "too_few_percepts":
+        return ""  # the free search has no more percepts
+    # support: the percepts the pose explains (chi-square inliers of the answer, whether or not
+    # its fit rests on them: a percept between two neighbouring objects of its type is explained
+    # but not matched), at least its matches
+    explained = int(np.count_nonzero(result.residuals ** 2 <= CHI2_3_GATE))
+    support = max(len(result.correspondences), explained)
+    why = _unsupported(result.transformation, support, n_used, plan.up, tol)
+    return f"{why} ({result.status})" if why else ""
+
+
+def _answered_by_free_search(free: LocalizationResult, gravity_pass: LocalizationResult, why: str
+                             ) -> LocalizationResult:
+    """The free search's answer, its message saying why the gravity pass was not kept and its
+    timings holding the gravity pass's total as ``"gravity_pass"``."""
+    note = f"gravity search: {why}; answered by the free 3D search"
+    timings = dict(free.timings)
+    timings["gravity_pass"] = gravity_pass.timings.get("total", math.nan)
+    return replace(free, message="; ".join(m for m in (note, free.message) if m), timings=timings)
+
+
+def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str,
+                     tol: object, region: object, rng: object,
+                     max_position_3sigma: float, max_rotation_3sigma: float, solver: object, check: object,
+                     certify: object, gravity: object = "auto") -> tuple[list[Percept], _Settings]:
+    """Step 1: every argument of :func:`localize` checked (specific errors), as the percepts and
+    the call's settings."""
+    if not isinstance(method, str) or method not in LOCALIZE_METHODS:
+        raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
+    checked = check_world_and_percepts(world, percepts)
+    tol = ASSOCIATION_TOLERANCES if tol is None else tol
+    if not isinstance(tol, AssociationTolerances):
+        raise ArgumentTypeError(f"tol must be AssociationTolerances, got {type(tol).__name__}")
+    box = _check_region(region)
+    gen = None if rng is None else generator("rng", rng)
+    if not isinstance(solver, str):
+        raise ArgumentTypeError(f"solver must be 'active_set' or a cvxpy solver name, got {solver!r}")
+    solver_name = solver if solver == "active_set" else solver.upper()
+    if solver_name != "active_set" and solver_name not in ro.installed_cvxpy_solvers():
+        raise WorldGraphError(f"solver {solver!r} is neither 'active_set' nor an installed cvxpy solver "
+                              f"({', '.join(ro.installed_cvxpy_solvers())})")
+    if not isinstance(check, bool | np.bool_):
+        raise ArgumentTypeError(f"check must be a bool, got {check!r}")
+    if not isinstance(certify, bool | np.bool_):
+        raise ArgumentTypeError(f"certify must be a bool, got {certify!r}")
+    pos_tol = positive_float("max_position_3sigma", max_position_3sigma)
+    rot_tol = positive_float("max_rotation_3sigma", max_rotation_3sigma)
+    if rot_tol > math.pi:
+        raise OutOfRangeError(f"max_rotation_3sigma = {rot_tol!r} is an angle in radians and must be <= pi; "
+                              f"did you mean degrees? np.radians({rot_tol:g}) = {math.radians(rot_tol):.4g}")
+    big = float(np.max(np.abs(world.positions)))
+    if not big <= MAX_COORDINATE:
+        raise OutOfRangeError(f"world positions reach {big:.3g} m; localize handles coordinates up to "
+                              f"{MAX_COORDINATE:g} m (shift the world's origin)")
+    plan = _check_gravity(gravity, tol)
+    return checked, _Settings(method, tol, box, gen, pos_tol, rot_tol, solver_name, bool(check),
+                              bool(certify), plan)
+
+
+@contextmanager
+def _raised_as_worldgraph_errors(method: str) -> Iterator[None]:
+    """Failures of the numerical steps (radialopt's, numpy's) raised as WorldGraphError."""
+    try:
+        yield
+    except WorldGraphError:
+        raise
+    except ro.VerificationError as exc:
+        raise WorldGraphError(f"check=True: a radial solution failed its verification: {exc}") from exc
+    except ro.RadialError as exc:
+        raise WorldGraphError(f"localize: radialopt rejected the Gaussian spheres built from the percepts "
+                              f"(method={method!r}): {exc}") from exc
+    except (ArithmeticError, ValueError, TypeError, IndexError, np.linalg.LinAlgError) as exc:
+        raise WorldGraphError(f"localize failed numerically on these percepts (method={method!r}): "
+                              f"{type(exc).__name__}: {exc}") from exc
+
+
+def _check_region(region: object) -> ro.Region | None:
+    """None, a radialopt.Region, or a ``(lower, upper)`` pair of 3-vectors (metres)."""
+    if region is None or isinstance(region, ro.Region):
+        return region
+    if isinstance(region, tuple | list) and len(region) == 2:
+        lo = float_array("region[0]", region[0], (3,))
+        hi = float_array("region[1]", region[1], (3,))
+        try:
+            return ro.Region(lo, hi)
+        except ro.RadialError as exc:
+            raise WorldGraphError(f"region (lower, upper) is not a box: {exc}") from exc
+    raise ArgumentTypeError(f"region must be None, a radialopt.Region or a (lower, upper) pair of 3-vectors, "
+                            f"got {type(region).__name__}")
+
+
+def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
+    """A success status only with a finite rigid pose and covariance; a listed status."""
+    status = result.status
+    if status not in LOCALIZE_STATUSES:
+        return replace(result, status="degenerate", message=f"{result.message}; internal status {status!r} "
+                       "is not a localisation status".lstrip("; "))
+    if status in POSE_STATUSES:
+        T = result.transformation
+        finite = bool(np.all(np.isfinite(T)) and np.all(np.isfinite(result.pose_covariance))
+                      and np.all(np.isfinite(result.covariance)))
+        rigid = finite and bool(np.allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=RIGID_TOLERANCE)
+                                and np.linalg.det(T[:3, :3]) > 0)
+        if not rigid:
+            why = "non-finite pose or covariance" if not finite else "a pose that is not rigid"
+            return replace(result, status="degenerate", ambiguous=False,
+                           message="; ".join(m for m in (result.message, f"numerical breakdown: {why}") if m))
+    return result
+
+
+def _units_hints(world: WorldModel, used: list[Percept]) -> list[str]:
+    """Sentences for the message when positions look like millimetres (docs/design.md#units)."""
+    hint = units_hint(world, used)
+    return [hint] if hint else []
+
+
+def _localize(world: WorldModel, percepts: list[Percept], settings: _Settings, t_start: float
+              ) -> LocalizationResult:
+    """The pipeline on checked arguments: known percepts, association, measurements, then the
+    validated pose (or the paper's)."""
+    call = _known_percepts_step(world, percepts, settings, t_start)
+    need = max(3, settings.tol.min_clique_size)
+    if len(call.used) < need:
+        return call.failed("too_few_percepts", f"localisation needs at least {need} percepts of known types, "
+                           f"got {len(call.used)}")
+    search: SearchKind = "free" if settings.method == "paper" else settings.plan.search
+    hyps_local = _associate_step(call)
+    if not hyps_local:
+        return replace(call.failed("no_association",
+                                   "no consistent association of >= 3 percepts with the world model"),
+                       search=search)
+    ctx = _measurement_step(call)
+    if settings.method == "paper":
+        return _paper(ctx, hyps_local)
+    return replace(_validated(ctx, hyps_local), search=search)
+
+
+def _known_percepts_step(world: WorldModel, percepts: list[Percept], settings: _Settings, t_start: float
+                         ) -> _Call:
+    """Step 2: the percepts of types the world has (the others are named in a note)."""
+    known = np.array([p.type in world.type_index for p in percepts], dtype=bool)
+    unknown = sorted({p.type for p, ok in zip(percepts, known, strict=True) if not ok})
+    if percepts and not known.any():
+        raise UnknownTypeError(f"no percept type is in the world model: percept types {unknown}, "
+                               f"world types {list(world.type_index)}")
+    notes = [f"ignored {int((~known).sum())} percept(s) of unknown type(s) {unknown}"] if unknown else []
+    idx = np.flatnonzero(known)
+    used = [percepts[i] for i in idx]
+    notes += _units_hints(world, used)
+    timings = {"association": 0.0, "validation": 0.0, "radial": 0.0, "position": 0.0, "orientation": 0.0}
+    return _Call(world, settings, used, idx, len(percepts), notes, timings, t_start)
+
+
+def _associate_step(call: _Call) -> list[AssociationHypothesis]:
+    """Step 3: association hypotheses (the paper's filters for ``"paper"``, else typed cliques)."""
+    t0 = time.perf_counter()
+    tol = call.settings.tol
+    how = "paper" if call.settings.method == "paper" else "clique"
+    hyps = _associate_searched(call.world, call.used, tol, how,
+                               max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES), call.settings.plan)
+    call.timings["association"] = time.perf_counter() - t0
+    return hyps
+
+
+def _measurement_step(call: _Call) -> _Context:
+    """Step 4: the region (the caller's or :func:`default_region`) and the percepts' positions,
+    covariances and nearest same-type objects, shared by the steps after it."""
+    given = call.settings.region
+    explicit = given is not None
+    region = given if given is not None else default_region(call.world, call.used)
+    ego = np.array([p.position for p in call.used])
+    covs = percept_covariances(call.used)
+    nearest = NearestObjects(call.world, [p.type for p in call.used])
+    return _Context(**{f.name: getattr(call, f.name) for f in fields(_Call)}, region=region,
+                    explicit_region=explicit, ego=ego, covs=covs, nearest=nearest,
+                    ranges=np.array([p.range for p in call.used], dtype=np.float64),
+                    sigmas=np.array([p.sigma for p in call.used], dtype=np.float64))

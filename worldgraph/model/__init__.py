@@ -1,0 +1,98 @@
+"""The world model: typed objects, their proximity graph and the link look-up table.
+
+A :class:`WorldModel` holds the landmarks the robot can perceive (doors, handles, knobs, ...),
+each an :class:`ObjectModel` with a type, a pose ``world_from_object`` and the extents of its
+bounding box.  From the object positions it builds
+
+* ``links``: for every (sorted) pair of types with at least one link a :class:`LinkTable` of
+  the object pairs closer than ``max_link_length + link_margin``, sorted by length -- the
+  paper's distance look-up table (section 2.2, "Fast performance was achieved by using a
+  distance lookup table"), queried with :meth:`LinkTable.in_range` by binary search; a sorted
+  pair of types without links reads as an empty table (memory linear in the links, not
+  quadratic in the number of types);
+* ``graph``: a :mod:`networkx` graph, one node per object, one edge per pair closer than
+  ``max_link_length`` (built lazily on first access);
+* ``type_index``: the object indices of each type.
+
+Limits (checked, :class:`~worldgraph.errors.WorldGraphError` subclasses naming the argument, the
+index and the value): poses rigid; coordinates, sizes and vertices at most
+:data:`MAX_COORDINATE` = 1e6 m in absolute value; ``max_link_length + link_margin`` at most
+:data:`MAX_LINK_LENGTH` = 1e7 m; ids, types and geometry keys non-empty strings without NUL.
+Two objects of one type closer than :data:`COINCIDENT_TOLERANCE` raise
+:class:`~worldgraph.errors.CoincidentObjectsError` at the first such pair found (memory O(n)).
+
+Object frame: the origin is the centre of the object's bounding box, so
+``ObjectModel.position == pose[:3, 3]``; ``size`` is the box extents along the object axes.
+
+File format (:meth:`WorldModel.save` / :meth:`WorldModel.load`), JSON, meant to be edited::
+
+    {
+      "format": "worldgraph.WorldModel",
+      "version": 1,
+      "max_link_length": 5.0,          # metres, > 0
+      "link_margin": 0.0,              # metres, >= 0 (links are built up to the sum)
+      "class_vertices": {              # geometry key -> list of [x, y, z] in the object frame
+        "handle_bar": [[-0.06, -0.01, -0.01], ...]
+      },
+      "objects": [                     # one per landmark
+        {"id": "handle_000", "type": "handle",
+         "pose": [[1, 0, 0, 2.0], [0, 1, 0, 0.5], [0, 0, 1, 0.9], [0, 0, 0, 1]],
+         "size": [0.12, 0.02, 0.02], "geometry": "handle_bar"}
+      ],
+      "room": {"lower": [0, 0, 0], "upper": [4, 3, 2.6]}   # optional, null or absent: no room
+    }
+
+Every object's ``geometry`` must be a key of ``class_vertices``.  ``room`` (the free space of the
+room, an axis-aligned box, :attr:`WorldModel.room`) is written only when it is set; files
+without it read as ``room = None``.
+
+Where things live (the names are importable from here, as before):
+
+* :mod:`worldgraph.model.world`: :class:`WorldModel`;
+* :mod:`worldgraph.model.objects`: :class:`ObjectModel`, :class:`ObjectTable`,
+  :func:`box_vertices`, :data:`DEFAULT_SIZE`, :data:`MAX_COORDINATE` and the value checks;
+* :mod:`worldgraph.model.scene_nodes`: reading a :class:`trimesh.Scene`'s nodes into objects and
+  the room (:func:`room_from_trimesh`, :data:`ROOM_TYPES`, :data:`DEFAULT_ROOM_HEIGHT`);
+* :mod:`worldgraph.model.scene_files`: reading scene files (glTF, OBJ, PLY, STL, OFF, DAE, MJCF)
+  into typed scenes, for :meth:`WorldModel.from_file` (the public names are in
+  :mod:`worldgraph.importers`);
+* :mod:`worldgraph.model.links`: :class:`LinkTable`, :data:`MAX_LINK_LENGTH`, :data:`MAX_LINKS`;
+* :mod:`worldgraph.model.far_pairs`: :class:`FarPairIndex` and the ``FAR_PAIR_*`` limits (set
+  them on that module: the far-pair code reads them there);
+* :mod:`worldgraph.model.persistence`: the file format (:data:`FILE_FORMAT`, :data:`FILE_VERSION`);
+* :mod:`worldgraph.model.ring_join`: the compiled ring and shell joins (also
+  ``worldgraph.ring_join``);
+* :mod:`worldgraph.model.units`: the millimetre hints (also ``worldgraph.units``).
+"""
+
+from ..tolerances import COINCIDENT_TOLERANCE, FAR_PAIR_SLACK, QUERY_WIDEN, RIGID_TOLERANCE  # noqa: F401 - re-exported
+from .far_pairs import (  # noqa: F401 - re-exported
+    FAR_PAIR_BUDGET,
+    FAR_PAIR_BUILD_ON_USE,
+    FAR_PAIR_HEIGHT,
+    FAR_PAIR_MAX_PAIRS,
+    FAR_PAIR_RANGE,
+    FAR_TYPE_BLOCK,
+    FarPairIndex,
+)
+from .links import MAX_LINK_LENGTH, MAX_LINKS, LinkTable  # noqa: F401 - re-exported
+from .objects import DEFAULT_SIZE, MAX_COORDINATE, ObjectModel, ObjectTable, box_vertices  # noqa: F401 - re-exported
+from .persistence import FILE_FORMAT, FILE_VERSION
+from .scene_nodes import DEFAULT_ROOM_HEIGHT, ROOM_TYPES, room_from_trimesh
+from .world import WorldModel
+
+__all__ = [
+    "COINCIDENT_TOLERANCE",
+    "DEFAULT_SIZE",
+    "FILE_FORMAT",
+    "FILE_VERSION",
+    "DEFAULT_ROOM_HEIGHT",
+    "MAX_COORDINATE",
+    "MAX_LINK_LENGTH",
+    "LinkTable",
+    "ObjectModel",
+    "ROOM_TYPES",
+    "WorldModel",
+    "box_vertices",
+    "room_from_trimesh",
+]

@@ -1,0 +1,752 @@
+"""The :class:`WorldModel`: typed objects, their proximity graph, link look-up table, k-d trees
+and far-pair indices (see :mod:`worldgraph.model` for the overview and the file format)."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import os
+import warnings
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import TYPE_CHECKING, Any, cast
+
+import networkx as nx
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
+
+from .. import _checks
+from ..errors import (
+    ArgumentTypeError,
+    CoincidentObjectsError,
+    EmptyWorldError,
+    MalformedFileError,
+    NonPositiveError,
+    OutOfRangeError,
+    ShapeError,
+    UnknownGeometryError,
+    UnknownTypeError,
+    WorldGraphError,
+)
+from ..tolerances import COINCIDENT_TOLERANCE
+from . import ring_join
+from .far_pairs import (
+    FarPairIndex,
+    _build_world_far_pairs,
+    _world_far_pair_index,
+)
+from .links import MAX_LINK_LENGTH, LinkTable, _build_world_links, _LinkTables
+from .objects import (
+    DEFAULT_SIZE,
+    MAX_COORDINATE,
+    ObjectModel,
+    ObjectTable,
+    _check_type_name,
+    _check_unique_ids,
+    _name_list,
+    _object_index,
+    box_vertices,
+)
+from .persistence import _world_from_dict, load_world, save_world, world_from_dict, world_to_dict
+from .scene_files import typed_scene
+from .scene_nodes import (
+    ROOM_TYPES,
+    _check_room,
+    _check_scene,
+    _default_type,
+    _fast_vertex_bounds,
+    _room_from_bounds,
+    _scene_nodes,
+    _trimesh_table,
+    _world_bounds,
+)
+
+if TYPE_CHECKING:  # pragma: no cover
+    import trimesh
+
+    import radialopt
+
+
+# ----------------------------------------------------------------------------------------------
+# world model
+# ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class WorldModel:
+    """Typed landmarks with their proximity graph and link look-up table.
+
+    Parameters
+    ----------
+    objects : sequence of ObjectModel, or ObjectTable
+        Non-empty; ids unique; no two objects of one type at the same position.  An
+        :class:`ObjectTable` (what :meth:`from_arrays` gives) keeps large worlds in arrays.
+    max_link_length : float
+        Pairs closer than this (metres) are graph edges (the paper's ζ for links), ``> 0``;
+        ``max_link_length + link_margin <=`` :data:`MAX_LINK_LENGTH`.
+    class_vertices : mapping str -> (k, 3) float
+        Vertices of each class geometry in the object frame; must hold every object's geometry.
+    scene : trimesh.Scene or None
+        The scene the model came from (not compared, not saved).
+    link_margin : float
+        The link tables hold pairs closer than ``max_link_length + link_margin`` (``>= 0``), so
+        pairs just above ``max_link_length`` survive percept noise.
+    room : radialopt.Region or None
+        The room's free space (the robot is inside it): an axis-aligned box, finite, ``lower <=
+        upper``; a ``(lower, upper)`` pair is turned into a Region.  Room structure (floor,
+        walls, ceiling) need not be objects of the model when the room is known this way.
+    gravity_aligned : bool
+        The map's own note that its robots report percepts in a levelled ego frame (REP 103:
+        base z up, along the world's z); kept and saved with the world.  Whether a call
+        searches with gravity is a fact of the robot, given per call: ``associate``,
+        ``localize``, ``active_localize`` and ``localize_tiled`` take ``gravity`` (default
+        ``"auto"``, :mod:`worldgraph.pose.gravity`) whatever this flag says; only the networkx views
+        and the paper's filters (:func:`~worldgraph.association.filters.consistency_graph`, ...) follow it
+        when ``AssociationTolerances.gravity_aligned`` is None.  Default False.
+
+    Attributes
+    ----------
+    types : (n,) str ndarray
+    positions : (n, 3) float ndarray, read-only
+    links : dict (str, str) -> LinkTable, keyed by the sorted type pair; only pairs with at least
+        one link are stored (iteration), looking up another sorted pair of the model's types
+        returns an empty table
+    type_index : dict str -> (k,) int, object indices of each type, ascending
+    graph : networkx.Graph (lazy)
+    """
+
+    objects: Sequence[ObjectModel]
+    max_link_length: float = 5.0
+    class_vertices: Mapping[str, NDArray[np.float64]] = field(default_factory=dict)
+    scene: Any = None
+    link_margin: float = 0.0
+    room: radialopt.Region | None = None
+    gravity_aligned: bool = False
+    if TYPE_CHECKING:  # derived data __post_init__ sets on the frozen instance; for the type checker only
+        _types: NDArray[np.str_] = field(init=False)
+        _positions: NDArray[np.float64] = field(init=False)
+        _type_index: dict[str, NDArray[np.intp]] = field(init=False)
+        _links: _LinkTables = field(init=False)
+        _tree: cKDTree = field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "room", _check_room(self.room))
+        if not isinstance(self.gravity_aligned, bool | np.bool_):
+            raise ArgumentTypeError(f"gravity_aligned must be a bool, "
+                                    f"got {_checks._short(self.gravity_aligned)}")
+        object.__setattr__(self, "gravity_aligned", bool(self.gravity_aligned))
+        table = self.objects if isinstance(self.objects, ObjectTable) else None
+        objects: Sequence[ObjectModel]
+        if table is not None:  # checked when the table was made
+            objects = table
+        else:
+            if isinstance(self.objects, str | bytes | Mapping) or not isinstance(self.objects, Iterable):
+                raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
+                                        f"{_checks._short(self.objects)}")
+            try:
+                objects = tuple(self.objects)
+            except TypeError as exc:
+                raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
+                                        f"{_checks._short(self.objects)}") from exc
+        if not len(objects):
+            raise EmptyWorldError("objects must hold at least one object (an ObjectModel), got 0")
+        if self.scene is not None:
+            _check_scene(self.scene)
+        if table is None:
+            for k, obj in enumerate(objects):
+                if not isinstance(obj, ObjectModel):
+                    raise ArgumentTypeError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
+            _check_unique_ids([o.id for o in objects], "objects")
+        mll = _checks.positive_float("max_link_length", self.max_link_length, maximum=MAX_LINK_LENGTH)
+        margin = _checks.positive_float("link_margin", self.link_margin, allow_zero=True,
+                                        maximum=MAX_LINK_LENGTH)
+        if mll + margin > MAX_LINK_LENGTH:
+            raise OutOfRangeError(f"max_link_length + link_margin = {mll + margin!r} must be "
+                                  f"<= {MAX_LINK_LENGTH:g}")
+        if not isinstance(self.class_vertices, Mapping):
+            raise ArgumentTypeError("class_vertices must be a mapping geometry key -> (k, 3) vertices, got "
+                                    f"{_checks._short(self.class_vertices)}")
+        cv: dict[str, NDArray[np.float64]] = {}
+        for key, verts in self.class_vertices.items():
+            _checks.name_string(f"class_vertices key {key!r}", key, UnknownGeometryError)
+            v = _checks.float_array(f"class_vertices[{key!r}]", verts, (None, 3), max_abs=MAX_COORDINATE,
+                                    min_size=1)
+            v.setflags(write=False)
+            cv[key] = v
+        if table is not None and table.geometry_names is None:  # a table's geometry keys are its types
+            missing = [(table.id(int(np.argmax(table.codes == c))), table.type_names[c])
+                       for c in np.unique(table.codes).tolist() if table.type_names[c] not in cv]
+        elif table is not None:
+            gnames, gcodes = table.geometry_names, table.geometry_codes
+            assert gnames is not None and gcodes is not None  # set together
+            missing = [(table.id(int(np.argmax(gcodes == c))), gnames[c])
+                       for c in np.unique(gcodes).tolist() if gnames[c] not in cv]
+        else:
+            missing = [(o.id, o.geometry) for o in objects if o.geometry not in cv]
+        if missing:
+            oid, geometry = missing[0]
+            raise UnknownGeometryError(f"object {oid!r} has geometry {geometry!r}, which is not "
+                                       f"a key of class_vertices {sorted(cv)[:10]}")
+        object.__setattr__(self, "objects", objects)
+        object.__setattr__(self, "max_link_length", mll)
+        object.__setattr__(self, "link_margin", margin)
+        object.__setattr__(self, "class_vertices", cv)
+
+        if table is not None:
+            types = table.types
+            positions = table.positions
+        else:
+            types = np.array([o.type for o in objects], dtype=str)
+            positions = np.array([o.pose[:3, 3] for o in objects], dtype=np.float64).reshape(len(objects), 3)
+        types.setflags(write=False)
+        positions.setflags(write=False)
+        object.__setattr__(self, "_types", types)
+        object.__setattr__(self, "_positions", positions)
+        self._build_links()
+
+    # -- construction helpers ------------------------------------------------------------------
+    def _coincident(self, a: int, b: int, distance: float) -> CoincidentObjectsError:
+        a, b = sorted((int(a), int(b)))
+        return CoincidentObjectsError(
+            f"objects[{a}] ({self.objects[a].id!r}) and objects[{b}] ({self.objects[b].id!r}) of type "
+            f"{self.objects[a].type!r} coincide at position {self._positions[a].tolist()} (distance "
+            f"{distance:.3g} m <= {COINCIDENT_TOLERANCE:g} m)")
+
+    def _check_coincident(self, codes: NDArray[np.intp]) -> None:
+        """Raise at the first pair of same-type objects closer than :data:`COINCIDENT_TOLERANCE`.
+
+        Memory O(n): exact duplicates by one lexicographic sort, then near duplicates by a
+        nearest-neighbour query in a 4D tree whose 4th axis separates the types by more than
+        any distance in the world.
+        """
+        pos = self._positions
+        n = len(pos)
+        if n < 2:
+            return
+        order = np.lexsort((pos[:, 2], pos[:, 1], pos[:, 0], codes))
+        same = (codes[order[1:]] == codes[order[:-1]]) & np.all(pos[order[1:]] == pos[order[:-1]], axis=1)
+        if same.any():
+            k = int(np.argmax(same))
+            raise self._coincident(order[k], order[k + 1], 0.0)
+        lifted = np.column_stack([pos, codes.astype(np.float64) * (4.0 * MAX_COORDINATE)])
+        dist, idx = cast(tuple[NDArray[np.float64], NDArray[np.intp]],  # k=2: arrays, not scalars
+                         cKDTree(lifted).query(lifted, k=2, distance_upper_bound=2 * COINCIDENT_TOLERANCE))
+        hit = dist[:, 1] <= COINCIDENT_TOLERANCE
+        if hit.any():
+            a = int(np.argmax(hit))
+            # both neighbours may be at distance 0 (underflow), so the first is not always ``a``
+            b = int(idx[a, 0]) if int(idx[a, 1]) == a else int(idx[a, 1])
+            raise self._coincident(a, b, float(dist[a, 1]))
+
+    def _build_links(self) -> None:
+        _build_world_links(self)
+
+    @classmethod
+    def from_arrays(cls, types: Sequence[str] | ArrayLike, positions: ArrayLike, max_link_length: float = 5.0,
+                    ids: Sequence[str] | None = None, sizes: ArrayLike | None = None,
+                    link_margin: float = 0.0, room: Any = None, gravity_aligned: bool = False) -> WorldModel:
+        """World model from bare typed positions.
+
+        Parameters
+        ----------
+        types : (n,) str
+            Non-empty strings without NUL characters (kept as Python ``str``).
+        positions : (n, 3) float
+            World positions (metres), finite, ``|x| <=`` :data:`MAX_COORDINATE`; poses get the
+            identity rotation.
+        max_link_length, link_margin : float
+            See :class:`WorldModel`.
+        room : radialopt.Region or (lower, upper), optional
+            See :class:`WorldModel`.
+        gravity_aligned : bool
+            See :class:`WorldModel`.
+        ids : (n,) str, optional
+            Unique non-empty strings without NUL characters; default ``f"{type}_{k}"`` with ``k``
+            the object index.
+        sizes : (n, 3) or (3,) float, optional
+            Bounding-box extents (metres, ``>= 0``); default :data:`DEFAULT_SIZE` in every axis.
+
+        Each type gets the class geometry of its own name: the corners of a box of the type's
+        median size.
+        """
+        pos = _checks.float_array("positions", positions, (None, 3), max_abs=MAX_COORDINATE)
+        n = pos.shape[0]
+        if n == 0:
+            raise EmptyWorldError("positions must hold at least one object, got shape (0, 3)")
+        type_list = _name_list("types", types, n, UnknownTypeError)
+        if sizes is None:
+            sz = np.full((n, 3), DEFAULT_SIZE)
+        else:
+            sz = _checks.float_array("sizes", sizes, None, max_abs=MAX_COORDINATE)
+            if sz.shape == (3,):
+                sz = np.broadcast_to(sz, (n, 3))
+            if sz.shape != (n, 3):
+                raise ShapeError(f"sizes must have shape ({n}, 3) or (3,), got shape {sz.shape}")
+            if np.any(sz < 0):
+                bad = np.argwhere(sz < 0)[0]
+                raise NonPositiveError(f"sizes[{bad[0]}, {bad[1]}] must be >= 0, "
+                                       f"got {float(sz[tuple(bad)])!r}")
+        id_list: tuple[str, ...] | None = None
+        if ids is not None:  # the default ids f"{type}_{k}" are unique: k is
+            id_list = tuple(_name_list("ids", ids, n, WorldGraphError))
+            _check_unique_ids(list(id_list), "ids")
+        names, codes = np.unique(np.array(type_list, dtype=object), return_inverse=True)
+        codes = codes.reshape(-1)
+        by_type = np.argsort(codes, kind="stable")
+        starts = np.searchsorted(codes[by_type], np.arange(len(names) + 1))
+        class_vertices = {}
+        for c, t in enumerate(names.tolist()):
+            rows = by_type[starts[c]:starts[c + 1]]
+            class_vertices[t] = box_vertices(DEFAULT_SIZE * np.ones(3) if sizes is None
+                                             else np.median(sz[rows], axis=0))
+        table = ObjectTable._trusted(tuple(str(t) for t in names), codes, np.array(pos, dtype=np.float64),
+                                     np.array(sz, dtype=np.float64), id_list)
+        world = cls(table, max_link_length=max_link_length, class_vertices=class_vertices,
+                    link_margin=link_margin, room=room, gravity_aligned=gravity_aligned)
+        return world._warn_units()
+
+    @classmethod
+    def from_trimesh(cls, scene: trimesh.Scene, type_of: Callable[[str, Any], str | None] | None = None,
+                     max_link_length: float = 5.0, link_margin: float = 0.0,
+                     room: radialopt.Region | str | None = "auto") -> WorldModel:
+        """World model from a :class:`trimesh.Scene`: one object per geometry node.
+
+        The type of a node is, in this order: ``type_of(node_name, geometry)`` when given (its
+        answer is final, ``None`` skips the node); else ``metadata["type"]`` of the node (set
+        with ``scene.graph.update(..., metadata={"type": ...})`` or ``add_geometry(metadata=)``)
+        or of the geometry; else the node-name prefix before the first ``"_"`` or ``":"`` (the
+        whole name if it has neither).  A metadata type of ``None`` skips the node.
+
+        The object frame is the node frame moved to the centre of the geometry's bounding box
+        (scaling removed), so the position is the world transform applied to that centre;
+        ``size`` is the geometry's extents in its own frame times the node's axis scales.  The
+        geometry key is the scene's geometry name; ``class_vertices`` holds its vertices about
+        the box centre (scaled by the first node that uses it).
+
+        ``room="auto"`` sets :attr:`room` by :func:`room_from_trimesh` (from the floor, wall and
+        ceiling nodes by the default typing rule, whether or not ``type_of`` skips them, or from
+        ``scene.metadata["room"]``); ``None`` leaves it unset; a Region is used as is.
+
+        Geometry without vertices (an empty :class:`trimesh.Trimesh` or
+        :class:`trimesh.PointCloud`) is skipped; a point cloud with points is an object like a
+        mesh (its box is the points' bounds).  Node transforms and vertices must be finite with
+        ``|x| <=`` :data:`MAX_COORDINATE`.  An exception inside ``type_of`` is re-raised as a
+        :class:`~worldgraph.errors.WorldGraphError` naming the node.
+        """
+        _check_scene(scene)
+        if type_of is not None and not callable(type_of):
+            raise ArgumentTypeError(f"type_of must be a callable or None, got {_checks._short(type_of)}")
+        auto = isinstance(room, str)
+        region: radialopt.Region | None = None
+        if auto:
+            if room != "auto":
+                raise WorldGraphError(f"room must be 'auto', a radialopt.Region or None, got {room!r}")
+            meta = getattr(scene, "metadata", None) or {}
+            if isinstance(meta, Mapping) and meta.get("room") is not None:
+                region, auto = _check_room(meta["room"], 'scene.metadata["room"]'), False
+        else:
+            region = _check_room(room)
+        nodes, matrices, geom_names, geometries = _scene_nodes(scene)
+        # one pass over the nodes for what needs Python (types, vertex bounds per geometry), then arrays
+        found: dict[str, list[NDArray[np.float64]]] = {t: [] for t in ROOM_TYPES}
+        bounds_of: dict[str, NDArray[np.float64] | None] = {}
+        keep: list[int] = []
+        types: list[str] = []
+        checked_types: set[str] = set()
+        empty: list[str] = []
+        for k, (node, geom_name, geometry) in enumerate(zip(nodes, geom_names, geometries, strict=True)):
+            if geom_name in bounds_of:
+                bounds = bounds_of[geom_name]
+            else:
+                bounds = bounds_of[geom_name] = _fast_vertex_bounds(f"vertices of geometry {geom_name!r}",
+                                                                    geometry)
+            default = _default_type(scene, node, geometry) if auto or type_of is None else None
+            if auto and bounds is not None and isinstance(default, str) and default in found:
+                found[default].append(_world_bounds(matrices[k], bounds))
+            if bounds is None:  # an empty Trimesh or PointCloud: nothing to perceive
+                empty.append(str(node))
+                continue
+            if type_of is not None:
+                try:
+                    typ = type_of(node, geometry)
+                except Exception as exc:
+                    raise WorldGraphError(f"type_of({node!r}, geometry) raised "
+                                          f"{type(exc).__name__}: {exc}") from exc
+            else:
+                typ = default
+            if typ is None:
+                continue
+            if type(typ) is not str or typ not in checked_types:
+                checked_types.add(_check_type_name(typ, f"type of node {node!r}"))
+            keep.append(k)
+            types.append(typ)
+        if auto:
+            region = _room_from_bounds(found)
+        if empty:
+            warnings.warn(f"from_trimesh: {len(empty)} geometry node(s) without vertices skipped (trimesh "
+                          f"drops non-finite vertices when a mesh is made): {empty[:5]}", UserWarning,
+                          stacklevel=2)
+        table, class_vertices, mirrored = _trimesh_table(nodes, matrices, geom_names, geometries, bounds_of,
+                                                         keep, types)
+        if mirrored:
+            warnings.warn(f"from_trimesh: {len(mirrored)} node(s) with a reflecting transform taken as the "
+                          "proper rotation with one axis mirrored (position and size exact, class vertices "
+                          f"not mirrored): {mirrored[:5]}", UserWarning, stacklevel=2)
+        if table is None:
+            raise EmptyWorldError("scene has no typed geometry nodes with vertices (a WorldModel needs one)")
+        world = cls(table, max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
+                    link_margin=link_margin, room=region)
+        return world._warn_units()
+
+    @classmethod
+    def from_file(cls, path: str | os.PathLike[str], type_of: Any = None, *, max_link_length: float = 5.0,
+                  link_margin: float = 0.0, room: Any = "auto", mjcf_objects: str = "bodies",
+                  file_format: str | None = None) -> WorldModel:
+        """World model from a scene file: GLB/GLTF/OBJ/PLY/STL/OFF/DAE through trimesh, MJCF through
+        MuJoCo (``mjcf`` extra); see :func:`worldgraph.importers.world_from_file` for ``type_of``
+        (``None``, a callable ``name -> type or None``, or a mapping ``regex -> type``) and the
+        options (``max_link_length``, ``link_margin``, ``room``, ``mjcf_objects``, ``file_format``)."""
+        scene, types = typed_scene(path, type_of, mjcf_objects=mjcf_objects, file_format=file_format)
+        return cls.from_trimesh(scene, type_of=lambda node, _geometry: types.get(str(node)),
+                                max_link_length=max_link_length, link_margin=link_margin, room=room)
+
+    # -- derived data ----------------------------------------------------------------------------
+    @property
+    def types(self) -> NDArray[np.str_]:
+        """Object types ``(n,)``."""
+        return self._types
+
+    @property
+    def positions(self) -> NDArray[np.float64]:
+        """Object positions ``(n, 3)`` (read-only)."""
+        return self._positions
+
+    @property
+    def links(self) -> Mapping[tuple[str, str], LinkTable]:
+        """Link tables keyed by the sorted type pair: a read-only mapping over the linked pairs;
+        another sorted pair of the model's types reads as an empty table."""
+        return self._links
+
+    @property
+    def type_index(self) -> dict[str, NDArray[np.intp]]:
+        """Object indices of each type, ascending."""
+        return self._type_index
+
+    @cached_property
+    def type_rank(self) -> NDArray[np.intp]:
+        """``(n,)``: the position of each object in its type's :attr:`type_index` array (read-only)."""
+        rank = np.empty(len(self.objects), dtype=np.intp)
+        for idx in self._type_index.values():
+            rank[idx] = np.arange(len(idx))
+        rank.setflags(write=False)
+        return rank
+
+    @property
+    def tree(self) -> cKDTree:
+        """A :class:`scipy.spatial.cKDTree` over :attr:`positions`."""
+        return self._tree
+
+    @property
+    def type_names(self) -> tuple[str, ...]:
+        """Sorted distinct types."""
+        return tuple(self._type_index)
+
+    @cached_property
+    def graph(self) -> nx.Graph:
+        """Proximity graph: node = object index (attributes id, type, position, size), edge =
+        pair closer than ``max_link_length`` (attribute ``length``)."""
+        g: nx.Graph[int] = nx.Graph()
+        g.add_nodes_from((k, {"id": o.id, "type": o.type, "position": self._positions[k], "size": o.size})
+                         for k, o in enumerate(self.objects))
+        for table in self._links.values():
+            i, j, length = table.in_range(-1.0, self.max_link_length)
+            attrs = ({"length": x} for x in length.tolist())
+            g.add_edges_from(zip(i.tolist(), j.tolist(), attrs, strict=True))
+        return g
+
+    def __len__(self) -> int:
+        return len(self.objects)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, WorldModel):
+            return NotImplemented
+        if (self.max_link_length != other.max_link_length or self.link_margin != other.link_margin
+                or self.gravity_aligned != other.gravity_aligned or self.objects != other.objects):
+            return False
+        if (self.room is None) != (other.room is None):
+            return False
+        if self.room is not None and other.room is not None and not (
+                np.array_equal(self.room.lower, other.room.lower)
+                and np.array_equal(self.room.upper, other.room.upper)):
+            return False
+        if self.class_vertices.keys() != other.class_vertices.keys():
+            return False
+        return all(np.array_equal(v, other.class_vertices[k]) for k, v in self.class_vertices.items())
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        counts = ", ".join(f"{t}={len(v)}" for t, v in self.type_index.items())
+        return f"WorldModel({len(self)} objects: {counts}; max_link_length={self.max_link_length})"
+
+    def _check_known_type(self, t: str, what: str = "type") -> None:
+        if not isinstance(t, str):
+            raise UnknownTypeError(f"{what} must be a type name (str), got {_checks._short(t)}")
+        if t not in self._type_index:
+            raise UnknownTypeError(f"{what} = {t!r} is not in the world model; "
+                                   f"known types: {self._known_types()}")
+
+    def _known_types(self, limit: int = 20) -> str:
+        """The world's types for an error message: the first ``limit``, then how many more (a
+        CAD model with a type per node has thousands)."""
+        names = list(itertools.islice(self._type_index, limit))
+        more = len(self._type_index) - len(names)
+        return f"{names}" + (f" and {more:,} more" if more else "")
+
+    def link_lengths(self, type_a: str, type_b: str, lo: float = -math.inf, hi: float = math.inf,
+                     ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
+        """Links between ``type_a`` and ``type_b`` objects with ``lo < length < hi``.
+
+        Returns ``(i, j, length)``, ``i`` global indices of ``type_a`` objects and ``j`` of
+        ``type_b`` objects, sorted by length.  Only links shorter than ``max_link_length +
+        link_margin`` exist.  For ``type_a == type_b`` each pair appears once (``i < j``).
+        The defaults return every link (including zero-length ones between coincident objects
+        of different types).
+        """
+        self._check_known_type(type_a, "type_a")
+        self._check_known_type(type_b, "type_b")
+        lo = _checks.real_float("lo", lo)
+        hi = _checks.real_float("hi", hi)
+        if type_a <= type_b:
+            return self._links[(type_a, type_b)].in_range(lo, hi)
+        i, j, length = self._links[(type_b, type_a)].in_range(lo, hi)
+        return j, i, length
+
+    def type_tree(self, type_name: str, z_scale: float = 1.0) -> cKDTree:
+        """A :class:`scipy.spatial.cKDTree` over the positions of one type's objects, in the order
+        of :meth:`indices_of`, with the z coordinate multiplied by ``z_scale`` (> 0; a large scale
+        keeps the storeys of a gravity-aligned world apart in distance queries).  Built on first
+        use, then kept with the world."""
+        self._check_known_type(type_name, "type_name")
+        z_scale = _checks.positive_float("z_scale", z_scale)
+        trees = self._type_trees
+        key = (type_name, z_scale)
+        if key not in trees:
+            pts = self._positions[self._type_index[type_name]]
+            trees[key] = cKDTree(pts if z_scale == 1.0 else pts * np.array([1.0, 1.0, z_scale]))
+        return trees[key]
+
+    @cached_property
+    def _type_trees(self) -> dict[tuple[str, float], cKDTree]:
+        return {}
+
+    def type_grid(self, type_name: str) -> ring_join.RingGrid:
+        """A :class:`~worldgraph.model.ring_join.RingGrid` of one type's objects (in the order of
+        :meth:`indices_of`) for the compiled ring joins of far percept pairs.  Built on first
+        use (a sort, no numba needed), then kept with the world."""
+        self._check_known_type(type_name, "type_name")
+        grids = self._type_grids
+        if type_name not in grids:
+            grids[type_name] = ring_join.ring_grid(self._positions[self._type_index[type_name]])
+        return grids[type_name]
+
+    @cached_property
+    def _type_grids(self) -> dict[str, ring_join.RingGrid]:
+        return {}
+
+    def far_pairs(self, type_a: str, type_b: str, gravity_aligned: bool = False) -> FarPairIndex | None:
+        """The pairs of ``type_a`` and ``type_b`` objects up to :data:`FAR_PAIR_RANGE` apart,
+        sorted by distance (:class:`FarPairIndex`), for percept pairs beyond the link table.
+
+        ``gravity_aligned``: keyed by the horizontal distance and holding the pairs up to
+        :data:`FAR_PAIR_HEIGHT` apart in z (the same storey), else by the 3D distance.  Built on
+        first use for the (unordered) type pair and kept with the world; ``None`` when the pairs
+        would exceed :data:`FAR_PAIR_MAX_PAIRS` (estimated from a sample before building), or the
+        world's indices together :data:`FAR_PAIR_BUDGET`: the caller then queries k-d trees.
+        """
+        self._check_known_type(type_a, "type_a")
+        self._check_known_type(type_b, "type_b")
+        if not isinstance(gravity_aligned, bool | np.bool_):
+            raise ArgumentTypeError(f"gravity_aligned must be a bool, got {_checks._short(gravity_aligned)}")
+        index, flip = self._far_pair_index(type_a, type_b, bool(gravity_aligned))
+        if index is None or not flip:
+            return index
+        return FarPairIndex(key=index.key, i=index.j, j=index.i, dz=None if index.dz is None else -index.dz)
+
+    def _far_pair_index(self, type_a: str, type_b: str, gravity: bool, lazy: bool = False
+                        ) -> tuple[FarPairIndex | None, bool]:
+        """The kept index of the type pair in sorted order (built on first use) and whether
+        ``(type_a, type_b)`` is that order flipped: the association reads it without the
+        flipped view's copy of ``dz`` (types checked by the caller).  ``lazy`` (the
+        association): only an index already built (by :meth:`far_pairs` or
+        :meth:`build_far_pairs`), else None: the association then takes the compiled ring join
+        or the k-d trees, and no call pays for building an index (measured on worlds from
+        arrays, 20 views each: 100k building, median associate 150 ms with no index built on
+        the way against 266 ms building those up to 2M pairs on first use (116 ms once all were
+        built); 1M campus, 1.2 s against 2.1 s, first call 1.9 s against 3.4 s, 27 s building
+        every index on first use)."""
+        return _world_far_pair_index(self, type_a, type_b, gravity, lazy)
+
+    @cached_property
+    def _far_pairs(self) -> dict[tuple[str, str, bool], FarPairIndex | None]:
+        return {}
+
+    @cached_property
+    def _far_estimates(self) -> dict[tuple[str, str, bool], float]:
+        return {}
+
+    @cached_property
+    def _far_pairs_held(self) -> list[int]:
+        """``[number of pairs in the kept far-pair indices]``, kept up to date as they are built
+        (summing over the indices at every build was quadratic in the number of type pairs)."""
+        return [0]
+
+    @cached_property
+    def _far_pairs_complete(self) -> set[bool]:
+        """The ``gravity_aligned`` values whose every non-empty index :meth:`build_far_pairs`
+        has built (or found over the budget): the other type pairs have empty indices."""
+        return set()
+
+    def _warn_units(self) -> WorldModel:
+        """Warn (:class:`~worldgraph.model.units.UnitsWarning`) if :attr:`units_hint` says
+        its positions look like millimetres, and return this world (the ``from_*`` builders call it)."""
+        if self.units_hint is not None:
+            from .units import UnitsWarning  # units imports this module
+            warnings.warn(self.units_hint, UnitsWarning, stacklevel=3)
+        return self
+
+    @cached_property
+    def units_hint(self) -> str | None:
+        """:func:`worldgraph.model.units.world_units_hint` of this world, computed once (``localize``
+        adds it to its message; it samples the world and queries its k-d tree)."""
+        from .units import world_units_hint  # units imports this module
+
+        return world_units_hint(self)
+
+    def build_far_pairs(self, gravity_aligned: bool = False) -> int:
+        """Build :meth:`far_pairs` for every pair of types now, the smallest first (estimated from
+        a sample), so that the budget :data:`FAR_PAIR_BUDGET` covers as many type pairs as it
+        can; returns the number of pairs held.
+
+        A tuning step for a long-running localiser on a big map: the association uses the
+        indices built (``gravity_aligned=True`` for the default, gravity search), and never
+        builds one itself (the compiled ring join takes those far pairs).  On the 100k building
+        it costs about 15 s and takes the associate median from about 150 to 115 ms.
+
+        Only the type pairs with two objects within reach of each other are visited (one k-d
+        tree pass over all objects finds them); every other type pair's index is empty, and
+        :meth:`far_pairs` and the association read it as built.  A world of 5,000 types, one
+        per object, has 12.5M type pairs, but only those its objects' neighbourhoods hold."""
+        if not isinstance(gravity_aligned, bool | np.bool_):
+            raise ArgumentTypeError(f"gravity_aligned must be a bool, got {_checks._short(gravity_aligned)}")
+        gravity = bool(gravity_aligned)
+        return _build_world_far_pairs(self, gravity)
+
+    def indices_of(self, type_name: str) -> NDArray[np.intp]:
+        """Object indices of one type (``UnknownTypeError`` if absent)."""
+        self._check_known_type(type_name, "type_name")
+        return self._type_index[type_name]
+
+    @property
+    def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(lower (3,), upper (3,))`` of the union of the objects' oriented bounding boxes
+        (computed once per world)."""
+        lo, hi = self._bounds
+        return lo.copy(), hi.copy()
+
+    @cached_property
+    def _bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        if isinstance(self.objects, ObjectTable) and self.objects.rotations is None:  # identity rotations
+            half = self.objects.sizes * 0.5
+        elif isinstance(self.objects, ObjectTable):
+            half = np.einsum("nij,nj->ni", np.abs(self.objects.rotation_array()), self.objects.sizes * 0.5)
+        else:
+            rot = np.array([o.pose[:3, :3] for o in self.objects])
+            half = np.einsum("nij,nj->ni", np.abs(rot), np.array([o.size for o in self.objects]) * 0.5)
+        return (self.positions - half).min(axis=0), (self.positions + half).max(axis=0)
+
+    def region(self, margin: float = 0.0) -> radialopt.Region:
+        """Box of valid robot positions: above the floor (the lowest object point) and inside the model.
+
+        ``margin`` (metres) widens the box in x and y on both sides and raises its top; the
+        bottom stays at floor height.  A negative margin shrinks it.
+        """
+        from radialopt import Region
+        from radialopt import errors as ro_errors
+
+        margin = _checks.finite_float("margin", margin, max_abs=MAX_LINK_LENGTH)
+        lo, hi = self.bounds
+        lower = np.array([lo[0] - margin, lo[1] - margin, lo[2]])
+        upper = np.array([hi[0] + margin, hi[1] + margin, hi[2] + margin])
+        try:
+            return Region(lower, upper)
+        except ro_errors.RadialError as exc:
+            raise WorldGraphError(f"margin = {margin!r} shrinks the model's box {lo.tolist()}..{hi.tolist()} "
+                                  f"to nothing: {exc}") from exc
+
+    def subset(self, types: Iterable[str]) -> WorldModel:
+        """A world model holding only the objects of the given types (same link settings and room);
+        a single string is one type."""
+        if isinstance(types, str):
+            types = [types]
+        if (types is None or isinstance(types, bytes | Mapping) or not isinstance(types, Iterable)
+                or (isinstance(types, np.ndarray) and types.ndim == 0)):
+            raise ArgumentTypeError(f"types must be an iterable of type names, got {_checks._short(types)}")
+        keep: Collection[str] = list(types)
+        for k, t in enumerate(keep):
+            self._check_known_type(t, f"types[{k}]")
+        keep = set(keep)
+        index = np.flatnonzero(np.isin(self._types, sorted(keep)))
+        if not index.size:
+            raise EmptyWorldError(f"types must name at least one type of the world, got "
+                                  f"{_checks._short(types)}")
+        return self.take(index)
+
+    def take(self, index: ArrayLike) -> WorldModel:
+        """A world model holding the objects at ``index`` (distinct ints, in that order) with the
+        same link settings, room and ``gravity_aligned`` flag; a table stays a table."""
+        idx = _object_index(index, len(self), 0)
+        if not idx.size:
+            raise EmptyWorldError("index must select at least one object, got 0")
+        if len(np.unique(idx)) != len(idx):
+            raise WorldGraphError(f"index must hold distinct object indices, got {_checks._short(index)}")
+        objs: Sequence[ObjectModel]
+        if isinstance(self.objects, ObjectTable):
+            objs = self.objects.take(idx)
+            geometries = set(np.unique(objs.geometries).tolist())
+        else:
+            objs = tuple(self.objects[k] for k in idx.tolist())
+            geometries = {o.geometry for o in objs}
+        cv = {g: self.class_vertices[g] for g in sorted(geometries)}
+        return WorldModel(objs, self.max_link_length, cv, scene=None, link_margin=self.link_margin,
+                          room=self.room, gravity_aligned=self.gravity_aligned)
+
+    # -- files -----------------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary in the documented file format."""
+        return world_to_dict(self)
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the model as JSON (see :mod:`worldgraph.model` for the format); a path that cannot be
+        written raises :class:`~worldgraph.errors.WorldGraphError` naming it."""
+        save_world(self, path)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> WorldModel:
+        """Read a model written by :meth:`save` (or by hand).
+
+        Every problem is a :class:`~worldgraph.errors.MalformedFileError` naming the path and the
+        problem: a path that is not a ``str``/``PathLike`` or holds a NUL character, a file that
+        cannot be read, is not UTF-8, not JSON, nested too deeply, or holds a bad value (numbers
+        beyond float64, non-rigid poses, coordinates above :data:`MAX_COORDINATE`, ...).
+        """
+        return load_world(cls, path)
+
+    @classmethod
+    def from_dict(cls, data: Any, source: str = "data") -> WorldModel:
+        """Build from the dictionary of the file format, validating every entry."""
+        return world_from_dict(cls, data, source)
+
+    @classmethod
+    def _from_dict(cls, data: Any, bad: Callable[[str], MalformedFileError]) -> WorldModel:
+        return _world_from_dict(cls, data, bad)

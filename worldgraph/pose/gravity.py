@@ -1,0 +1,225 @@
+"""Gravity as a per-call fact: which way is up in the robot's ego frame, and which search answers.
+
+Every entry point that associates percepts (:func:`~worldgraph.association.associate`,
+:func:`~worldgraph.localize.localize`, :func:`~worldgraph.active.active_localize`,
+:func:`~worldgraph.tiles.localize_tiled`) takes ``gravity``:
+
+``"auto"`` (default)
+    The ego z axis is up within ``AssociationTolerances.tilt_allowance`` (a level base, REP 103):
+    the *gravity search* compares the horizontal distance and the height difference of percept
+    pairs separately (storeys drop out; the gates are widened by what a tilt up to the allowance
+    can change, :func:`tilt_widening`).  When that pass finds no answer with enough support
+    (it explains fewer than :data:`MIN_GRAVITY_SUPPORT` of the percepts, or no pose at all) or its
+    pose tilts the ego z axis beyond the allowance (plus :data:`TILT_SLACK`), the *free search*
+    (3D distances only, any rotation) answers instead.
+a (3,) up vector in the ego frame
+    From an IMU: the percepts are levelled (rotated so that this vector is z) for the gravity
+    search, and the poses returned are of the ego frame as given: a tilted head or base still
+    gets the storey-aware search.  No fallback.
+``None``
+    The free 3D search.
+
+The result says which search answered (``LocalizationResult.search``,
+``AssociationHypothesis.search``).  ``AssociationTolerances.gravity_aligned`` (when not None)
+still decides for ``"auto"``, as before: ``True`` is the gravity search about the ego z axis
+without fallback, ``False`` the free search.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from perception import Percept
+
+from .._checks import float_array
+from ..errors import ArgumentTypeError, OutOfRangeError
+from ..tolerances import LEVEL_TOLERANCE, MIN_UP_NORM, TINY, AssociationTolerances
+
+__all__ = ["GRAVITY_MODES", "MIN_GRAVITY_SUPPORT", "TILT_SLACK", "Gravity", "SearchKind", "level_rotation",
+           "tilt_angle", "tilt_widening"]
+
+#: What ``gravity`` may be: ``"auto"``, a (3,) up vector in the ego frame, or ``None``.
+Gravity = Literal["auto"] | ArrayLike | None
+#: Which search answered: the storey-aware ``"gravity"`` search or the ``"free"`` 3D search.
+SearchKind = Literal["gravity", "free"]
+#: The string modes of ``gravity``.
+GRAVITY_MODES = ("auto",)
+#: ``gravity="auto"`` keeps the gravity pass's answer only when the percepts it explains (for
+#: ``localize``: its matches, or more when more percepts lie within the 3-dof chi-square gate of
+#: an object of their type, as a percept between two neighbouring objects does; for
+#: ``associate``: the best hypothesis' inliers) are at least this
+#: fraction of the percepts of known types (rounded up; and at least ``min_clique_size``): a
+#: robot tilted beyond the allowance breaks most pair gates, so the gravity pass then explains
+#: few percepts.  At 0.5 a kitchen robot tilted by 15 degrees got a level pose 0.8 m off, "ok",
+#: from 5 of its 9 percepts (repeated cabinet runs); a level one explains all but its false
+#: percepts (8 of 9 in the benchmarks).
+MIN_GRAVITY_SUPPORT = 0.75
+#: ... and when its pose tilts the ego up vector at most ``tilt_allowance`` plus this (rad) from
+#: the world z axis: the fitted rotation's own error (a pose from 3-8 percepts a few metres away
+#: is good to a fraction of a degree).
+TILT_SLACK = math.radians(1.0)
+
+_EZ = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """One call's search: ``up`` the unit up vector in the ego frame (None: the free search),
+    ``level`` the rotation that takes ego vectors into the levelled frame (None: identity), and
+    whether ``"auto"`` may fall back to the free search."""
+
+    up: NDArray[np.float64] | None
+    level: NDArray[np.float64] | None
+    fallback: bool
+
+    @property
+    def search(self) -> SearchKind:
+        return "free" if self.up is None else "gravity"
+
+
+_FREE = _Plan(None, None, False)
+
+
+def level_rotation(up: ArrayLike) -> NDArray[np.float64]:
+    """The smallest rotation ``L`` with ``L @ up / |up| = (0, 0, 1)``.
+
+    Parameters
+    ----------
+    up : (3,) float
+        The up direction in the ego frame (any length > 0).
+
+    Returns
+    -------
+    (3, 3) float
+        A proper rotation matrix (the identity when ``up`` is already z).
+
+    Raises
+    ------
+    OutOfRangeError
+        ``up`` has a zero or non-finite length.
+    """
+    u = _unit_up(up)
+    c = float(u[2])
+    axis = np.cross(u, _EZ)
+    s = float(np.linalg.norm(axis))
+    if s < LEVEL_TOLERANCE:
+        if c > 0:
+            return np.eye(3)
+        return np.diag([1.0, -1.0, -1.0])  # upside down: half a turn about x
+    k = axis / s
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + s * kx + (1.0 - c) * (kx @ kx)
+
+
+def _unit_up(up: object, name: str = "gravity") -> NDArray[np.float64]:
+    u = float_array(name, up, (3,), max_abs=1e12)
+    n = float(np.linalg.norm(u))
+    if not n > MIN_UP_NORM:
+        raise OutOfRangeError(f"{name} = {u.tolist()} must be a non-zero up vector in the ego frame")
+    return u / n
+
+
+def tilt_angle(world_from_ego: ArrayLike, up: ArrayLike = (0.0, 0.0, 1.0)) -> float:
+    """Angle (rad) between the ego frame's up vector, mapped into the world, and the world z axis.
+
+    Parameters
+    ----------
+    world_from_ego : (4, 4) or (3, 3) float
+        A pose (its rotation block is used).
+    up : (3,) float
+        The up direction in the ego frame (default its z axis).
+
+    Returns
+    -------
+    float
+        In ``[0, pi]``; NaN when the pose is not finite.
+    """
+    m = np.asarray(world_from_ego, dtype=np.float64)
+    if m.shape not in ((4, 4), (3, 3)):
+        raise ArgumentTypeError(f"world_from_ego must have shape (4, 4) or (3, 3), got {m.shape}")
+    if not np.all(np.isfinite(m)):
+        return math.nan
+    z = m[:3, :3] @ _unit_up(up, "up")
+    return math.acos(max(-1.0, min(1.0, float(z[2]) / max(float(np.linalg.norm(z)), TINY))))
+
+
+def tilt_widening(h: float | NDArray, dz: float | NDArray, tilt: float
+                  ) -> tuple[float | NDArray, float | NDArray]:
+    """How much a tilt of the ego z axis by at most ``tilt`` (rad) can change a vector's
+    horizontal length ``h`` and height difference ``dz``: ``(h (1 - cos t) + |dz| sin t,
+    h sin t + |dz| (1 - cos t))``, exact bounds (the vector's elevation moves by at most ``t``)."""
+    s, c1 = math.sin(tilt), 1.0 - math.cos(tilt)
+    adz = np.abs(dz)
+    return h * c1 + adz * s, h * s + adz * c1
+
+
+def _check_gravity(gravity: object, tol: AssociationTolerances) -> _Plan:
+    """The search of a call from its ``gravity`` argument and ``tol.gravity_aligned``."""
+    if isinstance(gravity, str):
+        if gravity not in GRAVITY_MODES:
+            raise ArgumentTypeError(f"gravity must be 'auto', a (3,) up vector in the ego frame or None, "
+                                    f"got {gravity!r}")
+        if tol.gravity_aligned is None:
+            return _Plan(_EZ.copy(), None, True)
+        return _Plan(_EZ.copy(), None, False) if tol.gravity_aligned else _FREE
+    if gravity is None:
+        return _FREE
+    if isinstance(gravity, bool | np.bool_):
+        raise ArgumentTypeError(f"gravity must be 'auto', a (3,) up vector in the ego frame or None, "
+                                f"got {gravity!r} (True: use 'auto' or (0, 0, 1); False: None)")
+    u = _unit_up(gravity)
+    level = None if math.hypot(u[0], u[1]) < LEVEL_TOLERANCE and u[2] > 0 else level_rotation(u)
+    return _Plan(u, level, False)
+
+
+def _tol_for(plan: _Plan, tol: AssociationTolerances) -> AssociationTolerances:
+    """``tol`` with ``gravity_aligned`` set to the plan's search."""
+    want = plan.up is not None
+    return tol if tol.gravity_aligned is want else replace(tol, gravity_aligned=want)
+
+
+def _levelled(percepts: Sequence[Percept], level: NDArray[np.float64] | None) -> list[Percept]:
+    """The percepts rotated by ``level`` (positions, covariances and shared loadings)."""
+    if level is None:
+        return list(percepts)
+    out = []
+    for p in percepts:
+        cov = None if p.covariance is None else level @ p.covariance @ level.T
+        shared = tuple((k, level @ s) for k, s in p.shared)
+        out.append(Percept(p.type, level @ p.position, p.sigma, covariance=cov, views=p.views, shared=shared))
+    return out
+
+
+def _unlevelled_pose(pose: NDArray[np.float64], level: NDArray[np.float64] | None) -> NDArray[np.float64]:
+    """``world_from_level`` as ``world_from_ego``: ``x_level = L x_ego``."""
+    if level is None:
+        return pose
+    out = np.array(pose, dtype=np.float64)
+    out[:3, :3] = pose[:3, :3] @ level
+    return out
+
+
+def _unsupported(pose: NDArray[np.float64], n_inliers: int, n_used: int, up: NDArray[np.float64],
+                 tol: AssociationTolerances) -> str:
+    """Why ``gravity="auto"`` does not keep a gravity-pass answer (its pose and the number of
+    percepts it explains, of ``n_used``), "" when it does: no pose, fewer explained than
+    :data:`MIN_GRAVITY_SUPPORT` of the percepts (and than ``min_clique_size``), or a pose that
+    tilts the ego up vector beyond ``tol.tilt_allowance`` plus :data:`TILT_SLACK`.  The one rule
+    of :func:`~worldgraph.associate` (on its best hypothesis), :func:`~worldgraph.localize` and
+    :func:`~worldgraph.localize_tiled` (on their answers)."""
+    if not bool(np.all(np.isfinite(pose))):
+        return "no pose"
+    if n_inliers < max(int(tol.min_clique_size), math.ceil(MIN_GRAVITY_SUPPORT * n_used)):
+        return f"{n_inliers} of {n_used} percepts explained"
+    tilt = tilt_angle(pose, up)
+    if not tilt <= tol.tilt_allowance + TILT_SLACK:
+        allowance = math.degrees(tol.tilt_allowance)
+        return (f"a pose tilted {math.degrees(tilt):.1f} deg (allowance {allowance:.1f} deg + "
+                f"{math.degrees(TILT_SLACK):.0f} deg slack)")
+    return ""
