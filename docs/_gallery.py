@@ -25,7 +25,7 @@ def saved_figures(block, block_vars, gallery_conf):
 
     paths = []
     new = sorted(p for p in EXAMPLES_OUT.glob("*.png") if p not in _shown)
-    for png, target in zip(new, block_vars["image_path_iterator"]):
+    for png, target in zip(new, block_vars["image_path_iterator"], strict=False):
         shutil.copyfile(png, target)
         _shown.add(png)
         paths.append(target)

@@ -74,7 +74,7 @@ def _out(x: NDArray[np.float64]) -> NDArray[np.float64] | float:
 def perception_depth(
     points: ArrayLike, camera_center: ArrayLike, viewing_direction: ArrayLike
 ) -> NDArray[np.float64] | float:
-    """Perception depth ``rho = (x - C_L) . e_d`` (eq. 7).
+    """Perception depth ``rho = (x - C_L) @ e_d`` (eq. 7).
 
     Parameters
     ----------

@@ -1,5 +1,6 @@
-"""README.md runs as written: every ```python block, in order, in one namespace (issue 15), and its
-two set-up commands are the ones .ci/run runs."""
+"""README.md runs as written: every ```python block, in order, in one namespace (issue 15), and so
+does the tour of the API in docs/tour.md (issue 26: moved there from the README); the README's two
+set-up commands and its documentation command are the ones .ci/run runs."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+TOUR = ROOT / "docs" / "tour.md"
 CI_RUN = ROOT / ".ci" / "run"
 FENCE = re.compile(r"^```(\w*)[ \t]*\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
 
@@ -54,9 +56,9 @@ def test_runner_names_the_failing_block() -> None:
         run_blocks(blocks, {})
 
 
-def test_readme_python_blocks_run_in_order(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    blocks = fenced_blocks(README.read_text(encoding="utf-8"), "python")
-    assert len(blocks) >= 5, "the API tour lost its python blocks"
+def _run_page(page: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, at_least: int) -> None:
+    blocks = fenced_blocks(page.read_text(encoding="utf-8"), "python")
+    assert len(blocks) >= at_least, f"{page.name} lost its python blocks"
     matplotlib.use("Agg")
     monkeypatch.chdir(tmp_path)  # the tour writes out/ and a temporary scene file
     namespace: dict = {"__name__": "__readme__"}
@@ -66,6 +68,14 @@ def test_readme_python_blocks_run_in_order(tmp_path: Path, monkeypatch: pytest.M
         import matplotlib.pyplot as plt
 
         plt.close("all")
+
+
+def test_readme_python_blocks_run_in_order(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    _run_page(README, tmp_path, monkeypatch, at_least=1)
+
+
+def test_the_tour_of_the_api_runs_in_order(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    _run_page(TOUR, tmp_path, monkeypatch, at_least=5)
     # the tour saved its figure where it says
     assert (tmp_path / "out" / "readme_top_view.png").stat().st_size > 0
 
@@ -115,13 +125,21 @@ def test_readme_setup_commands_are_what_ci_runs() -> None:
     assert len(bash) == 2, f"README.md's set-up has {len(bash)} bash blocks, not its two commands"
     install_and_example, tests = (commands(source) for _, source in bash)
     ci = commands(CI_RUN.read_text(encoding="utf-8"))
-    # README command 2 is CI's job: the same apt-get, pip install and pytest lines, in the same order
-    assert setup_commands(tests) == setup_commands(ci)
+    # README command 2 is CI's job: the same apt-get, pip install and pytest lines, in the same order,
+    # followed by the README's documentation build
+    docs = re.search(r"^## Documentation.*?(?=^## )", text, re.MULTILINE | re.DOTALL)
+    assert docs, "README.md has no '## Documentation' section"
+    (docs_block,) = (commands(source) for _, source in fenced_blocks(docs.group(0), "bash"))
+    assert setup_commands(tests) == setup_commands(ci)[:len(setup_commands(tests))]
     assert [c[0] for c in setup_commands(ci)].count("pytest") == 1
+    ci_docs = [c for c in ci if c[:4] == ["python", "-m", "sphinx", "-W"]]
+    readme_docs = [c for c in docs_block if c[0] == "python"]
+    assert ci_docs and ci_docs == readme_docs, "CI builds the docs as the README says"
+    assert ["pip", "install", "-e", ".[docs]"] in setup_commands(ci)
     # README command 1 installs the same package from the same checkout with the examples extra
     assert setup_commands(install_and_example) == [["pip", "install", "-e", ".[examples]"]]
     editable = [c for c in setup_commands(ci) if c[:3] == ["pip", "install", "-e"]]
-    assert [c[3] for c in editable] == [".[test]"]
+    assert [c[3] for c in editable] == [".[test]", ".[docs]"]
     # and runs the example the README names, which exists
     runs = [c for c in install_and_example if c[0] == "python"]
     assert len(runs) == 1 and (ROOT / runs[0][1]).is_file()
