@@ -30,3 +30,15 @@ def saved_figures(block, block_vars, gallery_conf):
         _shown.add(png)
         paths.append(target)
     return figure_rst(paths, gallery_conf["src_dir"])
+
+
+def check_every_example_has_a_figure(app, exception):
+    """``build-finished`` hook: every numbered example of ``examples/`` has its figure in the
+    gallery (an example that saved no PNG into ``--out`` would otherwise show none, silently)."""
+    if exception is not None or str(getattr(app.config, "plot_gallery", True)).lower() in ("0", "false"):
+        return  # a failed build, or one asked not to run the examples (-D plot_gallery=0)
+    root = Path(app.srcdir)
+    missing = [script.name for script in sorted((root.parent / "examples").glob("[0-9][0-9]_*.py"))
+               if not (root / "auto_examples" / "images" / f"sphx_glr_{script.stem}_001.png").is_file()]
+    if missing:
+        raise RuntimeError(f"the gallery shows no figure for {', '.join(missing)}")

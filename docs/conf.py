@@ -77,3 +77,10 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 import _api  # noqa: E402  (docs/_api.py: the API pages, written before Sphinx reads the sources)
 
 _api.write_pages(ROOT / "docs" / "api")
+
+
+def setup(app):
+    """Fail the build when an example of the gallery shows no figure."""
+    import _gallery
+
+    app.connect("build-finished", _gallery.check_every_example_has_a_figure)
