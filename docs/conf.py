@@ -9,9 +9,13 @@ The example gallery runs every script in ``examples/`` and shows the figures eac
 
 from __future__ import annotations
 
+import inspect
 import os
 import sys
 from pathlib import Path
+
+from sphinx.errors import PycodeError
+from sphinx.pycode import ModuleAnalyzer
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "examples"))  # the examples import their _common helpers
@@ -79,8 +83,35 @@ import _api  # noqa: E402  (docs/_api.py: the API pages, written before Sphinx r
 _api.write_pages(ROOT / "docs" / "api")
 
 
+def _data_docstring(app, what, name, obj, options, lines):
+    """A constant's own ``#:`` comment, also where a package re-exports it, never the docstring of
+    its type (autodoc shows ``tuple``'s or ``ndarray``'s otherwise): the comment is looked up in
+    every loaded module of the three packages that holds the same object under the same name."""
+    if what not in ("data", "attribute"):
+        return
+    type_doc = (inspect.getdoc(type(obj)) or "").strip()
+    if lines and "\n".join(lines).strip() != type_doc:
+        return  # the constant has a documentation of its own
+    short = name.rsplit(".", 1)[-1]
+    for modname, module in sorted(sys.modules.items()):
+        if modname.split(".")[0] not in ("perception", "worldgraph", "radialopt"):
+            continue
+        if getattr(module, short, None) is not obj:
+            continue
+        try:
+            found = ModuleAnalyzer.for_module(modname).find_attr_docs().get(("", short))
+        except PycodeError:
+            continue
+        if found:
+            lines[:] = list(found)
+            return
+    lines[:] = []
+
+
 def setup(app):
-    """Fail the build when an example of the gallery shows no figure."""
+    """Constants documented by their own comments; the build fails when an example of the
+    gallery shows no figure."""
     import _gallery
 
+    app.connect("autodoc-process-docstring", _data_docstring, priority=100)  # before numpydoc (500)
     app.connect("build-finished", _gallery.check_every_example_has_a_figure)
