@@ -2,8 +2,9 @@
 
 Writes, as sorted JSON, the ``to_dict()`` output of ``localize`` (methods "ml" and "paper"),
 the direction of ``plan_view`` and every result of ``active_localize`` (two looks of at most 4
-percepts) on seeded views of the paper's kitchen (15) and a galley layout (6), the digests of
-both worlds' ``to_dict()``, of a kitchen read back by ``WorldModel.from_file`` and the result of
+percepts, each object seen with probability 0.6, as in ``benchmarks/active_validation.py``) on
+seeded views of the paper's kitchen (15) and a galley layout (6), the digests of both worlds'
+``to_dict()``, of a kitchen read back by ``WorldModel.from_file`` and the result of
 ``localize_tiled``; timings are dropped and floats kept to 10 significant digits. Run it in two
 checkouts and compare the files:
 
@@ -17,17 +18,15 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import math
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+from active_validation import MAX_RANGE, PERCEPT_TYPES, _looker, _pose  # benchmarks/active_validation.py
 
 import worldgraph as wg
 from perception.simulate import simulate_percepts
 
-TYPES = ("door", "handle", "drawer", "knob")
 DEPTH_FACTOR = 500.0
 
 
@@ -46,34 +45,20 @@ def _digest(value) -> str:
     return hashlib.sha256(json.dumps(_plain(value), sort_keys=True).encode()).hexdigest()
 
 
-def _looker(types, positions, pose, rng):
-    cos_half = math.cos(math.radians(30.0))
-
-    def look(direction):
-        seen, _ = simulate_percepts(types, positions, pose, rng, depth_factor=DEPTH_FACTOR, max_range=8.0,
-                                    miss_rate=0.4)
-        return [p for p in seen
-                if float(p.position @ direction) >= cos_half * float(np.linalg.norm(p.position))][:4]
-    return look
-
-
 def outputs() -> dict:
     out: dict = {}
     worlds = {"kitchen0": wg.scenes.kitchen(seed=0), "galley1": wg.scenes.kitchen_layout("galley", seed=1)}
     percepts: list = []
     for name, world in worlds.items():
         out[f"{name}/world"] = _digest(world.to_dict())
-        mask = np.isin(world.types, TYPES)
+        mask = np.isin(world.types, PERCEPT_TYPES)
         types, positions = list(world.types[mask]), world.positions[mask]
         lo, hi = world.bounds
         rng = np.random.default_rng(7)
         for view in range(15 if name == "kitchen0" else 6):
-            pose = np.eye(4)
-            pose[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
-            pose[:2, 3] = rng.uniform(lo[:2] + 0.5, hi[:2] - 0.5)
-            pose[2, 3] = 1.5
+            pose = _pose(rng, lo, hi)
             percepts, _ = simulate_percepts(types, positions, pose, rng, depth_factor=DEPTH_FACTOR,
-                                            max_range=8.0, n_false=1, false_types=sorted(set(types)))
+                                            max_range=MAX_RANGE, n_false=1, false_types=sorted(set(types)))
             percepts = percepts[:9]
             if len(percepts) < 3:
                 continue
@@ -85,8 +70,9 @@ def outputs() -> dict:
                     out[f"{name}/{view}/{method}"] = repr(exc)
             plan = wg.plan_view(world, wg.localize(world, percepts))
             out[f"{name}/{view}/plan"] = _plain([float(x) for x in plan.direction])
-            look = _looker(types, positions, pose, np.random.default_rng(view))
-            active = wg.active_localize(world, percepts, look, max_looks=2, types=TYPES)
+            look = _looker(types, positions, pose, np.random.default_rng(view), DEPTH_FACTOR,
+                           detection=0.6, cap=4)
+            active = wg.active_localize(world, percepts, look, max_looks=2, types=PERCEPT_TYPES)
             out[f"{name}/{view}/active"] = _plain([r.to_dict() for r in active.results])
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "kitchen.glb"

@@ -94,7 +94,7 @@ def _data_docstring(app, what, name, obj, options, lines):
         return  # the constant has a documentation of its own
     short = name.rsplit(".", 1)[-1]
     for modname, module in sorted(sys.modules.items()):
-        if modname.split(".")[0] not in ("perception", "worldgraph", "radialopt"):
+        if modname.split(".")[0] not in _api.PACKAGES:
             continue
         if getattr(module, short, None) is not obj:
             continue
