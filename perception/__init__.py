@@ -33,10 +33,10 @@ from .errors import (
     UnknownClassError,
     URDFError,
 )
+from .detection import Detection
 from .fusion import fuse_percepts, mean_shift_modes
 from .percept import Percept
 from .recognition import (
-    Detection,
     GaussianClassifier,
     StereoMatch,
     detect,

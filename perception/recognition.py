@@ -40,18 +40,17 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from ._checks import boolean, guard, integer, name_str, real_array, real_scalar, sequence, spd
+from ._checks import boolean, guard, integer, real_scalar, sequence
 from ._checks import rng as check_rng
 from .chain import check_transform
 from .classifier import GaussianClassifier
+from .detection import Detection
 from .errors import (
     ImageFormatError,
-    NonFiniteError,
     NonPositiveSigmaError,
     NotFittedError,
     PerceptionError,
     ShapeError,
-    UnknownClassError,
 )
 from .percept import Percept
 from .render import (  # the renderer moved to render.py; its names stay importable from here
@@ -77,7 +76,6 @@ from .segmentation import (
     _region_stats,
     region_features,
 )
-from .stereo import _matrix as _as_float_array
 from .tolerances import PARALLEL_RAYS
 from .uncertainty import depth_sigma, triangulation_jacobian
 
@@ -110,57 +108,6 @@ __all__ = [
 # Detection and classification (segmentation: perception.segmentation; classifier:
 # perception.classifier)
 # --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Detection:
-    """A classified image region.
-
-    Parameters
-    ----------
-    type : str
-        Class assigned by the classifier.
-    centroid_uv : (2,) float
-        Region centroid, pixels (OpenCV: pixel centres at integer coordinates).
-    area : float
-        Region area, pixels.
-    features : (d,) float
-        The region's feature vector (:data:`FEATURE_NAMES`).
-    log_likelihood : float
-        Class-conditional log-likelihood of the features under the assigned class.
-    shape_covariance : (2, 2) float, optional
-        Covariance of the region's pixel coordinates (u, v), px^2 (second central moments plus
-        1/12 for a pixel's extent). When omitted, that of a square of ``area`` pixels,
-        ``area / 12 * I``.
-    """
-
-    type: str
-    centroid_uv: NDArray[np.float64]
-    area: float
-    features: NDArray[np.float64]
-    log_likelihood: float = float("nan")
-    shape_covariance: NDArray[np.float64] | None = None
-
-    @guard
-    def __post_init__(self) -> None:
-        name_str("type", self.type, UnknownClassError)
-        uv = _as_float_array("centroid_uv", self.centroid_uv, (2,))
-        if np.any(np.abs(uv) > 1e9):
-            raise NonFiniteError(f"centroid_uv must be at most 1e9 px, got {uv.tolist()}")
-        feats = real_array("features", self.features, (-1,))
-        area = real_scalar("area", self.area, positive=True, high=1e12)
-        ll = self.log_likelihood
-        if not (isinstance(ll, float) and np.isnan(ll)):
-            ll = real_scalar("log_likelihood", ll)
-        if self.shape_covariance is None:
-            shape = np.eye(2) * (area / 12.0)
-        else:
-            shape = spd("shape_covariance", self.shape_covariance, 2)
-        object.__setattr__(self, "log_likelihood", float(ll))
-        for name, arr in (("centroid_uv", uv), ("features", feats), ("shape_covariance", shape)):
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
-        object.__setattr__(self, "area", area)
 
 
 @guard
