@@ -15,6 +15,7 @@ from .chain import (
     default_head,
     percept_covariance,
 )
+from .detection import Detection
 from .errors import (
     BehindCameraError,
     CalibrationError,
@@ -33,7 +34,6 @@ from .errors import (
     UnknownClassError,
     URDFError,
 )
-from .detection import Detection
 from .fusion import fuse_percepts, mean_shift_modes
 from .percept import Percept
 from .recognition import (
