@@ -31,6 +31,7 @@ from .errors import (
     PerceptionError,
     ShapeError,
     TooManyNeighboursError,
+    TypeRuleError,
     UnknownClassError,
     URDFError,
 )
@@ -74,6 +75,7 @@ __all__ = [
     "NonPositiveSigmaError",
     "NotFittedError",
     "TooManyNeighboursError",
+    "TypeRuleError",
     "Percept",
     "PerceptionError",
     "Rectification",

@@ -52,6 +52,10 @@ class URDFError(KinematicsError):
     no path from the base link down to the camera link, a joint type the chain cannot hold)."""
 
 
+class TypeRuleError(PerceptionError):
+    """A ``type_of`` argument that is not a name -> type rule (see :mod:`perception.type_rules`)."""
+
+
 class MissingExtraError(PerceptionError, ImportError):
     """An optional dependency is not installed; the message names the extra to install."""
 

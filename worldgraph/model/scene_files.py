@@ -9,12 +9,15 @@ from __future__ import annotations
 import importlib.util
 import os
 import pathlib
-import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from perception.errors import TypeRuleError
+from perception.type_rules import KNOWN_TYPES, default_type_of
+from perception.type_rules import type_rule as _perception_type_rule
 
 from .. import _checks
 from .._rigid import quat_matrix as _quat_matrix  # MuJoCo quaternion (w, x, y, z) -> rotation matrix
@@ -41,12 +44,6 @@ __all__ = [
     "type_rule",
 ]
 
-#: Types the default rule (:func:`default_type_of`) recognises as the leading word of a name.
-KNOWN_TYPES = (
-    "appliance", "burner", "button", "cabinet", "chair", "dishwasher", "door", "drawer", "faucet",
-    "fridge", "handle", "hood", "kettle", "knob", "lamp", "microwave", "oven", "panel", "radiator",
-    "shelf", "sink", "socket", "stove", "switch", "table", "window",
-)
 #: File suffixes read with :func:`trimesh.load_scene`.
 TRIMESH_SUFFIXES = (".glb", ".gltf", ".ply", ".stl", ".off", ".dae")
 #: File suffixes read by this module's OBJ reader.
@@ -57,40 +54,15 @@ MJCF_SUFFIXES = (".xml", ".mjcf")
 MJCF_OBJECTS = ("bodies", "geoms")
 
 _MJCF_PIP = "pip install gaussian-spheres[mjcf]"
-_LEADING_WORD = re.compile(r"[^\W\d_]+")
 
 
 # ----------------------------------------------------------------------------------------------
-# typing rules
+# typing rules (defined in perception.type_rules, shared with perception.mujoco)
 # ----------------------------------------------------------------------------------------------
-def default_type_of(name: str) -> str | None:
-    """The type of a name by the default rule: its leading word if that is a known type.
-
-    Parameters
-    ----------
-    name : str
-        A node, body or geom name.
-
-    Returns
-    -------
-    str or None
-        The letters of ``name`` before the first character that is not a letter, lower-cased,
-        when they are one of :data:`KNOWN_TYPES`; else ``None``.
-
-    Examples
-    --------
-    >>> default_type_of("door_3"), default_type_of("Knob 1"), default_type_of("hingeleftdoor")
-    ('door', 'knob', None)
-    """
-    match = _LEADING_WORD.match(str(name))
-    if match is None:
-        return None
-    word = match.group(0).lower()
-    return word if word in KNOWN_TYPES else None
-
-
 def type_rule(type_of: Any) -> Callable[[str], str | None]:
     """The callable ``name -> type or None`` that a ``type_of`` argument stands for.
+
+    :func:`perception.type_rule` with its errors as worldgraph's.
 
     Parameters
     ----------
@@ -110,38 +82,10 @@ def type_rule(type_of: Any) -> Callable[[str], str | None]:
         ``type_of`` of another kind, an empty mapping, a pattern that does not compile (naming
         it) or a type that is not a non-empty string.
     """
-    if type_of is None:
-        return default_type_of
-    if isinstance(type_of, Mapping):
-        if not type_of:
-            raise ArgumentTypeError("type_of must map at least one regex pattern to a type, got {}")
-        rules: list[tuple[re.Pattern[str], str]] = []
-        for pattern, typ in type_of.items():
-            if isinstance(pattern, re.Pattern):
-                compiled = pattern
-            elif isinstance(pattern, str):
-                try:
-                    compiled = re.compile(pattern)
-                except re.error as exc:
-                    raise ArgumentTypeError(f"type_of pattern {pattern!r} is not a valid regular "
-                                            f"expression: {exc}") from exc
-            else:
-                raise ArgumentTypeError(f"type_of keys must be regex patterns (str or re.Pattern), got "
-                                        f"{_checks._short(pattern)}")
-            _checks.name_string(f"type_of[{pattern!r}]", typ, ArgumentTypeError)
-            rules.append((compiled, typ))
-
-        def by_pattern(name: str) -> str | None:
-            for compiled, typ in rules:
-                if compiled.search(name):
-                    return typ
-            return None
-
-        return by_pattern
-    if callable(type_of):
-        return type_of
-    raise ArgumentTypeError("type_of must be None, a callable name -> type or None, or a mapping of regex "
-                            f"patterns to types, got {_checks._short(type_of)}")
+    try:
+        return _perception_type_rule(type_of)
+    except TypeRuleError as exc:
+        raise ArgumentTypeError(str(exc)) from exc
 
 
 # ----------------------------------------------------------------------------------------------
