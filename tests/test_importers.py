@@ -15,6 +15,7 @@ import pytest
 import trimesh
 
 import worldgraph as wg
+import worldgraph.franka  # noqa: F401  (wg.franka below; the test ran only after test_franka imported it)
 from worldgraph import importers
 
 HAVE_GYMNASIUM_ROBOTICS = importlib.util.find_spec("gymnasium_robotics") is not None
@@ -371,3 +372,79 @@ def test_default_type_of():
     assert importers.default_type_of("handle:2") == "handle"
     assert importers.default_type_of("hingeleftdoor") is None
     assert importers.default_type_of("42") is None
+
+
+# ----------------------------------------------------------------------------------------------
+# MJCF bodies: visual geoms, untyped descendants
+# ----------------------------------------------------------------------------------------------
+VISUAL_MJCF = """\
+<mujoco model="visual and collision">
+  <asset>
+    <material name="ghost" rgba="0 1 0 0"/>
+  </asset>
+  <worldbody>
+    <body name="cabinet_7" pos="1 2 0">
+      <geom type="box" size="0.2 0.3 0.4" pos="0 0 0.4" contype="0" conaffinity="0" group="1"/>
+      <geom type="box" size="0.1 0.1 0.1" pos="-1 0 0"/>
+      <geom type="box" size="0.5 0.5 0.5" pos="2 0 0" group="3"/>
+      <body name="shelfboard" pos="0 0 1">
+        <geom type="box" size="0.1 0.1 0.05" pos="0.3 0 0" contype="0" conaffinity="0"/>
+        <geom type="box" size="0.3 0.3 0.3" pos="0 0 3" group="4"/>
+        <body name="door_2" pos="0 0.5 0">
+          <geom type="box" size="0.05 0.05 0.05"/>
+        </body>
+      </body>
+    </body>
+    <body name="drawer_3" pos="-1 0 0">
+      <geom type="box" size="0.1 0.1 0.1" pos="0 0.5 0" group="3"/>
+    </body>
+    <body name="knob_5" pos="0 -1 1">
+      <geom type="box" size="0.01 0.01 0.01" pos="0.2 0 0"/>
+      <geom type="box" size="0.01 0.01 0.01" pos="0 0 0" rgba="1 0 0 0"/>
+      <geom type="box" size="0.01 0.01 0.01" pos="-0.4 0 0" material="ghost"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+# by hand (body frame of cabinet_7, at (1, 2, 0)):
+#   its visual box (group 1, not colliding): x -0.2..0.2, y -0.3..0.3, z 0..0.8; the colliding
+#   group-0 box at x = -1 is left out (the body has non-colliding visual geoms), the group-3 box too;
+#   the untyped child shelfboard (at z = 1): its visual box x 0.2..0.4, y -0.1..0.1, z 0.95..1.05
+#   (its group-4 box left out); door_2 is typed: its own object.
+#   union x -0.2..0.4, y -0.3..0.3, z 0..1.05: centre (0.1, 0, 0.525), size (0.6, 0.6, 1.05)
+#   -> world (1.1, 2.0, 0.525)
+# door_2: (1, 2, 0) + (0, 0, 1) + (0, 0.5, 0) = (1, 2.5, 1)
+# drawer_3: no visual geom: its group-3 box, (-1, 0.5, 0)
+# knob_5: the transparent boxes (rgba alpha 0, a material of alpha 0) left out: (0.2, -1, 1)
+VISUAL_EXPECTED = {
+    "cabinet_7": ([1.1, 2.0, 0.525], [0.6, 0.6, 1.05]),
+    "door_2": ([1.0, 2.5, 1.0], [0.1, 0.1, 0.1]),
+    "drawer_3": ([-1.0, 0.5, 0.0], [0.2, 0.2, 0.2]),
+    "knob_5": ([0.2, -1.0, 1.0], [0.02, 0.02, 0.02]),
+}
+
+
+def test_mjcf_bodies_are_their_visual_geoms_and_untyped_descendants(tmp_path):
+    path = tmp_path / "visual.xml"
+    path.write_text(VISUAL_MJCF)
+    world = wg.WorldModel.from_file(path)
+    by_id = {o.id: o for o in world.objects}
+    assert sorted(by_id) == sorted(VISUAL_EXPECTED)
+    for name, (pos, size) in VISUAL_EXPECTED.items():
+        np.testing.assert_allclose(by_id[name].position, pos, atol=1e-9, err_msg=name)
+        np.testing.assert_allclose(sorted(by_id[name].size), sorted(size), atol=1e-9, err_msg=name)
+    # the same file typed by a mapping that leaves door_2 untyped: the cabinet takes its box
+    # (y up to 0.55 in the body frame: y -0.3..0.55, centre 0.125 -> 2.125)
+    world = wg.WorldModel.from_file(path, type_of={"^cabinet": "cabinet"})
+    assert [o.id for o in world.objects] == ["cabinet_7"]
+    np.testing.assert_allclose(world.positions[0], [1.1, 2.125, 0.525], atol=1e-9)
+
+
+def test_scene_from_file_without_types_keeps_each_bodys_own_visual_geoms(tmp_path):
+    path = tmp_path / "visual.xml"
+    path.write_text(VISUAL_MJCF)
+    scene = importers.scene_from_file(path)
+    transform, geometry = scene.graph["cabinet_7"]
+    lo, hi = scene.geometry[geometry].bounds
+    np.testing.assert_allclose(transform[:3, :3] @ (0.5 * (lo + hi)) + transform[:3, 3], [1.0, 2.0, 0.4],
+                               atol=1e-9)

@@ -23,9 +23,21 @@ Formats, chosen by the file suffix (or ``file_format``):
   (``pip install gaussian-spheres[mjcf]``).  ``mjcf_objects`` says what a candidate is:
 
   - ``"bodies"`` (default): every named body but the world body, its node holding the
-    body's own geoms (not its children's) in the body frame (``data.xpos``, ``data.xmat``);
-    a body without geoms is a single point at its origin; and every named geom of the world
-    body (static geometry such as a ``floor`` plane, which gives the room) as its own node;
+    body's *visual* geoms in the body frame (``data.xpos``, ``data.xmat``), and every named
+    geom of the world body (static geometry such as a ``floor`` plane, which gives the room)
+    as its own node.  A body's visual geoms are those MuJoCo draws by default: geom group 0,
+    1 or 2 (``mjvOption.geomgroup``) and a colour with alpha > 0 (the geom's ``rgba``, or its
+    material's when the geom has a material and the default ``rgba``); when the body has
+    visual geoms that do not collide (``contype == 0`` and ``conaffinity == 0``) besides
+    colliding ones, only the non-colliding ones (the usual visual/collision split).  A body
+    whose name the type rule types also holds the visual geoms of its *untyped descendants*
+    (child bodies, recursively, stopping at typed descendants, which are their own objects):
+    a typed ``microwave`` body takes the geoms of its untyped door body.  A body with no such
+    geom keeps all its own geoms (so nothing disappears), and a body without geoms is a single
+    point at its origin.  :func:`scene_from_file` has no type rule: there each body holds its
+    own visual geoms only.  The rule is :func:`perception.mujoco.object_geoms`, which
+    :class:`perception.mujoco.MujocoScene` shares, so a simulated scan and the world model
+    read from one file agree on every object centre;
   - ``"geoms"``: every geom, its node in the geom frame (``data.geom_xpos``,
     ``data.geom_xmat``), named by the geom's name, or ``f"{body}:{k}"`` for an unnamed geom,
     the ``k``-th geom of its body in file order (the node names of
@@ -59,7 +71,9 @@ optional package (``mujoco``, ``pycollada``) is an :class:`~worldgraph.errors.Im
 naming what to install.
 
 Where things live: :mod:`worldgraph.model.scene_files` reads the files into typed scenes
-(the formats, the typing rules, :func:`scene_from_file`; the names are importable from here),
+(the formats, :func:`scene_from_file`; the names are importable from here; the typing rules
+:data:`KNOWN_TYPES`, :func:`default_type_of` and :func:`type_rule` are defined in
+:mod:`perception.type_rules`, shared with :mod:`perception.mujoco`, and re-exported here),
 below the world model, whose :meth:`~worldgraph.WorldModel.from_file` calls it;
 :mod:`worldgraph.importers.franka` builds the Franka kitchen (also ``worldgraph.franka``);
 :func:`world_from_file` is defined here.

@@ -16,11 +16,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from perception.errors import TypeRuleError
+from perception.mujoco import geom_mesh, import_mujoco, object_geoms
 from perception.type_rules import KNOWN_TYPES, default_type_of
 from perception.type_rules import type_rule as _perception_type_rule
 
 from .. import _checks
-from .._rigid import quat_matrix as _quat_matrix  # MuJoCo quaternion (w, x, y, z) -> rotation matrix
 from ..errors import (
     ArgumentTypeError,
     EmptyWorldError,
@@ -138,7 +138,12 @@ def scene_from_file(path: str | os.PathLike[str], *, file_format: str | None = N
     ImporterError
         ``mujoco`` (MJCF) or ``pycollada`` (``.dae``) not installed.
     """
-    text = _checks.file_path("path", path)
+    return _read_scene(_checks.file_path("path", path), file_format, mjcf_objects, None)
+
+
+def _read_scene(text: str, file_format: str | None, mjcf_objects: str,
+                rule: Callable[[str], str | None] | None) -> trimesh.Scene:
+    """:func:`scene_from_file` of a checked path; ``rule`` types MJCF bodies as they are read."""
     if not isinstance(mjcf_objects, str) or mjcf_objects not in MJCF_OBJECTS:
         raise ArgumentTypeError(f"mjcf_objects must be one of {MJCF_OBJECTS}, got "
                                 f"{_checks._short(mjcf_objects)}")
@@ -149,7 +154,7 @@ def scene_from_file(path: str | os.PathLike[str], *, file_format: str | None = N
     if kind == "obj":
         return _obj_scene(text)
     if kind == "mjcf":
-        return _mjcf_scene(text, mjcf_objects)
+        return _mjcf_scene(text, mjcf_objects, rule)
     return _trimesh_scene(text, file_format)
 
 
@@ -244,11 +249,11 @@ def _unique(name: str, used: set[str]) -> str:
 
 # -- MJCF --------------------------------------------------------------------------------------
 def _import_mujoco() -> Any:
+    """``mujoco`` (headless: with ``MUJOCO_GL=egl`` unless set, as :mod:`perception.mujoco`)."""
     try:
-        import mujoco
+        return import_mujoco()
     except ImportError as exc:
         raise ImporterError(f"reading MJCF needs the mujoco package: {_MJCF_PIP}") from exc
-    return mujoco
 
 
 def _pose(position: NDArray[np.float64], xmat: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -258,56 +263,10 @@ def _pose(position: NDArray[np.float64], xmat: NDArray[np.float64]) -> NDArray[n
     return m
 
 
-def _geom_shape(mujoco: Any, model: Any, g: int) -> tuple[trimesh.Trimesh, NDArray[np.float64]] | None:
-    """``(mesh, geom_from_mesh (4, 4))`` of geom ``g``; ``None`` for an infinite plane."""
-    import trimesh
-
-    kind = int(model.geom_type[g])
-    size = np.asarray(model.geom_size[g], dtype=np.float64)
-    T = mujoco.mjtGeom
-    eye = np.eye(4)
-    if kind == int(T.mjGEOM_BOX):
-        return trimesh.creation.box(extents=2.0 * size), eye
-    if kind == int(T.mjGEOM_SPHERE):
-        return trimesh.creation.icosphere(subdivisions=1, radius=size[0]), eye
-    if kind == int(T.mjGEOM_ELLIPSOID):
-        mesh = trimesh.creation.icosphere(subdivisions=1, radius=1.0)
-        mesh.apply_scale(size)
-        return mesh, eye
-    if kind == int(T.mjGEOM_CYLINDER):
-        return trimesh.creation.cylinder(radius=size[0], height=2.0 * size[1], sections=24), eye
-    if kind == int(T.mjGEOM_CAPSULE):
-        return trimesh.creation.capsule(height=2.0 * size[1], radius=size[0], count=[12, 12]), eye
-    if kind == int(T.mjGEOM_PLANE):
-        if size[0] <= 0 or size[1] <= 0:
-            return None  # infinite plane: no box
-        sx, sy = size[0], size[1]
-        quad = np.array([[-sx, -sy, 0.0], [sx, -sy, 0.0], [sx, sy, 0.0], [-sx, sy, 0.0]])
-        return trimesh.Trimesh(vertices=quad, faces=[[0, 1, 2], [0, 2, 3]], process=False), eye
-    if kind == int(T.mjGEOM_MESH) and int(model.geom_dataid[g]) >= 0:
-        k = int(model.geom_dataid[g])
-        v0, nv = int(model.mesh_vertadr[k]), int(model.mesh_vertnum[k])
-        f0, nf = int(model.mesh_faceadr[k]), int(model.mesh_facenum[k])
-        verts = np.asarray(model.mesh_vert[v0:v0 + nv], dtype=np.float64)
-        faces = np.asarray(model.mesh_face[f0:f0 + nf], dtype=np.int64)
-        geom_from_mesh = np.eye(4)
-        if hasattr(model, "mesh_pos") and hasattr(model, "mesh_quat"):
-            # MuJoCo stores vertices in the mesh's inertia frame: asset = R @ stored + pos
-            rot = _quat_matrix(model.mesh_quat[k])
-            pos = np.asarray(model.mesh_pos[k], dtype=np.float64)
-            verts = verts @ rot.T + pos
-            geom_from_mesh[:3, :3] = rot.T
-            geom_from_mesh[:3, 3] = -rot.T @ pos
-        return trimesh.Trimesh(vertices=verts, faces=faces, process=False), geom_from_mesh
-    # height fields, SDFs, ...: the geom's bounding box
-    aabb = np.asarray(model.geom_aabb[g], dtype=np.float64)
-    centre, half = aabb[:3], aabb[3:]
-    box = trimesh.creation.box(extents=2.0 * half)
-    box.apply_translation(centre)
-    return box, eye
-
-
-def _mjcf_scene(path: str, mjcf_objects: str) -> trimesh.Scene:
+def _mjcf_scene(path: str, mjcf_objects: str, rule: Callable[[str], str | None] | None = None
+                ) -> trimesh.Scene:
+    """The MJCF scene; with ``rule`` (bodies mode) a typed body's node also holds the visual
+    geoms of its untyped descendants (:func:`perception.mujoco.object_geoms`)."""
     import trimesh
 
     mujoco = _import_mujoco()
@@ -329,7 +288,7 @@ def _mjcf_scene(path: str, mjcf_objects: str) -> trimesh.Scene:
         for g in range(model.ngeom):
             b = int(model.geom_bodyid[g])
             name = model.geom(g).name or f"{body_name(b)}:{g - int(model.body_geomadr[b])}"
-            shape = _geom_shape(mujoco, model, g)
+            shape = geom_mesh(model, g)
             if shape is None:
                 continue
             mesh, geom_from_mesh = shape
@@ -339,11 +298,12 @@ def _mjcf_scene(path: str, mjcf_objects: str) -> trimesh.Scene:
         return scene
     first = int(model.body_geomadr[0])  # named geoms of the world body: their own nodes
     for g in range(first, first + int(model.body_geomnum[0])):
-        shape = _geom_shape(mujoco, model, g)
+        shape = geom_mesh(model, g)
         if model.geom(g).name and shape is not None:
             node = _unique(model.geom(g).name, used)
             world = _pose(data.geom_xpos[g], data.geom_xmat[g]) @ shape[1]
             scene.add_geometry(shape[0], node_name=node, geom_name=node, transform=world)
+    geoms_of = object_geoms(model, rule)
     for b in range(1, model.nbody):
         name = model.body(b).name
         if not name:
@@ -351,9 +311,8 @@ def _mjcf_scene(path: str, mjcf_objects: str) -> trimesh.Scene:
         world_from_body = _pose(data.xpos[b], data.xmat[b])
         body_from_world = np.linalg.inv(world_from_body)
         pieces = []
-        start, count = int(model.body_geomadr[b]), int(model.body_geomnum[b])
-        for g in range(start, start + count):  # count 0 when start is -1
-            shape = _geom_shape(mujoco, model, g)
+        for g in geoms_of[b]:
+            shape = geom_mesh(model, g)
             if shape is None:
                 continue
             mesh, geom_from_mesh = shape
@@ -389,10 +348,19 @@ def typed_scene(path: str | os.PathLike[str], type_of: Any = None, *, mjcf_objec
                 file_format: str | None = None) -> tuple[trimesh.Scene, dict[str, Any]]:
     """The scene of a file (:func:`scene_from_file`) and the type of each typed node name (the
     type rules of :func:`worldgraph.importers.world_from_file`); :class:`EmptyWorldError` when
-    no node gets a type."""
+    no node gets a type.  For MJCF bodies the rule is applied as the file is read, so that a
+    typed body's node also holds the visual geoms of its untyped descendants (module docstring
+    of :mod:`worldgraph.importers`)."""
     rule = type_rule(type_of)
     text = _checks.file_path("path", path)
-    scene = scene_from_file(text, file_format=file_format, mjcf_objects=mjcf_objects)
+
+    def checked_rule(node: str) -> Any:
+        try:
+            return rule(node)
+        except Exception as exc:
+            raise WorldGraphError(f"type_of({node!r}) raised {type(exc).__name__}: {exc}") from exc
+
+    scene = _read_scene(text, file_format, mjcf_objects, checked_rule)
     names = [str(n) for n in scene.graph.nodes_geometry]
     types: dict[str, Any] = {}
     for node in names:
@@ -401,10 +369,7 @@ def typed_scene(path: str | os.PathLike[str], type_of: Any = None, *, mjcf_objec
             if not has_meta:
                 typ = rule(node)
         else:
-            try:
-                typ = rule(node)
-            except Exception as exc:
-                raise WorldGraphError(f"type_of({node!r}) raised {type(exc).__name__}: {exc}") from exc
+            typ = checked_rule(node)
         if typ is not None:
             types[node] = typ
     if not types:
