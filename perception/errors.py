@@ -56,6 +56,15 @@ class TypeRuleError(PerceptionError):
     """A ``type_of`` argument that is not a name -> type rule (see :mod:`perception.type_rules`)."""
 
 
+class SceneError(PerceptionError):
+    """A simulated scene that cannot be built: an MJCF file MuJoCo cannot read, an argument that
+    is neither a path nor a ``mujoco.MjModel``, a model without a typed object, no OpenGL context."""
+
+
+class OptionError(PerceptionError):
+    """An option outside its allowed values (an unknown sensor name, a rate outside [0, 1])."""
+
+
 class MissingExtraError(PerceptionError, ImportError):
     """An optional dependency is not installed; the message names the extra to install."""
 

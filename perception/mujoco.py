@@ -24,20 +24,49 @@ before it first imports ``mujoco`` unless the variable is set (``MUJOCO_GL=osmes
 
 from __future__ import annotations
 
+import copy
+import math
 import os
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from .errors import MissingExtraError
+from ._checks import _short, check_transform, file_path, guard, integer, name_str, real_scalar
+from ._checks import rng as check_rng
+from .chain import KinematicChain, default_head
+from .detection import Detection
+from .errors import (
+    MissingExtraError,
+    OptionError,
+    PerceptionError,
+    SceneError,
+    ShapeError,
+    TypeRuleError,
+)
+from .simulate import scan_angles
+from .type_rules import type_rule
 
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
 
 __all__ = [
+    "DEFAULT_DEPTH_NOISE",
+    "DEFAULT_MAX_RANGE",
+    "DEPTH_NOISE_BLOCK",
+    "DEPTH_NOISE_IID",
+    "MAX_RENDER_SIDE",
+    "SENSORS",
     "VISIBLE_GROUPS",
+    "MujocoScan",
+    "MujocoScene",
+    "RenderedView",
+    "SceneObject",
+    "ScanTimings",
+    "ScanView",
     "geom_mesh",
     "import_mujoco",
     "object_geoms",
@@ -237,3 +266,711 @@ def geom_mesh(model: Any, g: int) -> tuple[trimesh.Trimesh, NDArray[np.float64]]
     box = trimesh.creation.box(extents=2.0 * half)
     box.apply_translation(centre)
     return box, eye
+
+
+# ----------------------------------------------------------------------------------------------
+# the simulated camera
+# ----------------------------------------------------------------------------------------------
+#: Depth noise factor ``c`` of :meth:`MujocoScene.scan` (1/m): ``sigma_z = c z^2``, about 1.5 mm
+#: at 1 m and 2.4 cm at 4 m, the Kinect's axial noise (Khoshelham and Elberink 2012, "Accuracy and
+#: resolution of Kinect depth data for indoor mapping applications", Sensors 12(2)).
+DEFAULT_DEPTH_NOISE = 1.5e-3
+#: Largest depth (metres) the simulated depth camera measures; farther pixels are invalid (NaN).
+DEFAULT_MAX_RANGE = 6.0
+#: Side (pixels) of the blocks over which the depth error is one draw (spatial correlation).
+DEPTH_NOISE_BLOCK = 8
+#: Standard deviation of the per-pixel (independent) part of the depth error, relative to the
+#: blockwise part; the sum is rescaled so that the total standard deviation is ``c z^2``.
+DEPTH_NOISE_IID = 0.25
+#: The sensors :meth:`MujocoScene.scan` simulates.
+SENSORS = ("rgbd", "stereo")
+#: Largest image side (pixels) rendered.
+MAX_RENDER_SIDE = 8192
+#: Depths at or beyond this fraction of the far clipping plane are "nothing rendered".
+_FAR_FRACTION = 0.999
+
+Sensor = Literal["rgbd", "stereo"]
+
+
+@dataclass(frozen=True)
+class SceneObject:
+    """A typed object of a :class:`MujocoScene`.
+
+    Attributes
+    ----------
+    index : int
+        Its index in :attr:`MujocoScene.objects` (the truth labels of the detections).
+    name : str
+        Body name (or the name of a typed geom of the world body).
+    type : str
+        Its type by the scene's rule.
+    body : int
+        MuJoCo body id; -1 for a geom of the world body.
+    geoms : tuple of int
+        The geoms of its geometry (module docstring).
+    position : (3,) float
+        World centre of its geometry's bounding box in the body frame (as ``WorldModel.from_file``).
+    size : (3,) float
+        Extents of that bounding box, metres.
+    """
+
+    index: int
+    name: str
+    type: str
+    body: int
+    geoms: tuple[int, ...]
+    position: NDArray[np.float64]
+    size: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class RenderedView:
+    """One rendered camera image: what :meth:`MujocoScene.render` returns.
+
+    Attributes
+    ----------
+    rgb : (h, w, 3) uint8 or None
+    depth : (h, w) float or None
+        Depth in metres along the optical axis (OpenCV z, not the distance along the ray);
+        NaN where nothing is rendered (the sky box, beyond the far plane).
+    objects : (h, w) int32 or None
+        Index of the typed object (:attr:`MujocoScene.objects`) seen at each pixel, -1 for none.
+    geoms : (h, w) int32 or None
+        MuJoCo geom id seen at each pixel, -1 for none.
+    """
+
+    rgb: NDArray[np.uint8] | None
+    depth: NDArray[np.float64] | None
+    objects: NDArray[np.int32] | None
+    geoms: NDArray[np.int32] | None
+
+
+@dataclass(frozen=True)
+class ScanView:
+    """One view of a :class:`MujocoScan`.
+
+    Attributes
+    ----------
+    head_angles : (n_joints,) float
+        Joint angles of the head (radians, order of the chain's names).
+    ego_from_camera : (4, 4) float
+        Left (or the depth) camera in the ego frame, OpenCV axes.
+    K : (3, 3) float
+        Camera matrix of the (both) camera(s).
+    rgb : (h, w, 3) uint8
+        The left (or the depth camera's) colour image.
+    segmentation : (h, w) int32
+        Object index per pixel (-1: no typed object).
+    detections : tuple of Detection
+        The (degraded) detections of the image.
+    truth : tuple of int
+        Per detection the object index it comes from, -1 for a false detection.
+    depth : (h, w) float or None
+        ``sensor="rgbd"``: the noisy depth (metres, OpenCV z; NaN invalid).
+    right_rgb, right_segmentation, right_detections, right_truth
+        ``sensor="stereo"``: the same for the right camera.
+    ego_from_right_camera : (4, 4) float or None
+        ``sensor="stereo"``: the right camera in the ego frame.
+    missed, right_missed : tuple of int
+        Object indices visible in the image whose detection the degradation dropped (``miss_rate``,
+        ``min_pixels``, a mask eroded away).
+    """
+
+    head_angles: NDArray[np.float64]
+    ego_from_camera: NDArray[np.float64]
+    K: NDArray[np.float64]
+    rgb: NDArray[np.uint8]
+    segmentation: NDArray[np.int32]
+    detections: tuple[Detection, ...]
+    truth: tuple[int, ...]
+    depth: NDArray[np.float64] | None = None
+    right_rgb: NDArray[np.uint8] | None = None
+    right_segmentation: NDArray[np.int32] | None = None
+    right_detections: tuple[Detection, ...] = ()
+    right_truth: tuple[int, ...] = ()
+    ego_from_right_camera: NDArray[np.float64] | None = None
+    missed: tuple[int, ...] = ()
+    right_missed: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
+class ScanTimings:
+    """Seconds spent per stage of a scan, summed over the views.
+
+    Attributes
+    ----------
+    render : float
+        MuJoCo rendering (RGB, depth, segmentation; both cameras for stereo) and the depth noise.
+    detect : float
+        Detections from the segmentation, with their degradation.
+    percepts : float
+        The front end (detections to percepts).
+    n_views : int
+        Number of views.
+    """
+
+    render: float
+    detect: float
+    percepts: float
+    n_views: int
+
+    @property
+    def render_per_view(self) -> float:
+        """Rendering seconds per view."""
+        return self.render / max(self.n_views, 1)
+
+
+@dataclass(frozen=True)
+class MujocoScan:
+    """The result of :meth:`MujocoScene.scan`.
+
+    Attributes
+    ----------
+    sensor : {"rgbd", "stereo"}
+    views : tuple of ScanView
+    percepts : tuple of Percept
+        Every view's percepts, ego frame, not fused.
+    percept_views : tuple of int
+        The view of each percept.
+    percept_truth : tuple of int
+        The object index of each percept (-1: from a false detection).
+    dropped : tuple of tuple
+        Per view, what the front end dropped (its ``Dropped`` records).
+    timings : ScanTimings
+    """
+
+    sensor: Sensor
+    views: tuple[ScanView, ...]
+    percepts: tuple[Any, ...] = ()
+    percept_views: tuple[int, ...] = ()
+    percept_truth: tuple[int, ...] = ()
+    dropped: tuple[tuple[Any, ...], ...] = ()
+    timings: ScanTimings = field(default_factory=lambda: ScanTimings(0.0, 0.0, 0.0, 0))
+
+
+def _pose(position: ArrayLike, xmat: ArrayLike) -> NDArray[np.float64]:
+    m = np.eye(4)
+    m[:3, :3] = np.asarray(xmat, dtype=np.float64).reshape(3, 3)
+    m[:3, 3] = np.asarray(position, dtype=np.float64)
+    return m
+
+
+def _image_size(value: Any) -> tuple[int, int]:
+    if value is None or isinstance(value, (str, bytes)):
+        raise ShapeError(f"image_size must be (width, height), got {_short(value)}")
+    try:
+        items = list(value)
+    except TypeError as exc:
+        raise ShapeError(f"image_size must be (width, height), got {_short(value)}") from exc
+    if len(items) != 2:
+        raise ShapeError(f"image_size must be two integers (width, height), got {_short(value)}")
+    return (integer("image_size[0] (width)", items[0], minimum=1, maximum=MAX_RENDER_SIDE),
+            integer("image_size[1] (height)", items[1], minimum=1, maximum=MAX_RENDER_SIDE))
+
+
+class MujocoScene:
+    """A MuJoCo scene whose typed bodies a simulated head sees.
+
+    Parameters
+    ----------
+    path_or_model : str, os.PathLike or mujoco.MjModel
+        An MJCF file (any file MuJoCo compiles) or a compiled model (copied: the scene changes
+        rendering settings of its own copy).  The scene is posed at the model's reference
+        configuration ``qpos0``, as ``WorldModel.from_file``.
+    type_of : None, callable or mapping
+        The type rule (:func:`perception.type_rules.type_rule`), as for ``WorldModel.from_file``:
+        ``None`` types a body by the leading word of its name when it is a known type.
+
+    Raises
+    ------
+    SceneError
+        A file MuJoCo cannot compile, an argument that is neither, or no typed object.
+    TypeRuleError
+        A bad ``type_of``, or a rule that raises or gives a type that is not a string.
+    MissingExtraError
+        ``mujoco`` is not installed.
+
+    Notes
+    -----
+    Rendering is set up for speed: no multisampling (``vis.quality.offsamples = 0``), no
+    shadows, no reflections.  The camera is MuJoCo's free camera with its vertical field of view
+    ``vis.global_.fovy`` and square pixels, placed at the pose of an OpenCV camera frame
+    (MuJoCo cameras look along their -z with y up).  One renderer per image size is kept.
+    """
+
+    @guard
+    def __init__(self, path_or_model: Any, type_of: Any = None) -> None:
+        mujoco = import_mujoco()
+        self._mj = mujoco
+        if isinstance(path_or_model, mujoco.MjModel):
+            model = copy.deepcopy(path_or_model)
+            self.path: str | None = None
+        else:
+            text = file_path("path_or_model", path_or_model, SceneError)
+            if not os.path.isfile(text):
+                raise SceneError(f"path_or_model: {text}: no such file")
+            try:
+                model = mujoco.MjModel.from_xml_path(text)
+            except ValueError as exc:
+                raise SceneError(f"path_or_model: {text}: MuJoCo cannot compile it: {exc}") from exc
+            self.path = text
+        model.vis.quality.offsamples = 0
+        self._model = model
+        self._data = mujoco.MjData(model)
+        mujoco.mj_forward(model, self._data)
+        self._rule = type_rule(type_of)
+        self._objects, self._geom_object = self._build_objects()
+        if not self._objects:
+            names = [model.body(b).name for b in range(1, model.nbody) if model.body(b).name][:20]
+            raise SceneError(f"path_or_model: no body or world geom gets a type (body names {names}); pass "
+                             "type_of= to type them")
+        self._renderers: dict[tuple[int, int], Any] = {}
+
+    # -- objects ---------------------------------------------------------------------------------
+    def _type(self, name: str) -> str | None:
+        try:
+            typ = self._rule(name)
+        except Exception as exc:
+            raise TypeRuleError(f"type_of({name!r}) raised {type(exc).__name__}: {exc}") from exc
+        if typ is None:
+            return None
+        return name_str(f"type_of({name!r})", typ, TypeRuleError)
+
+    def _build_objects(self) -> tuple[tuple[SceneObject, ...], NDArray[np.intp]]:
+        model, data = self._model, self._data
+        nbody, ngeom = int(model.nbody), int(model.ngeom)
+        body_type: list[str | None] = [None] * nbody
+        for b in range(1, nbody):
+            name = model.body(b).name
+            body_type[b] = self._type(name) if name else None
+        geoms_of = object_geoms(model, lambda name: self._type(name) if name else None)
+        objects: list[SceneObject] = []
+        geom_object = np.full(ngeom, -1, dtype=np.intp)
+        first, count = int(model.body_geomadr[0]), int(model.body_geomnum[0])
+        for g in range(first, first + count):  # named geoms of the world body: their own objects
+            name = model.geom(g).name
+            typ = self._type(name) if name else None
+            shape = geom_mesh(model, g) if typ is not None else None
+            if typ is None or shape is None:
+                continue
+            world = _pose(data.geom_xpos[g], data.geom_xmat[g]) @ shape[1]
+            lo, hi = shape[0].bounds
+            position = world[:3, :3] @ (0.5 * (lo + hi)) + world[:3, 3]
+            geom_object[g] = len(objects)
+            objects.append(SceneObject(len(objects), name, typ, -1, (g,), position, hi - lo))
+        body_object = np.full(nbody, -1, dtype=np.intp)
+        for b in range(1, nbody):
+            typ = body_type[b]
+            if typ is None:
+                continue
+            world_from_body = _pose(data.xpos[b], data.xmat[b])
+            body_from_world = np.linalg.inv(world_from_body)
+            points = []
+            for g in geoms_of[b]:
+                shape = geom_mesh(model, g)
+                if shape is None:
+                    continue
+                T = body_from_world @ _pose(data.geom_xpos[g], data.geom_xmat[g]) @ shape[1]
+                verts = np.asarray(shape[0].vertices, dtype=np.float64)
+                points.append(verts @ T[:3, :3].T + T[:3, 3])
+            cloud = np.concatenate(points) if points else np.zeros((1, 3))
+            lo, hi = cloud.min(axis=0), cloud.max(axis=0)
+            position = world_from_body[:3, :3] @ (0.5 * (lo + hi)) + world_from_body[:3, 3]
+            body_object[b] = len(objects)
+            objects.append(SceneObject(len(objects), model.body(b).name, typ, b, tuple(geoms_of[b]),
+                                       position, hi - lo))
+        parent = np.asarray(model.body_parentid, dtype=np.intp).reshape(nbody)
+        for g in range(ngeom):  # a geom's pixels belong to its typed ancestor-or-self body
+            b = int(model.geom_bodyid[g])
+            if b == 0:
+                continue
+            while b != 0 and body_type[b] is None:
+                b = int(parent[b])
+            geom_object[g] = body_object[b] if b != 0 else -1
+        for o in objects:
+            o.position.setflags(write=False)
+            o.size.setflags(write=False)
+        return tuple(objects), geom_object
+
+    @property
+    def model(self) -> Any:
+        """The scene's ``mujoco.MjModel`` (its own copy)."""
+        return self._model
+
+    @property
+    def objects(self) -> tuple[SceneObject, ...]:
+        """The typed objects: the typed geoms of the world body, then the typed bodies by body id."""
+        return self._objects
+
+    @property
+    def positions(self) -> NDArray[np.float64]:
+        """Object centres ``(n, 3)``, world frame."""
+        return np.array([o.position for o in self._objects], dtype=np.float64).reshape(-1, 3)
+
+    @property
+    def types(self) -> tuple[str, ...]:
+        """Object types, in the order of :attr:`objects`."""
+        return tuple(o.type for o in self._objects)
+
+    def centre_depths(self) -> dict[str, float]:
+        """Per type, the depth of an object's centre behind its visible surface, metres.
+
+        Returns
+        -------
+        dict
+            Type -> the median over the objects of that type of half the thinnest extent of the
+            object's geometry (its bounding box in the body frame): the ``centre_depth`` of the
+            front ends (:func:`perception.rgbd_percepts`, :func:`perception.stereo_percepts`).
+        """
+        out: dict[str, float] = {}
+        for typ in sorted(set(self.types)):
+            half = [0.5 * float(np.min(o.size)) for o in self._objects if o.type == typ]
+            out[typ] = float(np.median(half))
+        return out
+
+    # -- rendering -------------------------------------------------------------------------------
+    def camera_matrix(self, image_size: Any = (640, 480)) -> NDArray[np.float64]:
+        """The OpenCV camera matrix of the rendered images.
+
+        Parameters
+        ----------
+        image_size : (int, int)
+            ``(width, height)``, pixels.
+
+        Returns
+        -------
+        (3, 3) float
+            ``f = (h / 2) / tan(fovy / 2)`` for both axes (square pixels; ``fovy`` is the model's
+            ``vis.global_.fovy``), principal point ``((w - 1) / 2, (h - 1) / 2)`` (pixel centres
+            at integer coordinates).
+        """
+        w, h = _image_size(image_size)
+        f = 0.5 * h / math.tan(math.radians(float(self._model.vis.global_.fovy)) / 2.0)
+        return np.array([[f, 0.0, (w - 1) / 2.0], [0.0, f, (h - 1) / 2.0], [0.0, 0.0, 1.0]])
+
+    def _renderer(self, size: tuple[int, int]) -> Any:
+        renderer = self._renderers.get(size)
+        if renderer is None:
+            w, h = size
+            vis = self._model.vis.global_
+            vis.offwidth, vis.offheight = max(int(vis.offwidth), w), max(int(vis.offheight), h)
+            try:
+                renderer = self._mj.Renderer(self._model, h, w)
+            except Exception as exc:  # no OpenGL: the message says which backend failed
+                raise SceneError(f"cannot render {w}x{h} images ({type(exc).__name__}: {exc}); headless "
+                                 "rendering needs MUJOCO_GL=egl (or osmesa) set before mujoco is "
+                                 "imported") from exc
+            self._camera = self._mj.MjvCamera()
+            self._mj.mjv_defaultFreeCamera(self._model, self._camera)
+            self._renderers[size] = renderer
+        return renderer
+
+    @guard
+    def render(self, world_from_camera: ArrayLike, image_size: Any = (640, 480), *, rgb: bool = True,
+               depth: bool = True, segmentation: bool = True) -> RenderedView:
+        """Render one view from a camera pose.
+
+        Parameters
+        ----------
+        world_from_camera : (4, 4) float
+            The camera in the world, OpenCV axes (x right, y down, z forward).
+        image_size : (int, int)
+            ``(width, height)``, pixels.
+        rgb, depth, segmentation : bool
+            Which images to render.
+
+        Returns
+        -------
+        RenderedView
+            Noise-free images; the pixel ``(u, v)`` of a world point ``X`` is
+            ``K @ (camera_from_world @ X)`` with ``K = camera_matrix(image_size)``.
+
+        Raises
+        ------
+        InvalidPoseError
+            ``world_from_camera`` is not a rigid transform.
+        ShapeError
+            A bad ``image_size``.
+        SceneError
+            No OpenGL context (set ``MUJOCO_GL=egl``).
+        """
+        pose = check_transform("world_from_camera", world_from_camera)
+        size = _image_size(image_size)
+        return self._render(pose, size, bool(rgb), bool(depth), bool(segmentation))
+
+    def _render(self, world_from_camera: NDArray[np.float64], size: tuple[int, int], want_rgb: bool,
+                want_depth: bool, want_seg: bool) -> RenderedView:
+        mj = self._mj
+        r = self._renderer(size)
+        r.update_scene(self._data, self._camera)
+        scene = r.scene
+        pos = world_from_camera[:3, 3]
+        forward = world_from_camera[:3, 2]  # OpenCV z: the optical axis
+        up = -world_from_camera[:3, 1]  # OpenCV y points down
+        for k in range(2):  # both eyes of MuJoCo's (mono) stereo pair: the same camera
+            scene.camera[k].pos[:] = pos
+            scene.camera[k].forward[:] = forward
+            scene.camera[k].up[:] = up
+        if bool(self._model.vis.headlight.active) and int(scene.nlight) > 0:
+            scene.lights[0].pos[:] = pos  # the headlight follows the camera
+            scene.lights[0].dir[:] = forward
+        scene.flags[mj.mjtRndFlag.mjRND_SHADOW] = False
+        scene.flags[mj.mjtRndFlag.mjRND_REFLECTION] = False
+        rgb = r.render().copy() if want_rgb else None
+        depth = None
+        if want_depth:
+            r.enable_depth_rendering()
+            try:
+                z = r.render().astype(np.float64)
+            finally:
+                r.disable_depth_rendering()
+            far = float(self._model.vis.map.zfar) * float(self._model.stat.extent)
+            z[~(z < _FAR_FRACTION * far)] = np.nan
+            depth = z
+        objects = geoms = None
+        if want_seg:
+            r.enable_segmentation_rendering()
+            try:
+                seg = r.render()
+            finally:
+                r.disable_segmentation_rendering()
+            is_geom = seg[..., 1] == int(mj.mjtObj.mjOBJ_GEOM)
+            geoms = np.where(is_geom, seg[..., 0], -1).astype(np.int32)
+            objects = np.where(geoms >= 0, self._geom_object[np.maximum(geoms, 0)], -1).astype(np.int32)
+        return RenderedView(rgb, depth, objects, geoms)
+
+    # -- scans -----------------------------------------------------------------------------------
+    @guard
+    def scan(self, world_from_ego: ArrayLike, sensor: str = "rgbd", n_views: int = 20, *,
+             rng: np.random.Generator, image_size: Any = (640, 480), chain: KinematicChain | None = None,
+             miss_rate: float = 0.0, false_rate: float = 0.0, mask_jitter_px: int = 0, min_pixels: int = 1,
+             depth_noise: float = DEFAULT_DEPTH_NOISE, max_range: float = DEFAULT_MAX_RANGE,
+             centre_depth: Mapping[str, float] | None = None, percepts: bool = True) -> MujocoScan:
+        """Sweep a head over the scene and detect the typed objects in every view.
+
+        Parameters
+        ----------
+        world_from_ego : (4, 4) float
+            The robot pose (ego frame: x forward, y left, z up).
+        sensor : {"rgbd", "stereo"}
+            ``"rgbd"``: one camera with RGB, noisy depth and segmentation; ``"stereo"``: the left
+            and right cameras of the head, RGB and segmentation each.
+        n_views : int
+            Views of the sweep, :func:`perception.simulate.scan_angles` (neck yaw from -70 to 70
+            degrees, neck pitch alternating -10 / 10 degrees).
+        rng : numpy.random.Generator
+            Draws the depth noise and the degradations.
+        image_size : (int, int)
+            ``(width, height)``, pixels.
+        chain : KinematicChain, optional
+            The head; :func:`perception.default_head` by default.  The cameras are at
+            ``world_from_ego @ chain.ego_from_camera(q)`` (and ``ego_from_right_camera``).
+        miss_rate : float
+            Probability that a visible object's detection is dropped.
+        false_rate : float
+            Per image, ``Binomial(n_visible, false_rate)`` false detections (truth -1): half of
+            them (when there is another type in the scene) the mask of a true detection labelled
+            with another type of the scene, the others an elliptic blob of pixels where no typed
+            object is, labelled with a type of the scene.
+        mask_jitter_px : int
+            Every mask's edge moves by a random whole number of pixels in
+            ``[-mask_jitter_px, mask_jitter_px]`` (erosion or dilation by a 3x3 cross).
+        min_pixels : int
+            Detections (true or false) with fewer pixels are dropped.
+        depth_noise : float
+            ``c`` (1/m) of the depth error ``sigma_z = c z^2`` (:data:`DEFAULT_DEPTH_NOISE`); 0
+            for exact depth.  The normalised error is one draw per block of
+            :data:`DEPTH_NOISE_BLOCK` pixels plus an independent part per pixel
+            (:data:`DEPTH_NOISE_IID`).
+        max_range : float
+            Depths beyond it are invalid (NaN), as are pixels where nothing is rendered.
+        centre_depth : mapping, optional
+            Type -> metres from the visible surface to the centre, for the front end; by
+            default :meth:`centre_depths`.
+        percepts : bool
+            Run the front end (``False``: images and detections only).
+
+        Returns
+        -------
+        MujocoScan
+            The views, the percepts of all views (ego frame, not fused), what the front end
+            dropped per view, and the seconds spent per stage.
+
+        Raises
+        ------
+        InvalidPoseError
+            ``world_from_ego`` is not a rigid transform.
+        OptionError
+            An unknown ``sensor``.
+        PerceptionError
+            (a subclass) naming the argument: ``n_views`` < 1, a bad ``image_size``, a rate
+            outside [0, 1], a negative ``mask_jitter_px``, ``min_pixels`` < 1, a negative
+            ``depth_noise``, a non-positive ``max_range``, ``rng`` not a Generator.
+        """
+        pose = check_transform("world_from_ego", world_from_ego)
+        if not isinstance(sensor, str) or sensor not in SENSORS:
+            raise OptionError(f"sensor must be one of {SENSORS}, got {_short(sensor)}")
+        kind: Sensor = "rgbd" if sensor == "rgbd" else "stereo"
+        n = integer("n_views", n_views, minimum=1, maximum=100_000)
+        gen = check_rng("rng", rng)
+        size = _image_size(image_size)
+        head = default_head() if chain is None else chain
+        if not isinstance(head, KinematicChain):
+            raise ShapeError(f"chain must be a KinematicChain or None, got {type(chain).__name__}")
+        miss = real_scalar("miss_rate", miss_rate, low=0.0, high=1.0)
+        false = real_scalar("false_rate", false_rate, low=0.0, high=1.0)
+        jitter = integer("mask_jitter_px", mask_jitter_px, minimum=0, maximum=1000)
+        min_px = integer("min_pixels", min_pixels, minimum=1)
+        noise = real_scalar("depth_noise", depth_noise, nonnegative=True)
+        far = real_scalar("max_range", max_range, positive=True)
+        centres = self._centre_depth(centre_depth)
+        K = self.camera_matrix(size)
+        Q = scan_angles(head, n)
+        t_render = t_detect = t_percepts = 0.0
+        views: list[ScanView] = []
+        degrade = _Degrade(self.types, gen, miss, false, jitter, min_px)
+        for q in Q:
+            ego_left = head.ego_from_camera(q)
+            ego_right = head.ego_from_right_camera(q) if sensor == "stereo" else None
+            t0 = time.perf_counter()
+            left = self._render(pose @ ego_left, size, True, sensor == "rgbd", True)
+            right = self._render(pose @ ego_right, size, True, False, True) if ego_right is not None else None
+            depth = None
+            if left.depth is not None:
+                depth = _noisy_depth(left.depth, noise, far, gen)
+            t1 = time.perf_counter()
+            assert left.objects is not None and left.rgb is not None
+            dets, truth, missed = degrade(left.objects)
+            r_dets: tuple[Detection, ...] = ()
+            r_truth: tuple[int, ...] = ()
+            r_missed: tuple[int, ...] = ()
+            if right is not None:
+                assert right.objects is not None
+                r_dets, r_truth, r_missed = degrade(right.objects)
+            t2 = time.perf_counter()
+            t_render += t1 - t0
+            t_detect += t2 - t1
+            views.append(ScanView(
+                head_angles=np.array(q, dtype=np.float64), ego_from_camera=ego_left, K=K.copy(), rgb=left.rgb,
+                segmentation=left.objects, detections=dets, truth=truth, depth=depth,
+                right_rgb=None if right is None else right.rgb,
+                right_segmentation=None if right is None else right.objects,
+                right_detections=r_dets, right_truth=r_truth, ego_from_right_camera=ego_right,
+                missed=missed, right_missed=r_missed))
+        out_percepts: list[Any] = []
+        out_views: list[int] = []
+        out_truth: list[int] = []
+        dropped: list[tuple[Any, ...]] = []
+        if percepts:
+            t0 = time.perf_counter()
+            for k, view in enumerate(views):
+                found, sources, lost = self._percepts(view, sensor, size, centres)
+                out_percepts.extend(found)
+                out_views.extend([k] * len(found))
+                out_truth.extend(view.truth[i] for i in sources)
+                dropped.append(lost)
+            t_percepts = time.perf_counter() - t0
+        return MujocoScan(kind, tuple(views), tuple(out_percepts), tuple(out_views), tuple(out_truth),
+                          tuple(dropped), ScanTimings(t_render, t_detect, t_percepts, n))
+
+    def _centre_depth(self, centre_depth: Mapping[str, float] | None) -> dict[str, float]:
+        if centre_depth is None:
+            return self.centre_depths()
+        if not isinstance(centre_depth, Mapping):
+            raise ShapeError("centre_depth must be a mapping type -> metres or None, got "
+                             f"{_short(centre_depth)}")
+        return {name_str("centre_depth key", k): real_scalar(f"centre_depth[{k!r}]", v, nonnegative=True)
+                for k, v in centre_depth.items()}
+
+    def _percepts(self, view: ScanView, sensor: str, size: tuple[int, int], centres: dict[str, float]
+                  ) -> tuple[tuple[Any, ...], tuple[int, ...], tuple[Any, ...]]:
+        """The front end on one view: ``(percepts, detection index of each, dropped)``."""
+        raise PerceptionError("the percept front end (perception.frontend) is not available yet")
+
+
+def _noisy_depth(z: NDArray[np.float64], c: float, max_range: float, rng: np.random.Generator
+                 ) -> NDArray[np.float64]:
+    """``z`` plus the blockwise-correlated error ``c z^2 e`` (``e`` of unit variance); NaN where
+    ``z`` is NaN, beyond ``max_range`` or not positive after the noise."""
+    h, w = z.shape
+    b = DEPTH_NOISE_BLOCK
+    coarse = rng.standard_normal((-(-h // b), -(-w // b)))
+    e = np.repeat(np.repeat(coarse, b, axis=0), b, axis=1)[:h, :w]
+    e = (e + DEPTH_NOISE_IID * rng.standard_normal((h, w))) / math.sqrt(1.0 + DEPTH_NOISE_IID ** 2)
+    with np.errstate(invalid="ignore"):
+        out = z + c * z * z * e
+        out[~(z <= max_range) | ~(out > 0)] = np.nan
+    return out
+
+
+class _Degrade:
+    """Detections of the typed objects in an object-index image, degraded as asked."""
+
+    def __init__(self, types: tuple[str, ...], rng: np.random.Generator, miss: float, false: float,
+                 jitter: int, min_pixels: int) -> None:
+        self.types = types
+        self.scene_types = sorted(set(types))
+        self.rng = rng
+        self.miss, self.false, self.jitter, self.min_pixels = miss, false, jitter, min_pixels
+
+    def _jittered(self, mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        if self.jitter == 0:
+            return mask
+        import cv2
+
+        k = int(self.rng.integers(-self.jitter, self.jitter + 1))
+        if k == 0:
+            return mask
+        kernel = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+        img = mask.astype(np.uint8)
+        out = cv2.dilate(img, kernel, iterations=k) if k > 0 else cv2.erode(img, kernel, iterations=-k)
+        return np.asarray(out).astype(bool)
+
+    def _blob(self, background: NDArray[np.bool_]) -> NDArray[np.bool_] | None:
+        import cv2
+
+        v, u = np.nonzero(background)
+        if len(u) == 0:
+            return None
+        h, w = background.shape
+        i = int(self.rng.integers(len(u)))
+        top = max(3.0, 0.08 * min(w, h))
+        axes = (int(round(self.rng.uniform(2.0, top))), int(round(self.rng.uniform(2.0, top))))
+        angle = float(self.rng.uniform(0.0, 180.0))
+        canvas = np.zeros((h, w), dtype=np.uint8)
+        cv2.ellipse(canvas, (int(u[i]), int(v[i])), axes, angle, 0.0, 360.0, 1, -1)
+        blob = canvas.astype(bool) & background
+        return blob if blob.any() else None
+
+    def __call__(self, objects: NDArray[np.int32]) -> tuple[tuple[Detection, ...], tuple[int, ...],
+                                                            tuple[int, ...]]:
+        rng = self.rng
+        seen = np.unique(objects[objects >= 0]).tolist()
+        dets: list[Detection] = []
+        truth: list[int] = []
+        missed: list[int] = []
+        masks: dict[int, NDArray[np.bool_]] = {}
+        for k in seen:
+            mask = self._jittered(objects == k)
+            masks[k] = mask
+            if int(mask.sum()) < self.min_pixels or (self.miss > 0 and rng.random() < self.miss):
+                missed.append(k)
+                continue
+            dets.append(Detection(type=self.types[k], mask=mask, score=1.0))
+            truth.append(k)
+        n_false = int(rng.binomial(len(seen), self.false)) if self.false > 0 and seen else 0
+        background = objects < 0
+        for _ in range(n_false):
+            k = int(seen[int(rng.integers(len(seen)))])
+            others = [t for t in self.scene_types if t != self.types[k]]
+            fake: NDArray[np.bool_] | None
+            if others and rng.random() < 0.5:
+                fake, typ = masks[k], others[int(rng.integers(len(others)))]
+            else:
+                fake = self._blob(background)
+                typ = self.scene_types[int(rng.integers(len(self.scene_types)))]
+            if fake is None or int(fake.sum()) < self.min_pixels:
+                continue
+            dets.append(Detection(type=typ, mask=fake, score=1.0))
+            truth.append(-1)
+        return tuple(dets), tuple(truth), tuple(missed)
