@@ -34,8 +34,9 @@ from .errors import (
     UnknownClassError,
     URDFError,
 )
+from .frontend import DetectionPercepts, Dropped, rgbd_percepts, stereo_percepts
 from .fusion import fuse_percepts, mean_shift_modes
-from .percept import Percept
+from .percept import OBJECT_VIEW, Percept
 from .recognition import (
     GaussianClassifier,
     StereoMatch,
@@ -62,6 +63,8 @@ __all__ = [
     "CalibrationFileError",
     "Box",
     "Detection",
+    "DetectionPercepts",
+    "Dropped",
     "GaussianClassifier",
     "ImageFormatError",
     "InvalidPoseError",
@@ -73,6 +76,7 @@ __all__ = [
     "NonFiniteError",
     "NonPositiveSigmaError",
     "NotFittedError",
+    "OBJECT_VIEW",
     "TooManyNeighboursError",
     "Percept",
     "PerceptionError",
@@ -97,9 +101,11 @@ __all__ = [
     "random_scene",
     "recognize",
     "render_stereo",
+    "rgbd_percepts",
     "scene_boxes",
     "simulate_percepts",
     "simulate_scan",
+    "stereo_percepts",
     "train_classifier",
     "triangulation_covariance",
 ]
