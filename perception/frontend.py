@@ -49,6 +49,7 @@ from .chain import check_transform
 from .detection import Detection
 from .errors import ImageFormatError, NonFiniteError, PerceptionError, ShapeError
 from .percept import OBJECT_VIEW, Percept
+from .tolerances import DEPTH_COVARIANCE_FLOOR
 
 __all__ = [
     "CENTRE_DEPTH_SIGMA",
@@ -452,7 +453,7 @@ def rgbd_percepts(
         n_eff = max(1.0, n_fg / (corr * corr))
         ray_z = centroid / zc  # a depth error dz moves the centroid by dz * ray_z
         own = np.outer(ray_z, ray_z) * (sigma_z * sigma_z / n_eff)
-        own += np.eye(3) * (1e-3 * sigma_z) ** 2  # keeps it positive definite
+        own += np.eye(3) * (DEPTH_COVARIANCE_FLOOR * sigma_z) ** 2  # keeps it positive definite
         try:
             percepts.append(_percept(det, centre, own, loading, T, None))
         except PerceptionError as exc:  # a degenerate covariance: report, never guess
