@@ -37,8 +37,9 @@ from .errors import (
     UnknownClassError,
     URDFError,
 )
+from .frontend import DetectionPercepts, Dropped, rgbd_percepts, stereo_percepts
 from .fusion import fuse_percepts, mean_shift_modes
-from .percept import Percept
+from .percept import OBJECT_VIEW, Percept
 from .recognition import (
     GaussianClassifier,
     StereoMatch,
@@ -65,6 +66,8 @@ __all__ = [
     "CalibrationFileError",
     "Box",
     "Detection",
+    "DetectionPercepts",
+    "Dropped",
     "GaussianClassifier",
     "ImageFormatError",
     "InvalidPoseError",
@@ -78,6 +81,7 @@ __all__ = [
     "NotFittedError",
     "OptionError",
     "SceneError",
+    "OBJECT_VIEW",
     "TooManyNeighboursError",
     "TypeRuleError",
     "Percept",
@@ -103,9 +107,11 @@ __all__ = [
     "random_scene",
     "recognize",
     "render_stereo",
+    "rgbd_percepts",
     "scene_boxes",
     "simulate_percepts",
     "simulate_scan",
+    "stereo_percepts",
     "train_classifier",
     "triangulation_covariance",
 ]

@@ -76,6 +76,12 @@ def _mask_moments(mask: NDArray[np.bool_]) -> tuple[NDArray[np.float64], float, 
     return centroid, float(len(uv)), cov, box
 
 
+def _same(a: NDArray[np.generic] | None, b: NDArray[np.generic] | None) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.array_equal(a, b))
+
+
 @dataclass(frozen=True)
 class Detection:
     """A typed object found in one image: where it is, how big, how sure.
@@ -188,11 +194,7 @@ class Detection:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Detection):
             return NotImplemented
-        return (self.type == other.type and self.score == other.score
-                and bool(np.array_equal(self.centroid_uv, other.centroid_uv)) and self.area == other.area
-                and (self.mask is None) == (other.mask is None)
-                and (self.mask is None or bool(np.array_equal(self.mask, other.mask)))
-                and (self.box is None) == (other.box is None)
-                and (self.box is None or bool(np.array_equal(self.box, other.box))))
+        return (self.type == other.type and self.score == other.score and self.area == other.area
+                and all(_same(getattr(self, f), getattr(other, f)) for f in ("centroid_uv", "box", "mask")))
 
     __hash__ = None  # type: ignore[assignment]  # holds arrays

@@ -18,6 +18,12 @@ MAX_COORDINATE = 1e9
 MAX_VIEWS = 2**31 - 1
 #: Largest ``sigma`` accepted together with ``shared`` loadings (``sigma**2`` stays finite).
 MAX_SHARED_SIGMA = 1e150
+#: The reserved ``shared`` id of an error that every view of one object shares and percepts of
+#: different objects do not: the offset between the centroid of an object's visible part and its
+#: centre (:mod:`perception.frontend`).  :func:`perception.fuse_percepts` adds such loadings
+#: coherently over the views it fuses into one object; ``localize`` never correlates two percepts
+#: through it (they stand for different objects).
+OBJECT_VIEW = -1
 
 
 @dataclass(frozen=True)
@@ -47,7 +53,9 @@ class Percept:
         ``S = J diag(encoder_sigma)`` (:func:`perception.simulate_scan`); fusion sums the
         weighted loadings of its raw percepts.  Two percepts are then correlated,
         ``Cov(p_i, p_j) = sum over common views of S_i S_j^T``.  ``covariance`` is the total and
-        must include ``sum S S^T`` (checked); view ids are distinct non-negative integers.
+        must include ``sum S S^T`` (checked); view ids are distinct integers >= 0, or
+        :data:`OBJECT_VIEW` (-1) for an error shared by the views of the same object only (the
+        centre offset of the detection front ends).
 
     Raises
     ------
@@ -125,7 +133,7 @@ def _shared(value: object, covariance: NDArray[np.float64] | None, sigma: float
     for i, item in enumerate(value):
         if not isinstance(item, tuple | list) or len(item) != 2:
             raise ShapeError(f"shared[{i}] must be a (view, loading) pair, got {item!r:.80}")
-        view = integer(f"shared[{i}] view", item[0], minimum=0)
+        view = integer(f"shared[{i}] view", item[0], minimum=OBJECT_VIEW)
         if view in seen:
             raise ShapeError(f"shared[{i}] repeats view {view}")
         seen.add(view)

@@ -44,3 +44,7 @@ AXIS_TOL = 1e-9
 #: rig) back to itself within this relative error when it is made; one that cannot (a focal
 #: length of 1e-300 px projects every point to the principal point) is refused.
 RIG_ROUND_TRIP_RTOL = 1e-6
+
+#: Depth front end: an isotropic floor, this fraction of the depth noise, added to a percept's own
+#: covariance (the depth error alone spans one direction; the floor keeps it positive definite).
+DEPTH_COVARIANCE_FLOOR = 1e-3

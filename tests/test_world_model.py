@@ -788,3 +788,19 @@ def test_build_far_pairs_holds_what_brute_force_finds(gravity: bool) -> None:
             key = np.hypot(d[:, 0], d[:, 1]) if gravity else np.linalg.norm(d, axis=1)
             np.testing.assert_allclose(index.key, key, rtol=1e-6, atol=1e-5)
             assert np.all(np.diff(index.key) >= 0)
+
+
+def test_centre_depths_are_the_median_half_thinnest_extent_per_type():
+    def obj(k, typ, size):
+        pose = np.eye(4)
+        pose[:3, 3] = [k, 0.0, 1.0]
+        return ObjectModel(f"o{k}", typ, pose, np.array(size, dtype=float))
+
+    world = WorldModel([obj(0, "door", [0.5, 0.02, 0.8]), obj(1, "door", [0.6, 0.04, 0.7]),
+                        obj(2, "door", [0.4, 0.03, 0.9]), obj(3, "handle", [0.03, 0.03, 0.2])],
+                       class_vertices={"box": wg.box_vertices((1, 1, 1))})
+    # by hand: doors' half thinnest extents 0.01, 0.02, 0.015 -> median 0.015; the handle's 0.015
+    assert world.centre_depths() == pytest.approx({"door": 0.015, "handle": 0.015})
+    table = wg.scenes.kitchen(seed=0)
+    depths = table.centre_depths()
+    assert set(depths) == set(table.type_names) and 0.0 < depths["door"] < 0.05

@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from perception import Percept
+from perception import OBJECT_VIEW, Percept
 
 from .._checks import as_list, float_array, positive_float, strict_int
 from .._rigid import rigid_transform
@@ -621,6 +621,8 @@ def _shared_sandwich(L: NDArray[np.float64], shared: Sequence[Sequence[tuple[int
     own = np.zeros((d, d))
     for i, pairs in enumerate(shared):
         for j, (view, S) in enumerate(pairs):
+            if int(view) == OBJECT_VIEW:  # shared by one object's views only: never across percepts
+                continue
             S = float_array(f"shared[{i}][{j}] loading", S, (3, None))
             g = L[i] @ S
             G[int(view)] = G[int(view)] + g if int(view) in G else g

@@ -1,0 +1,624 @@
+"""From a detector's output to percepts: the depth (RGB-D) and the stereo front ends.
+
+A detector (any: a segmentation network, a box detector, :func:`perception.detect`) gives
+:class:`~perception.Detection` objects per image.  Two front ends turn them into
+:class:`~perception.Percept` objects in the ego frame, each with a full 3x3 covariance:
+
+- :func:`rgbd_percepts`: detections plus a depth image registered to them (metres), the
+  camera matrix and ``ego_from_camera``;
+- :func:`stereo_percepts`: detections in the left and the right image of a
+  :class:`~perception.StereoRig`, matched by type and the epipolar constraint and triangulated.
+
+**What a percept's position means.** A world model places an object at the centre of its
+visual geometry (:meth:`worldgraph.WorldModel.from_file`), but a camera sees its front surface:
+a door's front lies half its thickness before that centre, a cylindrical handle's visible
+half about two thirds of its radius.  Measured on rendered kitchens, 15 mm (door and drawer
+fronts) to 30 mm (handles): enough, uncorrected, to break the association.  Both front ends
+therefore refer each percept to the object's centre, ``centre = surface centroid + d n``, with
+``n`` the direction away from the camera (the visible surface's normal when it is flat, else
+the viewing ray) and ``d`` the *centre depth* of the object's type: ``centre_depth={type: d}``
+(e.g. half the thinnest extent of the type's objects in the map; a
+:class:`~perception.mujoco.MujocoScene` computes it), or, by default, the visible surface's own
+depth relief (exact for rounded objects, zero for a flat front, see :data:`CENTRE_DEPTH_SIGMA`).
+
+**Errors an object's views share.** What we do not know about ``d`` and the offset of the
+visible part's centroid from the centre's image (perspective, a mask's bleeding edge) is the
+same each time the object is seen: it is carried as a shared loading with the reserved id
+:data:`~perception.OBJECT_VIEW` (:class:`~perception.Percept`'s ``shared``), which
+:func:`perception.fuse_percepts` adds coherently over an object's views instead of averaging
+it away.  The covariance of each percept includes it.
+
+**Dropped detections** are reported with their reason (:class:`Dropped`): ``"cut_off"`` (the
+region touches the image border, so its centroid is biased; ``keep_cut_off=True`` keeps it
+with a covariance that covers where the centre may be), ``"occluded"`` (a nearer surface hides
+part of it), ``"too_few_pixels"``, ``"no_depth"`` (too few valid depth readings in it),
+``"no_stereo_match"``, ``"behind_camera"``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._checks import boolean, guard, integer, real_array, real_scalar, sequence
+from .chain import check_transform
+from .detection import Detection
+from .errors import ImageFormatError, NonFiniteError, PerceptionError, ShapeError
+from .percept import OBJECT_VIEW, Percept
+from .tolerances import DEPTH_COVARIANCE_FLOOR
+
+__all__ = [
+    "CENTRE_DEPTH_SIGMA",
+    "CENTRE_OFFSET_SCALE",
+    "DEPTH_CORRELATION_PX",
+    "DEPTH_NOISE",
+    "DetectionPercepts",
+    "DropReason",
+    "Dropped",
+    "rgbd_percepts",
+    "stereo_percepts",
+]
+
+#: Default coefficient ``c`` of the depth camera's noise model ``sigma_z = c z^2`` (z the depth
+#: in metres, ``c`` in 1/m): 1.5e-3, about what Khoshelham and Elberink (2012, "Accuracy and
+#: resolution of Kinect depth data") report for a structured-light sensor (1.5 mm at 1 m, 4 cm
+#: at 5 m).  Pass your sensor's own with ``depth_noise=``.
+DEPTH_NOISE = 1.5e-3
+#: Default correlation length of depth errors, pixels: errors of pixels closer than this are
+#: taken as one (a depth camera's disparity is matched over patches), so a region of ``N``
+#: pixels averages ``max(1, N / DEPTH_CORRELATION_PX**2)`` independent depth errors.
+DEPTH_CORRELATION_PX = 8.0
+#: Standard deviation of the offset between the centroid of an object's visible part and the
+#: object's centre, across the viewing direction, as a fraction of the visible part's own
+#: extent (standard deviation of its points per axis): perspective, mask edges, self-occlusion.
+CENTRE_OFFSET_SCALE = 0.1
+#: Standard deviation (m) of the centre depth ``d`` when it is estimated from the visible
+#: surface (no ``centre_depth`` for the type): covers the half thickness of a flat front
+#: (doors, drawers, 1-3 cm), which a depth image cannot see.
+CENTRE_DEPTH_SIGMA = 0.02
+#: Relative standard deviation of a given ``centre_depth`` (plus :data:`CENTRE_DEPTH_FLOOR`).
+CENTRE_DEPTH_RTOL = 0.5
+#: Absolute floor (m) added to the standard deviation of a given ``centre_depth``.
+CENTRE_DEPTH_FLOOR = 0.005
+#: A depth image whose median valid reading exceeds this (m) is taken for millimetres.
+MAX_PLAUSIBLE_DEPTH = 100.0
+#: A region is occluded when more than this fraction of the valid depth readings just outside
+#: its outline lie nearer than it (by :data:`OCCLUSION_MARGIN`).
+OCCLUDED_FRACTION = 0.2
+#: How much nearer (m, plus 3 sigma_z) a reading just outside the outline must be to occlude.
+OCCLUSION_MARGIN = 0.03
+#: Largest number of a region's pixels its statistics are computed from (a regular subsample
+#: of larger regions; the pixel count still sets how much the depth noise averages out).
+MAX_REGION_SAMPLES = 2048
+#: A visible surface is flat when its smallest spread is below this fraction of the middle one
+#: (its normal then orients the centre offset).
+FLAT_RATIO = 0.1
+
+DropReason = Literal["cut_off", "occluded", "too_few_pixels", "no_depth", "no_stereo_match", "behind_camera"]
+
+
+@dataclass(frozen=True)
+class Dropped:
+    """A detection a front end turned into no percept, and why.
+
+    Attributes
+    ----------
+    index : int
+        Index of the detection (for :func:`stereo_percepts`, in the left list).
+    type : str
+        Its type.
+    reason : DropReason
+        ``"cut_off"``, ``"occluded"``, ``"too_few_pixels"``, ``"no_depth"``,
+        ``"no_stereo_match"`` or ``"behind_camera"``.
+    detail : str
+        The numbers behind the reason.
+    """
+
+    index: int
+    type: str
+    reason: DropReason
+    detail: str
+
+
+@dataclass(frozen=True)
+class DetectionPercepts:
+    """What a front end made of one image's (or stereo pair's) detections.
+
+    Attributes
+    ----------
+    percepts : tuple of Percept
+        In the ego frame (the frame ``ego_from_camera`` maps to).
+    sources : tuple of int
+        For each percept, the index of its detection (left list for stereo).
+    dropped : tuple of Dropped
+        Every detection that gave no percept, with its reason.
+    """
+
+    percepts: tuple[Percept, ...]
+    sources: tuple[int, ...]
+    dropped: tuple[Dropped, ...]
+
+
+# ----------------------------------------------------------------------------------------------
+# argument checks
+# ----------------------------------------------------------------------------------------------
+def _camera_matrix(value: ArrayLike) -> NDArray[np.float64]:
+    K = real_array("K", value, (3, 3))
+    if not (K[0, 0] > 0 and K[1, 1] > 0) or not np.allclose(K[2], [0.0, 0.0, 1.0]) or K[1, 0] != 0:
+        raise ShapeError(f"K must be a camera matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0, "
+                         f"got {K.tolist()}")
+    return K
+
+
+def _depth_image(value: ArrayLike) -> NDArray[np.float64]:
+    """A (h, w) depth image in metres: NaN, inf and 0 are holes; negative readings are refused."""
+    raw = np.asarray(value) if not isinstance(value, (str, bytes)) else None
+    if raw is None or raw.ndim != 2 or raw.shape[0] < 1 or raw.shape[1] < 1:
+        shape = None if raw is None else raw.shape
+        raise ImageFormatError(f"depth must be a 2D (height, width) image in metres, got shape {shape}")
+    if raw.dtype.kind in "iu":
+        raise ImageFormatError(
+            f"depth has integer dtype {raw.dtype}: depth cameras store millimetres in uint16; pass "
+            "depth.astype(float) / 1000.0 (metres, with 0 for no reading)")
+    if raw.dtype.kind != "f":
+        raise ImageFormatError(f"depth must be a float image in metres, got dtype {raw.dtype}")
+    depth = raw.astype(np.float64)
+    neg = np.argwhere(depth < 0)
+    if len(neg):
+        r, c = neg[0]
+        raise NonFiniteError(f"depth[{r}, {c}] = {float(depth[r, c])!r} is negative; a depth image holds "
+                             "distances along the optical axis (0 or NaN for no reading)")
+    valid = np.isfinite(depth) & (depth > 0)
+    sample = depth[::4, ::4][valid[::4, ::4]]
+    if sample.size:
+        med = float(np.median(sample))
+        if med > MAX_PLAUSIBLE_DEPTH:
+            raise ImageFormatError(f"depth readings have median {med:.4g}: that looks like millimetres; pass "
+                                   "depth / 1000.0 (metres)")
+    return np.where(valid, depth, np.nan)
+
+
+def _centre_depth(value: object, types: set[str]) -> dict[str, float] | None:
+    if value is None:
+        return None
+    if isinstance(value, Mapping):
+        out = {}
+        for t, d in value.items():
+            out[str(t)] = real_scalar(f"centre_depth[{t!r}]", d, nonnegative=True, high=10.0)
+        return out
+    d = real_scalar("centre_depth", value, nonnegative=True, high=10.0)
+    return dict.fromkeys(types, d)
+
+
+def _detections(name: str, value: object) -> list[Detection]:
+    return sequence(name, value, Detection)
+
+
+def _touches_border(box: NDArray[np.float64], width: int, height: int) -> bool:
+    return bool(box[0] <= 0 or box[1] <= 0 or box[2] >= width - 1 or box[3] >= height - 1)
+
+
+# ----------------------------------------------------------------------------------------------
+# geometry shared by both front ends
+# ----------------------------------------------------------------------------------------------
+def _range_sigma(p: NDArray[np.float64], C: NDArray[np.float64]) -> float:
+    n = float(np.linalg.norm(p))
+    if n == 0.0:
+        return float(np.sqrt(np.trace(C) / 3.0))
+    u = p / n
+    return float(np.sqrt(u @ C @ u))
+
+
+def _percept(det: Detection, centre: NDArray[np.float64], own: NDArray[np.float64],
+             loading: NDArray[np.float64], transform: NDArray[np.float64], sigma: float | None) -> Percept:
+    """The ego-frame percept of a camera-frame centre with its own covariance and shared loading."""
+    R = transform[:3, :3]
+    p = R @ centre + transform[:3, 3]
+    S = R @ loading
+    C = R @ own @ R.T + S @ S.T
+    C = 0.5 * (C + C.T)
+    s = _range_sigma(p, C) if sigma is None else sigma
+    return Percept(det.type, p, s, covariance=C, shared=((OBJECT_VIEW, S),))
+
+
+def _offset_loading(direction: NDArray[np.float64], depth_sd: float, lateral: NDArray[np.float64],
+                    scale: float) -> NDArray[np.float64]:
+    """(3, 3) loading of the centre offset: ``depth_sd`` along ``direction`` (unit) and ``scale``
+    times the visible part's spread ``lateral`` (3x3 covariance) across it."""
+    P = np.eye(3) - np.outer(direction, direction)
+    L = P @ lateral @ P
+    w, V = np.linalg.eigh(0.5 * (L + L.T))
+    w = np.clip(w, 0.0, None)
+    cols = V[:, 1:] * (scale * np.sqrt(w[1:]))  # the two directions across ``direction``
+    return np.column_stack([direction * depth_sd, cols])
+
+
+# ----------------------------------------------------------------------------------------------
+# RGB-D
+# ----------------------------------------------------------------------------------------------
+def _region(det: Detection, shape: tuple[int, int], index: int) -> tuple[NDArray[np.bool_], bool]:
+    """The detection's pixels in an image of ``shape`` and whether they come from a box."""
+    h, w = shape
+    if det.mask is not None:
+        if det.mask.shape != (h, w):
+            raise ShapeError(f"detections[{index}].mask has shape {det.mask.shape}; the depth image is "
+                             f"{h} x {w} (the mask must cover the whole image the depth is registered to)")
+        return det.mask, False
+    box = det.box
+    if box is None:
+        raise ShapeError(f"detections[{index}] has neither a mask nor a box: the depth front end needs the "
+                         "object's pixels (a centroid alone does not say which depths are the object's)")
+    if box[2] < 0 or box[3] < 0 or box[0] > w - 1 or box[1] > h - 1:
+        raise ShapeError(f"detections[{index}].box = {box.tolist()} lies outside the {w} x {h} depth image")
+    u0, v0 = max(0, int(np.ceil(box[0]))), max(0, int(np.ceil(box[1])))
+    u1, v1 = min(w - 1, int(np.floor(box[2]))), min(h - 1, int(np.floor(box[3])))
+    mask = np.zeros((h, w), dtype=bool)
+    mask[v0:v1 + 1, u0:u1 + 1] = True
+    return mask, True
+
+
+def _foreground(z: NDArray[np.float64], seed: NDArray[np.float64], sigma_z: float) -> NDArray[np.bool_]:
+    """Pixels whose depth belongs to the object: within a robust window of the seed pixels'
+    median (3 scaled MADs, at least 3 sigma_z and 1 cm)."""
+    med = float(np.median(seed))
+    mad = 1.4826 * float(np.median(np.abs(seed - med)))
+    half = max(3.0 * mad, 3.0 * sigma_z, 0.01)
+    return np.abs(z - med) <= half
+
+
+def _box_seed(u: NDArray[np.intp], v: NDArray[np.intp], z: NDArray[np.float64], box: NDArray[np.float64],
+              c: float, focal: float) -> NDArray[np.float64]:
+    """The depths of a box's pixels that seed the object's depth window.  The object is nearer
+    than the background around it and fills the box's centre: the seed is the central half's
+    depths within half the box's metric width of their 25th percentile (an object extends in
+    depth no more than across)."""
+    cu, cv = 0.5 * (box[0] + box[2]), 0.5 * (box[1] + box[3])
+    central = ((np.abs(u - cu) <= 0.25 * (box[2] - box[0] + 1))
+               & (np.abs(v - cv) <= 0.25 * (box[3] - box[1] + 1)))
+    zc = z[central] if central.sum() >= 3 else z
+    near = float(np.percentile(zc, 25))
+    width = (min(box[2] - box[0], box[3] - box[1]) + 1.0) * near / focal
+    half = max(3.0 * c * near * near, 0.01, 0.5 * width)
+    return zc[np.abs(zc - near) <= half]
+
+
+def _occluded_fraction(mask: NDArray[np.bool_], box: NDArray[np.float64], depth: NDArray[np.float64],
+                       z_ref: float, margin: float) -> float:
+    """Fraction of the valid readings in a 3-pixel ring outside the mask's outer outline that
+    lie nearer than ``z_ref - margin``."""
+    import cv2
+
+    v0, v1 = max(0, int(box[1]) - 4), min(mask.shape[0], int(box[3]) + 5)
+    u0, u1 = max(0, int(box[0]) - 4), min(mask.shape[1], int(box[2]) + 5)
+    mask, depth = mask[v0:v1, u0:u1], depth[v0:v1, u0:u1]  # the outline's neighbourhood only
+    m8 = mask.astype(np.uint8)
+    contours, _ = cv2.findContours(m8, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    filled = np.zeros_like(m8)
+    cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
+    ring = cv2.dilate(filled, np.ones((7, 7), np.uint8)).astype(bool) & ~filled.astype(bool)
+    zr = depth[ring]
+    zr = zr[np.isfinite(zr)]
+    if zr.size == 0:
+        return 0.0
+    return float(np.mean(zr < z_ref - margin))
+
+
+@guard
+def rgbd_percepts(
+    detections: Sequence[Detection],
+    depth: ArrayLike,
+    K: ArrayLike,
+    ego_from_camera: ArrayLike,
+    *,
+    depth_noise: float = DEPTH_NOISE,
+    depth_correlation_px: float = DEPTH_CORRELATION_PX,
+    centre_depth: float | Mapping[str, float] | None = None,
+    min_pixels: int = 20,
+    keep_cut_off: bool = False,
+) -> DetectionPercepts:
+    """Percepts from detections and a registered depth image (an RGB-D camera).
+
+    For each detection: its pixels (the mask, else the box), their valid depth readings, the
+    object's among them (a robust depth window around the median of the mask, or of the box's
+    central half, so background inside a box or at a mask's bleeding edge drops out), back-
+    projected through ``K`` into camera points; the percept is their centroid moved to the
+    object's centre (module docstring), mapped by ``ego_from_camera``.  Its covariance sums
+
+    - the depth noise ``sigma_z = depth_noise * z^2`` along the centroid's ray, averaged over
+      ``max(1, N / depth_correlation_px**2)`` independent patches of the ``N`` pixels;
+    - the centre offset (shared by the object's views, id :data:`~perception.OBJECT_VIEW`): the
+      centre depth's uncertainty along the offset direction and
+      :data:`CENTRE_OFFSET_SCALE` times the visible part's spread across it.
+
+    Parameters
+    ----------
+    detections : sequence of Detection
+        With a ``mask`` of the depth image's size, or a ``box``.
+    depth : (height, width) float
+        Depth along the optical axis (the camera-frame z, as OpenCV and ROS depth images), metres,
+        registered to the detections' image; 0, NaN or inf where the sensor has no reading.
+    K : (3, 3) float
+        Camera matrix of the depth image (pixels; undistorted image).
+    ego_from_camera : (4, 4) float
+        Rigid transform from the camera frame (OpenCV: x right, y down, z ahead) to the ego
+        frame (x forward, y left, z up), e.g. :meth:`perception.KinematicChain.ego_from_camera`;
+        ``numpy.eye(4)`` gives camera-frame percepts, which ``localize`` cannot use as they are.
+    depth_noise : float
+        ``c`` of ``sigma_z = c z^2``, 1/m; default :data:`DEPTH_NOISE`.
+    depth_correlation_px : float
+        Default :data:`DEPTH_CORRELATION_PX`.
+    centre_depth : float or mapping of str to float, optional
+        Distance (m) from an object's visible surface to its centre, per type (module docstring);
+        types not in the mapping use the surface's own relief.
+    min_pixels : int
+        Fewest valid object pixels for a percept.
+    keep_cut_off : bool
+        Keep regions that touch the image border, with the centre's position across the view
+        as uncertain as the visible part is wide.
+
+    Returns
+    -------
+    DetectionPercepts
+
+    Raises
+    ------
+    PerceptionError
+        A depth image that is not 2D float metres (integer depth and medians above
+        :data:`MAX_PLAUSIBLE_DEPTH` are named as millimetres), negative depth, a mask of another
+        size than the depth image, a box outside it, a bad ``K`` or transform.
+    """
+    dets = _detections("detections", detections)
+    Z = _depth_image(depth)
+    Kc = _camera_matrix(K)
+    T = check_transform("ego_from_camera", ego_from_camera)
+    c = real_scalar("depth_noise", depth_noise, positive=True, high=1.0)
+    corr = real_scalar("depth_correlation_px", depth_correlation_px, low=1.0, high=1e4)
+    min_pixels = integer("min_pixels", min_pixels, minimum=1)
+    keep_cut_off = boolean("keep_cut_off", keep_cut_off)
+    depths = _centre_depth(centre_depth, {d.type for d in dets})
+    h, w = Z.shape
+    Kinv = np.linalg.inv(Kc)
+    percepts: list[Percept] = []
+    sources: list[int] = []
+    dropped: list[Dropped] = []
+    for i, det in enumerate(dets):
+        mask, from_box = _region(det, (h, w), i)
+        b = det.box if det.box is not None else np.array([0, 0, w - 1, h - 1], dtype=np.float64)
+        u0, v0 = max(0, int(b[0])), max(0, int(b[1]))
+        v, u = np.nonzero(mask[v0:min(h, int(b[3]) + 1), u0:min(w, int(b[2]) + 1)])
+        v, u = v + v0, u + u0
+        if u.size < min_pixels:
+            dropped.append(Dropped(i, det.type, "too_few_pixels",
+                                   f"{u.size} pixels < min_pixels {min_pixels}"))
+            continue
+        box = np.array([u.min(), v.min(), u.max(), v.max()], dtype=np.float64)
+        cut = _touches_border(box, w, h)
+        if cut and not keep_cut_off:
+            dropped.append(Dropped(i, det.type, "cut_off", f"box {box.tolist()} touches the border of the "
+                                   f"{w} x {h} image"))
+            continue
+        z = Z[v, u]
+        ok = np.isfinite(z)
+        n_valid = int(ok.sum())
+        if n_valid < min_pixels:
+            dropped.append(Dropped(i, det.type, "no_depth", f"{n_valid} of {u.size} pixels have a depth "
+                                   f"reading (< min_pixels {min_pixels})"))
+            continue
+        u, v, z = u[ok], v[ok], z[ok]
+        stride = -(-u.size // MAX_REGION_SAMPLES)  # statistics of a large region on a regular subsample
+        if stride > 1:
+            u, v, z = u[::stride], v[::stride], z[::stride]
+        if from_box:
+            seed = _box_seed(u, v, z, box, c, float(Kc[0, 0]))
+        else:  # a mask is mostly the object: its median depth is the object's
+            seed = z
+        fg = _foreground(z, seed, c * float(np.median(seed)) ** 2)
+        n_fg = int(fg.sum()) * stride
+        if n_fg < min_pixels:
+            dropped.append(Dropped(i, det.type, "no_depth", f"{n_fg} pixels at the object's depth "
+                                   f"(< min_pixels {min_pixels})"))
+            continue
+        u, v, z = u[fg], v[fg], z[fg]
+        pts = (np.column_stack([u, v, np.ones(u.size)]) @ Kinv.T) * z[:, None]
+        centroid = pts.mean(axis=0)
+        zc = float(centroid[2])
+        sigma_z = c * zc * zc
+        occ = _occluded_fraction(mask if not from_box else _box_fg(mask, v, u), box, Z, zc,
+                                 OCCLUSION_MARGIN + 3.0 * sigma_z)
+        if occ > OCCLUDED_FRACTION:
+            dropped.append(Dropped(i, det.type, "occluded", f"{100 * occ:.0f} % of the readings around its "
+                                   f"outline are nearer (> {100 * OCCLUDED_FRACTION:.0f} %)"))
+            continue
+        spread = np.cov(pts.T, bias=True) if len(pts) > 1 else np.zeros((3, 3))
+        ray = centroid / np.linalg.norm(centroid)
+        wv, V = np.linalg.eigh(spread)
+        if wv[0] < FLAT_RATIO * wv[1]:  # a flat front: its normal, away from the camera
+            direction = V[:, 0] if V[:, 0] @ ray > 0 else -V[:, 0]
+        else:
+            direction = ray
+        if depths is not None and det.type in depths:
+            d = depths[det.type]
+            d_sd = CENTRE_DEPTH_RTOL * d + CENTRE_DEPTH_FLOOR
+        else:  # the relief of the visible surface: its far edge (the silhouette) minus its centroid
+            along = (pts - centroid) @ direction
+            d = max(0.0, float(np.percentile(along, 95)))
+            d_sd = float(np.hypot(CENTRE_DEPTH_SIGMA, 0.5 * d))
+        centre = centroid + d * direction
+        scale = CENTRE_OFFSET_SCALE if not cut else 1.0
+        loading = _offset_loading(direction, d_sd, spread, scale)
+        n_eff = max(1.0, n_fg / (corr * corr))
+        ray_z = centroid / zc  # a depth error dz moves the centroid by dz * ray_z
+        own = np.outer(ray_z, ray_z) * (sigma_z * sigma_z / n_eff)
+        own += np.eye(3) * (DEPTH_COVARIANCE_FLOOR * sigma_z) ** 2  # keeps it positive definite
+        try:
+            percepts.append(_percept(det, centre, own, loading, T, None))
+        except PerceptionError as exc:  # a degenerate covariance: report, never guess
+            dropped.append(Dropped(i, det.type, "no_depth", f"no valid covariance: {exc}"))
+            continue
+        sources.append(i)
+    return DetectionPercepts(tuple(percepts), tuple(sources), tuple(dropped))
+
+
+def _box_fg(mask: NDArray[np.bool_], v: NDArray[np.intp], u: NDArray[np.intp]) -> NDArray[np.bool_]:
+    """The object's pixels inside a box (its depth-foreground), as a mask for the occlusion test."""
+    fg = np.zeros_like(mask)
+    fg[v, u] = True
+    return fg
+
+
+# ----------------------------------------------------------------------------------------------
+# stereo
+# ----------------------------------------------------------------------------------------------
+#: The two images of one object must agree on its extent: box widths and heights within this
+#: fraction (or :data:`EXTENT_PX`), else a part of it is hidden in one image (occluded, cut) and
+#: the centroids' disparity is not the object's.
+EXTENT_RTOL = 0.1
+#: Absolute slack (pixels) of the extent comparison.
+EXTENT_PX = 2.0
+
+
+def _extents_differ(a: Detection, b: Detection) -> str:
+    """Why the boxes of a left/right pair disagree (empty when they agree)."""
+    if a.box is None or b.box is None:
+        return ""
+    for k, name in ((0, "width"), (1, "height")):
+        ea, eb = a.box[k + 2] - a.box[k] + 1.0, b.box[k + 2] - b.box[k] + 1.0
+        if abs(ea - eb) > max(EXTENT_PX, EXTENT_RTOL * max(ea, eb)):
+            return (f"its {name} is {ea:.0f} px in the left image and {eb:.0f} px in the right (more than "
+                    f"{100 * EXTENT_RTOL:.0f} % apart): part of it is hidden in one of them")
+    return ""
+
+
+@guard
+def stereo_percepts(
+    left: Sequence[Detection],
+    right: Sequence[Detection],
+    rig: Any,
+    ego_from_camera: ArrayLike,
+    *,
+    centre_depth: float | Mapping[str, float] | None = None,
+    depth_factor: float | None = None,
+    pixel_sigma: float | None = None,
+    max_epipolar_px: float = 2.0,
+    keep_cut_off: bool = False,
+) -> DetectionPercepts:
+    """Percepts from detections in the two images of a stereo rig.
+
+    Left and right detections are paired by type and the epipolar constraint
+    (:func:`perception.match_stereo`), their centroids triangulated (:meth:`StereoRig.triangulate`)
+    and moved along the viewing ray to the object's centre by its centre depth (module
+    docstring).  The covariance maps pixel errors through the triangulation Jacobian: each
+    centroid's own error ``pixel_sigma`` per coordinate (independent left and right: the
+    disparity error), and the offset of the centroid from the image of the object's centre,
+    :data:`CENTRE_OFFSET_SCALE` times the region's pixel spread, the same in both images and
+    shared by the object's views (id :data:`~perception.OBJECT_VIEW`) with the centre depth's
+    uncertainty.
+
+    Parameters
+    ----------
+    left, right : sequence of Detection
+        Detections in the left and the right image.
+    rig : StereoRig
+    ego_from_camera : (4, 4) float
+        Left camera frame (OpenCV) to ego frame; :meth:`perception.KinematicChain.ego_from_camera`.
+    centre_depth : float or mapping of str to float, optional
+        Distance (m) from an object's visible surface to its centre along the view; types not
+        given use :data:`CENTRE_DEPTH_SIGMA` as its uncertainty around 0.
+    depth_factor : float, optional
+        The paper's eq. 6: each percept's ``sigma = rho**2 / depth_factor`` (``rho`` the depth
+        along the left optical axis), which the paper's method reads.  Default: ``sigma`` is the
+        standard deviation of the range under the covariance.
+    pixel_sigma : float, optional
+        Centroid error per image coordinate, pixels; default
+        ``perception.recognition.DISPARITY_STD_PX / sqrt(2)`` (outline quantisation).
+    max_epipolar_px : float
+        Largest distance of a right centroid from the left one's epipolar line.
+    keep_cut_off : bool
+        Keep regions that touch the border of either image (their centre's offset then as
+        uncertain as the region is wide).
+
+    Returns
+    -------
+    DetectionPercepts
+        ``sources`` and ``dropped`` index the left detections.
+    """
+    from .recognition import DISPARITY_STD_PX, match_stereo
+    from .stereo import StereoRig
+    from .uncertainty import depth_sigma, triangulation_jacobian
+
+    if not isinstance(rig, StereoRig):
+        raise ShapeError(f"rig must be a perception.StereoRig, got {type(rig).__name__}")
+    lefts = _detections("left", left)
+    rights = _detections("right", right)
+    T = check_transform("ego_from_camera", ego_from_camera)
+    keep_cut_off = boolean("keep_cut_off", keep_cut_off)
+    max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True, high=1e6)
+    if depth_factor is not None:
+        depth_factor = real_scalar("depth_factor", depth_factor, positive=True, high=1e150)
+    px = DISPARITY_STD_PX / np.sqrt(2.0) if pixel_sigma is None else real_scalar(
+        "pixel_sigma", pixel_sigma, positive=True, high=1e3)
+    depths = _centre_depth(centre_depth, {d.type for d in lefts})
+    w, h = rig.image_size
+    dropped: list[Dropped] = []
+
+    def usable(dets: list[Detection], record: bool) -> list[int]:
+        keep = []
+        for i, d in enumerate(dets):
+            if d.box is not None and _touches_border(d.box, w, h) and not keep_cut_off:
+                if record:
+                    dropped.append(Dropped(i, d.type, "cut_off",
+                                           f"box {d.box.tolist()} touches the border of the {w} x {h} image"))
+                continue
+            keep.append(i)
+        return keep
+
+    li, ri = usable(lefts, True), usable(rights, False)
+    matches = match_stereo(rig, [lefts[i] for i in li], [rights[j] for j in ri], max_epipolar_px)
+    matched = {li[m.left]: ri[m.right] for m in matches}
+    for i in li:
+        if i not in matched:
+            dropped.append(Dropped(i, lefts[i].type, "no_stereo_match",
+                                   f"no right detection of type {lefts[i].type!r} within "
+                                   f"{max_epipolar_px:g} px of its epipolar line, in front of both cameras"))
+    percepts: list[Percept] = []
+    sources: list[int] = []
+    for i in sorted(matched):
+        dl, dr = lefts[i], rights[matched[i]]
+        differ = _extents_differ(dl, dr)
+        if differ:
+            dropped.append(Dropped(i, dl.type, "occluded", differ))
+            continue
+        uv_l, uv_r = dl.centroid_uv[None, :], dr.centroid_uv[None, :]
+        try:
+            X = np.asarray(rig.triangulate(uv_l, uv_r), dtype=np.float64)[0]
+            J = triangulation_jacobian(rig, uv_l, uv_r)[0]  # (3, 4)
+        except PerceptionError as exc:
+            dropped.append(Dropped(i, dl.type, "behind_camera", str(exc)))
+            continue
+        own = px * px * (J @ J.T)
+        common = J[:, :2] + J[:, 2:]  # the same shift in both images
+        shape = 0.5 * (dl.shape_covariance + dr.shape_covariance)
+        cut = (dl.box is not None and _touches_border(dl.box, w, h)) or (
+            dr.box is not None and _touches_border(dr.box, w, h))
+        scale = CENTRE_OFFSET_SCALE if not cut else 1.0
+        wv, V = np.linalg.eigh(shape)
+        lateral = common @ (V * (scale * np.sqrt(np.clip(wv, 0.0, None))))  # (3, 2)
+        ray = X / np.linalg.norm(X)
+        if depths is not None and dl.type in depths:
+            d = depths[dl.type]
+            d_sd = CENTRE_DEPTH_RTOL * d + CENTRE_DEPTH_FLOOR
+        else:
+            d, d_sd = 0.0, CENTRE_DEPTH_SIGMA
+        loading = np.column_stack([ray * d_sd, lateral])
+        sigma = None if depth_factor is None else float(depth_sigma(float(X[2]), depth_factor))
+        try:
+            percepts.append(_percept(dl, X + d * ray, own, loading, T, sigma))
+        except PerceptionError as exc:
+            dropped.append(Dropped(i, dl.type, "behind_camera", f"no valid covariance: {exc}"))
+            continue
+        sources.append(i)
+    return DetectionPercepts(tuple(percepts), tuple(sources), tuple(dropped))
