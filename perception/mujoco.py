@@ -42,11 +42,11 @@ from .detection import Detection
 from .errors import (
     MissingExtraError,
     OptionError,
-    PerceptionError,
     SceneError,
     ShapeError,
     TypeRuleError,
 )
+from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE
 from .simulate import scan_angles
 from .type_rules import type_rule
 
@@ -140,7 +140,7 @@ def visual_geoms(model: Any) -> NDArray[np.bool_]:
     alpha = rgba[:, 3].copy()
     if int(model.nmat) > 0:
         mat_rgba = np.asarray(model.mat_rgba, dtype=np.float64).reshape(-1, 4)
-        default = np.all(np.abs(rgba - np.array(_DEFAULT_RGBA)) < 1e-6, axis=1)
+        default = np.all(rgba == np.array(_DEFAULT_RGBA), axis=1)  # 0.5 and 1 are exact in float32
         use_mat = (matid >= 0) & default
         alpha[use_mat] = mat_rgba[matid[use_mat], 3]
     return np.isin(group, VISIBLE_GROUPS) & (alpha > 0)
@@ -273,12 +273,14 @@ def geom_mesh(model: Any, g: int) -> tuple[trimesh.Trimesh, NDArray[np.float64]]
 # ----------------------------------------------------------------------------------------------
 #: Depth noise factor ``c`` of :meth:`MujocoScene.scan` (1/m): ``sigma_z = c z^2``, about 1.5 mm
 #: at 1 m and 2.4 cm at 4 m, the Kinect's axial noise (Khoshelham and Elberink 2012, "Accuracy and
-#: resolution of Kinect depth data for indoor mapping applications", Sensors 12(2)).
-DEFAULT_DEPTH_NOISE = 1.5e-3
+#: resolution of Kinect depth data for indoor mapping applications", Sensors 12(2)); the front
+#: end's :data:`perception.frontend.DEPTH_NOISE`, so that the simulated noise is the modelled one.
+DEFAULT_DEPTH_NOISE = DEPTH_NOISE
 #: Largest depth (metres) the simulated depth camera measures; farther pixels are invalid (NaN).
 DEFAULT_MAX_RANGE = 6.0
-#: Side (pixels) of the blocks over which the depth error is one draw (spatial correlation).
-DEPTH_NOISE_BLOCK = 8
+#: Side (pixels) of the blocks over which the depth error is one draw (spatial correlation): the
+#: front end's correlation length :data:`perception.frontend.DEPTH_CORRELATION_PX`.
+DEPTH_NOISE_BLOCK = int(DEPTH_CORRELATION_PX)
 #: Standard deviation of the per-pixel (independent) part of the depth error, relative to the
 #: blockwise part; the sum is rescaled so that the total standard deviation is ``c z^2``.
 DEPTH_NOISE_IID = 0.25
@@ -781,14 +783,19 @@ class MujocoScene:
             ``c`` (1/m) of the depth error ``sigma_z = c z^2`` (:data:`DEFAULT_DEPTH_NOISE`); 0
             for exact depth.  The normalised error is one draw per block of
             :data:`DEPTH_NOISE_BLOCK` pixels plus an independent part per pixel
-            (:data:`DEPTH_NOISE_IID`).
+            (:data:`DEPTH_NOISE_IID`).  The front end models the same ``c`` (the default
+            :data:`perception.frontend.DEPTH_NOISE` for exact depth).
         max_range : float
             Depths beyond it are invalid (NaN), as are pixels where nothing is rendered.
         centre_depth : mapping, optional
             Type -> metres from the visible surface to the centre, for the front end; by
             default :meth:`centre_depths`.
         percepts : bool
-            Run the front end (``False``: images and detections only).
+            Run the front end (``False``: images and detections only): per view
+            :func:`perception.rgbd_percepts` on the detections and the noisy depth, or
+            :func:`perception.stereo_percepts` on the left and right detections with the rig of
+            the two cameras (``X_right = R X_left + T`` from ``inv(ego_from_right) @
+            ego_from_left``, both with ``K``, no distortion).
 
         Returns
         -------
@@ -864,7 +871,7 @@ class MujocoScene:
         if percepts:
             t0 = time.perf_counter()
             for k, view in enumerate(views):
-                found, sources, lost = self._percepts(view, sensor, size, centres)
+                found, sources, lost = self._percepts(view, sensor, size, centres, noise)
                 out_percepts.extend(found)
                 out_views.extend([k] * len(found))
                 out_truth.extend(view.truth[i] for i in sources)
@@ -882,10 +889,24 @@ class MujocoScene:
         return {name_str("centre_depth key", k): real_scalar(f"centre_depth[{k!r}]", v, nonnegative=True)
                 for k, v in centre_depth.items()}
 
-    def _percepts(self, view: ScanView, sensor: str, size: tuple[int, int], centres: dict[str, float]
-                  ) -> tuple[tuple[Any, ...], tuple[int, ...], tuple[Any, ...]]:
+    def _percepts(self, view: ScanView, sensor: str, size: tuple[int, int], centres: dict[str, float],
+                  depth_noise: float) -> tuple[tuple[Any, ...], tuple[int, ...], tuple[Any, ...]]:
         """The front end on one view: ``(percepts, detection index of each, dropped)``."""
-        raise PerceptionError("the percept front end (perception.frontend) is not available yet")
+        from .frontend import DEPTH_NOISE, rgbd_percepts, stereo_percepts
+        from .stereo import StereoRig
+
+        if sensor == "rgbd":
+            assert view.depth is not None
+            out = rgbd_percepts(view.detections, view.depth, view.K, view.ego_from_camera,
+                                depth_noise=depth_noise if depth_noise > 0 else DEPTH_NOISE,
+                                centre_depth=centres)
+        else:
+            assert view.ego_from_right_camera is not None
+            right_from_left = np.linalg.inv(view.ego_from_right_camera) @ view.ego_from_camera
+            rig = StereoRig(view.K, None, view.K, None, right_from_left[:3, :3], right_from_left[:3, 3], size)
+            out = stereo_percepts(view.detections, view.right_detections, rig, view.ego_from_camera,
+                                  centre_depth=centres)
+        return out.percepts, out.sources, out.dropped
 
 
 def _noisy_depth(z: NDArray[np.float64], c: float, max_range: float, rng: np.random.Generator

@@ -154,25 +154,38 @@ def test_accepts_an_mjmodel_and_leaves_it_alone(room, room_scene):
     assert view.rgb is None and view.depth is None and (view.objects >= 0).any()
 
 
-@needs_kitchen
-def test_kitchen_objects_equal_from_file_and_segmentation_types():
+KITCHEN_TYPES = {r"^knob": "knob", r"^Burner": "burner",
+                 r"^(hingeleftdoor|hingerightdoor|slidelink)$": "door", r"^microwave$": "microwave",
+                 r"^kettle$": "kettle", r"^lightswitchroot$": "switch"}
+#: the robot 1.2 m in front of the stove, ego x along world +y
+FACING_STOVE = _pose(np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]]), [-0.3, -1.2, 1.7])
+
+
+@pytest.fixture(scope="module")
+def kitchen():
     import worldgraph as wg
 
     path = wg.franka_kitchen_path() / "kitchen_env_model.xml"
-    type_of = {r"^knob": "knob", r"^Burner": "burner", r"^(hingeleftdoor|hingerightdoor|slidelink)$": "door",
-               r"^microwave$": "microwave", r"^kettle$": "kettle", r"^lightswitchroot$": "switch"}
-    scene = MujocoScene(path, type_of=type_of)
-    world = wg.WorldModel.from_file(path, type_of=type_of)
+    return MujocoScene(path, type_of=KITCHEN_TYPES), wg.WorldModel.from_file(path, type_of=KITCHEN_TYPES)
+
+
+@needs_kitchen
+def test_kitchen_objects_equal_from_file_and_segmentation_types(kitchen):
+    scene, world = kitchen
     ids = [o.id for o in world.objects]
     assert sorted(ids) == sorted(o.name for o in scene.objects)
     for o in scene.objects:
         np.testing.assert_allclose(o.position, world.positions[ids.index(o.name)], atol=1e-9, err_msg=o.name)
         assert o.type == world.objects[ids.index(o.name)].type
+    expected = world.centre_depths()
+    assert scene.centre_depths().keys() == expected.keys()
+    for typ, d in scene.centre_depths().items():
+        assert d == pytest.approx(expected[typ], abs=1e-9)
+    pose = FACING_STOVE
     # the stove seen from the room: every detection's pixels are geoms of its body or of the
     # body's untyped descendants (walked here on the model), and of its type
     model = scene.model
     typed = {o.body: o for o in scene.objects}
-    pose = _pose(np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]]), [-0.3, -1.2, 1.7])  # facing +y
     scan = scene.scan(pose, "rgbd", 5, rng=np.random.default_rng(1), image_size=SMALL, percepts=False)
     seen_types = set()
     for view in scan.views:
@@ -196,7 +209,8 @@ def test_kitchen_objects_equal_from_file_and_segmentation_types():
 def _scan(scene, **kw):
     kw.setdefault("rng", np.random.default_rng(3))
     kw.setdefault("image_size", SMALL)
-    return scene.scan(np.eye(4), kw.pop("sensor", "rgbd"), kw.pop("n_views", 3), percepts=False, **kw)
+    kw.setdefault("percepts", False)
+    return scene.scan(np.eye(4), kw.pop("sensor", "rgbd"), kw.pop("n_views", 3), **kw)
 
 
 def test_exact_scan_detects_every_visible_object(room_scene):
@@ -349,3 +363,45 @@ def test_missing_mujoco_names_the_extra(room, monkeypatch):
     monkeypatch.setitem(sys.modules, "mujoco", None)
     with pytest.raises(pc.MissingExtraError, match=r"pip install gaussian-spheres\[mujoco\]"):
         MujocoScene(room)
+
+
+# ----------------------------------------------------------------------------------------------
+# percepts (the front ends of perception.frontend)
+# ----------------------------------------------------------------------------------------------
+@needs_kitchen
+@pytest.mark.parametrize("sensor, tolerance", [("rgbd", 0.12), ("stereo", 0.15)])
+def test_kitchen_percepts_sit_at_their_objects_in_the_ego_frame(kitchen, sensor, tolerance):
+    """With exact images the percepts of true detections lie near their objects (the world
+    model's positions mapped into the ego frame by hand); the doors' centres are 8 cm behind
+    their fronts (centre_depths), the kettle's visible side is not its box centre."""
+    scene, world = kitchen
+    scan = scene.scan(FACING_STOVE, sensor, 7, rng=np.random.default_rng(2), image_size=(320, 240),
+                      depth_noise=0.0)
+    ids = [o.id for o in world.objects]
+    ego_from_world = np.linalg.inv(FACING_STOVE)
+    assert len(scan.percepts) == len(scan.percept_views) == len(scan.percept_truth) >= 8
+    assert len(scan.dropped) == 7
+    errors = []
+    for p, view, k in zip(scan.percepts, scan.percept_views, scan.percept_truth, strict=True):
+        assert 0 <= view < 7 and k >= 0  # no false detections were asked for
+        assert p.type == scene.objects[k].type
+        X = world.positions[ids.index(scene.objects[k].name)]
+        errors.append(np.linalg.norm(p.position - (ego_from_world[:3, :3] @ X + ego_from_world[:3, 3])))
+    print(f"{sensor}: percept errors (m) median {np.median(errors):.3f}, max {max(errors):.3f}")
+    # stereo pairs same-typed doors by the epipolar line alone: one may be matched to another door
+    assert np.median(errors) < 0.05 and np.mean(np.array(errors) < tolerance) >= 0.9
+    assert all(d.reason in ("cut_off", "occluded", "too_few_pixels", "no_depth", "no_stereo_match",
+                            "behind_camera") for view in scan.dropped for d in view)
+    assert scan.timings.percepts > 0 and scan.timings.render > 0
+
+
+def test_percepts_of_false_detections_carry_their_truth(room_scene):
+    """The room's knobs are larger at 640x480 (about 80 px each): with false detections on, every
+    percept's truth is its detection's, the false ones -1."""
+    scan = _scan(room_scene, percepts=True, false_rate=1.0, image_size=(640, 480), n_views=3,
+                 rng=np.random.default_rng(4))
+    truths = [t for view in scan.views for t in view.truth]
+    assert len(scan.percepts) > 0 and set(scan.percept_truth) <= set(truths)
+    for p, k in zip(scan.percepts, scan.percept_truth, strict=True):
+        if k >= 0:
+            assert p.type == room_scene.types[k]
