@@ -903,7 +903,8 @@ class MujocoScene:
         else:
             assert view.ego_from_right_camera is not None
             right_from_left = np.linalg.inv(view.ego_from_right_camera) @ view.ego_from_camera
-            rig = StereoRig(view.K, None, view.K, None, right_from_left[:3, :3], right_from_left[:3, 3], size)
+            rig = StereoRig(view.K, np.zeros(0), view.K, np.zeros(0), right_from_left[:3, :3],
+                            right_from_left[:3, 3], size)
             out = stereo_percepts(view.detections, view.right_detections, rig, view.ego_from_camera,
                                   centre_depth=centres)
         return out.percepts, out.sources, out.dropped
