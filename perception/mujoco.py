@@ -527,6 +527,8 @@ class MujocoScene:
             raise SceneError(f"path_or_model: no body or world geom gets a type (body names {names}); pass "
                              "type_of= to type them")
         self._renderers: dict[tuple[int, int], Any] = {}
+        self._camera = mujoco.MjvCamera()  # a free camera; its pose is overwritten per view
+        mujoco.mjv_defaultFreeCamera(model, self._camera)
 
     # -- objects ---------------------------------------------------------------------------------
     def _type(self, name: str) -> str | None:
@@ -662,10 +664,14 @@ class MujocoScene:
                 raise SceneError(f"cannot render {w}x{h} images ({type(exc).__name__}: {exc}); headless "
                                  "rendering needs MUJOCO_GL=egl (or osmesa) set before mujoco is "
                                  "imported") from exc
-            self._camera = self._mj.MjvCamera()
-            self._mj.mjv_defaultFreeCamera(self._model, self._camera)
             self._renderers[size] = renderer
         return renderer
+
+    def close(self) -> None:
+        """Free the renderers (their OpenGL contexts); the next render makes new ones."""
+        for renderer in self._renderers.values():
+            renderer.close()
+        self._renderers.clear()
 
     @guard
     def render(self, world_from_camera: ArrayLike, image_size: Any = (640, 480), *, rgb: bool = True,

@@ -152,6 +152,9 @@ def test_accepts_an_mjmodel_and_leaves_it_alone(room, room_scene):
     assert int(model.vis.quality.offsamples) == samples
     view = scene.render(_pose(LOOK_X, [0, 0, 0]), SMALL, rgb=False, depth=False)
     assert view.rgb is None and view.depth is None and (view.objects >= 0).any()
+    scene.close()  # frees the renderer; the next render makes a new one
+    again = scene.render(_pose(LOOK_X, [0, 0, 0]), SMALL, rgb=False, depth=False)
+    np.testing.assert_array_equal(again.objects, view.objects)
 
 
 KITCHEN_TYPES = {r"^knob": "knob", r"^Burner": "burner",
