@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import _short, check_transform, file_path, guard, integer, name_str, real_scalar
+from ._checks import _short, boolean, check_transform, file_path, guard, integer, name_str, real_scalar
 from ._checks import rng as check_rng
 from .chain import KinematicChain, default_head
 from .detection import Detection
@@ -704,7 +704,8 @@ class MujocoScene:
         """
         pose = check_transform("world_from_camera", world_from_camera)
         size = _image_size(image_size)
-        return self._render(pose, size, bool(rgb), bool(depth), bool(segmentation))
+        return self._render(pose, size, boolean("rgb", rgb), boolean("depth", depth),
+                            boolean("segmentation", segmentation))
 
     def _render(self, world_from_camera: NDArray[np.float64], size: tuple[int, int], want_rgb: bool,
                 want_depth: bool, want_seg: bool) -> RenderedView:
@@ -837,6 +838,7 @@ class MujocoScene:
         noise = real_scalar("depth_noise", depth_noise, nonnegative=True)
         far = real_scalar("max_range", max_range, positive=True)
         centres = self._centre_depth(centre_depth)
+        run_front_end = boolean("percepts", percepts)
         K = self.camera_matrix(size)
         Q = scan_angles(head, n)
         t_render = t_detect = t_percepts = 0.0
@@ -874,7 +876,7 @@ class MujocoScene:
         out_views: list[int] = []
         out_truth: list[int] = []
         dropped: list[tuple[Any, ...]] = []
-        if percepts:
+        if run_front_end:
             t0 = time.perf_counter()
             for k, view in enumerate(views):
                 found, sources, lost = self._percepts(view, sensor, size, centres, noise)

@@ -330,6 +330,8 @@ def test_stereo_renders_both_cameras(room_scene):
     (dict(depth_noise=-1e-3), pc.NonPositiveSigmaError, "depth_noise must be >= 0"),
     (dict(rng=0), pc.PerceptionError, "rng must be a numpy.random.Generator"),
     (dict(centre_depth={"door": -1.0}), pc.NonPositiveSigmaError, r"centre_depth\['door'\] must be >= 0"),
+    (dict(percepts="yes"), pc.ShapeError, "percepts must be a bool, got str 'yes'"),
+    (dict(chain="head"), pc.ShapeError, "chain must be a KinematicChain or None, got str"),
 ])
 def test_bad_scan_arguments(room_scene, kw, error, match):
     with pytest.raises(error, match=match):
