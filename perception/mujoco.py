@@ -332,6 +332,7 @@ class RenderedView:
     Attributes
     ----------
     rgb : (h, w, 3) uint8 or None
+        The colour image.
     depth : (h, w) float or None
         Depth in metres along the optical axis (OpenCV z, not the distance along the ray);
         NaN where nothing is rendered (the sky box, beyond the far plane).
@@ -369,13 +370,21 @@ class ScanView:
         Per detection the object index it comes from, -1 for a false detection.
     depth : (h, w) float or None
         ``sensor="rgbd"``: the noisy depth (metres, OpenCV z; NaN invalid).
-    right_rgb, right_segmentation, right_detections, right_truth
-        ``sensor="stereo"``: the same for the right camera.
+    right_rgb : (h, w, 3) uint8 or None
+        ``sensor="stereo"``: the right camera's colour image.
+    right_segmentation : (h, w) int32 or None
+        ``sensor="stereo"``: object index per pixel of the right image.
+    right_detections : tuple of Detection
+        ``sensor="stereo"``: the detections of the right image.
+    right_truth : tuple of int
+        ``sensor="stereo"``: their object indices (-1 false).
     ego_from_right_camera : (4, 4) float or None
         ``sensor="stereo"``: the right camera in the ego frame.
-    missed, right_missed : tuple of int
+    missed : tuple of int
         Object indices visible in the image whose detection the degradation dropped (``miss_rate``,
         ``min_pixels``, a mask eroded away).
+    right_missed : tuple of int
+        The same for the right image.
     """
 
     head_angles: NDArray[np.float64]
@@ -429,7 +438,9 @@ class MujocoScan:
     Attributes
     ----------
     sensor : {"rgbd", "stereo"}
+        The simulated sensor.
     views : tuple of ScanView
+        The views, in the order of the sweep.
     percepts : tuple of Percept
         Every view's percepts, ego frame, not fused.
     percept_views : tuple of int
@@ -437,8 +448,9 @@ class MujocoScan:
     percept_truth : tuple of int
         The object index of each percept (-1: from a false detection).
     dropped : tuple of tuple
-        Per view, what the front end dropped (its ``Dropped`` records).
+        Per view, what the front end dropped (its :class:`~perception.Dropped` records).
     timings : ScanTimings
+        Seconds per stage.
     """
 
     sensor: Sensor

@@ -185,6 +185,16 @@ def test_kitchen_objects_equal_from_file_and_segmentation_types(kitchen):
     for typ, d in scene.centre_depths().items():
         assert d == pytest.approx(expected[typ], abs=1e-9)
     pose = FACING_STOVE
+    # the default rule too: oven, knobs, burners, microwave, kettle (the oven takes its untyped
+    # children, the hood and the light switch among them)
+    default = MujocoScene(world.scene.metadata["mujoco_model"])
+    import worldgraph as wg
+
+    plain = wg.WorldModel.from_file(wg.franka_kitchen_path() / "kitchen_env_model.xml")
+    plain_ids = [o.id for o in plain.objects]
+    assert sorted(plain_ids) == sorted(o.name for o in default.objects)
+    np.testing.assert_allclose(default.positions, plain.positions[[plain_ids.index(o.name)
+                                                                    for o in default.objects]], atol=1e-9)
     # the stove seen from the room: every detection's pixels are geoms of its body or of the
     # body's untyped descendants (walked here on the model), and of its type
     model = scene.model
