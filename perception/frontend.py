@@ -84,6 +84,8 @@ CENTRE_DEPTH_SIGMA = 0.02
 CENTRE_DEPTH_RTOL = 0.5
 #: Absolute floor (m) added to the standard deviation of a given ``centre_depth``.
 CENTRE_DEPTH_FLOOR = 0.005
+#: Largest ``|centre_depth|`` accepted, metres.
+MAX_CENTRE_DEPTH = 10.0
 #: A depth image whose median valid reading exceeds this (m) is taken for millimetres.
 MAX_PLAUSIBLE_DEPTH = 100.0
 #: A region is occluded when more than this fraction of the valid depth readings just outside
@@ -188,9 +190,9 @@ def _centre_depth(value: object, types: set[str]) -> dict[str, float] | None:
     if isinstance(value, Mapping):
         out = {}
         for t, d in value.items():
-            out[str(t)] = real_scalar(f"centre_depth[{t!r}]", d, nonnegative=True, high=10.0)
+            out[str(t)] = real_scalar(f"centre_depth[{t!r}]", d, low=-MAX_CENTRE_DEPTH, high=MAX_CENTRE_DEPTH)
         return out
-    d = real_scalar("centre_depth", value, nonnegative=True, high=10.0)
+    d = real_scalar("centre_depth", value, low=-MAX_CENTRE_DEPTH, high=MAX_CENTRE_DEPTH)
     return dict.fromkeys(types, d)
 
 
@@ -352,8 +354,11 @@ def rgbd_percepts(
     depth_correlation_px : float
         Default :data:`DEPTH_CORRELATION_PX`.
     centre_depth : float or mapping of str to float, optional
-        Distance (m) from an object's visible surface to its centre, per type (module docstring);
-        types not in the mapping use the surface's own relief.
+        Distance (m) from the centroid of an object's visible surface to its centre, along the
+        direction away from the camera, per type (module docstring); negative when the centre
+        lies in front of the surface (a door whose handle protrudes); its standard deviation is
+        taken as ``CENTRE_DEPTH_RTOL |d| + CENTRE_DEPTH_FLOOR``.  Types not in the mapping use
+        the surface's own relief.
     min_pixels : int
         Fewest valid object pixels for a percept.
     keep_cut_off : bool
@@ -442,7 +447,7 @@ def rgbd_percepts(
             direction = ray
         if depths is not None and det.type in depths:
             d = depths[det.type]
-            d_sd = CENTRE_DEPTH_RTOL * d + CENTRE_DEPTH_FLOOR
+            d_sd = CENTRE_DEPTH_RTOL * abs(d) + CENTRE_DEPTH_FLOOR
         else:  # the relief of the visible surface: its far edge (the silhouette) minus its centroid
             along = (pts - centroid) @ direction
             d = max(0.0, float(np.percentile(along, 95)))
@@ -610,7 +615,7 @@ def stereo_percepts(
         ray = X / np.linalg.norm(X)
         if depths is not None and dl.type in depths:
             d = depths[dl.type]
-            d_sd = CENTRE_DEPTH_RTOL * d + CENTRE_DEPTH_FLOOR
+            d_sd = CENTRE_DEPTH_RTOL * abs(d) + CENTRE_DEPTH_FLOOR
         else:
             d, d_sd = 0.0, CENTRE_DEPTH_SIGMA
         loading = np.column_stack([ray * d_sd, lateral])
