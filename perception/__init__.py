@@ -37,7 +37,7 @@ from .errors import (
     UnknownClassError,
     URDFError,
 )
-from .frontend import DetectionPercepts, Dropped, rgbd_percepts, stereo_percepts
+from .frontend import CentreOffset, DetectionPercepts, Dropped, rgbd_percepts, stereo_percepts
 from .fusion import fuse_percepts, mean_shift_modes
 from .percept import OBJECT_VIEW, Percept
 from .recognition import (
@@ -64,6 +64,7 @@ __all__ = [
     "BehindCameraError",
     "CalibrationError",
     "CalibrationFileError",
+    "CentreOffset",
     "Box",
     "Detection",
     "DetectionPercepts",

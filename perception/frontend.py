@@ -14,12 +14,16 @@ visual geometry (:meth:`worldgraph.WorldModel.from_file`), but a camera sees its
 a door's front lies half its thickness before that centre, a cylindrical handle's visible
 half about two thirds of its radius.  Measured on rendered kitchens, 15 mm (door and drawer
 fronts) to 30 mm (handles): enough, uncorrected, to break the association.  Both front ends
-therefore refer each percept to the object's centre, ``centre = surface centroid + d n``, with
-``n`` the direction away from the camera (the visible surface's normal when it is flat, else
-the viewing ray) and ``d`` the *centre depth* of the object's type: ``centre_depth={type: d}``
-(e.g. half the thinnest extent of the type's objects in the map; a
-:class:`~perception.mujoco.MujocoScene` computes it), or, by default, the visible surface's own
-depth relief (exact for rounded objects, zero for a flat front, see :data:`CENTRE_DEPTH_SIGMA`).
+therefore refer each percept to the object's centre, ``centre = visible centroid + d n``, with
+``n`` the direction away from the camera (the visible surface's normal when it is flat, else the
+viewing ray) and ``d`` the *centre offset* of the object's type, a prior with its uncertainty
+(:class:`CentreOffset`; ``centre_offset={type: CentreOffset(...)}`` or ``{type: d}``): from the
+map (:meth:`worldgraph.WorldModel.centre_depths`, half the thinnest extent), measured for your
+detector's classes, or measured on renders (:meth:`perception.mujoco.MujocoScene.centre_offsets`).
+Measured on the Franka kitchen, doors with their protruding handles have their centre 1.7 cm
+*in front* of the visible leaf, knobs 0.8 cm and switches 2.4 cm behind what is seen.  Types
+without a prior use the visible surface's own depth relief (exact for rounded objects, zero for
+a flat front) with :data:`CENTRE_DEPTH_SIGMA` of uncertainty.
 
 **Errors an object's views share.** What we do not know about ``d`` and the offset of the
 visible part's centroid from the centre's image (perspective, a mask's bleeding edge) is the
@@ -54,6 +58,7 @@ from .tolerances import DEPTH_COVARIANCE_FLOOR
 __all__ = [
     "CENTRE_DEPTH_SIGMA",
     "CENTRE_OFFSET_SCALE",
+    "CentreOffset",
     "DEPTH_CORRELATION_PX",
     "DEPTH_NOISE",
     "DetectionPercepts",
@@ -77,13 +82,16 @@ DEPTH_CORRELATION_PX = 8.0
 #: extent (standard deviation of its points per axis): perspective, mask edges, self-occlusion.
 CENTRE_OFFSET_SCALE = 0.1
 #: Standard deviation (m) of the centre depth ``d`` when it is estimated from the visible
-#: surface (no ``centre_depth`` for the type): covers the half thickness of a flat front
+#: surface (no ``centre_offset`` for the type): covers the half thickness of a flat front
 #: (doors, drawers, 1-3 cm), which a depth image cannot see.
 CENTRE_DEPTH_SIGMA = 0.02
-#: Relative standard deviation of a given ``centre_depth`` (plus :data:`CENTRE_DEPTH_FLOOR`).
+#: Default relative standard deviation of a :class:`CentreOffset` depth (plus
+#: :data:`CENTRE_DEPTH_FLOOR`).
 CENTRE_DEPTH_RTOL = 0.5
-#: Absolute floor (m) added to the standard deviation of a given ``centre_depth``.
+#: Absolute floor (m) of the default standard deviation of a :class:`CentreOffset` depth.
 CENTRE_DEPTH_FLOOR = 0.005
+#: Largest centre offset (``|depth|``, its standard deviations) accepted, metres.
+MAX_CENTRE_DEPTH = 10.0
 #: A depth image whose median valid reading exceeds this (m) is taken for millimetres.
 MAX_PLAUSIBLE_DEPTH = 100.0
 #: A region is occluded when more than this fraction of the valid depth readings just outside
@@ -182,16 +190,77 @@ def _depth_image(value: ArrayLike) -> NDArray[np.float64]:
     return np.where(valid, depth, np.nan)
 
 
-def _centre_depth(value: object, types: set[str]) -> dict[str, float] | None:
+@dataclass(frozen=True)
+class CentreOffset:
+    """Where an object's centre lies from the centroid of its visible part: a per-type prior.
+
+    Parameters
+    ----------
+    depth : float
+        Mean distance (m) from the visible part's centroid to the centre along the direction
+        away from the camera (the visible surface's normal when flat, else the viewing ray);
+        negative when the centre lies in front of it (a door whose handle protrudes).
+    depth_sd : float, optional
+        Its standard deviation (m); default ``CENTRE_DEPTH_RTOL |depth| + CENTRE_DEPTH_FLOOR``.
+    lateral_sd : float, optional
+        Standard deviation (m, per axis) of the centre's offset across the view; default
+        :data:`CENTRE_OFFSET_SCALE` times the visible part's spread (per axis).
+
+    Measure them for your detector's classes (a :class:`perception.mujoco.MujocoScene` measures
+    them on renders: :meth:`~perception.mujoco.MujocoScene.centre_offsets`), or take the depth
+    from the map (:meth:`worldgraph.WorldModel.centre_depths`).
+    """
+
+    depth: float
+    depth_sd: float | None = None
+    lateral_sd: float | None = None
+
+    @guard
+    def __post_init__(self) -> None:
+        d = real_scalar("depth", self.depth, low=-MAX_CENTRE_DEPTH, high=MAX_CENTRE_DEPTH)
+        sd = (CENTRE_DEPTH_RTOL * abs(d) + CENTRE_DEPTH_FLOOR if self.depth_sd is None
+              else real_scalar("depth_sd", self.depth_sd, positive=True, high=MAX_CENTRE_DEPTH))
+        lat = None if self.lateral_sd is None else real_scalar("lateral_sd", self.lateral_sd, positive=True,
+                                                                 high=MAX_CENTRE_DEPTH)
+        object.__setattr__(self, "depth", d)
+        object.__setattr__(self, "depth_sd", sd)
+        object.__setattr__(self, "lateral_sd", lat)
+
+
+def _offset_of(name: str, value: object) -> CentreOffset:
+    if isinstance(value, CentreOffset):
+        return value
+    try:
+        return CentreOffset(real_scalar(name, value, low=-MAX_CENTRE_DEPTH, high=MAX_CENTRE_DEPTH))
+    except PerceptionError as exc:
+        raise type(exc)(f"{name} must be a CentreOffset or a depth in metres: {exc}") from exc
+
+
+def _centre_offsets(value: object, types: set[str]) -> dict[str, CentreOffset]:
+    """Per type the prior of ``centre_offset`` (a mapping, one value for every type, or None)."""
     if value is None:
-        return None
+        return {}
     if isinstance(value, Mapping):
-        out = {}
-        for t, d in value.items():
-            out[str(t)] = real_scalar(f"centre_depth[{t!r}]", d, nonnegative=True, high=10.0)
-        return out
-    d = real_scalar("centre_depth", value, nonnegative=True, high=10.0)
-    return dict.fromkeys(types, d)
+        return {str(t): _offset_of(f"centre_offset[{t!r}]", d) for t, d in value.items()}
+    one = _offset_of("centre_offset", value)
+    return dict.fromkeys(types, one)
+
+
+def _lateral(direction: NDArray[np.float64], spread: NDArray[np.float64], prior: CentreOffset | None,
+             cut: bool) -> NDArray[np.float64]:
+    """(3, 2) loading of the centre's offset across ``direction``: the prior's ``lateral_sd``
+    (isotropic) or :data:`CENTRE_OFFSET_SCALE` times the visible part's spread ``spread`` (3x3
+    covariance); a cut-off region's centre may lie anywhere within its own extent."""
+    P = np.eye(3) - np.outer(direction, direction)
+    w, V = np.linalg.eigh(P @ (0.5 * (spread + spread.T)) @ P)
+    axes, ext = V[:, 1:], np.sqrt(np.clip(w[1:], 0.0, None))  # the two directions across ``direction``
+    if prior is not None and prior.lateral_sd is not None:
+        sd = np.full(2, prior.lateral_sd)
+    else:
+        sd = CENTRE_OFFSET_SCALE * ext
+    if cut:
+        sd = np.maximum(sd, ext)
+    return axes * sd
 
 
 def _detections(name: str, value: object) -> list[Detection]:
@@ -223,18 +292,6 @@ def _percept(det: Detection, centre: NDArray[np.float64], own: NDArray[np.float6
     C = 0.5 * (C + C.T)
     s = _range_sigma(p, C) if sigma is None else sigma
     return Percept(det.type, p, s, covariance=C, shared=((OBJECT_VIEW, S),))
-
-
-def _offset_loading(direction: NDArray[np.float64], depth_sd: float, lateral: NDArray[np.float64],
-                    scale: float) -> NDArray[np.float64]:
-    """(3, 3) loading of the centre offset: ``depth_sd`` along ``direction`` (unit) and ``scale``
-    times the visible part's spread ``lateral`` (3x3 covariance) across it."""
-    P = np.eye(3) - np.outer(direction, direction)
-    L = P @ lateral @ P
-    w, V = np.linalg.eigh(0.5 * (L + L.T))
-    w = np.clip(w, 0.0, None)
-    cols = V[:, 1:] * (scale * np.sqrt(w[1:]))  # the two directions across ``direction``
-    return np.column_stack([direction * depth_sd, cols])
 
 
 # ----------------------------------------------------------------------------------------------
@@ -316,7 +373,7 @@ def rgbd_percepts(
     *,
     depth_noise: float = DEPTH_NOISE,
     depth_correlation_px: float = DEPTH_CORRELATION_PX,
-    centre_depth: float | Mapping[str, float] | None = None,
+    centre_offset: float | CentreOffset | Mapping[str, float | CentreOffset] | None = None,
     min_pixels: int = 20,
     keep_cut_off: bool = False,
 ) -> DetectionPercepts:
@@ -351,9 +408,11 @@ def rgbd_percepts(
         ``c`` of ``sigma_z = c z^2``, 1/m; default :data:`DEPTH_NOISE`.
     depth_correlation_px : float
         Default :data:`DEPTH_CORRELATION_PX`.
-    centre_depth : float or mapping of str to float, optional
-        Distance (m) from an object's visible surface to its centre, per type (module docstring);
-        types not in the mapping use the surface's own relief.
+    centre_offset : CentreOffset, float, or mapping of str to CentreOffset or float, optional
+        Per type, where the object's centre lies from its visible part's centroid (module
+        docstring); a float is the depth of a :class:`CentreOffset` with default uncertainties;
+        one value (not a mapping) applies to every type.  Types without one use the visible
+        surface's own relief.
     min_pixels : int
         Fewest valid object pixels for a percept.
     keep_cut_off : bool
@@ -379,7 +438,7 @@ def rgbd_percepts(
     corr = real_scalar("depth_correlation_px", depth_correlation_px, low=1.0, high=1e4)
     min_pixels = integer("min_pixels", min_pixels, minimum=1)
     keep_cut_off = boolean("keep_cut_off", keep_cut_off)
-    depths = _centre_depth(centre_depth, {d.type for d in dets})
+    offsets = _centre_offsets(centre_offset, {d.type for d in dets})
     h, w = Z.shape
     Kinv = np.linalg.inv(Kc)
     percepts: list[Percept] = []
@@ -440,16 +499,15 @@ def rgbd_percepts(
             direction = V[:, 0] if V[:, 0] @ ray > 0 else -V[:, 0]
         else:
             direction = ray
-        if depths is not None and det.type in depths:
-            d = depths[det.type]
-            d_sd = CENTRE_DEPTH_RTOL * d + CENTRE_DEPTH_FLOOR
+        prior = offsets.get(det.type)
+        if prior is not None:
+            d, d_sd = prior.depth, float(prior.depth_sd)  # type: ignore[arg-type]  # set in __post_init__
         else:  # the relief of the visible surface: its far edge (the silhouette) minus its centroid
             along = (pts - centroid) @ direction
             d = max(0.0, float(np.percentile(along, 95)))
             d_sd = float(np.hypot(CENTRE_DEPTH_SIGMA, 0.5 * d))
         centre = centroid + d * direction
-        scale = CENTRE_OFFSET_SCALE if not cut else 1.0
-        loading = _offset_loading(direction, d_sd, spread, scale)
+        loading = np.column_stack([direction * d_sd, _lateral(direction, spread, prior, cut)])
         n_eff = max(1.0, n_fg / (corr * corr))
         ray_z = centroid / zc  # a depth error dz moves the centroid by dz * ray_z
         own = np.outer(ray_z, ray_z) * (sigma_z * sigma_z / n_eff)
@@ -500,7 +558,7 @@ def stereo_percepts(
     rig: Any,
     ego_from_camera: ArrayLike,
     *,
-    centre_depth: float | Mapping[str, float] | None = None,
+    centre_offset: float | CentreOffset | Mapping[str, float | CentreOffset] | None = None,
     depth_factor: float | None = None,
     pixel_sigma: float | None = None,
     max_epipolar_px: float = 2.0,
@@ -525,9 +583,9 @@ def stereo_percepts(
     rig : StereoRig
     ego_from_camera : (4, 4) float
         Left camera frame (OpenCV) to ego frame; :meth:`perception.KinematicChain.ego_from_camera`.
-    centre_depth : float or mapping of str to float, optional
-        Distance (m) from an object's visible surface to its centre along the view; types not
-        given use :data:`CENTRE_DEPTH_SIGMA` as its uncertainty around 0.
+    centre_offset : CentreOffset, float, or mapping of str to CentreOffset or float, optional
+        As for :func:`rgbd_percepts`, along the viewing ray; types without one are taken at
+        their centroid with :data:`CENTRE_DEPTH_SIGMA` of uncertainty along the ray.
     depth_factor : float, optional
         The paper's eq. 6: each percept's ``sigma = rho**2 / depth_factor`` (``rho`` the depth
         along the left optical axis), which the paper's method reads.  Default: ``sigma`` is the
@@ -561,7 +619,7 @@ def stereo_percepts(
         depth_factor = real_scalar("depth_factor", depth_factor, positive=True, high=1e150)
     px = DISPARITY_STD_PX / np.sqrt(2.0) if pixel_sigma is None else real_scalar(
         "pixel_sigma", pixel_sigma, positive=True, high=1e3)
-    depths = _centre_depth(centre_depth, {d.type for d in lefts})
+    offsets = _centre_offsets(centre_offset, {d.type for d in lefts})
     w, h = rig.image_size
     dropped: list[Dropped] = []
 
@@ -604,16 +662,14 @@ def stereo_percepts(
         shape = 0.5 * (dl.shape_covariance + dr.shape_covariance)
         cut = (dl.box is not None and _touches_border(dl.box, w, h)) or (
             dr.box is not None and _touches_border(dr.box, w, h))
-        scale = CENTRE_OFFSET_SCALE if not cut else 1.0
-        wv, V = np.linalg.eigh(shape)
-        lateral = common @ (V * (scale * np.sqrt(np.clip(wv, 0.0, None))))  # (3, 2)
         ray = X / np.linalg.norm(X)
-        if depths is not None and dl.type in depths:
-            d = depths[dl.type]
-            d_sd = CENTRE_DEPTH_RTOL * d + CENTRE_DEPTH_FLOOR
+        spread = common @ shape @ common.T  # the region's pixel spread, in metres at the object
+        prior = offsets.get(dl.type)
+        if prior is not None:
+            d, d_sd = prior.depth, float(prior.depth_sd)  # type: ignore[arg-type]  # set in __post_init__
         else:
             d, d_sd = 0.0, CENTRE_DEPTH_SIGMA
-        loading = np.column_stack([ray * d_sd, lateral])
+        loading = np.column_stack([ray * d_sd, _lateral(ray, spread, prior, cut)])
         sigma = None if depth_factor is None else float(depth_sigma(float(X[2]), depth_factor))
         try:
             percepts.append(_percept(dl, X + d * ray, own, loading, T, sigma))

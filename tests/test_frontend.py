@@ -70,7 +70,7 @@ def test_rgbd_percepts_lie_within_their_covariance_at_the_object_centre():
         Zn = noisy(Z, rng)
         for k in range(len(boxes)):
             det = pc.Detection("door", mask=lab == k)
-            res = pc.rgbd_percepts([det], Zn, K, np.eye(4), centre_depth=typical)
+            res = pc.rgbd_percepts([det], Zn, K, np.eye(4), centre_offset=typical)
             assert res.sources == (0,) and not res.dropped
             p = res.percepts[0]
             e = p.position - centre(boxes[k])
@@ -92,8 +92,8 @@ def test_rgbd_percept_is_in_the_ego_frame_of_the_transform():
     ego_from_camera[:3, :3] = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])  # REP 103
     ego_from_camera[:3, 3] = [0.1, 0.0, 1.5]
     det = [pc.Detection("door", mask=lab == 0)]
-    cam = pc.rgbd_percepts(det, Z, K, np.eye(4), centre_depth=0.0).percepts[0]
-    ego = pc.rgbd_percepts(det, Z, K, ego_from_camera, centre_depth=0.0).percepts[0]
+    cam = pc.rgbd_percepts(det, Z, K, np.eye(4), centre_offset=0.0).percepts[0]
+    ego = pc.rgbd_percepts(det, Z, K, ego_from_camera, centre_offset=0.0).percepts[0]
     R, t = ego_from_camera[:3, :3], ego_from_camera[:3, 3]
     np.testing.assert_allclose(ego.position, R @ cam.position + t, atol=1e-12)
     np.testing.assert_allclose(ego.covariance, R @ cam.covariance @ R.T, atol=1e-15)
@@ -107,7 +107,7 @@ def test_a_box_detection_ignores_the_background_inside_the_box():
     v, u = np.nonzero(lab == 0)
     box = (u.min() - 12, v.min() - 3, u.max() + 12, v.max() + 3)  # a loose detector box
     assert (lab[box[1]:box[3] + 1, box[0]:box[2] + 1] == -1).mean() > 0.5
-    p = pc.rgbd_percepts([pc.Detection("handle", box=box)], Z, K, np.eye(4), centre_depth=0.012).percepts[0]
+    p = pc.rgbd_percepts([pc.Detection("handle", box=box)], Z, K, np.eye(4), centre_offset=0.012).percepts[0]
     np.testing.assert_allclose(p.position, centre(bar), atol=0.006)
     # the same box without the rejection would average bar and wall: far behind the bar
     naive = Z[box[1]:box[3] + 1, box[0]:box[2] + 1].mean()
@@ -197,7 +197,7 @@ def test_stereo_percepts_triangulate_as_opencv_does():
 
     boxes = door_boxes(np.random.default_rng(5), 4)
     rig, left, right = _stereo_scene(boxes)
-    res = pc.stereo_percepts(left, right, rig, np.eye(4), centre_depth=0.0)
+    res = pc.stereo_percepts(left, right, rig, np.eye(4), centre_offset=0.0)
     assert res.sources == (0, 1, 2, 3)
     P1 = K @ np.hstack([np.eye(3), np.zeros((3, 1))])
     P2 = K @ np.hstack([np.eye(3), np.array([[-0.09], [0.0], [0.0]])])
@@ -214,7 +214,7 @@ def test_stereo_percepts_cover_the_object_centre():
         boxes = door_boxes(rng, 4)
         rig, left, right = _stereo_scene(boxes)
         depth = {"door": float(np.mean([0.5 * (b[1][2] - b[0][2]) for b in boxes]))}
-        res = pc.stereo_percepts(left, right, rig, np.eye(4), centre_depth=depth)
+        res = pc.stereo_percepts(left, right, rig, np.eye(4), centre_offset=depth)
         for p, i in zip(res.percepts, res.sources, strict=True):
             e = p.position - centre(boxes[i])
             nees.append(float(e @ np.linalg.solve(p.covariance, e)))
@@ -258,3 +258,27 @@ def test_localize_never_correlates_two_objects_through_the_object_id():
     with_view = [((0, S),)] * 5
     np.testing.assert_array_equal(shared_view_covariance(np.eye(4), ego, covs, with_object), np.zeros((6, 6)))
     assert np.trace(shared_view_covariance(np.eye(4), ego, covs, with_view)) > 0
+
+
+def test_a_centre_in_front_of_the_surface_and_a_lateral_prior():
+    # a door leaf (3 cm) with a handle bar protruding 8 cm: one object whose box centre floats in
+    # front of the leaf; the label map treats both as object 0
+    leaf = (np.array([-0.2, -0.25, 2.0]), np.array([0.2, 0.25, 2.03]))
+    bar = (np.array([0.12, -0.1, 1.92]), np.array([0.14, 0.1, 2.0]))
+    Z, lab = raycast([leaf, bar])
+    lab[lab == 1] = 0
+    box_centre = 0.5 * (np.minimum(leaf[0], bar[0]) + np.maximum(leaf[1], bar[1]))
+    det = [pc.Detection("door", mask=lab == 0)]
+    visible = pc.rgbd_percepts(det, Z, K, np.eye(4), centre_offset=0.0).percepts[0].position
+    d = box_centre[2] - visible[2]
+    assert d < -0.01  # the centre lies in front of what is seen
+    prior = pc.CentreOffset(depth=d, depth_sd=0.004, lateral_sd=0.02)
+    p = pc.rgbd_percepts(det, Z, K, np.eye(4), centre_offset={"door": prior}).percepts[0]
+    np.testing.assert_allclose(p.position[2], box_centre[2], atol=1e-3)
+    # the covariance carries the prior: 2 cm across the view (x, y), 4 mm (plus noise) along z
+    sd = np.sqrt(np.diag(p.covariance))
+    assert 0.02 <= sd[0] < 0.021 and 0.02 <= sd[1] < 0.021 and 0.004 <= sd[2] < 0.006
+    with pytest.raises(pc.PerceptionError, match="depth_sd"):
+        pc.CentreOffset(depth=0.01, depth_sd=-1.0)
+    with pytest.raises(pc.PerceptionError, match=r"centre_offset\['door'\]"):
+        pc.rgbd_percepts(det, Z, K, np.eye(4), centre_offset={"door": "deep"})

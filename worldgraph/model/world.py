@@ -648,7 +648,7 @@ class WorldModel:
 
         A camera sees an object's front; the map places it at the centre of its geometry.  Pass
         this to the detection front ends (``perception.rgbd_percepts(...,
-        centre_depth=world.centre_depths())``, :func:`perception.stereo_percepts`) so that a
+        centre_offset=world.centre_depths())``, :func:`perception.stereo_percepts`) so that a
         percept and its object refer to the same point.  A door 3 cm thick gives 1.5 cm, a
         cylindrical handle its radius; objects of no extent give 0.
 
