@@ -46,7 +46,7 @@ from .errors import (
     ShapeError,
     TypeRuleError,
 )
-from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE
+from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE, CentreOffset
 from .simulate import scan_angles
 from .type_rules import type_rule
 
@@ -635,8 +635,9 @@ class MujocoScene:
         -------
         dict
             Type -> the median over the objects of that type of half the thinnest extent of the
-            object's geometry (its bounding box in the body frame): the ``centre_depth`` of the
-            front ends (:func:`perception.rgbd_percepts`, :func:`perception.stereo_percepts`).
+            object's geometry (its bounding box in the body frame): a ``centre_offset`` of the
+            front ends (:func:`perception.rgbd_percepts`, :func:`perception.stereo_percepts`), the
+            default of :meth:`scan`.
         """
         out: dict[str, float] = {}
         for typ in sorted(set(self.types)):
@@ -766,7 +767,7 @@ class MujocoScene:
              rng: np.random.Generator, image_size: Any = (640, 480), chain: KinematicChain | None = None,
              miss_rate: float = 0.0, false_rate: float = 0.0, mask_jitter_px: int = 0, min_pixels: int = 1,
              depth_noise: float = DEFAULT_DEPTH_NOISE, max_range: float = DEFAULT_MAX_RANGE,
-             centre_depth: Mapping[str, float] | None = None, percepts: bool = True) -> MujocoScan:
+             centre_offset: Mapping[str, Any] | None = None, percepts: bool = True) -> MujocoScan:
         """Sweep a head over the scene and detect the typed objects in every view.
 
         Parameters
@@ -806,9 +807,11 @@ class MujocoScene:
             :data:`perception.frontend.DEPTH_NOISE` for exact depth).
         max_range : float
             Depths beyond it are invalid (NaN), as are pixels where nothing is rendered.
-        centre_depth : mapping, optional
-            Type -> metres from the visible surface to the centre, for the front end; by
-            default :meth:`centre_depths`.
+        centre_offset : mapping, optional
+            Type -> :class:`~perception.CentreOffset` (or its depth in metres) for the front end:
+            where an object's centre lies from its visible part; by default
+            :meth:`centre_depths` (half the thinnest extent, as the map's
+            :meth:`worldgraph.WorldModel.centre_depths`).
         percepts : bool
             Run the front end (``False``: images and detections only): per view
             :func:`perception.rgbd_percepts` on the detections and the noisy depth, or
@@ -849,7 +852,7 @@ class MujocoScene:
         min_px = integer("min_pixels", min_pixels, minimum=1)
         noise = real_scalar("depth_noise", depth_noise, nonnegative=True)
         far = real_scalar("max_range", max_range, positive=True)
-        centres = self._centre_depth(centre_depth)
+        centres = self._centre_offset(centre_offset)
         run_front_end = boolean("percepts", percepts)
         K = self.camera_matrix(size)
         Q = scan_angles(head, n)
@@ -900,16 +903,20 @@ class MujocoScene:
         return MujocoScan(kind, tuple(views), tuple(out_percepts), tuple(out_views), tuple(out_truth),
                           tuple(dropped), ScanTimings(t_render, t_detect, t_percepts, n))
 
-    def _centre_depth(self, centre_depth: Mapping[str, float] | None) -> dict[str, float]:
-        if centre_depth is None:
-            return self.centre_depths()
-        if not isinstance(centre_depth, Mapping):
-            raise ShapeError("centre_depth must be a mapping type -> metres or None, got "
-                             f"{_short(centre_depth)}")
-        return {name_str("centre_depth key", k): real_scalar(f"centre_depth[{k!r}]", v, nonnegative=True)
-                for k, v in centre_depth.items()}
+    def _centre_offset(self, centre_offset: Mapping[str, Any] | None) -> dict[str, CentreOffset]:
+        if centre_offset is None:
+            return {t: CentreOffset(d) for t, d in self.centre_depths().items()}
+        if not isinstance(centre_offset, Mapping):
+            raise ShapeError("centre_offset must be a mapping type -> CentreOffset or metres, or None, got "
+                             f"{_short(centre_offset)}")
+        out: dict[str, CentreOffset] = {}
+        for k, v in centre_offset.items():
+            key = name_str("centre_offset key", k)
+            out[key] = v if isinstance(v, CentreOffset) else CentreOffset(
+                real_scalar(f"centre_offset[{k!r}]", v))
+        return out
 
-    def _percepts(self, view: ScanView, sensor: str, size: tuple[int, int], centres: dict[str, float],
+    def _percepts(self, view: ScanView, sensor: str, size: tuple[int, int], centres: dict[str, CentreOffset],
                   depth_noise: float) -> tuple[tuple[Any, ...], tuple[int, ...], tuple[Any, ...]]:
         """The front end on one view: ``(percepts, detection index of each, dropped)``."""
         from .frontend import DEPTH_NOISE, rgbd_percepts, stereo_percepts
@@ -919,14 +926,14 @@ class MujocoScene:
             assert view.depth is not None
             out = rgbd_percepts(view.detections, view.depth, view.K, view.ego_from_camera,
                                 depth_noise=depth_noise if depth_noise > 0 else DEPTH_NOISE,
-                                centre_depth=centres)
+                                centre_offset=centres)
         else:
             assert view.ego_from_right_camera is not None
             right_from_left = np.linalg.inv(view.ego_from_right_camera) @ view.ego_from_camera
             rig = StereoRig(view.K, np.zeros(0), view.K, np.zeros(0), right_from_left[:3, :3],
                             right_from_left[:3, 3], size)
             out = stereo_percepts(view.detections, view.right_detections, rig, view.ego_from_camera,
-                                  centre_depth=centres)
+                                  centre_offset=centres)
         return out.percepts, out.sources, out.dropped
 
 

@@ -339,7 +339,8 @@ def test_stereo_renders_both_cameras(room_scene):
     (dict(min_pixels=0), pc.PerceptionError, "min_pixels must be >= 1"),
     (dict(depth_noise=-1e-3), pc.NonPositiveSigmaError, "depth_noise must be >= 0"),
     (dict(rng=0), pc.PerceptionError, "rng must be a numpy.random.Generator"),
-    (dict(centre_depth={"door": -1.0}), pc.NonPositiveSigmaError, r"centre_depth\['door'\] must be >= 0"),
+    (dict(centre_offset={"door": "deep"}), pc.ShapeError, r"centre_offset\['door'\] must be a real number"),
+    (dict(centre_offset=0.1), pc.ShapeError, "centre_offset must be a mapping type -> CentreOffset"),
     (dict(percepts="yes"), pc.ShapeError, "percepts must be a bool, got str 'yes'"),
     (dict(chain="head"), pc.ShapeError, "chain must be a KinematicChain or None, got str"),
 ])
