@@ -35,7 +35,17 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import _short, boolean, check_transform, file_path, guard, integer, name_str, real_scalar
+from ._checks import (
+    _short,
+    boolean,
+    check_transform,
+    file_path,
+    guard,
+    integer,
+    name_str,
+    real_array,
+    real_scalar,
+)
 from ._checks import rng as check_rng
 from .chain import KinematicChain, default_head
 from .detection import Detection
@@ -643,6 +653,96 @@ class MujocoScene:
         for typ in sorted(set(self.types)):
             half = [0.5 * float(np.min(o.size)) for o in self._objects if o.type == typ]
             out[typ] = float(np.median(half))
+        return out
+
+    @guard
+    def centre_offsets(self, world_from_egos: Any, *, n_views: int = 20, image_size: Any = (320, 240),
+                       chain: KinematicChain | None = None, min_pixels: int = 20) -> dict[str, CentreOffset]:
+        """Measure on renders where each type's centre lies from its visible part.
+
+        Exact scans (no noise, no degradation) from the given robot poses; for every object
+        seen whole (its mask does not touch the image border) with at least ``min_pixels``
+        pixels, the visible part is its pixels back-projected with their depth, and the offset
+        is the object's centre (:attr:`objects`) minus the part's centroid, split as the front
+        ends split it (:mod:`perception.frontend`): along the direction away from the camera
+        (the visible surface's normal when it is flat, its smallest variance below
+        :data:`~perception.frontend.FLAT_RATIO` times the middle one, else the viewing ray)
+        and across it.
+
+        Parameters
+        ----------
+        world_from_egos : (4, 4) or (m, 4, 4) float
+            Robot poses to scan from (in free space, seeing the objects as the robot would).
+        n_views : int
+            Views per pose (:meth:`scan`).
+        image_size : (int, int)
+            ``(width, height)``, pixels.
+        chain : KinematicChain, optional
+            The head; :func:`perception.default_head` by default.
+        min_pixels : int
+            Fewest pixels of a view of an object to measure it.
+
+        Returns
+        -------
+        dict of str to CentreOffset
+            Per type seen: ``depth`` the median of the offsets along the direction, ``depth_sd``
+            their standard deviation and ``lateral_sd`` the root mean square per axis of the
+            offsets across it (both at least
+            :data:`~perception.frontend.CENTRE_DEPTH_FLOOR`).  Types never measured are left
+            out (the front ends then use the visible relief).
+
+        Raises
+        ------
+        InvalidPoseError
+            A pose that is not a rigid transform.
+        PerceptionError
+            (a subclass) a bad ``n_views``, ``image_size``, ``chain`` or ``min_pixels``.
+        """
+        from .frontend import CENTRE_DEPTH_FLOOR, FLAT_RATIO
+
+        poses = real_array("world_from_egos", world_from_egos)
+        if poses.shape[-2:] != (4, 4) or poses.ndim not in (2, 3) or poses.size == 0:
+            raise ShapeError(f"world_from_egos must be a (4, 4) or (m, 4, 4) array, got shape {poses.shape}")
+        checked = [check_transform(f"world_from_egos[{i}]", T) for i, T in enumerate(poses.reshape(-1, 4, 4))]
+        min_px = integer("min_pixels", min_pixels, minimum=1)
+        along: dict[str, list[float]] = {}
+        across: dict[str, list[float]] = {}
+        for pose in checked:
+            scan = self.scan(pose, "rgbd", n_views, rng=np.random.default_rng(0), image_size=image_size,
+                             chain=chain, depth_noise=0.0, percepts=False, max_range=1e6)
+            for view in scan.views:
+                assert view.depth is not None
+                h, w = view.depth.shape
+                Kinv = np.linalg.inv(view.K)
+                world_from_camera = pose @ view.ego_from_camera
+                for det, k in zip(view.detections, view.truth, strict=True):
+                    v, u = np.nonzero(det.mask)
+                    if u.min() == 0 or v.min() == 0 or u.max() == w - 1 or v.max() == h - 1:
+                        continue  # cut off: its centroid is not the visible part's
+                    z = view.depth[v, u]
+                    ok = np.isfinite(z)
+                    if int(ok.sum()) < min_px:
+                        continue
+                    pts = (Kinv @ np.stack([u[ok], v[ok], np.ones(int(ok.sum()))])).T * z[ok, None]
+                    centroid = pts.mean(axis=0)
+                    ray = centroid / np.linalg.norm(centroid)
+                    wv, V = np.linalg.eigh(np.cov(pts.T, bias=True))
+                    direction = ray
+                    if wv[0] < FLAT_RATIO * wv[1]:  # a flat front: its normal, away from the camera
+                        direction = V[:, 0] if V[:, 0] @ ray > 0 else -V[:, 0]
+                    camera_from_world = np.linalg.inv(world_from_camera)
+                    centre = camera_from_world[:3, :3] @ self._objects[k].position + camera_from_world[:3, 3]
+                    offset = centre - centroid
+                    d = float(offset @ direction)
+                    typ = self._objects[k].type
+                    along.setdefault(typ, []).append(d)
+                    across.setdefault(typ, []).append(float(np.linalg.norm(offset - d * direction)))
+        out: dict[str, CentreOffset] = {}
+        for typ in sorted(along):
+            d_all = np.array(along[typ])
+            lateral = float(np.sqrt(np.mean(np.square(across[typ])) / 2.0))
+            out[typ] = CentreOffset(float(np.median(d_all)), max(float(np.std(d_all)), CENTRE_DEPTH_FLOOR),
+                                    max(lateral, CENTRE_DEPTH_FLOOR))
         return out
 
     # -- rendering -------------------------------------------------------------------------------

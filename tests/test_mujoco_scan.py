@@ -421,3 +421,31 @@ def test_percepts_of_false_detections_carry_their_truth(room_scene):
     for p, k in zip(scan.percepts, scan.percept_truth, strict=True):
         if k >= 0:
             assert p.type == room_scene.types[k]
+
+
+OFFSETS = """\
+<mujoco model="centre offsets">
+  <worldbody>
+    <body name="door_1" pos="3 0 0.25"><geom type="box" size="0.03 0.3 0.4"/></body>
+    <body name="knob_1" pos="2 0.9 0.25"><geom type="sphere" size="0.1"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_centre_offsets_of_a_flat_front_and_a_sphere(tmp_path):
+    """A box seen face-on: its centre lies half its thickness (3 cm) behind the visible face,
+    along the face's normal.  A sphere of radius r: the pixels' mean depth on the visible
+    hemisphere (uniform over the disk of its outline) is the mean of sqrt(r^2 - rho^2), 2r/3, so
+    the centre lies 2r/3 = 6.7 cm behind the visible centroid along the ray (orthographic view;
+    the camera 2 m away sees a smaller cap in perspective, to within 4 mm of it)."""
+    path = tmp_path / "offsets.xml"
+    path.write_text(OFFSETS)
+    scene = MujocoScene(path)
+    offsets = scene.centre_offsets(np.eye(4), n_views=9, image_size=(320, 240))
+    assert sorted(offsets) == ["door", "knob"]
+    assert offsets["door"].depth == pytest.approx(0.03, abs=1e-3)
+    assert offsets["knob"].depth == pytest.approx(2 * 0.1 / 3, abs=4e-3)
+    assert offsets["knob"].lateral_sd < 0.01
+    with pytest.raises(pc.ShapeError, match=r"world_from_egos must be a \(4, 4\) or \(m, 4, 4\) array"):
+        scene.centre_offsets(np.eye(3))
