@@ -1,7 +1,8 @@
 """Benchmark: rendering time of perception.mujoco scans of the Franka kitchen, per view.
 
 Builds :class:`perception.mujoco.MujocoScene` on the gymnasium-robotics Franka kitchen (typed
-by a mapping: knobs, burners, doors, the microwave, the kettle, the light switch), runs one
+by :data:`worldgraph.importers.franka.FRANKA_BODY_TYPES`: doors, knobs, burners, the light
+switch, the kettle), runs one
 warm-up scan per image size (the first renderer of a size creates its OpenGL context), then
 ``--repeats`` scans of ``--views`` views from a robot pose facing the stove, and prints per
 image size and sensor the median seconds per view of each stage (``render``: RGB, depth and
@@ -23,9 +24,7 @@ import numpy as np  # noqa: E402
 
 import worldgraph as wg  # noqa: E402
 from perception.mujoco import MujocoScene  # noqa: E402
-
-TYPE_OF = {r"^knob": "knob", r"^Burner": "burner", r"^(hingeleftdoor|hingerightdoor|slidelink)$": "door",
-           r"^microwave$": "microwave", r"^kettle$": "kettle", r"^lightswitchroot$": "switch"}
+from worldgraph.importers.franka import FRANKA_BODY_TYPES  # noqa: E402
 
 
 def main() -> None:
@@ -34,7 +33,7 @@ def main() -> None:
     parser.add_argument("--views", type=int, default=20)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
-    scene = MujocoScene(wg.franka_kitchen_path() / "kitchen_env_model.xml", type_of=TYPE_OF)
+    scene = MujocoScene(wg.franka_kitchen_path() / "kitchen_env_model.xml", type_of=FRANKA_BODY_TYPES)
     pose = np.eye(4)
     pose[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]  # ego x along world +y: facing the stove
     pose[:3, 3] = [-0.3, -1.2, 1.7]
