@@ -416,9 +416,10 @@ class WorldModel:
         PLY, STL and OFF, which carry no up axis (read as written); a +Y-up file is turned by
         ``(x, y, z) -> (x, -z, y)`` (:func:`worldgraph.importers.z_up_from`).  A world that
         looks like a room on its side (a flat floor whose thin axis is horizontal, or objects
-        spread along z far more than sideways; :func:`~worldgraph.model.scene_nodes._likely_up`)
-        gets a :class:`UserWarning` naming the likely ``up_axis=``; a room check that fails on
-        such a world says the same in its error.  A bad ``up_axis`` raises
+        spread along z far more than sideways) gets a :class:`UserWarning` naming the likely
+        ``up_axis=``; with ``room="auto"``, a room box its sideways floor and walls cannot give
+        is left unset (the warning says so), and an error building such a world says the same.
+        A bad ``up_axis`` raises
         :class:`~worldgraph.errors.UpAxisError`."""
         scene, types = typed_scene(path, type_of, mjcf_objects=mjcf_objects, file_format=file_format,
                                    up_axis=up_axis)
