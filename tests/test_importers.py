@@ -484,3 +484,25 @@ def test_collada_up_axis_is_read_from_the_file(tmp_path, element, expected):
                                                 ("a.xml", "+z")])
 def test_format_up_axes(name, expected):
     assert wg.importers.default_up_axis(name) == expected
+
+
+def test_objects_spread_along_z_without_a_floor_warn(tmp_path):
+    # a corridor of doors, 12 m long (x), 1.2 m wide (y), handles at 1 m; no floor nodes
+    scene = trimesh.Scene()
+    for k in range(7):
+        for side, y in ((0, -0.6), (1, 0.6)):
+            at = trimesh.transformations.translation_matrix((2.0 * k, y, 1.0))
+            scene.add_geometry(trimesh.creation.box(extents=(0.9, 0.04, 2.0)), node_name=f"door_{k}{side}",
+                               geom_name="leaf", transform=at)
+    path = tmp_path / "corridor.glb"
+    wg.importers.write_scene(scene, path, up_axis="+x")  # an exporter that put the corridor's length up
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        upright = wg.WorldModel.from_file(path, up_axis="+x")
+    assert upright.bounds[1][0] - upright.bounds[0][0] == pytest.approx(12.9, abs=1e-6)
+    # read +Y up (glTF's rule) the 12 m lie along z, the doors' common height along x: the axis of
+    # least spread is named, its sign unknown
+    expected = (r"the objects spread 12 m along z but 0 m along x and 1.2 m along y; "
+                r"the file's up axis is probably '\+x' \(or -x\): pass up_axis='\+x'")
+    with pytest.warns(UserWarning, match=expected):
+        wg.WorldModel.from_file(path)
