@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 
 from ._checks import guard, integer, name_str, real_array, real_scalar, spd, vector3
 from .errors import NonFiniteError, NonPositiveSigmaError, ShapeError, UnknownClassError
-from .tolerances import SHARED_RTOL, SIGMA_COVARIANCE_FACTOR, TINY
+from .tolerances import SHARED_RTOL, SIGMA_COVARIANCE_FACTOR
 
 #: Largest magnitude of a position component accepted, metres (as worldgraph/radialopt bound
 #: their coordinates); beyond it ranges and fused means overflow or lose all precision.
@@ -144,7 +144,7 @@ def _range_sigma(position: NDArray[np.float64], covariance: NDArray[np.float64])
     ``u = position / |position|`` (computed scaled, so tiny or huge positions keep their
     direction); ``sqrt(trace(C) / 3)`` at the origin."""
     scale = float(np.max(np.abs(position)))
-    if scale > TINY:
+    if scale > 0:  # as fusion's _melt: any non-zero position has a direction
         u = position / scale
         u = u / np.linalg.norm(u)
         var = float(u @ covariance @ u)
