@@ -9,7 +9,8 @@ its type's size, one trimesh node named ``f"{type}_{k}"`` (``door_12``, ``chair_
 the default type rule of :func:`worldgraph.importers.default_type_of` types it), placed by a
 translation.  The scene is written to a temporary directory as GLB and as OBJ, then it times:
 
-* ``write``: ``trimesh.Scene.export`` of the file;
+* ``write``: :func:`worldgraph.importers.write_scene` of the file (``trimesh.Scene.export``, GLB
+  turned +Y up first);
 * ``build``: ``WorldModel.from_file(path)`` (reading, typing and building the world), and
   ``WorldModel.from_arrays(types, positions, ids=..., sizes=...)`` of the same objects in the
   order the file gives them;
@@ -49,6 +50,7 @@ from scipy.spatial.transform import Rotation
 
 from perception.simulate import simulate_percepts
 from worldgraph import AssociationTolerances, WorldModel, associate, localize
+from worldgraph.importers import write_scene
 
 STOREY_HEIGHT = 3.5
 ROOM = (4.0, 5.0)
@@ -196,7 +198,7 @@ def run(n: int, args: argparse.Namespace, tmp: str) -> tuple[list[str], list[str
     ref_result: dict[str, Any] | None = None
     for fmt in args.formats:
         path = os.path.join(tmp, f"building_{n}.{fmt}")
-        _, t_write = _timed(lambda p=path: scene.export(p))
+        _, t_write = _timed(lambda p=path: write_scene(scene, p))  # glb: +Y up, as from_file reads it
         mib = os.path.getsize(path) / 2**20
         world, t_file = _timed(lambda p=path: WorldModel.from_file(p))
         # the same objects, in the order of the file's world, as arrays

@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 
 from ._checks import guard, integer, name_str, real_array, real_scalar, spd, vector3
 from .errors import NonFiniteError, NonPositiveSigmaError, ShapeError, UnknownClassError
-from .tolerances import SHARED_RTOL
+from .tolerances import SHARED_RTOL, SIGMA_COVARIANCE_FACTOR
 
 #: Largest magnitude of a position component accepted, metres (as worldgraph/radialopt bound
 #: their coordinates); beyond it ranges and fused means overflow or lose all precision.
@@ -36,13 +36,22 @@ class Percept:
         Object class, e.g. ``"door"``, ``"handle"``, ``"drawer"``, ``"knob"``.
     position : (3,) float
         Position in the ego frame, metres.
-    sigma : float
-        Per-axis standard deviation (m) of an isotropic position error; the range
-        ``|position|`` then has standard deviation ``sigma`` (the Gaussian-sphere sigma, eq. 6).
+    sigma : float, optional
+        Standard deviation (m) of the range ``|position|`` (the Gaussian-sphere sigma, eq. 6);
+        without ``covariance`` also the per-axis standard deviation of an isotropic position
+        error (covariance ``sigma**2 I``).  Optional when ``covariance`` is given: it is then
+        derived as the standard deviation of the range, ``sqrt(u^T C u)`` with ``u`` the unit
+        vector of ``position`` (``sqrt(trace(C) / 3)`` at the origin), the rule of
+        :func:`perception.fuse_percepts` and :func:`perception.simulate_scan`.  Always a float
+        after construction.  Given together with ``covariance``, it must agree with that range
+        standard deviation to within a factor
+        :data:`~perception.tolerances.SIGMA_COVARIANCE_FACTOR` (5) either way (a sigma 10 times
+        too small would make the range-only methods' bounds 10 times too tight).
     covariance : (3, 3) float, optional
         Full position covariance in the ego frame (m^2), when known (triangulation Jacobian,
         joint-encoder noise, fusion). Must be real, finite, symmetric (to a relative 1e-8) and
         positive definite (smallest eigenvalue > 1e-14 times the largest); stored symmetrised.
+        At least one of ``sigma`` and ``covariance`` must be given.
     views : int
         Number of raw percepts fused into this one (>= 1; a Python or numpy integer, not a
         float or bool).
@@ -59,13 +68,28 @@ class Percept:
 
     Raises
     ------
+    NonPositiveSigmaError
+        Neither ``sigma`` nor ``covariance`` given, or a ``sigma`` that contradicts the
+        covariance (ratio outside ``[1/F, F]``, ``F =`` :data:`~perception.tolerances.
+        SIGMA_COVARIANCE_FACTOR`).
     PerceptionError
         (a subclass) naming the field and the bad value.
+
+    Notes
+    -----
+    Which field :func:`worldgraph.localize` reads: the association (every method) gates
+    distances with ``sigma``; the hypothesis validation (every method but ``"paper"``), the
+    ``"ml"`` pose and its covariance, and the final chi-square check of every answer use
+    ``covariance`` (``sigma**2 I`` when it is ``None``); the range-only methods (``"spheres"``,
+    ``"paper"``, ``"srls"``, ``"gradient"``) put one Gaussian sphere of standard deviation
+    ``sigma`` per match and weight the rotation fit by ``sigma``.  Hence the agreement check.
     """
 
     type: str
     position: NDArray[np.float64]
-    sigma: float
+    # ``None`` is accepted (derived from ``covariance``); always a float after __post_init__,
+    # so readers see ``float``
+    sigma: float = None  # type: ignore[assignment]
     covariance: NDArray[np.float64] | None = None
     views: int = 1
     shared: tuple[tuple[int, NDArray[np.float64]], ...] = ()
@@ -80,17 +104,29 @@ class Percept:
             raise NonFiniteError(
                 f"position[{i}] = {float(pos[i])!r} must be at most {MAX_COORDINATE:g} m in magnitude"
             )
-        sigma = real_scalar("sigma", self.sigma, positive=True)
+        if self.sigma is None and self.covariance is None:
+            raise NonPositiveSigmaError(
+                "Percept needs sigma (the range standard deviation, m) or covariance (3x3, m^2), got "
+                "sigma = None and covariance = None; pass at least one"
+            )
+        sigma = None if self.sigma is None else real_scalar("sigma", self.sigma, positive=True)
         views = integer("views", self.views, minimum=1, maximum=MAX_VIEWS)
         pos.setflags(write=False)
         object.__setattr__(self, "position", pos)
-        object.__setattr__(self, "sigma", sigma)
+        range_sigma = float("nan")
         if self.covariance is not None:
             cov = spd("covariance", self.covariance)
             cov.setflags(write=False)
             object.__setattr__(self, "covariance", cov)
+            range_sigma = _range_sigma(pos, cov)
+        derived = sigma is None
+        if sigma is None:  # then the covariance is given
+            sigma = real_scalar("sigma derived from the covariance", range_sigma, positive=True)
+        object.__setattr__(self, "sigma", sigma)
         object.__setattr__(self, "views", views)
         object.__setattr__(self, "shared", _shared(self.shared, self.covariance, sigma))
+        if self.covariance is not None and not derived:
+            _check_agreement(sigma, range_sigma)  # last: each field's own errors first
 
     @property
     def range(self) -> float:
@@ -109,6 +145,34 @@ class Percept:
 
     def __hash__(self) -> int:
         return hash((self.type, tuple(self.position.tolist()), self.sigma, self.views))
+
+
+def _range_sigma(position: NDArray[np.float64], covariance: NDArray[np.float64]) -> float:
+    """Standard deviation of the range ``|position|`` under ``covariance``: ``sqrt(u^T C u)``,
+    ``u = position / |position|`` (computed scaled, so tiny or huge positions keep their
+    direction); ``sqrt(trace(C) / 3)`` at the origin."""
+    scale = float(np.max(np.abs(position)))
+    if scale > 0:  # as fusion's _melt: any non-zero position has a direction
+        u = position / scale
+        u = u / np.linalg.norm(u)
+        var = float(u @ covariance @ u)
+    else:
+        var = float(np.trace(covariance)) / 3.0
+    return float(np.sqrt(max(var, 0.0)))
+
+
+def _check_agreement(sigma: float, range_sigma: float) -> None:
+    """:class:`NonPositiveSigmaError` when ``sigma`` and the covariance's range standard
+    deviation differ by more than :data:`SIGMA_COVARIANCE_FACTOR` either way."""
+    f = SIGMA_COVARIANCE_FACTOR
+    ratio = sigma / range_sigma if range_sigma > 0 else np.inf
+    if not 1.0 / f <= ratio <= f:
+        raise NonPositiveSigmaError(
+            f"sigma = {sigma!r} m contradicts the covariance: the standard deviation of the range "
+            f"|position| it gives is sqrt(u^T C u) = {range_sigma!r} m (ratio sigma / that = {ratio:.3g}, "
+            f"outside [1/{f:g}, {f:g}], perception.tolerances.SIGMA_COVARIANCE_FACTOR); pass sigma=None "
+            "to derive it from the covariance, or fix whichever of the two is wrong"
+        )
 
 
 #: Largest number of shared error components (columns of one loading).

@@ -76,7 +76,7 @@ from .segmentation import (
     _region_stats,
     region_features,
 )
-from .tolerances import PARALLEL_RAYS
+from .tolerances import PARALLEL_RAYS, SIGMA_COVARIANCE_FACTOR
 from .uncertainty import depth_sigma, triangulation_jacobian
 
 __all__ = [
@@ -432,6 +432,15 @@ def recognize(
     -------
     list of Percept
         In the frame of ``ego_from_camera``, one per matched pair.
+
+    Raises
+    ------
+    NonPositiveSigmaError
+        A bad ``depth_factor``, ``pixel_sigma``, ``disparity_std_px`` or
+        ``centroid_offset_scale``, or an eq. 6 sigma that contradicts the triangulation
+        covariance of its percept (ratio outside ``[1/F, F]``,
+        ``F =`` :data:`~perception.tolerances.SIGMA_COVARIANCE_FACTOR`, as :class:`Percept`
+        checks): ``depth_factor`` and ``pixel_sigma`` that describe different depth errors.
     """
     width, height = _image_size(rig)
     if not isinstance(classifier, GaussianClassifier):
@@ -494,10 +503,22 @@ def recognize(
         if not np.all(np.isfinite(p)) or r <= 0:
             continue
         try:
-            percepts.append(
-                Percept(type=dets_l[m.left].type, position=p,
-                        sigma=float(depth_sigma(float(r), depth_factor)), covariance=c)
-            )
+            plain = Percept(type=dets_l[m.left].type, position=p, covariance=c)
         except PerceptionError:  # degenerate geometry (e.g. a singular covariance): no percept
             continue
+        sigma = float(depth_sigma(float(r), depth_factor))
+        ratio = sigma / plain.sigma
+        if not 1.0 / SIGMA_COVARIANCE_FACTOR <= ratio <= SIGMA_COVARIANCE_FACTOR:
+            raise NonPositiveSigmaError(
+                f"the eq. 6 sigma rho**2 / depth_factor = {sigma:.3g} m of the {plain.type!r} percept at "
+                f"depth rho = {float(r):.3g} m is {ratio:.3g} times the range standard deviation "
+                f"{plain.sigma:.3g} m "
+                f"of its triangulation covariance (pixel_sigma = {pixel_sigma!r} px, centroid_offset_scale = "
+                f"{centroid_offset_scale!r}), outside [1/{SIGMA_COVARIANCE_FACTOR:g}, "
+                f"{SIGMA_COVARIANCE_FACTOR:g}] (perception.tolerances.SIGMA_COVARIANCE_FACTOR): depth_factor "
+                f"= {depth_factor!r} and pixel_sigma disagree about the depth error; make them describe the "
+                "same disparity error (leave both at their defaults, or set depth_factor = f b / (sqrt(2) "
+                "pixel_sigma))"
+            )
+        percepts.append(Percept(type=plain.type, position=plain.position, sigma=sigma, covariance=c))
     return percepts

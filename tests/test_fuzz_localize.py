@@ -115,8 +115,8 @@ def percept_lists(draw):
         elif cov == "huge":
             C = 1e290 * np.eye(3)
         typ = draw(st.sampled_from([base.type, base.type, "unknown"]))
-        try:
-            out.append(Percept(typ, pos, sigma, C))
+        try:  # with a covariance, the sigma it gives (a drawn one would contradict it: refused)
+            out.append(Percept(typ, pos, sigma if C is None else None, C))
         except PerceptionError:
             assume(False)
     return out

@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib.util
 import math
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -159,15 +160,20 @@ def test_glb_round_trip(tmp_path):
     scene.add_geometry(trimesh.creation.box(extents=(1, 1, 1)), node_name="knob_9", geom_name="body",
                        metadata={"type": None})  # metadata type None: in the scene, not an object
     path = tmp_path / "scene.glb"
-    scene.export(path)
+    wg.importers.write_scene(scene, path)  # +Y up, as glTF wants it
+    # the file holds glTF's axes: (x, y, z) of the scene -> (x, z, -y)
+    raw = trimesh.load_scene(path)
+    np.testing.assert_allclose(raw.graph.get("handle_1")[0][:3, 3], [-0.5, 1.0, -0.25], atol=1e-6)
     world = wg.WorldModel.from_file(path)
     by_id = {o.id: o for o in world.objects}
     assert sorted(by_id) == ["door_1", "handle_1"]
     # Rz(90 deg) @ (0.1, 0, 0) = (0, 0.1, 0)
     np.testing.assert_allclose(by_id["door_1"].position, [1.0, 2.1, 3.0], atol=1e-6)
     np.testing.assert_allclose(by_id["handle_1"].position, [-0.5, 0.25, 1.0], atol=1e-6)
+    np.testing.assert_allclose(by_id["door_1"].size, [0.2, 0.1, 0.4], atol=1e-6)
     assert by_id["door_1"].type == "door" and by_id["handle_1"].type == "handle"
     assert "knob_9" in world.scene.graph.nodes_geometry
+    assert world.scene.metadata["up_axis"] == "+y"
 
 
 def test_single_mesh_ply_is_named_after_the_file(tmp_path):
@@ -448,3 +454,132 @@ def test_scene_from_file_without_types_keeps_each_bodys_own_visual_geoms(tmp_pat
     lo, hi = scene.geometry[geometry].bounds
     np.testing.assert_allclose(transform[:3, :3] @ (0.5 * (lo + hi)) + transform[:3, 3], [1.0, 2.0, 0.4],
                                atol=1e-9)
+
+
+# ----------------------------------------------------------------------------------------------
+# up axis
+# ----------------------------------------------------------------------------------------------
+def _galley() -> trimesh.Scene:
+    return wg.scenes.kitchen_layout_scene("galley", seed=3)  # z up, floor, walls, 57 objects
+
+
+def _same_world(a: wg.WorldModel, b: wg.WorldModel, atol: float) -> None:
+    pos_a = {o.id: (o.type, o.position) for o in a.objects}
+    pos_b = {o.id: (o.type, o.position) for o in b.objects}
+    assert sorted(pos_a) == sorted(pos_b)
+    for key, (typ, p) in pos_a.items():
+        assert pos_b[key][0] == typ
+        np.testing.assert_allclose(pos_b[key][1], p, rtol=0, atol=atol, err_msg=key)
+    assert a.room is not None and b.room is not None
+    np.testing.assert_allclose(a.room.lower, b.room.lower, rtol=0, atol=atol)
+    np.testing.assert_allclose(a.room.upper, b.room.upper, rtol=0, atol=atol)
+
+
+def test_a_y_up_glb_gives_the_world_of_the_same_scene_written_z_up(tmp_path):
+    scene = _galley()
+    y_up, z_up = tmp_path / "y_up.glb", tmp_path / "z_up.glb"
+    wg.importers.write_scene(scene, y_up)
+    scene.export(z_up)  # trimesh writes the coordinates as they are: z up, against the glTF convention
+    # the files differ: height along y in one, along z in the other
+    assert trimesh.load_scene(y_up).extents[1] == pytest.approx(2.99, abs=0.01)
+    assert trimesh.load_scene(z_up).extents[2] == pytest.approx(2.99, abs=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # neither reading warns
+        from_y = wg.WorldModel.from_file(y_up)
+        from_z = wg.WorldModel.from_file(z_up, up_axis="+z")
+    _same_world(from_y, from_z, atol=1e-9)
+    assert len(from_y) == 57
+    # and both are the scene itself (to the float32 of the file)
+    _same_world(from_y, wg.WorldModel.from_trimesh(scene), atol=1e-6)
+    # the room is upright: x 3.43 m, y 3.15 m (floor and walls), 2.89 m high
+    np.testing.assert_allclose(from_y.room.upper - from_y.room.lower, [3.43, 3.15, 2.89], atol=1e-6)
+
+
+def test_a_z_up_glb_read_as_gltf_warns_naming_plus_z(tmp_path):
+    path = tmp_path / "z_up.glb"
+    _galley().export(path)
+    with pytest.warns(UserWarning, match=r"room on its side: the floor is flat along y.*"
+                                         r"probably '\+z': pass up_axis='\+z'") as record:
+        world = wg.WorldModel.from_file(path)
+    assert len(record) == 1
+    assert "room is left unset" in str(record[0].message)
+    assert world.room is None
+    # read as glTF, the z-up file's height (2.99 m) lies along -y
+    assert world.bounds[1][1] - world.bounds[0][1] == pytest.approx(2.99, abs=0.01)
+
+
+def test_a_y_up_file_read_as_z_up_warns_naming_plus_y(tmp_path):
+    path = tmp_path / "y_up.glb"
+    wg.importers.write_scene(_galley(), path)
+    with pytest.warns(UserWarning, match=r"read with up_axis='\+z'.*probably '\+y'"):
+        wg.WorldModel.from_file(path, up_axis="+z")
+
+
+def test_a_room_upside_down_is_named(tmp_path):
+    path = tmp_path / "down.glb"
+    wg.importers.write_scene(_galley(), path, up_axis="-z")
+    with pytest.warns(UserWarning, match=r"floor is flat along z .* above the objects.*probably '-z'"):
+        wg.WorldModel.from_file(path, up_axis="+z")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        world = wg.WorldModel.from_file(path, up_axis="-z")
+    _same_world(world, wg.WorldModel.from_trimesh(_galley()), atol=1e-6)
+
+
+@pytest.mark.parametrize("bad", ["up", "+w", "y+", "", 1, 1.5, ("+", "y")])
+def test_a_bad_up_axis_is_named(tmp_path, bad):
+    path = tmp_path / "scene.glb"
+    wg.importers.write_scene(_galley(), path)
+    with pytest.raises(wg.UpAxisError, match=r"up_axis must be None .* one of \('\+x'.*got "):
+        wg.WorldModel.from_file(path, up_axis=bad)
+    assert issubclass(wg.UpAxisError, wg.WorldGraphError)
+
+
+def test_z_up_from_takes_each_axis_to_plus_z():
+    for axis, vector in (("+x", [1, 0, 0]), ("-x", [-1, 0, 0]), ("+y", [0, 1, 0]), ("-y", [0, -1, 0]),
+                         ("+z", [0, 0, 1]), ("-z", [0, 0, -1])):
+        m = wg.importers.z_up_from(axis)
+        np.testing.assert_array_equal(m[:3, :3] @ vector, [0, 0, 1])
+        np.testing.assert_array_equal(m[:3, :3] @ m[:3, :3].T, np.eye(3))
+        assert np.linalg.det(m[:3, :3]) == pytest.approx(1.0)
+    # glTF: +Y up, +Z front -> (x, y, z) -> (x, -z, y)
+    np.testing.assert_array_equal(wg.importers.z_up_from("+y")[:3, :3] @ [1, 2, 3], [1, -3, 2])
+
+
+@pytest.mark.parametrize(("element", "expected"),
+                         [("Z_UP", "+z"), ("Y_UP", "+y"), ("X_UP", "+x"), (None, "+y")])
+def test_collada_up_axis_is_read_from_the_file(tmp_path, element, expected):
+    path = tmp_path / "scene.dae"
+    up = "" if element is None else f"<up_axis>{element}</up_axis>"
+    path.write_text('<?xml version="1.0"?><COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" '
+                    f'version="1.4.1"><asset>{up}</asset></COLLADA>')
+    assert wg.importers.default_up_axis(path) == expected
+
+
+@pytest.mark.parametrize(("name", "expected"), [("a.glb", "+y"), ("a.gltf", "+y"), ("a.obj", "+z"),
+                                                ("a.ply", "+z"), ("a.stl", "+z"), ("a.off", "+z"),
+                                                ("a.xml", "+z")])
+def test_format_up_axes(name, expected):
+    assert wg.importers.default_up_axis(name) == expected
+
+
+def test_objects_spread_along_z_without_a_floor_warn(tmp_path):
+    # a corridor of doors, 12 m long (x), 1.2 m wide (y), handles at 1 m; no floor nodes
+    scene = trimesh.Scene()
+    for k in range(7):
+        for side, y in ((0, -0.6), (1, 0.6)):
+            at = trimesh.transformations.translation_matrix((2.0 * k, y, 1.0))
+            scene.add_geometry(trimesh.creation.box(extents=(0.9, 0.04, 2.0)), node_name=f"door_{k}{side}",
+                               geom_name="leaf", transform=at)
+    path = tmp_path / "corridor.glb"
+    wg.importers.write_scene(scene, path, up_axis="+x")  # an exporter that put the corridor's length up
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        upright = wg.WorldModel.from_file(path, up_axis="+x")
+    assert upright.bounds[1][0] - upright.bounds[0][0] == pytest.approx(12.9, abs=1e-6)
+    # read +Y up (glTF's rule) the 12 m lie along z, the doors' common height along x: the axis of
+    # least spread is named, its sign unknown
+    expected = (r"the objects spread 12 m along z but 0 m along x and 1.2 m along y; "
+                r"the file's up axis is probably '\+x' \(or -x\): pass up_axis='\+x'")
+    with pytest.warns(UserWarning, match=expected):
+        wg.WorldModel.from_file(path)

@@ -86,7 +86,7 @@ def _draws(types, positions, storey, n: int, seed: int = 1):
 def test_multi_storey_file_gives_the_world_and_answers_of_from_arrays(tmp_path, suffix):
     types, positions, sizes, storey = _building()
     path = tmp_path / f"building.{suffix}"
-    _scene(types, positions).export(path)
+    wg.importers.write_scene(_scene(types, positions), path)  # glb: +Y up; obj: as it is
     world = wg.WorldModel.from_file(path)
     assert isinstance(world.objects, ObjectTable)
     assert world.objects.rotations is None  # translations only: stored as from_arrays stores them

@@ -45,7 +45,7 @@ def _scene(k: int, variances: list[tuple[float, float, float]], seed: int):
     for i in range(k):
         C = _covariance(variances[i], rng)
         x = ego[i] + np.linalg.cholesky(C) @ rng.standard_normal(3)
-        percepts.append(Percept(types[i], x, float(np.sqrt(max(variances[i]))), covariance=C))
+        percepts.append(Percept(types[i], x, covariance=C))  # sigma: the range std of C
     return world, percepts, truth
 
 
@@ -257,7 +257,7 @@ def test_localize_on_needles_is_right_or_says_why(seed, k, shapes, same_axis) ->
         C = 0.5 * (C + C.T)
         covs.append(C)
         x = ego[i] + np.linalg.cholesky(C) @ rng.standard_normal(3)
-        percepts.append(Percept(types[i], x, float(np.sqrt(max(var))), covariance=C))
+        percepts.append(Percept(types[i], x, covariance=C))  # sigma: the range std of C
     ego_m, covs = np.array([p.position for p in percepts]), np.array(covs)
     res = wg.localize(world, percepts)
     if res.status == "ok":

@@ -30,6 +30,7 @@ from perception.recognition import (
     Box,
     Detection,
     GaussianClassifier,
+    _percept_covariances,
     detect,
     match_stereo,
     random_scene,
@@ -434,13 +435,21 @@ def test_recognize_frames_and_sigma(trained: GaussianClassifier) -> None:
     scale = 0.1
     dets_l, dets_r = detect(left, trained), detect(right, trained)
     matches = match_stereo(RIG, dets_l, dets_r)
-    found = recognize(RIG, left, right, trained, pixel_sigma=1e-6, centroid_offset_scale=scale)
-    assert len(found) == len(matches) >= 2
-    for p, m in zip(found, matches, strict=True):
-        shape = (dets_l[m.left].shape_covariance + dets_r[m.right].shape_covariance) / 2
-        lateral = (p.position[2] / RIG.K1[0, 0]) ** 2 * scale**2 * shape
-        np.testing.assert_allclose(p.covariance[:2, :2], lateral, rtol=0.02, atol=1e-12)
-        assert abs(p.covariance[2, 2]) < 1e-6 * lateral[0, 0]
+    # (through the covariance helper: recognize refuses pixel_sigma=1e-6 with the default
+    # depth_factor, whose eq. 6 sigma is then far larger than the covariance's range error)
+    assert len(matches) >= 2
+    uv_l = np.array([dets_l[m.left].centroid_uv for m in matches])
+    uv_r = np.array([dets_r[m.right].centroid_uv for m in matches])
+    shapes = np.array([(dets_l[m.left].shape_covariance + dets_r[m.right].shape_covariance) / 2
+                       for m in matches])
+    points = np.asarray(RIG.triangulate(uv_l, uv_r)).reshape(-1, 3)
+    covs = _percept_covariances(RIG, uv_l, uv_r, shapes, 1e-6, scale)
+    for point, cov, shape in zip(points, covs, shapes, strict=True):
+        lateral = (point[2] / RIG.K1[0, 0]) ** 2 * scale**2 * shape
+        np.testing.assert_allclose(cov[:2, :2], lateral, rtol=0.02, atol=1e-12)
+        assert abs(cov[2, 2]) < 1e-6 * lateral[0, 0]
+    with pytest.raises(NonPositiveSigmaError, match=r"depth_factor = [\d.]+ and pixel_sigma disagree"):
+        recognize(RIG, left, right, trained, pixel_sigma=1e-6, centroid_offset_scale=scale)
 
 
 def test_detection_shape_covariance_matches_region_features(trained: GaussianClassifier) -> None:

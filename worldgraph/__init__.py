@@ -17,6 +17,7 @@ from .errors import (
     ArgumentTypeError,
     CoincidentObjectsError,
     EmptyWorldError,
+    GravityDirectionError,
     ImporterError,
     MalformedFileError,
     NonFiniteError,
@@ -28,6 +29,7 @@ from .errors import (
     TooFewPerceptsError,
     UnknownGeometryError,
     UnknownTypeError,
+    UpAxisError,
     WorldGraphError,
 )
 from .figures import plots, rerun_log
@@ -44,6 +46,7 @@ __all__ = [
     "ArgumentTypeError",
     "CoincidentObjectsError",
     "EmptyWorldError",
+    "GravityDirectionError",
     "ImporterError",
     "LinkTable",
     "MalformedFileError",
@@ -58,6 +61,7 @@ __all__ = [
     "TooFewPerceptsError",
     "UnknownGeometryError",
     "UnknownTypeError",
+    "UpAxisError",
     "WorldGraphError",
     "ViewPlan",
     "WorldModel",

@@ -10,6 +10,7 @@ __all__ = [
     "ArgumentTypeError",
     "CoincidentObjectsError",
     "EmptyWorldError",
+    "GravityDirectionError",
     "ImporterError",
     "MalformedFileError",
     "NonFiniteError",
@@ -21,6 +22,7 @@ __all__ = [
     "TooFewPerceptsError",
     "UnknownGeometryError",
     "UnknownTypeError",
+    "UpAxisError",
     "WorldGraphError",
 ]
 
@@ -44,6 +46,15 @@ class NonPositiveError(WorldGraphError):
 class ArgumentTypeError(WorldGraphError):
     """A value of the wrong kind: None, bool, str or complex where a number is meant, a float
     where an integer is meant, a non-Generator where a random generator is meant."""
+
+
+class UpAxisError(ArgumentTypeError):
+    """An ``up_axis`` that is not one of ``"+x"``, ``"-x"``, ``"+y"``, ``"-y"``, ``"+z"``, ``"-z"``."""
+
+
+class GravityDirectionError(WorldGraphError):
+    """An up vector (``localize(gravity=...)``) that points down in the ego frame (more than 90
+    degrees from the ego +z axis): a gravity vector passed where the up vector is meant."""
 
 
 class OutOfRangeError(WorldGraphError):

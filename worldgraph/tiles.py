@@ -48,7 +48,13 @@ from perception import Percept
 from . import _checks
 from .association.hypotheses import AssociationHypothesis
 from .errors import ArgumentTypeError, EmptyWorldError, ShapeError, UnknownTypeError, WorldGraphError
-from .localize.pipeline import LOCALIZE_METHODS, _answered_by_free_search, _gravity_unsupported, localize
+from .localize.pipeline import (
+    LOCALIZE_METHODS,
+    _answered_by_free_search,
+    _gravity_unsupported,
+    _tilt_checked,
+    localize,
+)
 from .localize.result import POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult
 from .model import WorldModel
 from .pose.gravity import Gravity, _check_gravity
@@ -464,7 +470,7 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         free = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, None) for r in rngs],
                           scheduler, workers, pool, tol, t_start)
         answer = _answered_by_free_search(free, answer, why)
-    return answer
+    return _tilt_checked(answer, plan, tol)
 
 
 def _run_tiles(tiles: tuple[Tile, ...], args: list[tuple[Any, ...]], scheduler: Any, workers: int | None,

@@ -45,6 +45,15 @@ COINCIDENT_TOLERANCE = 1e-9
 MIN_UP_NORM = 1e-9
 #: An up vector whose horizontal part is below this (relative) is the z axis: no levelling.
 LEVEL_TOLERANCE = 1e-12
+#: With gravity known (``localize(gravity="auto")`` or an up vector), an answer whose pose tilts
+#: the ego up vector more than this (rad) from world up is no success ("inconsistent", the message
+#: naming the likely frame mistake): a level wheeled or humanoid robot never tilts 45 degrees,
+#: while percepts in a camera frame (OpenCV: z ahead, y down) instead of the ego frame give a pose
+#: tilted 90.  Below it, ``"auto"`` answers tilts beyond ``tilt_allowance`` by the free search (a
+#: robot on a ramp); an explicit up vector (or ``gravity_aligned=True``) allows only
+#: ``tilt_allowance`` plus :data:`~worldgraph.pose.gravity.TILT_SLACK`.  ``gravity=None`` (no
+#: knowledge of gravity) answers any tilt.
+MAX_EGO_TILT = math.radians(45.0)
 #: Far-pair index: window slack (m) of the float32 keys, well above float32 rounding at 16 m (1e-6 m).
 FAR_PAIR_SLACK = 1e-4
 #: k-d tree queries are widened by this relative amount (and ``QUERY_FLOOR``), so that the exact

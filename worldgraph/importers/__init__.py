@@ -51,6 +51,28 @@ Formats, chosen by the file suffix (or ``file_format``):
   ``MjModel`` and ``MjData`` are kept in ``scene.metadata["mujoco_model"]`` and
   ``scene.metadata["mujoco_data"]``.
 
+Up axis (``up_axis``): the world is z up (against gravity, docs/conventions.md), and each
+file is turned so from its own convention unless ``up_axis`` says otherwise (one of
+:data:`UP_AXES`, the file axis that points up; :func:`default_up_axis` gives the default):
+
+* glTF/GLB: +Y, as the glTF 2.0 specification fixes it (and Blender, three.js and most
+  exporters write it); turned by ``(x, y, z) -> (x, -z, y)`` (:func:`z_up_from`).  trimesh
+  itself reads glTF coordinates as they are, and ``trimesh.Scene.export`` writes a scene's
+  coordinates as they are: :func:`write_scene` writes a z-up scene (e.g. of
+  :mod:`worldgraph.scenes`) +Y up, so that others read it upright and ``from_file`` reads the
+  same world back; a z-up GLB written by ``scene.export`` reads back with ``up_axis="+z"``;
+* COLLADA (``.dae``): its ``<asset><up_axis>`` (``X_UP``, ``Y_UP``, ``Z_UP``; absent means
+  ``Y_UP``, the COLLADA default).  trimesh ignores the element (checked with trimesh 5.2), so it
+  is read here;
+* MJCF: +Z (MuJoCo's default gravity is -z);
+* OBJ, PLY, STL, OFF: the formats carry no up axis; read as written, +Z, the convention of CAD
+  and robot meshes (ROS, URDF).  Files exported +Y up (a choice many OBJ exporters offer:
+  Blender's asks for Forward/Up axes) need ``up_axis="+y"``.
+
+A world that still looks like a room on its side (a flat floor whose thin axis is horizontal,
+or objects spread along z far more than sideways) gets a :class:`UserWarning` naming the likely
+``up_axis=`` to pass.
+
 Types (``type_of``):
 
 * ``None`` (default): :func:`default_type_of` -- a node's ``metadata["type"]`` when the file
@@ -91,9 +113,14 @@ from ..model.scene_files import (
     MJCF_SUFFIXES,
     OBJ_SUFFIXES,
     TRIMESH_SUFFIXES,
+    UP_AXES,
     default_type_of,
+    default_up_axis,
     scene_from_file,
+    turn_scene,
     type_rule,
+    write_scene,
+    z_up_from,
 )
 
 __all__ = [
@@ -102,17 +129,22 @@ __all__ = [
     "MJCF_SUFFIXES",
     "OBJ_SUFFIXES",
     "TRIMESH_SUFFIXES",
+    "UP_AXES",
     "default_type_of",
+    "default_up_axis",
     "scene_from_file",
+    "turn_scene",
     "type_rule",
     "world_from_file",
+    "write_scene",
+    "z_up_from",
 ]
 
 
 def world_from_file(path: str | os.PathLike[str], type_of: Any = None, *, max_link_length: float = 5.0,
                     link_margin: float = 0.0, room: Any = "auto", mjcf_objects: str = "bodies",
                     file_format: str | None = None, world_class: type[WorldModel] | None = None,
-                    ) -> WorldModel:
+                    up_axis: str | None = None) -> WorldModel:
     """World model from a scene file (GLB/GLTF/OBJ/PLY/STL/OFF/DAE or MJCF).
 
     Parameters
@@ -133,6 +165,9 @@ def world_from_file(path: str | os.PathLike[str], type_of: Any = None, *, max_li
         Suffix to use instead of the path's.
     world_class : type, optional
         The :class:`~worldgraph.WorldModel` subclass to build (default ``WorldModel``).
+    up_axis : {"+x", "-x", "+y", "-y", "+z", "-z"}, optional
+        The file axis that points up; default the format's convention (module docstring:
+        glTF/GLB +Y, COLLADA its ``<up_axis>``, MJCF/OBJ/PLY/STL/OFF +Z).
 
     Returns
     -------
@@ -150,7 +185,14 @@ def world_from_file(path: str | os.PathLike[str], type_of: Any = None, *, max_li
         A needed optional package is missing (``mujoco``: ``pip install gaussian-spheres[mjcf]``).
     ArgumentTypeError
         A bad ``type_of``, ``mjcf_objects`` or ``file_format``.
+    UpAxisError
+        A bad ``up_axis``, naming it.
+
+    Warns
+    -----
+    UserWarning
+        The world looks like a room on its side; the message names the likely ``up_axis``.
     """
     cls = WorldModel if world_class is None else world_class
     return cls.from_file(path, type_of, max_link_length=max_link_length, link_margin=link_margin, room=room,
-                         mjcf_objects=mjcf_objects, file_format=file_format)
+                         mjcf_objects=mjcf_objects, file_format=file_format, up_axis=up_axis)

@@ -59,7 +59,15 @@ from ..association.hypotheses import AssociationHypothesis
 from ..errors import ArgumentTypeError, OutOfRangeError, UnknownTypeError, WorldGraphError
 from ..model import WorldModel
 from ..model.units import units_hint
-from ..pose.gravity import _FREE, Gravity, SearchKind, _check_gravity, _Plan, _unsupported
+from ..pose.gravity import (
+    _FREE,
+    Gravity,
+    SearchKind,
+    _check_gravity,
+    _Plan,
+    _tilt_contradiction,
+    _unsupported,
+)
 from ..pose.validation import CHI2_3_GATE, NearestObjects, percept_covariances
 from ..tolerances import ASSOCIATION_TOLERANCES, RIGID_TOLERANCE, AssociationTolerances, _tol_argument
 from .context import _Call, _Context, _Settings
@@ -166,9 +174,18 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         matches, or the percepts within the chi-square gate of an object of their type when
         more), or has a pose that tilts the ego z axis beyond the allowance (plus 1 degree), the
         free 3D search answers instead.  A (3,) up vector (an IMU's, in the ego frame): the gravity search
-        about it, no fallback.
-        ``None``: the free 3D search.  :attr:`LocalizationResult.search` says which search
-        answered.  The paper's method uses no gravity.
+        about it, no fallback; it must point within 90 degrees of the ego +z axis (REP 103: z up),
+        else :class:`~worldgraph.errors.GravityDirectionError` is raised before any search (a
+        gravity vector such as ``[0, 0, -9.81]`` passed for the up vector: pass its negative).
+        ``None``: the free 3D search, any tilt.  :attr:`LocalizationResult.search` says which search
+        answered.  The paper's method uses no gravity in its search, but its answer is checked
+        like the others: with gravity known (``"auto"`` or an up vector), a pose that tilts the
+        ego up vector more than :data:`~worldgraph.tolerances.MAX_EGO_TILT` (45 degrees) from
+        world up, or, with an up vector given (or ``tol.gravity_aligned=True``), more than
+        ``tol.tilt_allowance`` plus :data:`~worldgraph.pose.gravity.TILT_SLACK`, is
+        ``"inconsistent"`` with a message naming the likely mistake (percepts in a camera
+        frame, OpenCV: z ahead, y down, when world up is the ego -y axis: map them with
+        ``perception.KinematicChain.ego_from_camera``).
     tolerances : AssociationTolerances, optional
         Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
         :class:`~worldgraph.errors.ArgumentTypeError`).
@@ -178,9 +195,9 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     LocalizationResult
         Never a silently wrong pose: "ok" only for a unique, well-determined pose that passes
         its own chi-square check with at least 3 inliers (9 constrained directions: a
-        needle-shaped percept counts 2 of 3); otherwise the status says why (the
-        best pose is still returned for "ambiguous", "weak", "inconsistent" and
-        "outside_region"; NaN when no pose can be determined).
+        needle-shaped percept counts 2 of 3) and a tilt that agrees with ``gravity``; otherwise
+        the status says why (the best pose is still returned for "ambiguous", "weak",
+        "inconsistent" and "outside_region"; NaN when no pose can be determined).
 
     Raises
     ------
@@ -188,6 +205,8 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         The world has no objects.
     UnknownTypeError
         Percepts were given but none has a type of the world.
+    GravityDirectionError
+        An up vector ``gravity`` more than 90 degrees from the ego +z axis (a gravity vector).
     WorldGraphError
         Unknown method, something other than Percepts, a bad region or bound.
     """
@@ -203,7 +222,20 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         if why:
             free = _localize(world, percepts, replace(settings, plan=_FREE), t_start)
             result = _answered_by_free_search(free, result, why)
-    return _sane(result, len(percepts))
+    return _tilt_checked(_sane(result, len(percepts)), settings.plan, settings.tol)
+
+
+def _tilt_checked(result: LocalizationResult, plan: _Plan, tol: AssociationTolerances) -> LocalizationResult:
+    """``result``, made ``"inconsistent"`` when its pose contradicts the gravity the call was
+    given (:func:`~worldgraph.pose.gravity._tilt_contradiction`; only statuses that trust their
+    pose, ``"ok"``, ``"weak"``, ``"ambiguous"``, change; the pose stays for diagnosis)."""
+    if result.status not in POSE_STATUSES:
+        return result
+    why = _tilt_contradiction(result.transformation, plan, tol)
+    if not why:
+        return result
+    return replace(result, status="inconsistent", ambiguous=False,
+                   message="; ".join(m for m in (why, f"(was {result.status!r})", result.message) if m))
 
 
 def _gravity_unsupported(result: LocalizationResult, plan: _Plan, tol: AssociationTolerances, method: str,

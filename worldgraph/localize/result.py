@@ -31,7 +31,7 @@ PoseStatus = Literal[
 #: ``"degenerate_coplanar"`` and ``"not_converged"`` still fill in the pose that failed, for
 #: diagnosis).
 FailureStatus = Literal[
-    "inconsistent",          # the pose contradicts its own matches (chi-square self-check)
+    "inconsistent",          # the pose contradicts its own matches (chi-square self-check) or gravity
     "no_association",        # no consistent set of >= 3 percept-object pairs
     "too_few_percepts",      # fewer than 3 percepts of known types
     "degenerate",            # the matched landmarks cannot fix a pose (collinear, ...)

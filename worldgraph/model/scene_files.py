@@ -13,7 +13,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from perception.errors import TypeRuleError
 from perception.mujoco import geom_mesh, import_mujoco, object_geoms
@@ -26,6 +26,7 @@ from ..errors import (
     EmptyWorldError,
     ImporterError,
     MalformedFileError,
+    UpAxisError,
     WorldGraphError,
 )
 
@@ -35,6 +36,7 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = [
     "typed_scene",
     "KNOWN_TYPES",
+    "UP_AXES",
     "MJCF_OBJECTS",
     "MJCF_SUFFIXES",
     "OBJ_SUFFIXES",
@@ -42,6 +44,10 @@ __all__ = [
     "default_type_of",
     "scene_from_file",
     "type_rule",
+    "default_up_axis",
+    "turn_scene",
+    "write_scene",
+    "z_up_from",
 ]
 
 #: File suffixes read with :func:`trimesh.load_scene`.
@@ -52,6 +58,26 @@ OBJ_SUFFIXES = (".obj",)
 MJCF_SUFFIXES = (".xml", ".mjcf")
 #: Values of ``mjcf_objects``.
 MJCF_OBJECTS = ("bodies", "geoms")
+
+#: Values of ``up_axis``: the file axis that points up (against gravity).
+UP_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+#: ``z_up_from(axis)[:3, :3]`` for each of :data:`UP_AXES`: a proper rotation taking the axis to
+#: +z; ``"+y"`` (glTF, COLLADA ``Y_UP``) is ``(x, y, z) -> (x, -z, y)`` (glTF's +z, "front",
+#: becomes -y), ``"-y"`` ``(x, y, z) -> (x, z, -y)``, ``"+x"`` COLLADA's ``X_UP``
+#: (``(x, y, z) -> (-y, -z, x)``), ``"-x"`` ``(x, y, z) -> (y, -z, -x)``, ``"-z"`` half a turn
+#: about x.
+_UP_ROTATIONS = {
+    "+z": ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+    "-z": ((1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0)),
+    "+y": ((1.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0)),
+    "-y": ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.0, -1.0, 0.0)),
+    "+x": ((0.0, -1.0, 0.0), (0.0, 0.0, -1.0), (1.0, 0.0, 0.0)),
+    "-x": ((0.0, 1.0, 0.0), (0.0, 0.0, -1.0), (-1.0, 0.0, 0.0)),
+}
+#: The up axis of a format when the file does not say (COLLADA files say it in ``<up_axis>``).
+_FORMAT_UP = {"glb": "+y", "gltf": "+y", "dae": "+y", "obj": "+z", "ply": "+z", "stl": "+z", "off": "+z",
+              "xml": "+z", "mjcf": "+z"}
+_COLLADA_UP = {"X_UP": "+x", "Y_UP": "+y", "Z_UP": "+z"}
 
 _MJCF_PIP = "pip install gaussian-spheres[mjcf]"
 
@@ -89,6 +115,103 @@ def type_rule(type_of: Any) -> Callable[[str], str | None]:
 
 
 # ----------------------------------------------------------------------------------------------
+# up axis
+# ----------------------------------------------------------------------------------------------
+def _check_up_axis(up_axis: object) -> str:
+    """``up_axis`` as one of :data:`UP_AXES` (``"y"`` and ``"Y"`` read as ``"+y"``)."""
+    if isinstance(up_axis, str):
+        text = up_axis.strip().lower()
+        text = "+" + text if text in ("x", "y", "z") else text
+        if text in UP_AXES:
+            return text
+    raise UpAxisError(f"up_axis must be None (the format's convention) or one of {UP_AXES} (the file axis "
+                      f"that points up), got {_checks._short(up_axis)}")
+
+
+def z_up_from(up_axis: str) -> NDArray[np.float64]:
+    """The (4, 4) rotation taking a file whose up axis is ``up_axis`` to the library's z-up frame.
+
+    Parameters
+    ----------
+    up_axis : {"+x", "-x", "+y", "-y", "+z", "-z"}
+        The file axis that points up (against gravity).
+
+    Returns
+    -------
+    (4, 4) float
+        ``world_from_file``: a proper rotation with ``R @ axis = (0, 0, 1)``; for ``"+y"`` (glTF)
+        ``(x, y, z) -> (x, -z, y)``.  Its transpose writes a z-up scene the other way, e.g. a
+        glTF file that other tools read upright:
+        ``scene.apply_transform(z_up_from("+y").T); scene.export("room.glb")``.
+
+    Raises
+    ------
+    UpAxisError
+        Any other value, named.
+
+    Examples
+    --------
+    >>> z_up_from("+y")[:3, :3] @ [0.0, 1.0, 0.0]
+    array([0., 0., 1.])
+    """
+    out = np.eye(4)
+    out[:3, :3] = _UP_ROTATIONS[_check_up_axis(up_axis)]
+    return out
+
+
+def _collada_up_axis(path: str) -> str:
+    """The ``<asset><up_axis>`` of a COLLADA file as one of :data:`UP_AXES` (``"+y"``, the
+    COLLADA default, when absent or unreadable: trimesh reads the file anyway or says why not)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        for _, elem in ET.iterparse(path, events=("end",)):
+            tag = elem.tag.rsplit("}", 1)[-1]
+            if tag == "up_axis":
+                return _COLLADA_UP.get((elem.text or "").strip().upper(), "+y")
+            if tag == "asset":
+                break
+    except (ET.ParseError, OSError):
+        pass
+    return "+y"
+
+
+def default_up_axis(path: str | os.PathLike[str], file_format: str | None = None) -> str:
+    """The up axis a scene file is read with when ``up_axis`` is not given.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The scene file.
+    file_format : str, optional
+        A suffix to use instead of the path's.
+
+    Returns
+    -------
+    str
+        ``"+y"`` for glTF/GLB (the glTF 2.0 specification: +Y up, +Z front, as Blender writes
+        it); for COLLADA (``.dae``) the file's ``<asset><up_axis>`` (``X_UP``, ``Y_UP``,
+        ``Z_UP``; ``Y_UP`` when absent, the COLLADA default; trimesh itself ignores the
+        element); ``"+z"`` for MJCF (MuJoCo's gravity is -z) and for OBJ, PLY, STL and OFF,
+        which carry no up axis (read as written: the z-up convention of CAD, ROS and robot
+        meshes; files written +Y up, as many OBJ exporters do on request, need ``up_axis="+y"``).
+
+    Raises
+    ------
+    MalformedFileError
+        An unknown suffix.
+    """
+    text = _checks.file_path("path", path)
+    kind = _file_kind(text, file_format)
+    suffix = (file_format or pathlib.Path(text).suffix).lower().lstrip(".")
+    if kind == "mjcf":
+        return "+z"
+    if suffix == "dae":
+        return _collada_up_axis(text)
+    return _FORMAT_UP.get(suffix, "+z")
+
+
+# ----------------------------------------------------------------------------------------------
 # files
 # ----------------------------------------------------------------------------------------------
 def _file_kind(path: str, file_format: str | None) -> str:
@@ -114,8 +237,8 @@ def _file_kind(path: str, file_format: str | None) -> str:
 
 
 def scene_from_file(path: str | os.PathLike[str], *, file_format: str | None = None,
-                    mjcf_objects: str = "bodies") -> trimesh.Scene:
-    """Read a scene file into a :class:`trimesh.Scene` of named candidate nodes.
+                    mjcf_objects: str = "bodies", up_axis: str | None = None) -> trimesh.Scene:
+    """Read a scene file into a :class:`trimesh.Scene` of named candidate nodes, z up.
 
     Parameters
     ----------
@@ -125,11 +248,16 @@ def scene_from_file(path: str | os.PathLike[str], *, file_format: str | None = N
         A suffix (``".obj"``, ``"glb"``, ``".xml"``, ...) to use instead of the path's.
     mjcf_objects : {"bodies", "geoms"}
         For MJCF: one node per named body or per geom.
+    up_axis : {"+x", "-x", "+y", "-y", "+z", "-z"}, optional
+        The file axis that points up; default the format's convention
+        (:func:`default_up_axis`: glTF/GLB +Y, COLLADA its ``<up_axis>``, the others +Z).  The
+        scene is turned by :func:`z_up_from` (its base frame's children), so that z is up.
 
     Returns
     -------
     trimesh.Scene
-        For MJCF with ``metadata["mujoco_model"]`` and ``metadata["mujoco_data"]``.
+        z up; ``metadata["up_axis"]`` is the up axis it was read with.  For MJCF with
+        ``metadata["mujoco_model"]`` and ``metadata["mujoco_data"]`` (in the file's frame).
 
     Raises
     ------
@@ -137,25 +265,112 @@ def scene_from_file(path: str | os.PathLike[str], *, file_format: str | None = N
         Missing or unreadable file, unknown suffix, a file its reader rejects.
     ImporterError
         ``mujoco`` (MJCF) or ``pycollada`` (``.dae``) not installed.
+    UpAxisError
+        ``up_axis`` not one of :data:`UP_AXES`.
     """
-    return _read_scene(_checks.file_path("path", path), file_format, mjcf_objects, None)
+    return _read_scene(_checks.file_path("path", path), file_format, mjcf_objects, up_axis, None)
 
 
-def _read_scene(text: str, file_format: str | None, mjcf_objects: str,
+def _read_scene(text: str, file_format: str | None, mjcf_objects: str, up_axis: str | None,
                 rule: Callable[[str], str | None] | None) -> trimesh.Scene:
     """:func:`scene_from_file` of a checked path; ``rule`` types MJCF bodies as they are read."""
     if not isinstance(mjcf_objects, str) or mjcf_objects not in MJCF_OBJECTS:
         raise ArgumentTypeError(f"mjcf_objects must be one of {MJCF_OBJECTS}, got "
                                 f"{_checks._short(mjcf_objects)}")
     kind = _file_kind(text, file_format)
+    up = None if up_axis is None else _check_up_axis(up_axis)
     if not os.path.isfile(text):
         raise MalformedFileError(f"{text}: no such file" if not os.path.exists(text)
                                  else f"{text}: not a regular file")
     if kind == "obj":
-        return _obj_scene(text)
-    if kind == "mjcf":
-        return _mjcf_scene(text, mjcf_objects, rule)
-    return _trimesh_scene(text, file_format)
+        scene = _obj_scene(text)
+    elif kind == "mjcf":
+        scene = _mjcf_scene(text, mjcf_objects, rule)
+    else:
+        scene = _trimesh_scene(text, file_format)
+    if up is None:
+        up = default_up_axis(text, file_format)
+    if up != "+z":
+        _turn_up(scene, z_up_from(up))
+    scene.metadata["up_axis"] = up
+    return scene
+
+
+def turn_scene(scene: trimesh.Scene, transform: ArrayLike) -> trimesh.Scene:
+    """Move every node of a scene by a rigid transform, keeping the nodes' metadata.
+
+    Parameters
+    ----------
+    scene : trimesh.Scene
+        Changed in place: each child of the base frame gets ``transform @ matrix``.
+    transform : (4, 4) float
+        A rigid transform, e.g. :func:`z_up_from` or its transpose.
+
+    Returns
+    -------
+    trimesh.Scene
+        ``scene``.
+
+    Notes
+    -----
+    :meth:`trimesh.Scene.apply_transform` does the same but drops each moved node's ``metadata``
+    and ``geometry`` edge attributes (trimesh 5.2), and so the types written in glTF extras.
+    """
+    m = _checks.float_array("transform", transform, (4, 4))
+    graph = scene.graph
+    base = graph.base_frame
+    for child in list(graph.transforms.children.get(base, [])):
+        data = dict(graph.transforms.edge_data[(base, child)])
+        kept = {k: data[k] for k in ("geometry", "metadata") if k in data}
+        graph.update(frame_to=child, frame_from=base, matrix=m @ data.get("matrix", np.eye(4)), **kept)
+    return scene
+
+
+def write_scene(scene: trimesh.Scene, path: str | os.PathLike[str], *, up_axis: str | None = None) -> None:
+    """Write a z-up scene to a file in the format's up-axis convention (a copy is turned).
+
+    Parameters
+    ----------
+    scene : trimesh.Scene
+        A scene in the library's frame (z up), e.g. of :mod:`worldgraph.scenes`.
+    path : str or os.PathLike
+        The file; its suffix selects the format (:meth:`trimesh.Scene.export`).
+    up_axis : {"+x", "-x", "+y", "-y", "+z", "-z"}, optional
+        The file axis that is to point up; default the format's convention
+        (:func:`default_up_axis`: +Y for glTF/GLB and COLLADA, whose ``<up_axis>`` trimesh
+        writes as ``Y_UP``; +Z for the others), so that :meth:`WorldModel.from_file
+        <worldgraph.WorldModel.from_file>` reads the same world back.
+
+    Raises
+    ------
+    UpAxisError
+        A bad ``up_axis``.
+    MalformedFileError
+        A suffix trimesh cannot write.
+    """
+    text = os.fspath(path)
+    suffix = pathlib.Path(text).suffix.lower().lstrip(".")
+    up = _FORMAT_UP.get(suffix, "+z") if up_axis is None else _check_up_axis(up_axis)
+    out = scene.copy()
+    if up != "+z":
+        turn_scene(out, z_up_from(up).T)
+    try:
+        out.export(text)
+    except (ValueError, KeyError, NotImplementedError) as exc:
+        raise MalformedFileError(f"{text}: trimesh cannot write a scene as {suffix!r}: {exc}") from exc
+
+
+def _turn_up(scene: trimesh.Scene, world_from_file: NDArray[np.float64]) -> None:
+    """Turn ``scene`` (the base frame's children) and a ``metadata["room"]`` box by ``world_from_file``."""
+    turn_scene(scene, world_from_file)
+    room = scene.metadata.get("room")
+    if room is not None:
+        try:
+            corners = np.array(room, dtype=np.float64).reshape(2, 3)
+        except (ValueError, TypeError):
+            return  # left for from_trimesh to refuse, naming it
+        turned = corners @ world_from_file[:3, :3].T
+        scene.metadata["room"] = (turned.min(axis=0), turned.max(axis=0))
 
 
 def _trimesh_scene(path: str, file_format: str | None) -> trimesh.Scene:
@@ -345,7 +560,8 @@ def _node_metadata_type(scene: trimesh.Scene, node: str) -> tuple[bool, Any]:
 
 
 def typed_scene(path: str | os.PathLike[str], type_of: Any = None, *, mjcf_objects: str = "bodies",
-                file_format: str | None = None) -> tuple[trimesh.Scene, dict[str, Any]]:
+                file_format: str | None = None, up_axis: str | None = None
+                ) -> tuple[trimesh.Scene, dict[str, Any]]:
     """The scene of a file (:func:`scene_from_file`) and the type of each typed node name (the
     type rules of :func:`worldgraph.importers.world_from_file`); :class:`EmptyWorldError` when
     no node gets a type.  For MJCF bodies the rule is applied as the file is read, so that a
@@ -360,7 +576,7 @@ def typed_scene(path: str | os.PathLike[str], type_of: Any = None, *, mjcf_objec
         except Exception as exc:
             raise WorldGraphError(f"type_of({node!r}) raised {type(exc).__name__}: {exc}") from exc
 
-    scene = _read_scene(text, file_format, mjcf_objects, checked_rule)
+    scene = _read_scene(text, file_format, mjcf_objects, up_axis, checked_rule)
     names = [str(n) for n in scene.graph.nodes_geometry]
     types: dict[str, Any] = {}
     for node in names:

@@ -217,6 +217,61 @@ def room_from_trimesh(scene: trimesh.Scene) -> radialopt.Region | None:
     return _room_from_bounds(found)
 
 
+#: A floor (the union box of the floor nodes) is flat when its thinnest extent is at most this
+#: fraction of its middle one; a flat floor whose thin axis is not z is a room on its side.
+FLAT_FLOOR_RATIO = 0.2
+#: Without floor nodes: objects spread along z more than this many times their widest horizontal
+#: extent, and more than :data:`TALL_SPREAD` metres, are a room on its side.
+TALL_RATIO = 2.0
+#: ... (metres): a storey is lower.
+TALL_SPREAD = 4.0
+
+
+def _likely_up(scene: trimesh.Scene, positions: NDArray[np.float64]
+               ) -> tuple[NDArray[np.float64], str] | None:
+    """``(up (3,), why)`` when the scene looks like a room on its side: the world direction that
+    is probably up and the evidence; ``None`` when z looks up.
+
+    The rule: the floor nodes (type ``"floor"`` by the default rule, as for the room) form a
+    flat box (thinnest extent at most :data:`FLAT_FLOOR_RATIO` of the middle one); up is its
+    thin axis, pointing from the floor towards the objects' mean ``positions``; anything but +z
+    is a room on its side (or upside down).  Without floor nodes: the objects spread along z more than
+    :data:`TALL_RATIO` times their widest horizontal extent and more than :data:`TALL_SPREAD`
+    metres: up is the horizontal axis of the smaller spread, its sign unknown (+).
+    """
+    floors = []
+    for node, matrix, geom_name, geometry in _geometry_nodes(scene):
+        if _default_type(scene, node, geometry) == "floor":
+            bounds = _vertex_bounds(f"vertices of geometry {geom_name!r}", geometry)
+            if bounds is not None:
+                floors.append(_world_bounds(matrix, bounds))
+    if floors:
+        box = np.array(floors)
+        lo, hi = box[:, 0].min(axis=0), box[:, 1].max(axis=0)
+        ext = hi - lo
+        order = np.argsort(ext, kind="stable")
+        thin = int(order[0])
+        if not ext[thin] <= FLAT_FLOOR_RATIO * ext[order[1]]:
+            return None
+        up = np.zeros(3)
+        centre = 0.5 * (lo[thin] + hi[thin])
+        up[thin] = -1.0 if len(positions) and float(np.mean(positions[:, thin])) < centre else 1.0
+        if up[2] == 1.0:
+            return None
+        where = "below" if up[thin] > 0 else "above"
+        return up, (f"the floor is flat along {'xyz'[thin]} ({ext[thin]:.3g} m thick, "
+                    f"{ext[order[1]]:.3g} x {ext[order[2]]:.3g} m) and {where} the objects")
+    if len(positions) < 2:
+        return None
+    ext = positions.max(axis=0) - positions.min(axis=0)
+    if ext[2] > TALL_RATIO * max(ext[0], ext[1]) and ext[2] > TALL_SPREAD:
+        up = np.zeros(3)
+        up[int(np.argmin(ext[:2]))] = 1.0
+        return up, (f"the objects spread {ext[2]:.3g} m along z but {ext[0]:.3g} m along x and "
+                     f"{ext[1]:.3g} m along y")
+    return None
+
+
 def _room_from_bounds(found: Mapping[str, list[NDArray[np.float64]]]) -> radialopt.Region | None:
     """The room box of :func:`room_from_trimesh` from the world bounds ``(2, 3)`` of the floor,
     wall and ceiling nodes (``found[type]``)."""

@@ -50,13 +50,15 @@ from .objects import (
     box_vertices,
 )
 from .persistence import _world_from_dict, load_world, save_world, world_from_dict, world_to_dict
-from .scene_files import typed_scene
+from .scene_files import typed_scene, z_up_from
 from .scene_nodes import (
     ROOM_TYPES,
     _check_room,
     _check_scene,
     _default_type,
     _fast_vertex_bounds,
+    _geometry_nodes,
+    _likely_up,
     _room_from_bounds,
     _scene_nodes,
     _trimesh_table,
@@ -401,14 +403,42 @@ class WorldModel:
     @classmethod
     def from_file(cls, path: str | os.PathLike[str], type_of: Any = None, *, max_link_length: float = 5.0,
                   link_margin: float = 0.0, room: Any = "auto", mjcf_objects: str = "bodies",
-                  file_format: str | None = None) -> WorldModel:
+                  file_format: str | None = None, up_axis: str | None = None) -> WorldModel:
         """World model from a scene file: GLB/GLTF/OBJ/PLY/STL/OFF/DAE through trimesh, MJCF through
         MuJoCo (``mjcf`` extra); see :func:`worldgraph.importers.world_from_file` for ``type_of``
         (``None``, a callable ``name -> type or None``, or a mapping ``regex -> type``) and the
-        options (``max_link_length``, ``link_margin``, ``room``, ``mjcf_objects``, ``file_format``)."""
-        scene, types = typed_scene(path, type_of, mjcf_objects=mjcf_objects, file_format=file_format)
-        return cls.from_trimesh(scene, type_of=lambda node, _geometry: types.get(str(node)),
-                                max_link_length=max_link_length, link_margin=link_margin, room=room)
+        options (``max_link_length``, ``link_margin``, ``room``, ``mjcf_objects``, ``file_format``).
+
+        The world is z up (against gravity).  ``up_axis`` (``"+x"``, ``"-x"``, ``"+y"``, ``"-y"``,
+        ``"+z"``, ``"-z"``) names the file axis that points up; default ``None``, the format's
+        convention: glTF/GLB +Y (the glTF 2.0 specification; Blender writes it so), COLLADA
+        (``.dae``) its ``<up_axis>`` element (``Y_UP`` when absent), MJCF +Z, and +Z for OBJ,
+        PLY, STL and OFF, which carry no up axis (read as written); a +Y-up file is turned by
+        ``(x, y, z) -> (x, -z, y)`` (:func:`worldgraph.importers.z_up_from`).  A world that
+        looks like a room on its side (a flat floor whose thin axis is horizontal, or objects
+        spread along z far more than sideways) gets a :class:`UserWarning` naming the likely
+        ``up_axis=``; with ``room="auto"``, a room box its sideways floor and walls cannot give
+        is left unset (the warning says so), and an error building such a world says the same.
+        A bad ``up_axis`` raises
+        :class:`~worldgraph.errors.UpAxisError`."""
+        scene, types = typed_scene(path, type_of, mjcf_objects=mjcf_objects, file_format=file_format,
+                                   up_axis=up_axis)
+        def build(room: Any) -> WorldModel:
+            return cls.from_trimesh(scene, type_of=lambda node, _geometry: types.get(str(node)),
+                                    max_link_length=max_link_length, link_margin=link_margin, room=room)
+
+        hint = _on_its_side(scene, _typed_origins(scene, types), str(path))
+        if hint is None:
+            return build(room)
+        try:
+            world = build(room)
+        except WorldGraphError as exc:
+            if not (isinstance(room, str) and room == "auto"):
+                raise type(exc)(f"{exc}; {hint}") from exc
+            world = build(None)  # the room of floor and walls on their side is no box
+            hint += "; the world's room is left unset (its floor and walls give no valid box this way up)"
+        warnings.warn(hint, UserWarning, stacklevel=2)
+        return world
 
     # -- derived data ----------------------------------------------------------------------------
     @property
@@ -770,3 +800,27 @@ class WorldModel:
     @classmethod
     def _from_dict(cls, data: Any, bad: Callable[[str], MalformedFileError]) -> WorldModel:
         return _world_from_dict(cls, data, bad)
+
+
+def _typed_origins(scene: trimesh.Scene, types: Mapping[str, Any]) -> NDArray[np.float64]:
+    """World origins ``(n, 3)`` of the typed nodes of ``scene`` (before a world is built)."""
+    rows = [m[:3, 3] for node, m, _, _ in _geometry_nodes(scene) if str(node) in types]
+    return np.array(rows, dtype=np.float64).reshape(-1, 3)
+
+
+def _on_its_side(scene: trimesh.Scene, positions: NDArray[np.float64], path: str) -> str | None:
+    """The warning of :meth:`WorldModel.from_file` for a world that looks like a room on its
+    side (:func:`~worldgraph.model.scene_nodes._likely_up`), naming the ``up_axis`` to pass;
+    ``None`` when z looks up."""
+    found = _likely_up(scene, positions)
+    if found is None:
+        return None
+    up, why = found
+    read = str(scene.metadata.get("up_axis", "+z"))
+    in_file = z_up_from(read)[:3, :3].T @ up
+    k = int(np.argmax(np.abs(in_file)))
+    axis = ("+" if in_file[k] > 0 else "-") + "xyz"[k]
+    sure = "" if "floor" in why else f" (or {'-' if axis[0] == '+' else '+'}{axis[1]})"
+    return (f"{path}: read with up_axis={read!r}, the world looks like a room on its side: {why}; the "
+            f"file's up axis is probably {axis!r}{sure}: pass up_axis={axis!r} to WorldModel.from_file "
+            "(glTF files are +Y up by the specification, but some exporters write z up)")

@@ -15,9 +15,19 @@ Every entry point that associates percepts (:func:`~worldgraph.association.assoc
 a (3,) up vector in the ego frame
     From an IMU: the percepts are levelled (rotated so that this vector is z) for the gravity
     search, and the poses returned are of the ego frame as given: a tilted head or base still
-    gets the storey-aware search.  No fallback.
+    gets the storey-aware search.  No fallback.  The ego frame is z up (REP 103), so an up vector
+    more than 90 degrees from the ego +z axis is refused
+    (:class:`~worldgraph.errors.GravityDirectionError`): it is a gravity vector (pointing down)
+    passed where the up vector is meant; an accelerometer at rest reads +9.81 m/s^2 along up,
+    so its raw reading is the up vector, and a gravity vector's negative is.
 ``None``
     The free 3D search.
+
+With gravity known (``"auto"`` or an up vector), :func:`~worldgraph.localize.localize` gives no
+success (``"inconsistent"``, the message naming the likely mistake, e.g. percepts in a camera
+frame) for a pose that tilts the ego up vector more than
+:data:`~worldgraph.tolerances.MAX_EGO_TILT` (45 degrees) from world up, or, with an explicit up
+vector, more than ``tilt_allowance`` plus :data:`TILT_SLACK` (:func:`_tilt_contradiction`).
 
 The result says which search answered (``LocalizationResult.search``,
 ``AssociationHypothesis.search``).  ``AssociationTolerances.gravity_aligned`` (when not None)
@@ -38,8 +48,8 @@ from numpy.typing import ArrayLike, NDArray
 from perception import Percept
 
 from .._checks import float_array
-from ..errors import ArgumentTypeError, OutOfRangeError
-from ..tolerances import LEVEL_TOLERANCE, MIN_UP_NORM, TINY, AssociationTolerances
+from ..errors import ArgumentTypeError, GravityDirectionError, OutOfRangeError
+from ..tolerances import LEVEL_TOLERANCE, MAX_EGO_TILT, MIN_UP_NORM, TINY, AssociationTolerances
 
 __all__ = ["GRAVITY_MODES", "MIN_GRAVITY_SUPPORT", "TILT_SLACK", "Gravity", "SearchKind", "level_rotation",
            "tilt_angle", "tilt_widening"]
@@ -174,8 +184,55 @@ def _check_gravity(gravity: object, tol: AssociationTolerances) -> _Plan:
         raise ArgumentTypeError(f"gravity must be 'auto', a (3,) up vector in the ego frame or None, "
                                 f"got {gravity!r} (True: use 'auto' or (0, 0, 1); False: None)")
     u = _unit_up(gravity)
+    if u[2] < 0.0:
+        given = float_array("gravity", gravity, (3,))
+        angle = math.degrees(math.acos(max(-1.0, min(1.0, float(u[2])))))
+        raise GravityDirectionError(
+            f"gravity = {given.tolist()} points {angle:.0f} deg from the ego +z axis (more than 90): "
+            "gravity= wants the up vector in the ego frame (REP 103: z up), and this looks like a gravity "
+            f"vector (pointing down); pass its negative, {(-given + 0.0).tolist()} (an accelerometer at "
+            "rest reads +9.81 m/s^2 along up, so its raw reading is the up vector); for no gravity "
+            "knowledge pass gravity=None"
+        )
     level = None if math.hypot(u[0], u[1]) < LEVEL_TOLERANCE and u[2] > 0 else level_rotation(u)
     return _Plan(u, level, False)
+
+
+#: OpenCV camera axes in the ego frame's place: world up is then the camera's -y axis.
+_CAMERA_UP = np.array([0.0, -1.0, 0.0])
+#: A pose whose ego direction of world up lies within this (rad) of the camera's -y axis looks
+#: like percepts in a camera frame.
+_CAMERA_LIKE = math.radians(20.0)
+
+
+def _tilt_contradiction(pose: NDArray[np.float64], plan: _Plan, tol: AssociationTolerances) -> str:
+    """Why a pose contradicts the gravity a call was given ("" when it does not, or when the call
+    knows no gravity): it tilts the ego up vector more than
+    :data:`~worldgraph.tolerances.MAX_EGO_TILT` from world up (any search of ``"auto"``), or
+    more than ``tol.tilt_allowance`` plus :data:`TILT_SLACK` when the up vector was given (or
+    ``gravity_aligned=True``: no fallback, so the gravity search's own tilt is its answer's).
+    The message names the likely mistake: percepts in a camera frame when world up is the
+    ego's -y axis (OpenCV: y down), else the frame of the percepts in general."""
+    if plan.up is None or not bool(np.all(np.isfinite(pose))):
+        return ""
+    limit = MAX_EGO_TILT if plan.fallback else min(MAX_EGO_TILT, tol.tilt_allowance + TILT_SLACK)
+    tilt = tilt_angle(pose, plan.up)
+    if tilt <= limit:
+        return ""
+    R = np.asarray(pose, dtype=np.float64)[:3, :3]
+    up_in_ego = R.T @ _EZ + 0.0  # no -0.0 in the message
+    given = "the ego z axis" if plan.fallback else f"the up vector given ({np.round(plan.up, 3).tolist()})"
+    rule = (f"more than {math.degrees(limit):.0f} deg, worldgraph.tolerances.MAX_EGO_TILT" if plan.fallback
+            else f"more than tilt_allowance + TILT_SLACK = {math.degrees(limit):.0f} deg")
+    head = (f"the best pose tilts {given} {math.degrees(tilt):.0f} deg from world up ({rule}; world up is "
+            f"the ego direction {np.round(up_in_ego, 2).tolist()})")
+    camera = "map them into the ego frame with ego_from_camera (perception.KinematicChain.ego_from_camera)"
+    if math.acos(max(-1.0, min(1.0, float(up_in_ego @ _CAMERA_UP)))) <= _CAMERA_LIKE:
+        return (f"the percepts look like a camera frame (OpenCV: z ahead, y down): {head}; {camera}, "
+                "or pass gravity=None to accept any tilt")
+    return (f"{head}: are the percepts in the ego frame (REP 103: x ahead, y left, z up)? Percepts in a "
+            f"camera frame (OpenCV: z ahead, y down) need ego_from_camera: {camera}; a robot that does tilt "
+            "this much: pass its up vector (an IMU's) as gravity=, or gravity=None to accept any tilt")
 
 
 def _tol_for(plan: _Plan, tol: AssociationTolerances) -> AssociationTolerances:
