@@ -38,7 +38,7 @@ from .errors import (
     URDFError,
 )
 from .frontend import CentreOffset, DetectionPercepts, Dropped, rgbd_percepts, stereo_percepts
-from .fusion import fuse_percepts, mean_shift_modes
+from .fusion import fuse_percepts, mean_shift_modes, percept_bandwidths
 from .percept import OBJECT_VIEW, Percept
 from .recognition import (
     GaussianClassifier,
@@ -102,6 +102,7 @@ __all__ = [
     "fuse_percepts",
     "match_stereo",
     "mean_shift_modes",
+    "percept_bandwidths",
     "percept_covariance",
     "perception_depth",
     "pixel_footprint",

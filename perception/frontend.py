@@ -92,10 +92,14 @@ CENTRE_DEPTH_RTOL = 0.5
 CENTRE_DEPTH_FLOOR = 0.005
 #: Largest centre offset (``|depth|``, its standard deviations) accepted, metres.
 MAX_CENTRE_DEPTH = 10.0
+#: Range of a camera matrix's focal lengths accepted (pixels).
+MIN_FOCAL_PX, MAX_FOCAL_PX = 1.0, 1e7
+#: Smallest and largest depth reading accepted (m); 0, NaN and inf are "no reading".
+MIN_DEPTH, MAX_DEPTH = 0.001, 1e4
 #: A depth image whose median valid reading exceeds this (m) is taken for millimetres.
 MAX_PLAUSIBLE_DEPTH = 100.0
 #: A region is occluded when more than this fraction of the valid depth readings just outside
-#: its outline lie nearer than it (by :data:`OCCLUSION_MARGIN`).
+#: its outline lie nearer than its own nearby readings (by :data:`OCCLUSION_MARGIN`).
 OCCLUDED_FRACTION = 0.2
 #: How much nearer (m, plus 3 sigma_z) a reading just outside the outline must be to occlude.
 OCCLUSION_MARGIN = 0.03
@@ -159,6 +163,10 @@ def _camera_matrix(value: ArrayLike) -> NDArray[np.float64]:
     if not (K[0, 0] > 0 and K[1, 1] > 0) or not np.allclose(K[2], [0.0, 0.0, 1.0]) or K[1, 0] != 0:
         raise ShapeError(f"K must be a camera matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0, "
                          f"got {K.tolist()}")
+    if not (MIN_FOCAL_PX <= K[0, 0] <= MAX_FOCAL_PX and MIN_FOCAL_PX <= K[1, 1] <= MAX_FOCAL_PX) or \
+            np.any(np.abs(K[:2, 1:]) > MAX_FOCAL_PX):
+        raise ShapeError(f"K: focal lengths must lie in [{MIN_FOCAL_PX:g}, {MAX_FOCAL_PX:g}] px and the skew "
+                         f"and principal point within {MAX_FOCAL_PX:g} px, got {K.tolist()}")
     return K
 
 
@@ -181,6 +189,11 @@ def _depth_image(value: ArrayLike) -> NDArray[np.float64]:
         raise NonFiniteError(f"depth[{r}, {c}] = {float(depth[r, c])!r} is negative; a depth image holds "
                              "distances along the optical axis (0 or NaN for no reading)")
     valid = np.isfinite(depth) & (depth > 0)
+    odd = np.argwhere(valid & ((depth < MIN_DEPTH) | (depth > MAX_DEPTH)))
+    if len(odd):
+        r, c = odd[0]
+        raise NonFiniteError(f"depth[{r}, {c}] = {float(depth[r, c])!r} m lies outside [{MIN_DEPTH:g}, "
+                             f"{MAX_DEPTH:g}] m, the readings a depth camera gives (0 or NaN for no reading)")
     sample = depth[::4, ::4][valid[::4, ::4]]
     if sample.size:
         med = float(np.median(sample))
@@ -287,7 +300,11 @@ def _percept(det: Detection, centre: NDArray[np.float64], own: NDArray[np.float6
     """The ego-frame percept of a camera-frame centre with its own covariance and shared loading."""
     R = transform[:3, :3]
     p = R @ centre + transform[:3, 3]
-    S = R @ loading
+    # the symmetric square root of the offset's covariance in the ego frame: every view of the
+    # object then loads the same error vector (the object's offset, fixed in the ego frame while
+    # the head scans) on the same axes, so fusion adds the views' loadings coherently
+    w, V = np.linalg.eigh(R @ loading @ loading.T @ R.T)
+    S = (V * np.sqrt(np.clip(w, 0.0, None))) @ V.T
     C = R @ own @ R.T + S @ S.T
     C = 0.5 * (C + C.T)
     s = _range_sigma(p, C) if sigma is None else sigma
@@ -344,9 +361,11 @@ def _box_seed(u: NDArray[np.intp], v: NDArray[np.intp], z: NDArray[np.float64], 
 
 
 def _occluded_fraction(mask: NDArray[np.bool_], box: NDArray[np.float64], depth: NDArray[np.float64],
-                       z_ref: float, margin: float) -> float:
-    """Fraction of the valid readings in a 3-pixel ring outside the mask's outer outline that
-    lie nearer than ``z_ref - margin``."""
+                       margin: float) -> float:
+    """Fraction of the valid readings in a 3-pixel ring outside the mask's outer outline that lie
+    nearer than the object's own nearest reading within 3 pixels of them, by more than
+    ``margin``: a nearer surface hides part of the object there (a slanted object's edge
+    continues its own surface and does not count)."""
     import cv2
 
     v0, v1 = max(0, int(box[1]) - 4), min(mask.shape[0], int(box[3]) + 5)
@@ -356,12 +375,15 @@ def _occluded_fraction(mask: NDArray[np.bool_], box: NDArray[np.float64], depth:
     contours, _ = cv2.findContours(m8, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     filled = np.zeros_like(m8)
     cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
-    ring = cv2.dilate(filled, np.ones((7, 7), np.uint8)).astype(bool) & ~filled.astype(bool)
-    zr = depth[ring]
-    zr = zr[np.isfinite(zr)]
-    if zr.size == 0:
+    kernel = np.ones((7, 7), np.uint8)
+    ring = cv2.dilate(filled, kernel).astype(bool) & ~filled.astype(bool)
+    own = np.where(mask & np.isfinite(depth), depth, np.inf).astype(np.float32)
+    nearest_own = cv2.erode(own, kernel)  # the object's nearest reading within 3 pixels
+    zr, zo = depth[ring], nearest_own[ring]
+    keep = np.isfinite(zr) & np.isfinite(zo)
+    if not keep.any():
         return 0.0
-    return float(np.mean(zr < z_ref - margin))
+    return float(np.mean(zr[keep] < zo[keep] - margin))
 
 
 @guard
@@ -486,7 +508,7 @@ def rgbd_percepts(
         centroid = pts.mean(axis=0)
         zc = float(centroid[2])
         sigma_z = c * zc * zc
-        occ = _occluded_fraction(mask if not from_box else _box_fg(mask, v, u), box, Z, zc,
+        occ = _occluded_fraction(mask if not from_box else _box_fg(mask, v, u), box, Z,
                                  OCCLUSION_MARGIN + 3.0 * sigma_z)
         if occ > OCCLUDED_FRACTION:
             dropped.append(Dropped(i, det.type, "occluded", f"{100 * occ:.0f} % of the readings around its "

@@ -56,7 +56,7 @@ from .errors import (
     ShapeError,
     TypeRuleError,
 )
-from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE, CentreOffset
+from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE, CentreOffset, rgbd_percepts
 from .simulate import scan_angles
 from .type_rules import type_rule
 
@@ -300,6 +300,10 @@ SENSORS = ("rgbd", "stereo")
 MAX_RENDER_SIDE = 8192
 #: Depths at or beyond this fraction of the far clipping plane are "nothing rendered".
 _FAR_FRACTION = 0.999
+
+#: Poses and seed of the renders :meth:`MujocoScene.default_centre_offsets` measures on.
+CALIBRATION_POSES = 12
+CALIBRATION_SEED = 20261202
 
 Sensor = Literal["rgbd", "stereo"]
 
@@ -549,6 +553,7 @@ class MujocoScene:
             raise SceneError(f"path_or_model: no body or world geom gets a type (body names {names}); pass "
                              "type_of= to type them")
         self._renderers: dict[tuple[int, int], Any] = {}
+        self._default_offsets: dict[str, CentreOffset] | None = None
         self._camera = mujoco.MjvCamera()  # a free camera; its pose is overwritten per view
         mujoco.mjv_defaultFreeCamera(model, self._camera)
 
@@ -656,13 +661,145 @@ class MujocoScene:
         return out
 
     @guard
+    def _obstacle_boxes(self) -> NDArray[np.float64]:
+        """World axis-aligned boxes ``(k, 2, 3)`` of every geom but planes and the robot-free
+        floor: what a robot standing in the scene must keep clear of."""
+        model, data = self._model, self._data
+        plane = int(self._mj.mjtGeom.mjGEOM_PLANE)
+        boxes = []
+        for g in range(model.ngeom):
+            if int(model.geom_type[g]) == plane:
+                continue
+            R = np.asarray(data.geom_xmat[g], dtype=np.float64).reshape(3, 3)
+            centre = R @ np.asarray(model.geom_aabb[g, :3]) + np.asarray(data.geom_xpos[g])
+            half = np.abs(R) @ np.asarray(model.geom_aabb[g, 3:])
+            boxes.append([centre - half, centre + half])
+        return np.array(boxes).reshape(-1, 2, 3)
+
+    def _floor(self) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
+        """Floor height and the ``(x, y)`` rectangle a robot may stand in: the extent of the
+        scene's finite floor planes (else the typed objects' extent and 3 m around it), within
+        3 m of the typed objects."""
+        model, data = self._model, self._data
+        plane = int(self._mj.mjtGeom.mjGEOM_PLANE)
+        pos = self.positions
+        lo, hi = pos[:, :2].min(axis=0) - 3.0, pos[:, :2].max(axis=0) + 3.0
+        floors = [g for g in range(model.ngeom) if int(model.geom_type[g]) == plane]
+        z = 0.0
+        if floors:
+            g = min(floors, key=lambda g: float(data.geom_xpos[g][2]))
+            z = float(data.geom_xpos[g][2])
+            size = np.asarray(model.geom_size[g][:2], dtype=np.float64)
+            if np.all(size > 0):
+                centre = np.asarray(data.geom_xpos[g][:2], dtype=np.float64)
+                lo, hi = np.maximum(lo, centre - size), np.minimum(hi, centre + size)
+        return z, lo, hi
+
+    @guard
+    def robot_poses(self, n: int, rng: np.random.Generator, *, clearance: float = 0.4,
+                    head_height: tuple[float, float] = (1.2, 1.7), max_distance: float = 2.5,
+                    yaw_spread_deg: float = 30.0) -> NDArray[np.float64]:
+        """Random poses of a level robot standing in the scene's free space, facing its objects.
+
+        The head (ego origin) stands ``head_height`` above the floor (the lowest plane geom,
+        else z = 0) at a floor point within ``max_distance`` of a random typed object, whose
+        vertical column from the floor to the head keeps ``clearance`` from every geom's
+        bounding box and that sees a typed object first when looking at it (no wall between);
+        the robot faces that object, give or take ``yaw_spread_deg``.  For
+        benchmarks and for measuring :meth:`centre_offsets`.
+
+        Parameters
+        ----------
+        n : int
+            Number of poses.
+        rng : numpy.random.Generator
+        clearance, max_distance : float
+            Metres, > 0.
+        head_height : (float, float)
+            Range of the head's height above the floor, metres.
+        yaw_spread_deg : float
+            Largest deviation of the heading from the direction of the object, degrees.
+
+        Returns
+        -------
+        (n, 4, 4) float
+            ``world_from_ego`` (ego: x forward, y left, z up).
+
+        Raises
+        ------
+        SceneError
+            No free floor point near the objects after ``1000 n`` tries.
+        """
+        n = integer("n", n, minimum=1, maximum=100_000)
+        gen = check_rng("rng", rng)
+        clearance = real_scalar("clearance", clearance, positive=True, high=100.0)
+        max_distance = real_scalar("max_distance", max_distance, positive=True, high=1e3)
+        spread = np.radians(real_scalar("yaw_spread_deg", yaw_spread_deg, nonnegative=True, high=180.0))
+        heights = real_array("head_height", head_height, (2,))
+        if not 0 < heights[0] <= heights[1] <= 100.0:
+            raise OptionError(f"head_height must be (low, high) with 0 < low <= high <= 100 m, got "
+                              f"{heights.tolist()}")
+        floor, lo, hi = self._floor()
+        boxes = self._obstacle_boxes()
+        pos = self.positions
+        out = np.zeros((n, 4, 4))
+        k = tries = 0
+        while k < n:
+            tries += 1
+            if tries > 1000 * n:
+                raise SceneError(f"no free floor point within {max_distance:g} m of the objects keeps "
+                                 f"{clearance:g} m from every geom (found {k} of {n})")
+            target = pos[int(gen.integers(len(pos)))]
+            r, a = max_distance * np.sqrt(gen.uniform(0.04, 1.0)), gen.uniform(0.0, 2.0 * np.pi)
+            xy = target[:2] + r * np.array([np.cos(a), np.sin(a)])
+            if np.any(xy < lo) or np.any(xy > hi):
+                continue
+            head = floor + gen.uniform(heights[0], heights[1])
+            near = ((boxes[:, 0, 0] < xy[0] + clearance) & (boxes[:, 1, 0] > xy[0] - clearance)
+                    & (boxes[:, 0, 1] < xy[1] + clearance) & (boxes[:, 1, 1] > xy[1] - clearance)
+                    & (boxes[:, 0, 2] < head + clearance) & (boxes[:, 1, 2] > floor + 0.05))
+            if near.any() or not self._sees(np.array([xy[0], xy[1], head]), target):
+                continue
+            yaw = np.arctan2(target[1] - xy[1], target[0] - xy[0]) + gen.uniform(-spread, spread)
+            c, s_ = np.cos(yaw), np.sin(yaw)
+            out[k] = [[c, -s_, 0.0, xy[0]], [s_, c, 0.0, xy[1]], [0.0, 0.0, 1.0, head], [0.0, 0.0, 0.0, 1.0]]
+            k += 1
+        return out
+
+    def _sees(self, eye: NDArray[np.float64], target: NDArray[np.float64]) -> bool:
+        """Whether the first visible geom on the ray from ``eye`` to an object's centre ``target``
+        belongs to a typed object (the robot stands in the room of what it faces, not behind a
+        wall)."""
+        geomid = np.full((1, 1), -1, dtype=np.int32)
+        groups = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)
+        direction = target - eye
+        dist = self._mj.mj_ray(self._model, self._data, eye, direction / np.linalg.norm(direction), groups, 1,
+                               -1, geomid)
+        g = int(geomid[0, 0])
+        return dist < 0 or (g >= 0 and int(self._geom_object[g]) >= 0)
+
+    def default_centre_offsets(self) -> dict[str, CentreOffset]:
+        """The centre offsets :meth:`scan` uses by default: :meth:`centre_offsets` measured on
+        exact renders (320x240, 8 views each) from :data:`CALIBRATION_POSES` poses of
+        :meth:`robot_poses` drawn with a fixed
+        seed (:data:`CALIBRATION_SEED`), once per scene; types never seen whole fall back to
+        :meth:`centre_depths`.  The analogue of measuring a detector's classes on its training
+        objects: the poses are not those of any scan."""
+        if self._default_offsets is None:
+            poses = self.robot_poses(CALIBRATION_POSES, np.random.default_rng(CALIBRATION_SEED))
+            measured = self.centre_offsets(poses, n_views=8, image_size=(320, 240))
+            fallback = {t: CentreOffset(d) for t, d in self.centre_depths().items()}
+            self._default_offsets = fallback | measured
+        return dict(self._default_offsets)
+
     def centre_offsets(self, world_from_egos: Any, *, n_views: int = 20, image_size: Any = (320, 240),
                        chain: KinematicChain | None = None, min_pixels: int = 20) -> dict[str, CentreOffset]:
         """Measure on renders where each type's centre lies from its visible part.
 
         Exact scans (no noise, no degradation) from the given robot poses; for every object
-        seen whole (its mask does not touch the image border) with at least ``min_pixels``
-        pixels, the visible part is its pixels back-projected with their depth, and the offset
+        the depth front end keeps (:func:`perception.rgbd_percepts`: not cut off by the image
+        border, not occluded, at least ``min_pixels`` pixels with depth), the visible part is its
+        pixels back-projected with their depth, and the offset
         is the object's centre (:attr:`objects`) minus the part's centroid, split as the front
         ends split it (:mod:`perception.frontend`): along the direction away from the camera
         (the visible surface's normal when it is flat, its smallest variance below
@@ -686,8 +823,9 @@ class MujocoScene:
         -------
         dict of str to CentreOffset
             Per type seen: ``depth`` the median of the offsets along the direction, ``depth_sd``
-            their standard deviation and ``lateral_sd`` the root mean square per axis of the
-            offsets across it (both at least
+            their root mean square about it and ``lateral_sd`` the root mean square per axis of
+            the offsets across it (the odd badly seen view included: a prior that covers the
+            views the front end keeps, tails and all; both at least
             :data:`~perception.frontend.CENTRE_DEPTH_FLOOR`).  Types never measured are left
             out (the front ends then use the visible relief).
 
@@ -715,10 +853,13 @@ class MujocoScene:
                 h, w = view.depth.shape
                 Kinv = np.linalg.inv(view.K)
                 world_from_camera = pose @ view.ego_from_camera
-                for det, k in zip(view.detections, view.truth, strict=True):
+                # only what the front end keeps (not cut off, not occluded, enough depth)
+                kept = set(rgbd_percepts(view.detections, view.depth, view.K, np.eye(4), centre_offset=0.0,
+                                         min_pixels=min_px).sources)
+                for i, (det, k) in enumerate(zip(view.detections, view.truth, strict=True)):
+                    if i not in kept or k < 0:
+                        continue
                     v, u = np.nonzero(det.mask)
-                    if u.min() == 0 or v.min() == 0 or u.max() == w - 1 or v.max() == h - 1:
-                        continue  # cut off: its centroid is not the visible part's
                     z = view.depth[v, u]
                     ok = np.isfinite(z)
                     if int(ok.sum()) < min_px:
@@ -740,8 +881,10 @@ class MujocoScene:
         out: dict[str, CentreOffset] = {}
         for typ in sorted(along):
             d_all = np.array(along[typ])
+            median = float(np.median(d_all))
+            depth_sd = float(np.sqrt(np.mean(np.square(d_all - median))))
             lateral = float(np.sqrt(np.mean(np.square(across[typ])) / 2.0))
-            out[typ] = CentreOffset(float(np.median(d_all)), max(float(np.std(d_all)), CENTRE_DEPTH_FLOOR),
+            out[typ] = CentreOffset(median, max(depth_sd, CENTRE_DEPTH_FLOOR),
                                     max(lateral, CENTRE_DEPTH_FLOOR))
         return out
 
@@ -867,7 +1010,9 @@ class MujocoScene:
              rng: np.random.Generator, image_size: Any = (640, 480), chain: KinematicChain | None = None,
              miss_rate: float = 0.0, false_rate: float = 0.0, mask_jitter_px: int = 0, min_pixels: int = 1,
              depth_noise: float = DEFAULT_DEPTH_NOISE, max_range: float = DEFAULT_MAX_RANGE,
-             centre_offset: Mapping[str, Any] | None = None, percepts: bool = True) -> MujocoScan:
+             centre_offset: Mapping[str, Any] | None = None, percepts: bool = True,
+             yaw_deg: tuple[float, float] = (-70.0, 70.0),
+             pitch_deg: tuple[float, float] = (-10.0, 10.0)) -> MujocoScan:
         """Sweep a head over the scene and detect the typed objects in every view.
 
         Parameters
@@ -910,8 +1055,13 @@ class MujocoScene:
         centre_offset : mapping, optional
             Type -> :class:`~perception.CentreOffset` (or its depth in metres) for the front end:
             where an object's centre lies from its visible part; by default
+            :meth:`default_centre_offsets` (measured on renders from other poses); pass
             :meth:`centre_depths` (half the thinnest extent, as the map's
-            :meth:`worldgraph.WorldModel.centre_depths`).
+            :meth:`worldgraph.WorldModel.centre_depths`) to use the geometry's guess alone.
+        yaw_deg, pitch_deg : (float, float)
+            The sweep (:func:`perception.simulate.scan_angles`): neck yaw from the first to the
+            second value over the views, neck pitch alternating between the two (degrees;
+            negative pitch looks up).  The defaults are the paper's scan.
         percepts : bool
             Run the front end (``False``: images and detections only): per view
             :func:`perception.rgbd_percepts` on the detections and the noisy depth, or
@@ -952,10 +1102,10 @@ class MujocoScene:
         min_px = integer("min_pixels", min_pixels, minimum=1)
         noise = real_scalar("depth_noise", depth_noise, nonnegative=True)
         far = real_scalar("max_range", max_range, positive=True)
-        centres = self._centre_offset(centre_offset)
         run_front_end = boolean("percepts", percepts)
+        centres = self._centre_offset(centre_offset) if run_front_end or centre_offset is not None else {}
         K = self.camera_matrix(size)
-        Q = scan_angles(head, n)
+        Q = scan_angles(head, n, yaw_deg, pitch_deg)
         t_render = t_detect = t_percepts = 0.0
         views: list[ScanView] = []
         degrade = _Degrade(self.types, gen, miss, false, jitter, min_px)
@@ -1005,7 +1155,7 @@ class MujocoScene:
 
     def _centre_offset(self, centre_offset: Mapping[str, Any] | None) -> dict[str, CentreOffset]:
         if centre_offset is None:
-            return {t: CentreOffset(d) for t, d in self.centre_depths().items()}
+            return self.default_centre_offsets()
         if not isinstance(centre_offset, Mapping):
             raise ShapeError("centre_offset must be a mapping type -> CentreOffset or metres, or None, got "
                              f"{_short(centre_offset)}")

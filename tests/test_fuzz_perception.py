@@ -159,6 +159,14 @@ def _rng_pool() -> st.SearchStrategy[Any]:
     return st.sampled_from(SCALARS + ["seed", 0, np.random.RandomState(0), np.random.default_rng])
 
 
+_DEPTH = np.full((120, 160), 2.5)
+_DEPTH[40:70, 50:90] = 1.8
+_MASK = np.zeros((120, 160), bool)
+_MASK[42:68, 52:88] = True
+RGBD_DETS = [pc.Detection("door", mask=_MASK, score=0.8), pc.Detection("knob", box=(48, 38, 91, 71))]
+STEREO_L = [pc.Detection("door", centroid_uv=uv, area=60.0) for uv in UV_L]
+STEREO_R = [pc.Detection("door", centroid_uv=uv, area=60.0) for uv in UV_R]
+
 CASES: dict[str, tuple[Callable[..., Any], dict[str, Any]]] = {
     "Percept": (pc.Percept, dict(type="door", position=[1.0, 2.0, 3.0], sigma=0.1, covariance=COV3, views=2)),
     "fuse_percepts": (pc.fuse_percepts, dict(percepts=PERCEPTS, bandwidth=0.2, min_views=2, max_iter=50,
@@ -223,6 +231,13 @@ CASES: dict[str, tuple[Callable[..., Any], dict[str, Any]]] = {
                                                                threshold_margin=3.0)),
     "GaussianClassifier.predict": (CLASSIFIER.predict, dict(features=np.zeros((2, 7)))),
     "detect": (pc.detect, dict(image=_LEFT, classifier=CLASSIFIER, min_area=12, exclude_border=True)),
+    "rgbd_percepts": (pc.rgbd_percepts, dict(detections=RGBD_DETS, depth=_DEPTH, K=K, ego_from_camera=I4,
+                                             depth_noise=1.5e-3, depth_correlation_px=8.0, centre_offset=0.01,
+                                             min_pixels=20, keep_cut_off=False)),
+    "stereo_percepts": (pc.stereo_percepts, dict(left=STEREO_L, right=STEREO_R, rig=RIG, ego_from_camera=I4,
+                                                 centre_offset={"door": 0.01}, depth_factor=None,
+                                                 pixel_sigma=None, max_epipolar_px=2.0, keep_cut_off=False)),
+    "CentreOffset": (pc.CentreOffset, dict(depth=0.01, depth_sd=0.005, lateral_sd=0.01)),
     "StereoMatch": (pc.StereoMatch, dict(left=0, right=1, epipolar_px=0.5)),
     "match_stereo": (pc.match_stereo, dict(rig=RIG320, left_dets=DETS_L, right_dets=DETS_R,
                                            max_epipolar_px=2.0, max_log_area_ratio=1.0)),
@@ -236,7 +251,9 @@ SLOW = {"train_classifier", "recognize", "render_stereo", "simulate_scan", "dete
 
 
 def test_every_public_entry_point_is_fuzzed() -> None:
-    names = {n for n in pc.__all__ if not n.endswith("Error")} - {"Rectification"}
+    # result records and a constant take no input of their own
+    names = {n for n in pc.__all__ if not n.endswith("Error")} - {"Rectification", "DetectionPercepts",
+                                                                  "Dropped", "OBJECT_VIEW"}
     covered = {c.split(".")[0] for c in CASES} | {"train_classifier"}
     assert names <= covered, sorted(names - covered)
 

@@ -4,6 +4,7 @@ set-up commands and its documentation command are the ones .ci/run runs."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 import shlex
@@ -16,6 +17,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 TOUR = ROOT / "docs" / "tour.md"
+OWN_DATA = ROOT / "docs" / "your_own_data.md"
 CI_RUN = ROOT / ".ci" / "run"
 FENCE = re.compile(r"^```(\w*)[ \t]*\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
 
@@ -78,6 +80,16 @@ def test_the_tour_of_the_api_runs_in_order(tmp_path: Path, monkeypatch: pytest.M
     _run_page(TOUR, tmp_path, monkeypatch, at_least=5)
     # the tour saved its figure where it says
     assert (tmp_path / "out" / "readme_top_view.png").stat().st_size > 0
+
+
+def test_the_your_own_data_page_runs_in_order(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # found, not imported: the page sets MUJOCO_GL before MuJoCo loads, as a user's script would
+    needed = (("mujoco", "the mujoco extra"), ("gymnasium_robotics", "the Franka kitchen's files"))
+    for package, what in needed:
+        if importlib.util.find_spec(package) is None:  # installed by the test set-up
+            pytest.skip(f"{package} ({what}) not installed")
+    _run_page(OWN_DATA, tmp_path, monkeypatch, at_least=8)
+    assert (tmp_path / "kitchen.glb").stat().st_size > 0  # the page wrote its map where it says
 
 
 # ---- the set-up commands -------------------------------------------------------------------------
