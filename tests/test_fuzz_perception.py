@@ -237,6 +237,7 @@ CASES: dict[str, tuple[Callable[..., Any], dict[str, Any]]] = {
     "stereo_percepts": (pc.stereo_percepts, dict(left=STEREO_L, right=STEREO_R, rig=RIG, ego_from_camera=I4,
                                                  centre_offset={"door": 0.01}, depth_factor=None,
                                                  pixel_sigma=None, max_epipolar_px=2.0, keep_cut_off=False)),
+    "percept_bandwidths": (pc.percept_bandwidths, dict(percepts=PERCEPTS, n_sigma=3.0, minimum=0.02)),
     "CentreOffset": (pc.CentreOffset, dict(depth=0.01, depth_sd=0.005, lateral_sd=0.01)),
     "StereoMatch": (pc.StereoMatch, dict(left=0, right=1, epipolar_px=0.5)),
     "match_stereo": (pc.match_stereo, dict(rig=RIG320, left_dets=DETS_L, right_dets=DETS_R,
