@@ -28,6 +28,7 @@ import copy
 import math
 import os
 import time
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
@@ -784,11 +785,17 @@ class MujocoScene:
         :meth:`robot_poses` drawn with a fixed
         seed (:data:`CALIBRATION_SEED`), once per scene; types never seen whole fall back to
         :meth:`centre_depths`.  The analogue of measuring a detector's classes on its training
-        objects: the poses are not those of any scan."""
+        objects: the poses are not those of any scan.  A scene with no free floor to stand on
+        warns and uses :meth:`centre_depths` alone."""
         if self._default_offsets is None:
-            poses = self.robot_poses(CALIBRATION_POSES, np.random.default_rng(CALIBRATION_SEED))
-            measured = self.centre_offsets(poses, n_views=8, image_size=(320, 240))
             fallback = {t: CentreOffset(d) for t, d in self.centre_depths().items()}
+            try:
+                poses = self.robot_poses(CALIBRATION_POSES, np.random.default_rng(CALIBRATION_SEED))
+            except SceneError as exc:  # nowhere to stand: the geometry's guess alone, said aloud
+                warnings.warn(f"centre offsets not measured ({exc}); using centre_depths()", stacklevel=2)
+                measured = {}
+            else:
+                measured = self.centre_offsets(poses, n_views=8, image_size=(320, 240))
             self._default_offsets = fallback | measured
         return dict(self._default_offsets)
 

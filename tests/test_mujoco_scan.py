@@ -449,3 +449,25 @@ def test_centre_offsets_of_a_flat_front_and_a_sphere(tmp_path):
     assert offsets["knob"].lateral_sd < 0.01
     with pytest.raises(pc.ShapeError, match=r"world_from_egos must be a \(4, 4\) or \(m, 4, 4\) array"):
         scene.centre_offsets(np.eye(3))
+
+
+CROWDED = """\
+<mujoco model="no room to stand">
+  <worldbody>
+    <geom name="slab" type="box" size="20 20 1" pos="0 0 0"/>
+    <body name="knob_1" pos="1 0 1.2"><geom type="sphere" size="0.03"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_default_centre_offsets_fall_back_to_the_geometry_where_no_robot_can_stand(tmp_path):
+    path = tmp_path / "crowded.xml"
+    path.write_text(CROWDED)
+    scene = MujocoScene(path)
+    with pytest.raises(pc.PerceptionError, match="no free floor point"):
+        scene.robot_poses(1, np.random.default_rng(0))
+    with pytest.warns(UserWarning, match=r"centre offsets not measured .* centre_depths\(\)"):
+        offsets = scene.default_centre_offsets()
+    assert list(offsets) == ["knob"] and offsets["knob"].lateral_sd is None
+    assert offsets["knob"].depth == pytest.approx(0.03, abs=1e-3)  # half the sphere's 6 cm extent
