@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import trimesh
 
+import perception as pc
 import worldgraph as wg
 import worldgraph.franka  # noqa: F401  (wg.franka below; the test ran only after test_franka imported it)
 from worldgraph import importers
@@ -583,3 +584,21 @@ def test_objects_spread_along_z_without_a_floor_warn(tmp_path):
                 r"the file's up axis is probably '\+x' \(or -x\): pass up_axis='\+x'")
     with pytest.warns(UserWarning, match=expected):
         wg.WorldModel.from_file(path)
+
+
+def test_a_y_up_glb_gives_the_pose_of_the_same_scene_written_z_up(tmp_path):
+    scene = _galley()
+    y_up, z_up = tmp_path / "y_up.glb", tmp_path / "z_up.glb"
+    wg.importers.write_scene(scene, y_up)
+    scene.export(z_up)
+    from_y, from_z = wg.WorldModel.from_file(y_up), wg.WorldModel.from_file(z_up, up_axis="+z")
+    truth = np.eye(4)
+    truth[:3, 3] = 0.5 * (from_z.room.lower + from_z.room.upper)
+    truth[2, 3] = 1.5
+    seen = np.isin(from_z.types, ("door", "handle", "drawer", "knob"))
+    percepts, _ = pc.simulate_percepts(from_z.types[seen].tolist(), from_z.positions[seen], truth,
+                                       np.random.default_rng(5), hfov_deg=179.0, n_false=0, miss_rate=0.0)
+    a, b = wg.localize(from_y, percepts), wg.localize(from_z, percepts)
+    assert a.status == b.status == "ok"
+    np.testing.assert_allclose(a.transformation, b.transformation, atol=1e-5)
+    np.testing.assert_allclose(a.transformation[:3, 3], truth[:3, 3], atol=0.05)
