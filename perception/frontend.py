@@ -553,6 +553,9 @@ def _box_fg(mask: NDArray[np.bool_], v: NDArray[np.intp], u: NDArray[np.intp]) -
 # ----------------------------------------------------------------------------------------------
 # stereo
 # ----------------------------------------------------------------------------------------------
+#: Nearest depth (m) a stereo pair may triangulate to: nearer than a robot's head ever is to
+#: what it recognises, and where two same-typed objects side by side pair up wrongly.
+MIN_STEREO_DEPTH = 0.3
 #: The two images of one object must agree on its extent: box widths and heights within this
 #: fraction (or :data:`EXTENT_PX`), else a part of it is hidden in one image (occluded, cut) and
 #: the centroids' disparity is not the object's.
@@ -584,6 +587,7 @@ def stereo_percepts(
     depth_factor: float | None = None,
     pixel_sigma: float | None = None,
     max_epipolar_px: float = 2.0,
+    min_depth: float = MIN_STEREO_DEPTH,
     keep_cut_off: bool = False,
 ) -> DetectionPercepts:
     """Percepts from detections in the two images of a stereo rig.
@@ -617,6 +621,8 @@ def stereo_percepts(
         ``perception.recognition.DISPARITY_STD_PX / sqrt(2)`` (outline quantisation).
     max_epipolar_px : float
         Largest distance of a right centroid from the left one's epipolar line.
+    min_depth : float
+        Nearest depth (m) a pair may triangulate to; default :data:`MIN_STEREO_DEPTH`.
     keep_cut_off : bool
         Keep regions that touch the border of either image (their centre's offset then as
         uncertain as the region is wide).
@@ -637,6 +643,7 @@ def stereo_percepts(
     T = check_transform("ego_from_camera", ego_from_camera)
     keep_cut_off = boolean("keep_cut_off", keep_cut_off)
     max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True, high=1e6)
+    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, high=1e6)
     if depth_factor is not None:
         depth_factor = real_scalar("depth_factor", depth_factor, positive=True, high=1e150)
     px = DISPARITY_STD_PX / np.sqrt(2.0) if pixel_sigma is None else real_scalar(
@@ -657,7 +664,8 @@ def stereo_percepts(
         return keep
 
     li, ri = usable(lefts, True), usable(rights, False)
-    matches = match_stereo(rig, [lefts[i] for i in li], [rights[j] for j in ri], max_epipolar_px)
+    matches = match_stereo(rig, [lefts[i] for i in li], [rights[j] for j in ri], max_epipolar_px,
+                           min_depth=min_depth)
     matched = {li[m.left]: ri[m.right] for m in matches}
     for i in li:
         if i not in matched:

@@ -252,6 +252,7 @@ def match_stereo(
     max_epipolar_px: float = 2.0,
     *,
     max_log_area_ratio: float = 1.0,
+    min_depth: float = 0.0,
 ) -> list[StereoMatch]:
     """Pair left and right detections of the same type.
 
@@ -259,8 +260,11 @@ def match_stereo(
     ``max_epipolar_px`` of the epipolar line ``F x_left`` (fundamental matrix
     ``F = K2^-T [T]x R K1^-1``, on undistorted pixels), the triangulated point lies in front
     of both cameras (for a rectified rig: positive disparity) and the areas differ by at most
-    ``exp(max_log_area_ratio)``. Among admissible pairs a one-to-one assignment minimising
-    ``epipolar / max_epipolar_px + |log area ratio|`` is taken per type.
+    ``exp(max_log_area_ratio)``; a pair whose point would lie nearer than ``min_depth`` (metres,
+    along the left optical axis) is not admissible either (two objects of one type side by side
+    pair up along the epipolar line at a far larger disparity).  Among admissible pairs a
+    one-to-one assignment minimising ``epipolar / max_epipolar_px + |log area ratio|`` is taken
+    per type.
 
     Returns
     -------
@@ -269,6 +273,7 @@ def match_stereo(
     _rig(rig)
     max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True)
     max_log_area_ratio = real_scalar("max_log_area_ratio", max_log_area_ratio, nonnegative=True)
+    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, high=1e6)
     left_dets = sequence("left_dets", left_dets, Detection)
     right_dets = sequence("right_dets", right_dets, Detection)
     if not left_dets or not right_dets:
@@ -301,7 +306,7 @@ def match_stereo(
         good = det > PARALLEL_RAYS
         a = np.where(good, (ata[:, 1, 1] * atb[:, 0] - ata[:, 0, 1] * atb[:, 1]) / np.where(good, det, 1), -1)
         b = np.where(good, (ata[:, 0, 0] * atb[:, 1] - ata[:, 0, 1] * atb[:, 0]) / np.where(good, det, 1), -1)
-        front = (a > _NEAR) & (b > _NEAR)
+        front = (a > max(_NEAR, min_depth)) & (b > _NEAR)
         ok[il[~front], ir[~front]] = False
     cost = np.where(ok, epi / max_epipolar_px + log_ratio, np.inf)
     matches: list[StereoMatch] = []
