@@ -287,12 +287,18 @@ def _touches_border(box: NDArray[np.float64], width: int, height: int) -> bool:
 # ----------------------------------------------------------------------------------------------
 # geometry shared by both front ends
 # ----------------------------------------------------------------------------------------------
-def _range_sigma(p: NDArray[np.float64], C: NDArray[np.float64]) -> float:
-    n = float(np.linalg.norm(p))
-    if n == 0.0:
-        return float(np.sqrt(np.trace(C) / 3.0))
-    u = p / n
-    return float(np.sqrt(u @ C @ u))
+def _offset_direction(pts: NDArray[np.float64], centroid: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The direction (unit, camera frame) in which an object's centre lies behind the centroid of
+    its visible points ``pts``: the normal of a flat front (smallest spread below
+    :data:`FLAT_RATIO` times the middle one) pointing away from the camera, else the viewing ray;
+    and the points' spread (3x3 covariance)."""
+    spread = np.cov(pts.T, bias=True) if len(pts) > 1 else np.zeros((3, 3))
+    ray = centroid / np.linalg.norm(centroid)
+    wv, V = np.linalg.eigh(spread)
+    if wv[0] < FLAT_RATIO * wv[1]:  # a flat front: its normal, away from the camera
+        return (V[:, 0] if V[:, 0] @ ray > 0 else -V[:, 0]), spread
+    return ray, spread
 
 
 def _percept(det: Detection, centre: NDArray[np.float64], own: NDArray[np.float64],
@@ -307,8 +313,10 @@ def _percept(det: Detection, centre: NDArray[np.float64], own: NDArray[np.float6
     S = (V * np.sqrt(np.clip(w, 0.0, None))) @ V.T
     C = R @ own @ R.T + S @ S.T
     C = 0.5 * (C + C.T)
-    s = _range_sigma(p, C) if sigma is None else sigma
-    return Percept(det.type, p, s, covariance=C, shared=((OBJECT_VIEW, S),))
+    shared = ((OBJECT_VIEW, S),)
+    if sigma is None:  # Percept derives the range's standard deviation from C
+        return Percept(det.type, p, covariance=C, shared=shared)
+    return Percept(det.type, p, sigma, covariance=C, shared=shared)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -514,13 +522,7 @@ def rgbd_percepts(
             dropped.append(Dropped(i, det.type, "occluded", f"{100 * occ:.0f} % of the readings around its "
                                    f"outline are nearer (> {100 * OCCLUDED_FRACTION:.0f} %)"))
             continue
-        spread = np.cov(pts.T, bias=True) if len(pts) > 1 else np.zeros((3, 3))
-        ray = centroid / np.linalg.norm(centroid)
-        wv, V = np.linalg.eigh(spread)
-        if wv[0] < FLAT_RATIO * wv[1]:  # a flat front: its normal, away from the camera
-            direction = V[:, 0] if V[:, 0] @ ray > 0 else -V[:, 0]
-        else:
-            direction = ray
+        direction, spread = _offset_direction(pts, centroid)
         prior = offsets.get(det.type)
         if prior is not None:
             d, d_sd = prior.depth, float(prior.depth_sd)  # type: ignore[arg-type]  # set in __post_init__

@@ -57,7 +57,7 @@ from .errors import (
     ShapeError,
     TypeRuleError,
 )
-from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE, CentreOffset, rgbd_percepts
+from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE, CentreOffset, _offset_of, rgbd_percepts
 from .simulate import scan_angles
 from .type_rules import type_rule
 
@@ -843,7 +843,7 @@ class MujocoScene:
         PerceptionError
             (a subclass) a bad ``n_views``, ``image_size``, ``chain`` or ``min_pixels``.
         """
-        from .frontend import CENTRE_DEPTH_FLOOR, FLAT_RATIO
+        from .frontend import CENTRE_DEPTH_FLOOR, _offset_direction
 
         poses = real_array("world_from_egos", world_from_egos)
         if poses.shape[-2:] != (4, 4) or poses.ndim not in (2, 3) or poses.size == 0:
@@ -859,7 +859,7 @@ class MujocoScene:
                 assert view.depth is not None
                 h, w = view.depth.shape
                 Kinv = np.linalg.inv(view.K)
-                world_from_camera = pose @ view.ego_from_camera
+                camera_from_world = np.linalg.inv(pose @ view.ego_from_camera)
                 # only what the front end keeps (not cut off, not occluded, enough depth)
                 kept = set(rgbd_percepts(view.detections, view.depth, view.K, np.eye(4), centre_offset=0.0,
                                          min_pixels=min_px).sources)
@@ -873,12 +873,7 @@ class MujocoScene:
                         continue
                     pts = (Kinv @ np.stack([u[ok], v[ok], np.ones(int(ok.sum()))])).T * z[ok, None]
                     centroid = pts.mean(axis=0)
-                    ray = centroid / np.linalg.norm(centroid)
-                    wv, V = np.linalg.eigh(np.cov(pts.T, bias=True))
-                    direction = ray
-                    if wv[0] < FLAT_RATIO * wv[1]:  # a flat front: its normal, away from the camera
-                        direction = V[:, 0] if V[:, 0] @ ray > 0 else -V[:, 0]
-                    camera_from_world = np.linalg.inv(world_from_camera)
+                    direction, _ = _offset_direction(pts, centroid)  # as the front ends split it
                     centre = camera_from_world[:3, :3] @ self._objects[k].position + camera_from_world[:3, 3]
                     offset = centre - centroid
                     d = float(offset @ direction)
@@ -1166,12 +1161,8 @@ class MujocoScene:
         if not isinstance(centre_offset, Mapping):
             raise ShapeError("centre_offset must be a mapping type -> CentreOffset or metres, or None, got "
                              f"{_short(centre_offset)}")
-        out: dict[str, CentreOffset] = {}
-        for k, v in centre_offset.items():
-            key = name_str("centre_offset key", k)
-            out[key] = v if isinstance(v, CentreOffset) else CentreOffset(
-                real_scalar(f"centre_offset[{k!r}]", v))
-        return out
+        return {name_str("centre_offset key", k): _offset_of(f"centre_offset[{k!r}]", v)
+                for k, v in centre_offset.items()}
 
     def _percepts(self, view: ScanView, sensor: str, size: tuple[int, int], centres: dict[str, CentreOffset],
                   depth_noise: float) -> tuple[tuple[Any, ...], tuple[int, ...], tuple[Any, ...]]:
