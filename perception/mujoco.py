@@ -29,7 +29,7 @@ import math
 import os
 import time
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -78,6 +78,7 @@ __all__ = [
     "SceneObject",
     "ScanTimings",
     "ScanView",
+    "body_meshes",
     "geom_mesh",
     "import_mujoco",
     "object_geoms",
@@ -277,6 +278,24 @@ def geom_mesh(model: Any, g: int) -> tuple[trimesh.Trimesh, NDArray[np.float64]]
     box = trimesh.creation.box(extents=2.0 * half)
     box.apply_translation(centre)
     return box, eye
+
+
+def body_meshes(model: Any, data: Any, body: int, geoms: Sequence[int]) -> list[trimesh.Trimesh]:
+    """The meshes of ``geoms`` (:func:`geom_mesh`, infinite planes left out) in the frame of
+    ``body``, at the pose of ``data`` (after ``mj_forward``): a body's geometry as
+    ``WorldModel.from_file`` and :class:`MujocoScene` both place it."""
+    world_from_body = _pose(data.xpos[body], data.xmat[body])
+    body_from_world = np.linalg.inv(world_from_body)
+    out = []
+    for g in geoms:
+        shape = geom_mesh(model, g)
+        if shape is None:
+            continue
+        mesh, geom_from_mesh = shape
+        mesh = mesh.copy()
+        mesh.apply_transform(body_from_world @ _pose(data.geom_xpos[g], data.geom_xmat[g]) @ geom_from_mesh)
+        out.append(mesh)
+    return out
 
 
 # ----------------------------------------------------------------------------------------------
@@ -596,15 +615,8 @@ class MujocoScene:
             if typ is None:
                 continue
             world_from_body = _pose(data.xpos[b], data.xmat[b])
-            body_from_world = np.linalg.inv(world_from_body)
-            points = []
-            for g in geoms_of[b]:
-                shape = geom_mesh(model, g)
-                if shape is None:
-                    continue
-                T = body_from_world @ _pose(data.geom_xpos[g], data.geom_xmat[g]) @ shape[1]
-                verts = np.asarray(shape[0].vertices, dtype=np.float64)
-                points.append(verts @ T[:3, :3].T + T[:3, 3])
+            points = [np.asarray(mesh.vertices, dtype=np.float64)
+                      for mesh in body_meshes(model, data, b, geoms_of[b])]
             cloud = np.concatenate(points) if points else np.zeros((1, 3))
             lo, hi = cloud.min(axis=0), cloud.max(axis=0)
             position = world_from_body[:3, :3] @ (0.5 * (lo + hi)) + world_from_body[:3, 3]

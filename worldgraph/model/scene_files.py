@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from perception.errors import TypeRuleError
-from perception.mujoco import geom_mesh, import_mujoco, object_geoms
+from perception.mujoco import body_meshes, geom_mesh, import_mujoco, object_geoms
 from perception.type_rules import KNOWN_TYPES, default_type_of
 from perception.type_rules import type_rule as _perception_type_rule
 
@@ -524,17 +524,7 @@ def _mjcf_scene(path: str, mjcf_objects: str, rule: Callable[[str], str | None] 
         if not name:
             continue
         world_from_body = _pose(data.xpos[b], data.xmat[b])
-        body_from_world = np.linalg.inv(world_from_body)
-        pieces = []
-        for g in geoms_of[b]:
-            shape = geom_mesh(model, g)
-            if shape is None:
-                continue
-            mesh, geom_from_mesh = shape
-            mesh = mesh.copy()
-            world_from_geom = _pose(data.geom_xpos[g], data.geom_xmat[g])
-            mesh.apply_transform(body_from_world @ world_from_geom @ geom_from_mesh)
-            pieces.append(mesh)
+        pieces = body_meshes(model, data, b, geoms_of[b])
         geometry: Any
         if pieces:
             geometry = trimesh.util.concatenate(pieces) if len(pieces) > 1 else pieces[0]
