@@ -17,7 +17,7 @@ from perception import Percept
 
 from ..association.hypotheses import AssociationHypothesis
 from ..model import WorldModel
-from ..pose.gravity import _Plan
+from ..pose.gravity import TiltPrior, _Plan
 from ..pose.validation import NearestObjects
 from ..tolerances import AssociationTolerances
 from .result import LocalizationResult, LocalizeStatus, _failed
@@ -45,6 +45,15 @@ class _Settings:
     check: bool
     certify: bool
     plan: _Plan  # the search: gravity (about which up vector) or free, and whether "auto" may fall back
+    tilt_sd: float = math.inf  # the tilt prior's standard deviation (rad) for the gravity search; inf: none
+
+    @property
+    def tilt_prior(self) -> TiltPrior | None:
+        """Gravity as a prior of the ML pose: only when the gravity search answers (not the free
+        search) and the caller's ``up_sigma`` is finite."""
+        if self.plan.up is None or not math.isfinite(self.tilt_sd):
+            return None
+        return TiltPrior(self.plan.up, self.tilt_sd)
 
 
 @dataclass

@@ -64,6 +64,7 @@ from ..pose.gravity import (
     Gravity,
     SearchKind,
     _check_gravity,
+    _check_up_sigma,
     _Plan,
     _tilt_contradiction,
     _unsupported,
@@ -118,7 +119,8 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
              rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
              max_rotation_3sigma: float = MAX_ROTATION_3SIGMA, solver: str = "active_set",
              check: bool = False, certify: bool = False, gravity: Gravity = "auto",
-             tolerances: AssociationTolerances | None = None) -> LocalizationResult:
+             up_sigma: float | None = None, tolerances: AssociationTolerances | None = None
+             ) -> LocalizationResult:
     """Pose of the robot (``world_from_ego``) from percepts of known world objects.
 
     Parameters
@@ -186,6 +188,18 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         ``"inconsistent"`` with a message naming the likely mistake (percepts in a camera
         frame, OpenCV: z ahead, y down, when world up is the ego -y axis: map them with
         ``perception.KinematicChain.ego_from_camera``).
+    up_sigma : float, optional
+        Radians: how well gravity fixes the pose's roll and pitch when the gravity search
+        answers (``"auto"`` or an up vector; not the free search, not ``method="paper"``).  The
+        ML pose (``"ml"``) is then fitted with the tilt as a prior
+        (:class:`~worldgraph.pose.gravity.TiltPrior`: the up vector maps to world +z with this
+        standard deviation about each horizontal axis), and ``pose_covariance`` carries it, so its
+        roll and pitch are no wider than the prior's while yaw and position are the percepts'.
+        Default ``tol.tilt_allowance / TILT_PRIOR_SIGMAS`` (5 / 3 = 1.7 degrees): the allowance
+        as a 3-sigma bound; pass an IMU's stated accuracy with its up vector, ``math.inf`` for the
+        6D fit of the percepts alone.  When the percepts' own tilt contradicts the prior (squared
+        Mahalanobis distance above :data:`~worldgraph.pose.gravity.TILT_GATE`, 2 degrees of
+        freedom) the 6D fit stands and the gravity checks above judge its tilt.
     tolerances : AssociationTolerances, optional
         Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
         :class:`~worldgraph.errors.ArgumentTypeError`).
@@ -214,7 +228,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     tol = _tol_argument("localize", tol, tolerances)
     percepts, settings = _check_arguments(world, percepts, method, tol, region, rng,
                                           max_position_3sigma, max_rotation_3sigma, solver, check, certify,
-                                          gravity)
+                                          gravity, up_sigma)
     with _raised_as_worldgraph_errors(settings.method):
         result = _localize(world, percepts, settings, t_start)
         n_used = sum(1 for p in percepts if p.type in world.type_index)
@@ -269,7 +283,8 @@ def _answered_by_free_search(free: LocalizationResult, gravity_pass: Localizatio
 def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str,
                      tol: object, region: object, rng: object,
                      max_position_3sigma: float, max_rotation_3sigma: float, solver: object, check: object,
-                     certify: object, gravity: object = "auto") -> tuple[list[Percept], _Settings]:
+                     certify: object, gravity: object = "auto", up_sigma: object = None
+                     ) -> tuple[list[Percept], _Settings]:
     """Step 1: every argument of :func:`localize` checked (specific errors), as the percepts and
     the call's settings."""
     if not isinstance(method, str) or method not in LOCALIZE_METHODS:
@@ -301,7 +316,7 @@ def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str
                               f"{MAX_COORDINATE:g} m (shift the world's origin)")
     plan = _check_gravity(gravity, tol)
     return checked, _Settings(method, tol, box, gen, pos_tol, rot_tol, solver_name, bool(check),
-                              bool(certify), plan)
+                              bool(certify), plan, _check_up_sigma(up_sigma, tol))
 
 
 @contextmanager

@@ -13,8 +13,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..association.hypotheses import AssociationHypothesis
+from ..errors import PoseError
 from ..pose.certificate import solve_pose_sdp
-from ..pose.frames import transformation, weighted_rotation
+from ..pose.frames import _refine_pose, pose_information, transformation, weighted_rotation
+from ..pose.gravity import TILT_GATE, TiltPrior, tilt_angle
 from ..pose.validation import (
     CHI2_6_GATE,
     PoseFit,
@@ -23,6 +25,7 @@ from ..pose.validation import (
     calibrated_pose_covariance,
     fit_hypothesis,
     pose_cost,
+    ros_pose_covariance,
     rotation_only_covariance,
     shared_range_covariance,
     shared_view_covariance,
@@ -208,25 +211,50 @@ def _same_pose_spread(best: PoseFit, same: list[PoseFit]) -> NDArray[np.float64]
 
 
 def _ml_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
-    """Step 8 (``"ml"``): the validated 6D pose (or the rotation SDP's, when better) and its
-    calibrated covariance."""
+    """Step 8 (``"ml"``): the validated 6D pose (or the rotation SDP's, when better), fitted again
+    with gravity's tilt prior when the gravity search answers and the percepts agree with it
+    (:func:`_tilted`), and its calibrated covariance."""
     pairs = best.pairs
     p_i = np.array([p for p, _ in pairs])
     centers = ctx.world.positions[np.array([o for _, o in pairs])]
     t0 = time.perf_counter()
-    pose = best.world_from_ego
+    pose, information = best.world_from_ego, best.information
     if ctx.settings.certify and len(pairs) <= 4:  # few matches: the rotation SDP is a global solver
         sdp_pose, _ = solve_pose_sdp(ctx.ego[p_i], centers, ctx.covs[p_i])
         if pose_cost(sdp_pose, ctx.ego[p_i], ctx.covs[p_i], centers) < \
                 pose_cost(pose, ctx.ego[p_i], ctx.covs[p_i], centers) - COST_ROUNDING:
             pose = sdp_pose
+            information = pose_information(pose, ctx.ego[p_i], ctx.covs[p_i])
             ctx.notes.append("the rotation SDP found a better pose than the local fit")
-    cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers, best.pose_covariance)
+    pose, information, prior = _tilted(ctx, pose, information, p_i, centers)
+    cov6 = calibrated_pose_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], centers,
+                                      ros_pose_covariance(information), tilt_prior=prior)
     shared = [ctx.used[i].shared for i in p_i]
     if any(shared):  # errors common to the percepts of one view (head encoders)
-        cov6 = cov6 + shared_view_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], shared)
+        cov6 = cov6 + shared_view_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], shared, tilt_prior=prior)
     ctx.timings["position"] = time.perf_counter() - t0
     return _Answer(pose, cov6, pairs, self_check=False)
+
+
+def _tilted(ctx: _Context, pose: NDArray, information: NDArray, p_i: NDArray, centers: NDArray
+            ) -> tuple[NDArray, NDArray, TiltPrior | None]:
+    """The ML pose of the matches and gravity's tilt prior, its information and the prior; the
+    6D pose unchanged (prior None) without a prior, or when the matches' own tilt contradicts it
+    (:data:`~worldgraph.pose.gravity.TILT_GATE`: the gravity checks then judge the 6D tilt)."""
+    prior = ctx.settings.tilt_prior
+    if prior is None:
+        return pose, information, None
+    try:
+        tilted, info, tilt_chi2 = _refine_pose(ctx.ego[p_i], centers, ctx.covs[p_i], pose, tilt_prior=prior)
+    except PoseError:
+        return pose, information, None
+    if tilt_chi2 > TILT_GATE:
+        tilt = math.degrees(tilt_angle(pose, prior.up))
+        ctx.notes.append(f"the matched percepts tilt the up vector {tilt:.1f} deg from world up, against "
+                         f"gravity's tilt prior of {math.degrees(prior.sd):.2g} deg (chi-square "
+                         f"{tilt_chi2:.3g} > {TILT_GATE:.3g}, 2 dof): the 6D fit stands")
+        return pose, information, None
+    return tilted, info, prior
 
 
 def _range_only_pose_step(ctx: _Context, best: PoseFit) -> _Answer:

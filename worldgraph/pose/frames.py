@@ -15,7 +15,7 @@ from scipy.stats import chi2
 
 from .._checks import float_array, positive_float, strict_int
 from .._rigid import rigid_transform
-from ..errors import PoseError, ShapeError
+from ..errors import ArgumentTypeError, PoseError, ShapeError
 from ..tolerances import COLLINEAR_TOL as COLLINEAR_TOL  # re-exported: worldgraph.pose.COLLINEAR_TOL
 from ..tolerances import (
     COST_DECREASE_RTOL,
@@ -35,6 +35,7 @@ from ..tolerances import (
     SYMMETRY_RTOL,
     TINY,
 )
+from .gravity import TiltPrior
 
 __all__ = [
     "invert_transformation",
@@ -433,8 +434,8 @@ def _reduced_descent(Q: NDArray, R: NDArray, max_iter: int) -> NDArray:
 
 
 def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
-                world_from_ego: ArrayLike, max_iter: int = 200, tol: float = REFINE_TOL
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                world_from_ego: ArrayLike, max_iter: int = 200, tol: float = REFINE_TOL, *,
+                tilt_prior: TiltPrior | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Maximum-likelihood pose from 3D correspondences with per-point covariances.
 
     Minimises ``sum_i r_i^T C_i^-1 r_i`` with the ego-frame residual ``r_i = x_i - R^T (X_i - t)``
@@ -454,6 +455,10 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
     falls below ``tol`` and the step below 1e-10.  For isotropic ``C_i = s_i^2 I`` the optimum
     is :func:`weighted_kabsch` with weights ``1 / s_i^2`` (closed form).
 
+    With ``tilt_prior`` (:class:`~worldgraph.pose.gravity.TiltPrior`: gravity's word on roll and
+    pitch) the cost gains the prior's ``|(R up)_xy|^2 / sd^2``: the data's optimum is polished by
+    Levenberg-Marquardt on both, and the information gains the prior's (its roll and pitch).
+
     Parameters
     ----------
     ego_points, world_points : (k, 3) float
@@ -466,6 +471,8 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
         Iteration cap of the final Levenberg-Marquardt polish (>= 1).
     tol : float
         Relative cost decrease that counts as converged (> 0, < 1).
+    tilt_prior : TiltPrior, optional
+        Gravity as a prior on the tilt (None: the 6D fit of the data alone).
 
     Returns
     -------
@@ -480,6 +487,17 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
         Degenerate correspondences (singular information), or no convergence within
         ``max_iter`` iterations (never reported as converged at the cap).
     """
+    pose, information, _ = _refine_pose(ego_points, world_points, covariances, world_from_ego, max_iter, tol,
+                                        tilt_prior)
+    return pose, information
+
+
+def _refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
+                 world_from_ego: ArrayLike, max_iter: int = 200, tol: float = REFINE_TOL,
+                 tilt_prior: TiltPrior | None = None
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """:func:`refine_pose` and the cost its ``tilt_prior`` adds to the data's optimum (see
+    :func:`_refine`)."""
     x = _points("ego_points", ego_points)
     y = _points("world_points", world_points, len(x), "ego_points")
     if len(x) < 3:
@@ -488,9 +506,11 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
     T0 = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
     max_iter = strict_int("max_iter", max_iter, minimum=1)
     tol = positive_float("tol", tol, maximum=0.5)
+    if tilt_prior is not None and not isinstance(tilt_prior, TiltPrior):
+        raise ArgumentTypeError(f"tilt_prior must be a TiltPrior or None, got {type(tilt_prior).__name__}")
     _finite_scale(x, y, C)
     try:
-        return _refine(x, y, C, T0, max_iter, tol)
+        return _refine(x, y, C, T0, max_iter, tol, tilt_prior)
     except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
         if isinstance(exc, PoseError):
             raise
@@ -510,21 +530,41 @@ def _finite_scale(x: NDArray, y: NDArray, C: NDArray) -> None:
                         "points of this size: the whitened cost overflows")
 
 
-def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol: float
-            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _data_cost(x: NDArray, y: NDArray, Cinv: NDArray, R: NDArray, t: NDArray) -> float:
+    r = x - (y - t) @ R  # ego-frame residual x_i - R^T (X_i - t), covariance C_i
+    return float(np.einsum("ka,kab,kb->", r, Cinv, r))
+
+
+def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol: float,
+            tilt_prior: TiltPrior | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """``(world_from_ego, information, tilt_chi2)``: the ML pose of the data (then, with
+    ``tilt_prior``, of the data and the prior, polished from there), its information (with the
+    prior's) and the cost the prior adds to the data's optimum (0 without a prior; the squared
+    Mahalanobis distance between the data's tilt and the prior's, 2 degrees of freedom)."""
     Cinv = np.linalg.inv(C)
     Cinv = 0.5 * (Cinv + np.swapaxes(Cinv, 1, 2))
+    R, t = _data_optimum(x, y, C, Cinv, T0, max_iter, tol)
+    if tilt_prior is None:
+        out = transformation(R, t)
+        return out, pose_information(out, x, C), 0.0
+    data_cost = _data_cost(x, y, Cinv, R, t)
+    R, t = _polish(x, y, Cinv, R, t, max_iter, tol, tilt_prior)
+    out = transformation(R, t)
+    added = _data_cost(x, y, Cinv, R, t) + tilt_prior.cost(R) - data_cost
+    return out, pose_information(out, x, C) + tilt_prior.information(R), max(added, 0.0)
+
+
+def _data_optimum(x: NDArray, y: NDArray, C: NDArray, Cinv: NDArray, T0: NDArray, max_iter: int, tol: float
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The ML rotation and translation of the data alone (global: grid starts, then polished)."""
 
     def cost(R: NDArray, t: NDArray) -> float:
-        r = x - (y - t) @ R  # ego-frame residual x_i - R^T (X_i - t), covariance C_i
-        return float(np.einsum("ka,kab,kb->", r, Cinv, r))
+        return _data_cost(x, y, Cinv, R, t)
 
     scale = np.trace(C, axis1=1, axis2=2) / 3.0
     Rk, tk = weighted_kabsch(x, y, 1.0 / scale)
     if np.allclose(C, scale[:, None, None] * np.eye(3), rtol=ISOTROPIC_RTOL, atol=0.0):
-        R, t = (Rk, tk) if cost(Rk, tk) <= cost(T0[:3, :3], T0[:3, 3]) else (T0[:3, :3], T0[:3, 3])
-        out = transformation(R, t)
-        return out, pose_information(out, x, C)
+        return (Rk, tk) if cost(Rk, tk) <= cost(T0[:3, :3], T0[:3, 3]) else (T0[:3, :3], T0[:3, 3])
     Q, WinvG, cx, cy = _reduced_matrix(x, y, Cinv)
     best_R, best_f = T0[:3, :3], np.inf
     starts = [T0[:3, :3]] if np.abs(T0[:3, :3] - Rk).max() < SAME_ROTATION else [T0[:3, :3], Rk]
@@ -560,6 +600,17 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
     start_cost = cost(T0[:3, :3], T0[:3, 3])
     if start_cost < current:
         R, t, current = T0[:3, :3], T0[:3, 3], start_cost
+    return _polish(x, y, Cinv, R, t, max_iter, tol)
+
+
+def _polish(x: NDArray, y: NDArray, Cinv: NDArray, R: NDArray, t: NDArray, max_iter: int, tol: float,
+            tilt_prior: TiltPrior | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Levenberg-Marquardt on the full residuals (and the tilt prior's) from ``(R, t)``."""
+
+    def cost(R: NDArray, t: NDArray) -> float:
+        return _data_cost(x, y, Cinv, R, t) + (tilt_prior.cost(R) if tilt_prior is not None else 0.0)
+
+    current = cost(R, t)
     lam = LM_LAMBDA_START
     converged = False
     for _ in range(max_iter):
@@ -569,6 +620,10 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
         r = x - (y - t) @ R
         J = np.einsum("kai,kab,kbj->ij", H, Cinv, H)
         g = np.einsum("kai,kab,kb->i", H, Cinv, r)
+        if tilt_prior is not None:
+            Jp = tilt_prior.jacobian(R)
+            J[:3, :3] += Jp.T @ Jp
+            g[:3] += Jp.T @ tilt_prior.residual(R)
         dscale = np.sqrt(np.maximum(np.diag(J), TINY))
         if (float(np.linalg.norm(g / dscale)) <= GRADIENT_RTOL * math.sqrt(max(current, TINY))
                 or current == 0.0):
@@ -603,5 +658,4 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
     if not converged:
         raise PoseError(f"refine_pose did not converge in max_iter={max_iter} iterations "
                         f"(cost {current:.6g})")
-    out = transformation(R, t)
-    return out, pose_information(out, x, C)
+    return R, t

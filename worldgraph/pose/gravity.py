@@ -51,8 +51,8 @@ from .._checks import float_array
 from ..errors import ArgumentTypeError, GravityDirectionError, OutOfRangeError
 from ..tolerances import LEVEL_TOLERANCE, MAX_EGO_TILT, MIN_UP_NORM, TINY, AssociationTolerances
 
-__all__ = ["GRAVITY_MODES", "MIN_GRAVITY_SUPPORT", "TILT_SLACK", "Gravity", "SearchKind", "level_rotation",
-           "tilt_angle", "tilt_widening"]
+__all__ = ["GRAVITY_MODES", "MIN_GRAVITY_SUPPORT", "TILT_GATE", "TILT_PRIOR_SIGMAS", "TILT_SLACK", "Gravity",
+           "SearchKind", "TiltPrior", "level_rotation", "tilt_angle", "tilt_widening"]
 
 #: What ``gravity`` may be: ``"auto"``, a (3,) up vector in the ego frame, or ``None``.
 Gravity = Literal["auto"] | ArrayLike | None
@@ -75,7 +75,91 @@ MIN_GRAVITY_SUPPORT = 0.75
 #: is good to a fraction of a degree).
 TILT_SLACK = math.radians(1.0)
 
+#: The tilt prior of the pose fit takes ``tilt_allowance`` as this many standard deviations of
+#: the tilt about each horizontal axis (``up_sigma=None``): a level base's tilt, or an IMU's error,
+#: stays inside the allowance with probability ``1 - exp(-9 / 2)`` (98.9 %, a 2D normal).
+TILT_PRIOR_SIGMAS = 3.0
+#: The tilt the percepts alone give, against the prior: when the squared Mahalanobis distance
+#: between the two (2 degrees of freedom) exceeds this 3-sigma gate (probability 0.9973), the
+#: percepts contradict gravity (a robot on a ramp, or a wrong up vector) and the fit is not an
+#: answer of the gravity search.
+TILT_GATE = float(-2.0 * math.log(1.0 - 0.9973002039))
+
+#: The smallest default tilt prior (rad): a ``tilt_allowance`` of 0 asks for a level search, not
+#: for a pose whose roll and pitch are known exactly.
+MIN_TILT_SD = math.radians(0.1)
+
 _EZ = np.array([0.0, 0.0, 1.0])
+
+
+def _check_up_sigma(up_sigma: object, tol: AssociationTolerances) -> float:
+    """The tilt prior's standard deviation (rad) of a call: ``up_sigma``, or by default
+    ``tol.tilt_allowance / TILT_PRIOR_SIGMAS`` (at least :data:`MIN_TILT_SD`); ``inf``: no prior."""
+    if up_sigma is None:
+        return max(tol.tilt_allowance / TILT_PRIOR_SIGMAS, MIN_TILT_SD)
+    real = int | float | np.integer | np.floating
+    if isinstance(up_sigma, bool | np.bool_) or not isinstance(up_sigma, real):
+        raise ArgumentTypeError(f"up_sigma must be a float (radians), math.inf or None, got {up_sigma!r}")
+    value = float(up_sigma)
+    if not value > 0.0:
+        raise OutOfRangeError(f"up_sigma = {up_sigma!r} must be > 0 (radians; math.inf: no tilt prior)")
+    if math.isfinite(value) and value > math.pi:
+        raise OutOfRangeError(f"up_sigma = {up_sigma!r} is an angle in radians and must be <= pi (or "
+                              f"math.inf); did you mean degrees? np.radians({value:g}) = "
+                              f"{math.radians(value):.4g}")
+    return value
+
+
+@dataclass(frozen=True)
+class TiltPrior:
+    """Gravity in the pose fit: the ego up vector ``up`` maps to the world +z axis up to an error
+    of ``sd`` radians about each horizontal world axis (roll and pitch; yaw is free).
+
+    The prior is a pseudo-measurement of the horizontal part of ``a = R up`` (zero for a level
+    pose): residual ``a_xy / sd`` (2,), so a tilt ``theta`` costs ``sin(theta)^2 / sd^2``.  With the
+    rotation perturbed on the left, ``R <- exp(dtheta) R`` (world axes), ``da = -skew(a) dtheta``;
+    its information adds ``1 / sd^2`` to the roll and pitch of a level pose and nothing to its yaw.
+
+    Attributes
+    ----------
+    up : (3,) float
+        Unit up vector in the ego frame (``(0, 0, 1)`` for ``gravity="auto"``, an IMU's otherwise).
+    sd : float
+        Radians, > 0 and finite.
+    """
+
+    up: NDArray[np.float64]
+    sd: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "up", _unit_up(self.up, "TiltPrior.up"))
+        sd = float(self.sd) if isinstance(self.sd, int | float | np.floating | np.integer) else math.nan
+        if isinstance(self.sd, bool | np.bool_) or not 0.0 < sd < math.inf:
+            raise OutOfRangeError(f"TiltPrior.sd must be a finite angle > 0 (radians), got {self.sd!r}")
+        object.__setattr__(self, "sd", sd)
+
+    def residual(self, rotation: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``(R up)_xy / sd``, (2,), for the rotation block ``R`` of ``world_from_ego``."""
+        return (rotation @ self.up)[:2] / self.sd
+
+    def jacobian(self, rotation: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(2, 3) derivative of :meth:`residual` by the left rotation vector (world axes)."""
+        a = rotation @ self.up
+        # -skew(a), first two rows
+        return np.array([[0.0, a[2], -a[1]], [-a[2], 0.0, a[0]]]) / self.sd
+
+    def cost(self, rotation: NDArray[np.float64]) -> float:
+        """The prior's share of the ML cost, ``|residual|^2``."""
+        r = self.residual(rotation)
+        return float(r @ r)
+
+    def information(self, rotation: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(6, 6) Fisher information of the prior in the ``(dtheta, dt)`` order of
+        :func:`~worldgraph.pose.pose_information` (zero outside the rotation block)."""
+        J = self.jacobian(rotation)
+        out = np.zeros((6, 6))
+        out[:3, :3] = J.T @ J
+        return out
 
 
 @dataclass(frozen=True)

@@ -59,7 +59,8 @@ from ..tolerances import (
     SIGNIFICANCE,
     TINY,
 )
-from .frames import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, pose_information, refine_pose
+from .frames import MAX_POSE_COORDINATE, _covariances, _expm, _points, _refine_pose, _skew, pose_information
+from .gravity import TiltPrior
 
 __all__ = [
     "CHI2_3_GATE",
@@ -266,6 +267,11 @@ class PoseFit:
         That object, or -1.
     cost : float
         Robust cost ``sum_p min(mahalanobis2_p, CHI2_3_GATE)``.
+    tilt_chi2 : float
+        With a tilt prior: what the prior adds to the ML cost of the inliers at their own optimum,
+        the squared Mahalanobis distance between the tilt they give and gravity's (2 degrees of
+        freedom; above :data:`~worldgraph.pose.gravity.TILT_GATE` they contradict gravity); 0
+        without a prior.  The information and covariance include the prior.
     """
 
     world_from_ego: NDArray[np.float64]
@@ -275,6 +281,7 @@ class PoseFit:
     mahalanobis2: NDArray[np.float64]
     nearest: NDArray[np.intp]
     cost: float
+    tilt_chi2: float = 0.0
 
     @property
     def inliers(self) -> int:
@@ -374,8 +381,11 @@ def _unique_inliers(d2: NDArray, obj: NDArray, second: NDArray, gate: float) -> 
 
 def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: NearestObjects,
                    pairs: tuple[tuple[int, int], ...], start: NDArray, max_rounds: int = 4,
-                   gate: float = CHI2_3_GATE) -> PoseFit | None:
+                   gate: float = CHI2_3_GATE, *, tilt_prior: TiltPrior | None = None) -> PoseFit | None:
     """ML pose of ``pairs`` from ``start``, then re-associated inliers until stable.
+
+    With ``tilt_prior`` every pose is the ML pose of the inliers and the prior
+    (:func:`~worldgraph.pose.refine_pose`), and its covariance carries the prior.
 
     Returns None when fewer than three inliers remain or they fix no pose.
     """
@@ -402,12 +412,13 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
         p_rows = np.array([a for a, _ in current])
         o_rows = np.array([b for _, b in current])
         try:
-            T_new, info = refine_pose(ego[p_rows], world.positions[o_rows], covs[p_rows], T)
+            T_new, info, tilt_chi2 = _refine_pose(ego[p_rows], world.positions[o_rows], covs[p_rows], T,
+                                                  tilt_prior=tilt_prior)
             cov6 = ros_pose_covariance(info)
         except PoseError:
             break
         d2, obj, second = nearest.query(T_new, ego, covs, cov6)
-        fit = PoseFit(T_new, info, cov6, current, d2, obj, float(np.minimum(d2, gate).sum()))
+        fit = PoseFit(T_new, info, cov6, current, d2, obj, float(np.minimum(d2, gate).sum()), tilt_chi2)
         T = T_new
         new = _unique_inliers(d2, obj, second, gate)
         if new == current or len(new) < 3:
@@ -417,7 +428,8 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
 
 
 def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
-                    pose_covariance: NDArray, n_sigma: float = 3.0, rounds: int = 4) -> NDArray[np.float64]:
+                    pose_covariance: NDArray, n_sigma: float = 3.0, rounds: int = 4, *,
+                    tilt_prior: TiltPrior | None = None) -> NDArray[np.float64]:
     """Widen ``pose_covariance`` (ROS order) where the cost is flatter than its quadratic model.
 
     For the weakest rotation direction ``u`` (largest eigenvalue of the rotation block) and the
@@ -426,20 +438,34 @@ def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_
     ``f = +-n_sigma sigma_f``.  The quadratic model says the ML cost rises by ``n_sigma^2``;
     where it rises by less on the worse side, the point where it does reach ``n_sigma^2`` is
     found by secant steps and the variance of ``f`` set to ``(f / n_sigma)^2`` by a rank-one
-    update that keeps the correlations.  Never narrows.
+    update that keeps the correlations.  Never narrows.  With ``tilt_prior`` the cost is that of
+    the data and the prior (the covariance of a fit with the prior).
     """
     world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
     n_sigma = positive_float("n_sigma", n_sigma, maximum=1e3)
     rounds = strict_int("rounds", rounds, minimum=0, maximum=1000)
     cov = _covariance_or_unknown("pose_covariance", pose_covariance, 6).copy()
-    return _laplace_inflate(world_from_ego, ego, covs, world_points, cov, n_sigma, rounds)
+    return _laplace_inflate(world_from_ego, ego, covs, world_points, cov, n_sigma, rounds,
+                            _tilt_prior_argument(tilt_prior))
+
+
+def _tilt_prior_argument(tilt_prior: object) -> TiltPrior | None:
+    if tilt_prior is not None and not isinstance(tilt_prior, TiltPrior):
+        raise ArgumentTypeError(f"tilt_prior must be a TiltPrior or None, got {type(tilt_prior).__name__}")
+    return tilt_prior
 
 
 def _laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
-                     cov: NDArray, n_sigma: float, rounds: int) -> NDArray[np.float64]:
+                     cov: NDArray, n_sigma: float, rounds: int, tilt_prior: TiltPrior | None = None
+                     ) -> NDArray[np.float64]:
     if not np.all(np.isfinite(cov)):
         return cov
-    base = _pose_cost(world_from_ego, ego, covs, world_points)
+
+    def _cost(pose: NDArray) -> float:
+        prior = tilt_prior.cost(pose[:3, :3]) if tilt_prior is not None else 0.0
+        return _pose_cost(pose, ego, covs, world_points) + prior
+
+    base = _cost(world_from_ego)
     target = n_sigma**2
 
     def moved(delta: NDArray) -> NDArray:
@@ -460,7 +486,7 @@ def _laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world
         s = n_sigma * math.sqrt(var_f)
         rises = []
         for sign in (1.0, -1.0):
-            rise = _pose_cost(moved(sign * s * line), ego, covs, world_points) - base
+            rise = _cost(moved(sign * s * line)) - base
             rises.append((rise, sign))
         rise, sign = min(rises)
         if rise >= 0.8 * target:
@@ -469,7 +495,7 @@ def _laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world
         for _ in range(rounds):  # secant in f^2 (rise ~ c f^2 locally)
             f = f * math.sqrt(target / max(rise, RISE_FLOOR * target))
             f = min(f, 100.0 * s)
-            rise = _pose_cost(moved(sign * f * line), ego, covs, world_points) - base
+            rise = _cost(moved(sign * f * line)) - base
             if abs(rise - target) < 0.1 * target:
                 break
         new_var = max((f / n_sigma) ** 2, var_f)
@@ -556,13 +582,15 @@ def _curved(world_from_ego: NDArray, ego: NDArray, covs: NDArray, cov: NDArray) 
 
 
 def calibrated_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
-                               pose_covariance: NDArray) -> NDArray[np.float64]:
-    """:func:`laplace_inflate` (a cost flatter than its quadratic model), then
-    :func:`curved_pose_covariance` (the circle a weak rotation drives the robot along): the 6x6
-    covariance ``localize`` returns for its ML pose."""
+                               pose_covariance: NDArray, *, tilt_prior: TiltPrior | None = None
+                               ) -> NDArray[np.float64]:
+    """:func:`laplace_inflate` (a cost flatter than its quadratic model; with ``tilt_prior``, the
+    cost of the data and the prior), then :func:`curved_pose_covariance` (the circle a weak
+    rotation drives the robot along): the 6x6 covariance ``localize`` returns for its ML pose."""
     world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
     cov = _covariance_or_unknown("pose_covariance", pose_covariance, 6).copy()
-    widened = _laplace_inflate(world_from_ego, ego, covs, world_points, cov, 3.0, 4)
+    widened = _laplace_inflate(world_from_ego, ego, covs, world_points, cov, 3.0, 4,
+                               _tilt_prior_argument(tilt_prior))
     try:
         return _curved(world_from_ego, ego, covs, widened)
     except np.linalg.LinAlgError as exc:
@@ -570,7 +598,8 @@ def calibrated_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDAr
 
 
 def shared_view_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
-                           shared: Sequence[Sequence[tuple[int, NDArray]]]) -> NDArray[np.float64]:
+                           shared: Sequence[Sequence[tuple[int, NDArray]]], *,
+                           tilt_prior: TiltPrior | None = None) -> NDArray[np.float64]:
     """The 6x6 pose covariance (ROS order) that errors shared between percepts add to the
     inverse Fisher information of the ML pose, which treats the percepts as independent.
 
@@ -586,9 +615,12 @@ def shared_view_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
 
     which is what this returns (zero when no two percepts share a view); add it to the pose
     covariance.  When one view's encoder error dominates, every percept of that view moves
-    together and the independent bound is overconfident by the factor this corrects.
+    together and the independent bound is overconfident by the factor this corrects.  With
+    ``tilt_prior`` (the fit's), ``H`` includes the prior's information (the prior's error is
+    independent of the percepts').
     """
     world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
+    tilt_prior = _tilt_prior_argument(tilt_prior)
     shared = _check_shared(shared, len(ego))
     R = world_from_ego[:3, :3]
     J = _placement_jacobian(world_from_ego, ego)
@@ -597,7 +629,10 @@ def shared_view_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
     M = _shared_sandwich(JW @ R, shared)
     if not M.any():
         return np.zeros((6, 6))
-    Hinv = ros_pose_covariance(pose_information(world_from_ego, ego, covs))  # H^-1, ROS order
+    information = pose_information(world_from_ego, ego, covs)
+    if tilt_prior is not None:
+        information = information + tilt_prior.information(world_from_ego[:3, :3])
+    Hinv = ros_pose_covariance(information)  # H^-1, ROS order
     out = Hinv @ M @ Hinv
     return 0.5 * (out + out.T)
 
