@@ -20,18 +20,25 @@ as well as the truth does.
   ``d^2 = |R x + t - X|^2 / s^2`` to every object of its type, a one-to-one assignment
   (Hungarian, cost ``min(d^2, GATE)``, GATE = 14.16 the 3-sigma gate of chi-square with 3
   degrees of freedom; pairs at the gate count as unmatched); inliers are pairs with
-  ``d^2 < GATE``.  Refit once: weighted Kabsch (weights 1/s^2) on the inliers (when >= 3),
-  reassign.  Robust cost = sum over percepts of ``min(d^2, GATE)`` (unassigned: GATE).
+  ``d^2 < GATE``.  Refit until the assignment is stable (at most 5 rounds of weighted Kabsch,
+  weights 1/s^2, on the inliers when >= 3, then reassign).  Robust cost = sum over percepts of
+  ``min(d^2, GATE)`` (unassigned: GATE).
 * Truth: the same score, refit included, started at the TRUE pose (so the truth and the rivals
   are treated alike).
 * A candidate whose nearest same-type objects (per-type k-d trees, no one-to-one constraint)
   leave fewer percepts than the truth's inliers within ``LOOSE_GATE`` (9 GATE, three times the
-  gate distance) is not refit: one refit moves a pose too little to gain those (a speed-up,
+  gate distance) is not refit: the refits move a pose too little to gain those (a speed-up,
   ``--no-prescreen`` turns it off).
 * Rival: a refit candidate at least 0.3 m or 5 deg from the true pose with at least as many
   inliers as the truth and a cost at most 2.0 above the truth's.  A *level* rival also agrees
   with gravity: its tilt, the angle between ``R u`` and world z (``u = R_true^T z`` the true up
   vector in the ego frame; for a level robot the angle between ``R z`` and ``z``), is <= 5 deg.
+* Determined: even without a rival, "ok" needs a pose known to ``localize``'s default 3-sigma
+  tolerances (0.25 m, 5 deg).  The Cramer-Rao bound at the TRUE pose with the truth's inliers
+  (isotropic percepts) and, when gravity is known (``--gravity auto`` or ``up``), gravity's tilt
+  prior (``tilt_allowance / 3`` = 1.67 deg about each horizontal axis, the library's default
+  ``up_sigma``) says whether an ideal estimator could meet them; "no rival and determined" is the
+  bound on unique-correct answers (an ideal estimator's covariance, before any calibration).
 
 The library on the same trial: ``worldgraph.localize.localize(world, percepts, gravity=...)``
 with every other default, judged by ``layouts.verdict`` (unique-correct: "ok", 6D NEES <= 20.06,
@@ -57,7 +64,7 @@ import json
 import math
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from layouts import CHI2_6_3SIGMA, landmark_world, pose_error, sample_pose, simulate, verdict
@@ -66,10 +73,14 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from perception import Percept
-from worldgraph import scenes
+from worldgraph import ASSOCIATION_TOLERANCES, scenes
 from worldgraph.localize import localize
 
 GATE = 14.16  # chi-square, 3 dof, 3 sigma
+DETERMINED_POSITION = 0.25  # m: localize's default max_position_3sigma ...
+DETERMINED_ROTATION_DEG = 5.0  # ... and max_rotation_3sigma
+TILT_PRIOR_SD = math.radians(5.0 / 3.0)  # the library's default up_sigma: tilt_allowance / 3
+REFIT_ROUNDS = 5  # weighted Kabsch refits of a candidate until its assignment is stable
 LOOSE_GATE = 9.0 * GATE  # the pre-screen: three times the gate distance
 DIST_SIGMAS, DIST_FLOOR = 4.0, 0.01
 RIVAL_POSITION, RIVAL_ROTATION_DEG, RIVAL_COST = 0.3, 5.0, 2.0
@@ -189,11 +200,22 @@ class _Scorer:
         return Fit(R, t, matched, int(inl.sum()), total)
 
     def refine(self, R: np.ndarray, t: np.ndarray) -> Fit:
+        """Assign, then weighted Kabsch on the inliers and assign again until the assignment
+        is stable (at most :data:`REFIT_ROUNDS` refits): a triple's pose is only as good as its
+        three percepts, and one refit can leave a rival's cost several units too high."""
         fit = self.assign(R, t)
-        if fit.inliers >= 3:
+        for _ in range(REFIT_ROUNDS):
+            if fit.inliers < 3:
+                break
             inl = fit.matched >= 0
             R2, t2 = kabsch(self.x[inl], self.tables.positions[fit.matched[inl]], 1.0 / self.s[inl] ** 2)
-            fit = self.assign(R2, t2)
+            new = self.assign(R2, t2)
+            if new.cost > fit.cost - 1e-9 and np.array_equal(new.matched, fit.matched):
+                fit = new if new.cost <= fit.cost else fit
+                break
+            if new.cost > fit.cost:
+                break
+            fit = new
         return fit
 
 
@@ -228,6 +250,33 @@ def candidate_poses(tables: WorldTables, types: list[str], x: np.ndarray, s: np.
     if not rs:
         return np.zeros((0, 3, 3)), np.zeros((0, 3))
     return np.concatenate(rs), np.concatenate(ts)
+
+
+def determined(x: np.ndarray, s: np.ndarray, objects: np.ndarray, true_pose: np.ndarray,
+               tilt_sd: float | None) -> bool:
+    """Whether the Cramer-Rao bound of the pose at the truth (percepts ``x`` matched to
+    ``objects``, isotropic ``s``; ``tilt_sd`` radians of gravity's prior on roll and pitch, None:
+    no prior) meets the 3-sigma tolerances :data:`DETERMINED_POSITION` and
+    :data:`DETERMINED_ROTATION_DEG`."""
+    if len(x) < 3:
+        return False
+    R = true_pose[:3, :3]
+    rx = x @ R.T
+    J = np.zeros((6, 6))  # (rotation vector on the left, translation)
+    for v, si in zip(rx, s, strict=True):
+        H = np.concatenate([-np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]]),
+                            np.eye(3)], axis=1)
+        J += H.T @ H / si**2
+    if tilt_sd is not None:
+        J[0, 0] += 1.0 / tilt_sd**2  # the truth maps its up vector to z: the prior pins roll, pitch
+        J[1, 1] += 1.0 / tilt_sd**2
+    w = np.linalg.eigvalsh(J)
+    if w[0] <= 1e-12 * w[-1]:
+        return False
+    C = np.linalg.inv(J)
+    pos3 = 3.0 * math.sqrt(float(np.linalg.eigvalsh(C[3:, 3:])[-1]))
+    rot3 = math.degrees(3.0 * math.sqrt(float(np.linalg.eigvalsh(C[:3, :3])[-1])))
+    return pos3 <= DETERMINED_POSITION and rot3 <= DETERMINED_ROTATION_DEG
 
 
 def _rotation_deg(r1: np.ndarray, r2: np.ndarray) -> float:
@@ -337,8 +386,15 @@ def run_trial(world, tables: WorldTables, kind: str, layout_seed: int, index: in
     orc = oracle(world, percepts, pose, tables, prescreen=args.prescreen)
     oracle_ms = 1e3 * (time.perf_counter() - t0)
     gravity = {"auto": "auto", "none": None, "up": pose[:3, :3].T @ Z}[args.gravity]
+    inl = orc.truth.matched >= 0
+    x = np.array([p.position for p in percepts], dtype=float)
+    s = np.array([p.sigma for p in percepts], dtype=float)
+    pinned = determined(x[inl], s[inl], world.positions[orc.truth.matched[inl]], pose,
+                        None if args.gravity == "none" else TILT_PRIOR_SD)
     t0 = time.perf_counter()
-    res = localize(world, percepts, gravity=gravity)
+    tol = None if args.ambiguity_margin is None else replace(ASSOCIATION_TOLERANCES,
+                                                             ambiguity_margin=args.ambiguity_margin)
+    res = localize(world, percepts, gravity=gravity, tol=tol)
     localize_ms = 1e3 * (time.perf_counter() - t0)
     v, nees = verdict(res, pose)
     dpos = drot = math.nan
@@ -346,7 +402,8 @@ def run_trial(world, tables: WorldTables, kind: str, layout_seed: int, index: in
         _, dpos, drot = pose_error(res, pose)
     rec = {
         "layout": kind, "seed": layout_seed, "index": index, "n_true": n_true,
-        "rival": orc.any_rival, "level_rival": orc.level_rival, "n_rivals": len(orc.rivals),
+        "rival": orc.any_rival, "level_rival": orc.level_rival, "determined": pinned,
+        "n_rivals": len(orc.rivals),
         "truth_inliers": orc.truth.inliers, "truth_cost": orc.truth.cost,
         "best_rival": None, "candidates": orc.candidates, "unique": orc.unique, "refit": orc.refit,
         "status": res.status, "verdict": v, "position_error": dpos, "rotation_error": drot,
@@ -401,6 +458,7 @@ def _column(recs: list[dict], active: bool) -> list[str]:
         str(n),
         _pct(len(no_rival), n),
         _pct(sum(not r["level_rival"] for r in recs), n),
+        _pct(sum(not r["rival"] and r["determined"] for r in recs), n),
         _pct(sum(r["verdict"] == "correct" for r in recs), n),
     ]
     if active:
@@ -420,7 +478,7 @@ def _column(recs: list[dict], active: bool) -> list[str]:
 
 def report(records: list[dict], args: argparse.Namespace) -> str:
     labels = ["trials", "no rival (any 6D)", f"no rival with tilt <= {LEVEL_DEG:g} deg",
-              "library unique-correct"]
+              "no rival and determined (the bound)", "library unique-correct"]
     if args.active:
         labels.append("active (2 looks) unique-correct")
     labels += ["no-rival trials: correct / weak / ambiguous / ok-but-wrong (not gross) / gross / failed",
@@ -440,14 +498,16 @@ def report(records: list[dict], args: argparse.Namespace) -> str:
         for i, label in enumerate(labels):
             out.append(f"| {label} | " + " | ".join(c[i] for c in cells) + " |")
     left = [r for r in records if not r["rival"] and r["verdict"] != "correct"]
-    out.append(f"\n### Left on the table: {len(left)} no-rival trials not answered unique-correct\n")
+    out.append(f"\n### Left on the table: {len(left)} no-rival trials not answered unique-correct "
+               f"({sum(r['determined'] for r in left)} of them determined)\n")
     if left:
-        out.append("| layout | seed | trial | n_true | status | position error m | rotation error deg "
-                   "| rotation 3-sigma deg | message |")
-        out.append("|---|---|---|---|---|---|---|---|---|")
+        out.append("| layout | seed | trial | n_true | determined | status | position error m "
+                   "| rotation error deg | rotation 3-sigma deg | message |")
+        out.append("|---|---|---|---|---|---|---|---|---|---|")
         for r in left:
             msg = r["message"].replace("|", "/").replace("\n", " ")
-            out.append(f"| {r['layout']} | {r['seed']} | {r['index']} | {r['n_true']} | {r['status']} "
+            out.append(f"| {r['layout']} | {r['seed']} | {r['index']} | {r['n_true']} "
+                       f"| {'yes' if r['determined'] else 'no'} | {r['status']} "
                        f"({r['verdict']}) | {r['position_error']:.3f} | {r['rotation_error']:.2f} "
                        f"| {r['rotation_3sigma_deg']:.2f} | {msg} |")
     return "\n".join(out)
@@ -463,6 +523,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--tilt-deg", type=float, default=0.0)
     ap.add_argument("--gravity", choices=("auto", "up", "none"), default="auto")
     ap.add_argument("--active", action="store_true")
+    ap.add_argument("--ambiguity-margin", type=float, default=None,
+                    help="localize's tol.ambiguity_margin (default: the library's)")
     ap.add_argument("--clearance", type=float, default=0.4)
     ap.add_argument("--no-prescreen", dest="prescreen", action="store_false")
     ap.add_argument("--save", help="write per-trial records to this JSON file")

@@ -16,7 +16,7 @@ from ..association.hypotheses import AssociationHypothesis
 from ..errors import PoseError
 from ..pose.certificate import solve_pose_sdp
 from ..pose.frames import _refine_pose, pose_information, transformation, weighted_rotation
-from ..pose.gravity import TILT_GATE, TiltPrior, tilt_angle
+from ..pose.gravity import TILT_GATE, TILT_SLACK, TiltPrior, tilt_angle
 from ..pose.validation import (
     CHI2_6_GATE,
     PoseFit,
@@ -163,6 +163,7 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     others: list[PoseFit] = []
     for f, _ in distinct[1:]:
         (same if _same_pose(best.world_from_ego, f.world_from_ego, ctx.settings) else others).append(f)
+    others = _level_enough(ctx, others)
     runners = [f for f in others if f.cost - best.cost < tol.ambiguity_margin
                and _pose_nees(best.world_from_ego, best.pose_covariance, f.world_from_ego) > CHI2_6_GATE]
     spread = _same_pose_spread(best, same)
@@ -182,6 +183,23 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     alternatives = tuple(f.world_from_ego.copy() for f in runners)
     near_best_costs = (float(best.cost), *(float(f.cost) for f in runners))
     return best, _Choice(ambiguous, alternatives, llr, near_best_costs, spread)
+
+
+def _level_enough(ctx: _Context, fits: list[PoseFit]) -> list[PoseFit]:
+    """The fits a gravity-search answer can be confused with: those that tilt the up vector at most
+    ``tilt_allowance`` plus :data:`~worldgraph.pose.gravity.TILT_SLACK` (the gravity search's own
+    limit; a fit rotated about a row of objects may explain them as well, upside down or on its
+    side, and no robot that the gravity search may answer for stands so); all of them for the
+    free search."""
+    up = ctx.settings.plan.up
+    if up is None:
+        return fits
+    limit = ctx.settings.tol.tilt_allowance + TILT_SLACK
+    kept = [f for f in fits if tilt_angle(f.world_from_ego, up) <= limit]
+    if len(kept) < len(fits):
+        ctx.notes.append(f"{len(fits) - len(kept)} other fit(s) tilted beyond the tilt allowance "
+                         f"({math.degrees(limit):.0f} deg) set aside: no rival of a gravity-search answer")
+    return kept
 
 
 def _same_pose(a: NDArray, b: NDArray, settings: _Settings) -> bool:
