@@ -394,7 +394,8 @@ def run_trial(world, tables: WorldTables, kind: str, layout_seed: int, index: in
     t0 = time.perf_counter()
     tol = None if args.ambiguity_margin is None else replace(ASSOCIATION_TOLERANCES,
                                                              ambiguity_margin=args.ambiguity_margin)
-    res = localize(world, percepts, gravity=gravity, tol=tol)
+    up_sigma = None if args.up_sigma_deg is None else math.radians(args.up_sigma_deg)
+    res = localize(world, percepts, gravity=gravity, tol=tol, up_sigma=up_sigma)
     localize_ms = 1e3 * (time.perf_counter() - t0)
     v, nees = verdict(res, pose)
     dpos = drot = math.nan
@@ -419,7 +420,7 @@ def run_trial(world, tables: WorldTables, kind: str, layout_seed: int, index: in
 
         look = make_look(world, pose, trial_rng(args.seed, kind, n_true, index, stream=1))
         t0 = time.perf_counter()
-        act = active_localize(world, percepts, look, max_looks=2, gravity=gravity)
+        act = active_localize(world, percepts, look, max_looks=2, gravity=gravity, up_sigma=up_sigma)
         rec["active_ms"] = 1e3 * (time.perf_counter() - t0)
         rec["active_status"] = act.result.status
         rec["active_verdict"] = verdict(act.result, pose)[0]
@@ -523,6 +524,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--tilt-deg", type=float, default=0.0)
     ap.add_argument("--gravity", choices=("auto", "up", "none"), default="auto")
     ap.add_argument("--active", action="store_true")
+    ap.add_argument("--up-sigma-deg", type=float, default=None,
+                    help="localize's up_sigma in degrees (inf: the 6D fit without the tilt prior; default: "
+                         "the library's)")
     ap.add_argument("--ambiguity-margin", type=float, default=None,
                     help="localize's tol.ambiguity_margin (default: the library's)")
     ap.add_argument("--clearance", type=float, default=0.4)
@@ -546,7 +550,8 @@ def main(argv: list[str] | None = None) -> None:
                   f"{time.perf_counter() - t_start:.0f} s", file=sys.stderr, flush=True)
     elapsed = time.perf_counter() - t_start
     print(f"seed {args.seed}, {args.poses} trials per kind and n_true, {args.seeds} layouts per kind, "
-          f"tilt {args.tilt_deg:g} deg, gravity {args.gravity}; {elapsed:.0f} s")
+          f"tilt {args.tilt_deg:g} deg, gravity {args.gravity}, up_sigma "
+          f"{'default' if args.up_sigma_deg is None else f'{args.up_sigma_deg:g} deg'}; {elapsed:.0f} s")
     print(report(records, args))
     if args.save:
         with open(args.save, "w") as f:

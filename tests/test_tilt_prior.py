@@ -222,3 +222,45 @@ def test_two_identical_modules_are_still_ambiguous() -> None:
     assert res.status == "ambiguous", res.message
     assert res.search == "gravity"
     assert any(abs(np.linalg.norm(a[:3, 3] - res.position) - 7.0) < 0.1 for a in res.alternatives)
+
+
+def test_active_localize_and_tiles_pass_up_sigma_on(world) -> None:
+    rng = np.random.default_rng(21)
+    percepts = _percepts(_pose(15.0), rng, depth_factor=300.0)
+    plain = localize(world, percepts, up_sigma=math.inf)
+    prior = localize(world, percepts)
+    assert plain.status in ("ok", "weak") and prior.status in ("ok", "weak")
+    assert not np.allclose(plain.pose_covariance, prior.pose_covariance)  # the premise: the prior shows
+    active = wg.active_localize(world, percepts, lambda d: [], max_looks=0, up_sigma=math.inf)
+    np.testing.assert_allclose(active.result.pose_covariance, plain.pose_covariance)
+    with pytest.raises(OutOfRangeError, match="up_sigma"):
+        wg.active_localize(world, percepts, lambda d: [], up_sigma=-1.0)
+    tiles = wg.tiles.split(world, np.zeros(len(world), dtype=int))
+    tiled = wg.localize_tiled(tiles, percepts, workers=1, up_sigma=math.inf)
+    np.testing.assert_allclose(tiled.pose_covariance, plain.pose_covariance)
+    np.testing.assert_allclose(wg.localize_tiled(tiles, percepts, workers=1).pose_covariance,
+                               prior.pose_covariance)
+    with pytest.raises(OutOfRangeError, match="up_sigma"):
+        wg.localize_tiled(tiles, percepts, workers=1, up_sigma=0.0)
+
+
+def test_the_certificate_proves_the_pose_with_the_prior() -> None:
+    """The rotation SDP with the prior's quadratic form: it certifies the MAP pose, not the data's
+    own optimum (which the prior makes suboptimal), and its global solve finds the MAP pose."""
+    from worldgraph.pose.certificate import certify_pose, solve_pose_sdp
+
+    rng = np.random.default_rng(9)
+    truth = _pose(70.0, tilt_deg=1.0)
+    ego = (LANDMARKS[:4] - truth[:3, 3]) @ truth[:3, :3] + rng.normal(0.0, 0.03, (4, 3))
+    covs = np.broadcast_to(0.03**2 * np.eye(3), (4, 3, 3)).copy()
+    prior = TiltPrior(EZ, math.radians(0.5))
+    data_only, _ = refine_pose(ego, LANDMARKS[:4], covs, np.eye(4))
+    map_pose, _ = refine_pose(ego, LANDMARKS[:4], covs, data_only, tilt_prior=prior)
+    assert Rotation.from_matrix(map_pose[:3, :3] @ data_only[:3, :3].T).magnitude() > 1e-3  # the premise
+    assert certify_pose(ego, LANDMARKS[:4], covs, map_pose, tilt_prior=prior).certified
+    assert not certify_pose(ego, LANDMARKS[:4], covs, data_only, tilt_prior=prior).certified
+    assert certify_pose(ego, LANDMARKS[:4], covs, data_only).certified
+    sdp, lower = solve_pose_sdp(ego, LANDMARKS[:4], covs, tilt_prior=prior)
+    np.testing.assert_allclose(sdp, map_pose, atol=1e-6)
+    with pytest.raises(ArgumentTypeError, match="tilt_prior"):
+        certify_pose(ego, LANDMARKS[:4], covs, map_pose, tilt_prior=0.1)

@@ -57,7 +57,7 @@ from .localize.pipeline import (
 )
 from .localize.result import POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult
 from .model import WorldModel
-from .pose.gravity import Gravity, _check_gravity
+from .pose.gravity import Gravity, _check_gravity, _check_up_sigma
 from .pose.validation import (
     CHI2_3_GATE,
     CHI2_6_GATE,
@@ -193,9 +193,10 @@ def _fit_cost(world: WorldModel, percepts: list[Percept], result: LocalizationRe
 
 def _run_tile(world: WorldModel, percepts: list[Percept], world_types: frozenset[str], method: str,
               tol: AssociationTolerances, region: Any, rng: np.random.Generator | None,
-              gravity: NDArray[np.float64] | None) -> _TileAnswer:
+              gravity: NDArray[np.float64] | None, up_sigma: float | None = None) -> _TileAnswer:
     try:
-        result = localize(world, percepts, method, tol=tol, region=region, rng=rng, gravity=gravity)
+        result = localize(world, percepts, method, tol=tol, region=region, rng=rng, gravity=gravity,
+                          up_sigma=up_sigma)
     except UnknownTypeError as exc:  # the tile has none of the percepts' types
         return _TileAnswer(None, exc)
     if result.status not in _WITH_POSE:
@@ -376,7 +377,7 @@ def _client(scheduler: object) -> tuple[Any, bool]:
 def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: str = "ml", *,
                    scheduler: Any = None, workers: int | None = None, pool: TilePool | None = None,
                    tol: AssociationTolerances | None = None, rng: np.random.Generator | None = None,
-                   region: Any = None, gravity: Gravity = "auto",
+                   region: Any = None, gravity: Gravity = "auto", up_sigma: float | None = None,
                    tolerances: AssociationTolerances | None = None) -> LocalizationResult:
     """:func:`~worldgraph.localize.localize` on every tile in parallel, the answers ranked together.
 
@@ -411,6 +412,8 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         As in :func:`~worldgraph.localize.localize`.  ``"auto"`` decides on the combined
         answer: every tile runs the gravity search, and only when the best tile's answer has no
         pose, too few inliers or a tilted pose do all tiles run the free search.
+    up_sigma : float, optional
+        Gravity's tilt prior of the pose (radians), as in :func:`~worldgraph.localize.localize`.
     tolerances : AssociationTolerances, optional
         Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
         :class:`~worldgraph.errors.ArgumentTypeError`).
@@ -455,6 +458,7 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
             raise WorldGraphError(f"pool serves other tiles ({len(pool.tiles)} tiles) than the {len(tiles)} "
                                   "given: make a TilePool of these tiles")
     plan = _check_gravity(gravity, tol)
+    sigma = _check_up_sigma(up_sigma, tol)
     rngs: list[np.random.Generator | None] = [None] * len(tiles)
     if rng is not None:
         rngs = list(_checks.generator("rng", rng).spawn(len(tiles)))
@@ -462,12 +466,12 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     # the tiles run one search each (an explicit up vector or None): "auto" decides on the
     # combined answer, not per tile (the tiles without the robot find nothing in either search)
     up = None if plan.up is None else plan.up.copy()
-    answer = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, up) for r in rngs], scheduler,
-                        workers, pool, tol, t_start)
+    answer = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, up, sigma) for r in rngs],
+                        scheduler, workers, pool, tol, t_start)
     n_used = sum(1 for p in percepts if p.type in world_types)
     why = _gravity_unsupported(answer, plan, tol, method, n_used)
     if why:
-        free = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, None) for r in rngs],
+        free = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, None, sigma) for r in rngs],
                           scheduler, workers, pool, tol, t_start)
         answer = _answered_by_free_search(free, answer, why)
     return _tilt_checked(answer, plan, tol)

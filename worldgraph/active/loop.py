@@ -18,7 +18,7 @@ from ..errors import ArgumentTypeError, OutOfRangeError
 from ..localize.pipeline import localize
 from ..localize.result import LocalizationResult, PoseStatus
 from ..model import WorldModel
-from ..pose.gravity import Gravity, _check_gravity
+from ..pose.gravity import Gravity, _check_gravity, _check_up_sigma
 from ..tolerances import (
     ASSOCIATION_TOLERANCES,
     AssociationTolerances,
@@ -120,7 +120,8 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                     fov_deg: float = 60.0, max_range: float = 8.0, types: Sequence[str] | None = None,
                     head: KinematicChain | None = None, look_while: Sequence[str] = ("ambiguous", "weak"),
                     goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA, gravity: Gravity = "auto",
-                    depth_factor: float | None = None, detection: float = 0.9, max_sights: int | None = None,
+                    up_sigma: float | None = None, depth_factor: float | None = None, detection: float = 0.9,
+                    max_sights: int | None = None,
                     tolerances: AssociationTolerances | None = None) -> ActiveLocalization:
     """Localise; while the status is in ``look_while`` (default ``"ambiguous"`` and ``"weak"``) and
     looks remain:
@@ -155,6 +156,8 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     gravity : "auto", (3,) float or None
         Passed to every :func:`~worldgraph.localize` call (:mod:`worldgraph.pose.gravity`; the head
         turns, the ego frame does not, so one up vector holds for all the looks).
+    up_sigma : float, optional
+        Gravity's tilt prior of the pose (radians), passed to every :func:`~worldgraph.localize`.
     depth_factor : float, optional
         Eq. 6 noise of the predicted sights for the default planner (``sigma = rho^2 /
         depth_factor``); default estimated from the percepts passed in (:func:`depth_factor_of`).
@@ -194,7 +197,8 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     tol = _tol_argument("active_localize", tol, tolerances)
     tol = ASSOCIATION_TOLERANCES if tol is None else tol
     current = check_world_and_percepts(world, percepts)
-    _check_gravity(gravity, tol)  # a bad gravity fails before the first look
+    _check_gravity(gravity, tol)  # a bad gravity (or up_sigma) fails before the first look
+    _check_up_sigma(up_sigma, tol)
     learn_cap = max_sights is None
     cap = None if max_sights is None else strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
     detection = positive_float("detection", detection, maximum=1.0)
@@ -202,7 +206,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         depth_factor = depth_factor_of(current)
     else:
         depth_factor = _depth_factor(depth_factor)
-    result = localize(world, current, method, tol=tol, gravity=gravity)
+    result = localize(world, current, method, tol=tol, gravity=gravity, up_sigma=up_sigma)
     results, plans = [result], []
     directions: list[NDArray[np.float64]] = []
     while len(directions) < max_looks and (result.status in statuses
@@ -231,7 +235,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         if planner is None and learn_cap and isinstance(plan, ViewPlan):
             cap = _learned_cap(cap, plan, len(new), detection)
         current = merge_percepts(current, new)
-        result = localize(world, current, method, tol=tol, gravity=gravity)
+        result = localize(world, current, method, tol=tol, gravity=gravity, up_sigma=up_sigma)
         results.append(result)
     return ActiveLocalization(result=result, results=tuple(results), plans=tuple(plans),
                               directions=tuple(directions), percepts=tuple(current), looks=len(directions))

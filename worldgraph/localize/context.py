@@ -115,3 +115,4 @@ class _Answer:
     est: ro.PositionEstimate | None = None  # the range-only position estimate, if any
     self_check: bool = True  # run the chi-square self-check of the matches
     status_hint: str = "ok"  # the position estimator's status
+    tilt_prior: TiltPrior | None = None  # gravity's prior, when the pose was fitted with it

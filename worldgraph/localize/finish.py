@@ -130,7 +130,8 @@ def _certificate_step(ctx: _Context, answer: _Answer, p_i: NDArray, centers: NDA
     certificate = None
     t0 = time.perf_counter()
     try:
-        certificate = certify_pose(ctx.ego[p_i], centers, ctx.covs[p_i], answer.pose)
+        certificate = certify_pose(ctx.ego[p_i], centers, ctx.covs[p_i], answer.pose,
+                                   tilt_prior=answer.tilt_prior)
     except WorldGraphError as exc:  # e.g. a degenerate match set: no certificate, say why
         ctx.notes.append(f"no certificate: {exc}")
     ctx.timings["certificate"] = time.perf_counter() - t0

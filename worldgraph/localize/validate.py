@@ -251,7 +251,7 @@ def _ml_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
     if any(shared):  # errors common to the percepts of one view (head encoders)
         cov6 = cov6 + shared_view_covariance(pose, ctx.ego[p_i], ctx.covs[p_i], shared, tilt_prior=prior)
     ctx.timings["position"] = time.perf_counter() - t0
-    return _Answer(pose, cov6, pairs, self_check=False)
+    return _Answer(pose, cov6, pairs, self_check=False, tilt_prior=prior)
 
 
 def _tilted(ctx: _Context, pose: NDArray, information: NDArray, p_i: NDArray, centers: NDArray

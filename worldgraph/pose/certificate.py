@@ -75,6 +75,7 @@ from ..tolerances import (
 )
 from ..tolerances import CLARABEL_OPTIONS as CLARABEL_OPTIONS  # re-exported
 from .frames import MAX_POSE_COORDINATE, _covariances, _points, refine_pose, transformation
+from .gravity import TiltPrior
 
 __all__ = ["certify_pose", "pose_cost", "reduced_cost_matrix", "solve_pose_sdp"]
 
@@ -171,13 +172,26 @@ def pose_cost(ego_points: ArrayLike, world_points: ArrayLike, covariances: Array
     return _cost(x, y, np.linalg.inv(C), T)
 
 
-def _cost(x: NDArray, y: NDArray, Cinv: NDArray, T: NDArray) -> float:
+def _cost(x: NDArray, y: NDArray, Cinv: NDArray, T: NDArray, tilt_prior: TiltPrior | None = None) -> float:
     r = x - (y - T[:3, 3]) @ T[:3, :3]
-    return float(np.einsum("ka,kab,kb->", r, Cinv, r))
+    prior = tilt_prior.cost(T[:3, :3]) if tilt_prior is not None else 0.0
+    return float(np.einsum("ka,kab,kb->", r, Cinv, r)) + prior
 
 
-def _reduced(x: NDArray, y: NDArray, Cinv: NDArray):
-    """``Q``, its scale, and the map ``y -> u*`` with the centring shifts."""
+def _prior_matrix(tilt_prior: TiltPrior | None) -> NDArray[np.float64]:
+    """The tilt prior's cost as a quadratic form in ``[vec(R^T); 1]`` (whose first two triples are
+    the first two rows of ``R``): ``|(R up)_xy|^2 / sd^2``."""
+    P = np.zeros((10, 10))
+    if tilt_prior is not None:
+        uu = np.outer(tilt_prior.up, tilt_prior.up) / tilt_prior.sd**2
+        P[0:3, 0:3] = uu
+        P[3:6, 3:6] = uu
+    return P
+
+
+def _reduced(x: NDArray, y: NDArray, Cinv: NDArray, tilt_prior: TiltPrior | None = None):
+    """``Q`` (with the tilt prior's quadratic form), its scale, and the map ``y -> u*`` with the
+    centring shifts."""
     cx, cy = x.mean(axis=0), y.mean(axis=0)
     xc, yc = x - cx, y - cy
     k = len(x)
@@ -190,9 +204,10 @@ def _reduced(x: NDArray, y: NDArray, Cinv: NDArray):
     Wsum = Cinv.sum(axis=0)
     WinvG = np.linalg.solve(Wsum, G)
     P = G.T @ WinvG
-    Q = H - P
+    prior = _prior_matrix(tilt_prior)
+    Q = H - P + prior
     Q = (Q + Q.T) / 2.0
-    scale = float(np.linalg.norm(H) + np.linalg.norm(P))
+    scale = float(np.linalg.norm(H) + np.linalg.norm(P) + np.linalg.norm(prior))
     return Q, scale, WinvG, cx, cy
 
 
@@ -248,10 +263,10 @@ def _solve_sdp(Q: NDArray, solver: str) -> tuple[NDArray | None, NDArray | None,
     return Z, lam, status
 
 
-def _certify(x, y, C, T, solver, abs_gap, rel_gap, t0) -> Certificate:
+def _certify(x, y, C, T, solver, abs_gap, rel_gap, t0, tilt_prior=None) -> Certificate:
     Cinv = np.linalg.inv(C)
-    Q, scale, _, _, _ = _reduced(x, y, Cinv)
-    f_hat = _cost(x, y, Cinv, T)
+    Q, scale, _, _, _ = _reduced(x, y, Cinv, tilt_prior)
+    f_hat = _cost(x, y, Cinv, T, tilt_prior)
     Z, lam, status = _solve_sdp(Q, solver)
     yhat = _lift(T[:3, :3])
     candidates = [np.zeros(len(_B))] if lam is None else [lam, _polish(Q, lam, yhat)]
@@ -269,8 +284,10 @@ def _certify(x, y, C, T, solver, abs_gap, rel_gap, t0) -> Certificate:
 
 def certify_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
                  world_from_ego: ArrayLike, *, solver: str = "CLARABEL", abs_gap: float = CERTIFICATE_GAP,
-                 rel_gap: float = CERTIFICATE_GAP) -> Certificate:
-    """Prove (or fail to prove) that ``world_from_ego`` is a global minimiser of the ML pose cost.
+                 rel_gap: float = CERTIFICATE_GAP, tilt_prior: TiltPrior | None = None) -> Certificate:
+    """Prove (or fail to prove) that ``world_from_ego`` is a global minimiser of the ML pose cost
+    (with ``tilt_prior``: of the cost with gravity's tilt prior, a quadratic form in the rotation's
+    entries like the rest, so the same relaxation bounds it).
 
     Parameters
     ----------
@@ -283,6 +300,8 @@ def certify_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Ar
         An installed cvxpy SDP solver (Clarabel by default).
     abs_gap, rel_gap : float, >= 0
         ``certified`` when ``f(pose) - lower_bound <= max(abs_gap, rel_gap f(pose))``.
+    tilt_prior : TiltPrior, optional
+        The prior the pose was fitted with (:func:`~worldgraph.pose.refine_pose`).
 
     Returns
     -------
@@ -300,8 +319,9 @@ def certify_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Ar
     T = _check_pose(world_from_ego)
     abs_gap, rel_gap = _gap_tol("abs_gap", abs_gap), _gap_tol("rel_gap", rel_gap)
     solver = _check_solver(solver)
+    tilt_prior = _check_tilt_prior(tilt_prior)
     try:
-        return _certify(x, y, C, T, solver, abs_gap, rel_gap, t0)
+        return _certify(x, y, C, T, solver, abs_gap, rel_gap, t0, tilt_prior)
     except (np.linalg.LinAlgError, ArithmeticError, ValueError) as exc:
         if isinstance(exc, WorldGraphError):
             raise
@@ -309,8 +329,10 @@ def certify_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Ar
 
 
 def solve_pose_sdp(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike, *,
-                   solver: str = "CLARABEL") -> tuple[NDArray[np.float64], float]:
-    """Global ML pose by the SDP relaxation: rounding of its solution, then refine_pose.
+                   solver: str = "CLARABEL", tilt_prior: TiltPrior | None = None
+                   ) -> tuple[NDArray[np.float64], float]:
+    """Global ML pose by the SDP relaxation: rounding of its solution, then refine_pose (with
+    ``tilt_prior``: of the cost with gravity's tilt prior).
 
     Returns
     -------
@@ -321,17 +343,25 @@ def solve_pose_sdp(ego_points: ArrayLike, world_points: ArrayLike, covariances: 
     """
     x, y, C = _check_inputs(ego_points, world_points, covariances)
     solver = _check_solver(solver)
+    tilt_prior = _check_tilt_prior(tilt_prior)
     try:
-        return _solve_global(x, y, C, solver)
+        return _solve_global(x, y, C, solver, tilt_prior)
     except (np.linalg.LinAlgError, ArithmeticError, ValueError) as exc:
         if isinstance(exc, WorldGraphError):
             raise
         raise PoseError(f"solve_pose_sdp failed numerically: {type(exc).__name__}: {exc}") from exc
 
 
-def _solve_global(x: NDArray, y: NDArray, C: NDArray, solver: str) -> tuple[NDArray[np.float64], float]:
+def _check_tilt_prior(tilt_prior: object) -> TiltPrior | None:
+    if tilt_prior is not None and not isinstance(tilt_prior, TiltPrior):
+        raise ArgumentTypeError(f"tilt_prior must be a TiltPrior or None, got {type(tilt_prior).__name__}")
+    return tilt_prior
+
+
+def _solve_global(x: NDArray, y: NDArray, C: NDArray, solver: str, tilt_prior: TiltPrior | None = None
+                  ) -> tuple[NDArray[np.float64], float]:
     Cinv = np.linalg.inv(C)
-    Q, scale, WinvG, cx, cy = _reduced(x, y, Cinv)
+    Q, scale, WinvG, cx, cy = _reduced(x, y, Cinv, tilt_prior)
     Z, lam, status = _solve_sdp(Q, solver)
     if Z is None:
         raise PoseError(f"the SDP relaxation failed with solver={solver!r}: {status}")
@@ -348,11 +378,11 @@ def _solve_global(x: NDArray, y: NDArray, C: NDArray, solver: str) -> tuple[NDAr
         u = -WinvG @ yv  # the optimal centred translation term for this rotation
         T0 = transformation(M.T, _translation(M.T, u, cx, cy))
         try:
-            T1, _ = refine_pose(x, y, C, T0)
+            T1, _ = refine_pose(x, y, C, T0, tilt_prior=tilt_prior)
         except PoseError:  # e.g. no convergence: the rounded SDP pose still counts
             T1 = T0
         for T in (T0, T1):
-            f = _cost(x, y, Cinv, T)
+            f = _cost(x, y, Cinv, T, tilt_prior)
             if f < best_f:
                 best, best_f = T, f
     if best is None:  # every candidate's cost was NaN
