@@ -51,8 +51,13 @@ Every trial is seeded from ``--seed``, the layout kind, n_true and the trial ind
 same command gives the same trials whatever the library does (compare two versions trial by
 trial with ``--save``).
 
+``--up-sigma-deg`` sets ``localize``'s ``up_sigma`` (``inf``: the 6D fit without gravity's tilt
+prior, the library before it) and ``--ambiguity-margin`` its ``tol.ambiguity_margin``, to measure
+either choice against the same trials.
+
 Run:  cd benchmarks && python oracle.py [--n-true 5 7] [--poses 40] [--seeds 3] [--seed 0]
-      [--kinds ...] [--tilt-deg 0] [--gravity auto|up|none] [--active] [--save trials.json]
+      [--kinds ...] [--tilt-deg 0] [--gravity auto|up|none] [--active] [--up-sigma-deg D]
+      [--ambiguity-margin M] [--save trials.json]
 Prints Markdown tables and the no-rival trials the library left on the table (progress on stderr).
 """
 

@@ -75,7 +75,7 @@ from ..tolerances import (
 )
 from ..tolerances import CLARABEL_OPTIONS as CLARABEL_OPTIONS  # re-exported
 from .frames import MAX_POSE_COORDINATE, _covariances, _points, refine_pose, transformation
-from .gravity import TiltPrior
+from .gravity import TiltPrior, _check_tilt_prior
 
 __all__ = ["certify_pose", "pose_cost", "reduced_cost_matrix", "solve_pose_sdp"]
 
@@ -350,12 +350,6 @@ def solve_pose_sdp(ego_points: ArrayLike, world_points: ArrayLike, covariances: 
         if isinstance(exc, WorldGraphError):
             raise
         raise PoseError(f"solve_pose_sdp failed numerically: {type(exc).__name__}: {exc}") from exc
-
-
-def _check_tilt_prior(tilt_prior: object) -> TiltPrior | None:
-    if tilt_prior is not None and not isinstance(tilt_prior, TiltPrior):
-        raise ArgumentTypeError(f"tilt_prior must be a TiltPrior or None, got {type(tilt_prior).__name__}")
-    return tilt_prior
 
 
 def _solve_global(x: NDArray, y: NDArray, C: NDArray, solver: str, tilt_prior: TiltPrior | None = None

@@ -15,7 +15,7 @@ from scipy.stats import chi2
 
 from .._checks import float_array, positive_float, strict_int
 from .._rigid import rigid_transform
-from ..errors import ArgumentTypeError, PoseError, ShapeError
+from ..errors import PoseError, ShapeError
 from ..tolerances import COLLINEAR_TOL as COLLINEAR_TOL  # re-exported: worldgraph.pose.COLLINEAR_TOL
 from ..tolerances import (
     COST_DECREASE_RTOL,
@@ -35,7 +35,7 @@ from ..tolerances import (
     SYMMETRY_RTOL,
     TINY,
 )
-from .gravity import TiltPrior
+from .gravity import TiltPrior, _check_tilt_prior
 
 __all__ = [
     "invert_transformation",
@@ -506,8 +506,7 @@ def _refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Ar
     T0 = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
     max_iter = strict_int("max_iter", max_iter, minimum=1)
     tol = positive_float("tol", tol, maximum=0.5)
-    if tilt_prior is not None and not isinstance(tilt_prior, TiltPrior):
-        raise ArgumentTypeError(f"tilt_prior must be a TiltPrior or None, got {type(tilt_prior).__name__}")
+    tilt_prior = _check_tilt_prior(tilt_prior)
     _finite_scale(x, y, C)
     try:
         return _refine(x, y, C, T0, max_iter, tol, tilt_prior)

@@ -110,6 +110,13 @@ def _check_up_sigma(up_sigma: object, tol: AssociationTolerances) -> float:
     return value
 
 
+def _check_tilt_prior(tilt_prior: object) -> TiltPrior | None:
+    """``tilt_prior`` when it is a :class:`TiltPrior` or None, else ArgumentTypeError."""
+    if tilt_prior is not None and not isinstance(tilt_prior, TiltPrior):
+        raise ArgumentTypeError(f"tilt_prior must be a TiltPrior or None, got {type(tilt_prior).__name__}")
+    return tilt_prior
+
+
 @dataclass(frozen=True)
 class TiltPrior:
     """Gravity in the pose fit: the ego up vector ``up`` maps to the world +z axis up to an error

@@ -60,7 +60,7 @@ from ..tolerances import (
     TINY,
 )
 from .frames import MAX_POSE_COORDINATE, _covariances, _expm, _points, _refine_pose, _skew, pose_information
-from .gravity import TiltPrior
+from .gravity import TiltPrior, _check_tilt_prior
 
 __all__ = [
     "CHI2_3_GATE",
@@ -446,13 +446,7 @@ def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_
     rounds = strict_int("rounds", rounds, minimum=0, maximum=1000)
     cov = _covariance_or_unknown("pose_covariance", pose_covariance, 6).copy()
     return _laplace_inflate(world_from_ego, ego, covs, world_points, cov, n_sigma, rounds,
-                            _tilt_prior_argument(tilt_prior))
-
-
-def _tilt_prior_argument(tilt_prior: object) -> TiltPrior | None:
-    if tilt_prior is not None and not isinstance(tilt_prior, TiltPrior):
-        raise ArgumentTypeError(f"tilt_prior must be a TiltPrior or None, got {type(tilt_prior).__name__}")
-    return tilt_prior
+                            _check_tilt_prior(tilt_prior))
 
 
 def _laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
@@ -590,7 +584,7 @@ def calibrated_pose_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDAr
     world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
     cov = _covariance_or_unknown("pose_covariance", pose_covariance, 6).copy()
     widened = _laplace_inflate(world_from_ego, ego, covs, world_points, cov, 3.0, 4,
-                               _tilt_prior_argument(tilt_prior))
+                               _check_tilt_prior(tilt_prior))
     try:
         return _curved(world_from_ego, ego, covs, widened)
     except np.linalg.LinAlgError as exc:
@@ -620,7 +614,7 @@ def shared_view_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
     independent of the percepts').
     """
     world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
-    tilt_prior = _tilt_prior_argument(tilt_prior)
+    tilt_prior = _check_tilt_prior(tilt_prior)
     shared = _check_shared(shared, len(ego))
     R = world_from_ego[:3, :3]
     J = _placement_jacobian(world_from_ego, ego)
