@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from ..association.hypotheses import AssociationHypothesis
 from ..errors import PoseError
 from ..pose.certificate import solve_pose_sdp
-from ..pose.frames import _refine_pose, pose_information, transformation, weighted_rotation
+from ..pose.frames import REFINE_MAX_ITER, _refine, pose_information, transformation, weighted_rotation
 from ..pose.gravity import TILT_GATE, TILT_SLACK, TiltPrior, tilt_angle
 from ..pose.validation import (
     CHI2_6_GATE,
@@ -30,7 +30,7 @@ from ..pose.validation import (
     shared_range_covariance,
     shared_view_covariance,
 )
-from ..tolerances import COST_ROUNDING
+from ..tolerances import COST_ROUNDING, REFINE_TOL
 from .context import _Answer, _Choice, _Context, _remap, _Settings
 from .finish import _finish, _in_region
 from .radial import _radial, _radial_score, _range_consistent, _sphere_position
@@ -262,9 +262,10 @@ def _tilted(ctx: _Context, pose: NDArray, information: NDArray, p_i: NDArray, ce
     prior = ctx.settings.tilt_prior
     if prior is None:
         return pose, information, None
-    try:
-        tilted, info, tilt_chi2 = _refine_pose(ctx.ego[p_i], centers, ctx.covs[p_i], pose, tilt_prior=prior)
-    except PoseError:
+    try:  # the context's arrays are checked already: the fit itself, not refine_pose's checks
+        tilted, info, tilt_chi2 = _refine(ctx.ego[p_i], centers, ctx.covs[p_i], pose, REFINE_MAX_ITER,
+                                          REFINE_TOL, prior)
+    except (PoseError, np.linalg.LinAlgError):
         return pose, information, None
     if tilt_chi2 > TILT_GATE:
         tilt = math.degrees(tilt_angle(pose, prior.up))

@@ -50,6 +50,8 @@ __all__ = [
     "weighted_rotation",
 ]
 
+#: Iteration cap of :func:`refine_pose`'s final polish (its ``max_iter`` default).
+REFINE_MAX_ITER = 200
 #: Largest coordinate (m) the pose functions accept: squares and weighted sums stay finite.
 MAX_POSE_COORDINATE = 1e12
 
@@ -434,7 +436,7 @@ def _reduced_descent(Q: NDArray, R: NDArray, max_iter: int) -> NDArray:
 
 
 def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
-                world_from_ego: ArrayLike, max_iter: int = 200, tol: float = REFINE_TOL, *,
+                world_from_ego: ArrayLike, max_iter: int = REFINE_MAX_ITER, tol: float = REFINE_TOL, *,
                 tilt_prior: TiltPrior | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Maximum-likelihood pose from 3D correspondences with per-point covariances.
 
@@ -493,7 +495,7 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
 
 
 def _refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
-                 world_from_ego: ArrayLike, max_iter: int = 200, tol: float = REFINE_TOL,
+                 world_from_ego: ArrayLike, max_iter: int = REFINE_MAX_ITER, tol: float = REFINE_TOL,
                  tilt_prior: TiltPrior | None = None
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """:func:`refine_pose` and the cost its ``tilt_prior`` adds to the data's optimum (see
