@@ -30,7 +30,9 @@ whole world's, unless ``region`` is given).
 
 from .dispatch import localize_tiled
 from .pool import TilePool
+from .prefilter import TileSummary, TileVisit, summarize, tiles_to_visit
 from .ranking import FAILURE_ORDER
 from .split import MAX_TILES, Tile, split
 
-__all__ = ["FAILURE_ORDER", "MAX_TILES", "Tile", "TilePool", "localize_tiled", "split"]
+__all__ = ["FAILURE_ORDER", "MAX_TILES", "Tile", "TilePool", "TileSummary", "TileVisit", "localize_tiled",
+           "split", "summarize", "tiles_to_visit"]
