@@ -26,7 +26,7 @@ from ..localize.result import LocalizationResult
 from ..pose.gravity import Gravity, _check_gravity, _check_up_sigma
 from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _tol_argument
 from .pool import TilePool
-from .ranking import _combine, _run_tile
+from .ranking import _combine, _globalised_answer, _run_tile
 from .split import Tile, _check_tiles
 
 
@@ -173,4 +173,5 @@ def _run_tiles(tiles: tuple[Tile, ...], args: list[tuple[Any, ...]], scheduler: 
         else:  # pragma: no cover - spawn-only platforms pickle the tiles
             with ProcessPoolExecutor(n_workers) as ex:
                 answers = list(ex.map(_run_tile, [t.world for t in tiles], *zip(*args, strict=True)))
-    return _combine(tiles, list(answers), tol, t_start)
+    answers = [_globalised_answer(a, t) for a, t in zip(answers, tiles, strict=True)]
+    return _combine([t.label for t in tiles], answers, tol, t_start)

@@ -101,8 +101,17 @@ def _globalised(result: LocalizationResult, tile: Tile) -> LocalizationResult:
                    hypotheses=tuple(_to_global(h, tile.index) for h in result.hypotheses))
 
 
-def _combine(tiles: Sequence[Tile], answers: list[_TileAnswer], tol: AssociationTolerances,
+def _globalised_answer(answer: _TileAnswer, tile: Tile) -> _TileAnswer:
+    """``answer`` with its result's object indices mapped to the whole world's (``tile.index``)."""
+    if answer.result is None:
+        return answer
+    return replace(answer, result=_globalised(answer.result, tile))
+
+
+def _combine(labels: Sequence[int], answers: list[_TileAnswer], tol: AssociationTolerances,
              t_start: float) -> LocalizationResult:
+    """The tiles' answers (``answers[k]`` of the tile labelled ``labels[k]``, object indices
+    already global: :func:`_globalised_answer`) ranked together."""
     results = {k: a.result for k, a in enumerate(answers) if a.result is not None}
     with_pose = [k for k, r in results.items() if r.status in _WITH_POSE]
     posed = sorted(with_pose, key=lambda k: (answers[k].cost, k))
@@ -113,30 +122,30 @@ def _combine(tiles: Sequence[Tile], answers: list[_TileAnswer], tol: Association
             raise UnknownTypeError(f"no tile has a type of the percepts: {errors[0]}")
         rank = {s: i for i, s in enumerate(FAILURE_ORDER)}
         k = min(failed, key=lambda j: (rank.get(results[j].status, len(rank)), j))
-        res = _globalised(results[k], tiles[k])
+        res = results[k]
         timings = dict(res.timings, tiles_total=time.perf_counter() - t_start)
-        return replace(res, message=f"no tile found a pose ({len(tiles)} tiles); tile {tiles[k].label}: "
+        return replace(res, message=f"no tile found a pose ({len(labels)} tiles); tile {labels[k]}: "
                        f"{res.message}", timings=timings)
     best_k = posed[0]
     best = answers[best_k]
-    res = _globalised(results[best_k], tiles[best_k])
+    res = results[best_k]
     pose = res.transformation
     runners = [k for k in posed[1:] if answers[k].cost - best.cost < tol.ambiguity_margin
                and _pose_nees(pose, best.fit_covariance, results[k].transformation) > CHI2_6_GATE]
     notes = [res.message] if res.message else []
-    notes.append(f"tile {tiles[best_k].label} of {len(tiles)} (robust cost {best.cost:.3g})")
+    notes.append(f"tile {labels[best_k]} of {len(labels)} (robust cost {best.cost:.3g})")
     status = res.status
     if runners:
         first = answers[runners[0]]
         gap = float(np.linalg.norm(results[runners[0]].transformation[:3, 3] - pose[:3, 3]))
-        notes.append(f"tiles ambiguous: best robust cost {best.cost:.3g} in tile {tiles[best_k].label}, next "
-                     f"{first.cost:.3g} in tile {tiles[runners[0]].label} at a pose {gap:.3g} m away")
+        notes.append(f"tiles ambiguous: best robust cost {best.cost:.3g} in tile {labels[best_k]}, next "
+                     f"{first.cost:.3g} in tile {labels[runners[0]]} at a pose {gap:.3g} m away")
         if status in UNIQUE_STATUSES:
             status = "ambiguous"
     llr = res.log_likelihood_ratio
     if len(posed) > 1:
         llr = min(llr, 0.5 * (answers[posed[1]].cost - best.cost))
-    others = tuple(h for k in posed[1:] for h in _globalised(results[k], tiles[k]).hypotheses)
+    others = tuple(h for k in posed[1:] for h in results[k].hypotheses)
     alternatives = res.alternatives + tuple(results[k].transformation.copy() for k in runners)
     timings = dict(res.timings, tiles_total=time.perf_counter() - t_start)
     return replace(res, status=status, ambiguous=res.ambiguous or bool(runners), alternatives=alternatives,
