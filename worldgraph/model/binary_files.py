@@ -44,7 +44,8 @@ ZIP_MAGIC = b"PK\x03\x04"
 
 _REQUIRED = ("format", "version", "max_link_length", "link_margin", "gravity_aligned", "type_names",
              "codes", "positions", "sizes", "class_vertex_keys", "class_vertex_offsets", "class_vertices")
-_OPTIONAL = ("ids", "id_numbers", "rotations", "geometry_names", "geometry_codes", "room")
+_OPTIONAL = ("ids", "id_numbers", "rotations", "geometry_names", "geometry_codes", "room", "link_i", "link_j",
+             "link_length")
 
 
 def is_binary_file(path: str) -> bool:
@@ -106,6 +107,11 @@ def world_arrays(world: Any) -> dict[str, NDArray[Any]]:
                              else np.zeros((0, 3)))
     if world.room is not None:
         out["room"] = np.array([world.room.lower, world.room.upper], dtype=np.float64)
+    links = world._links  # every link table's rows, in the tables' order (int32 while it fits)
+    index_type = np.int32 if len(objects) < 2**31 else np.int64
+    out["link_i"] = links._pi.astype(index_type)
+    out["link_j"] = links._pj.astype(index_type)
+    out["link_length"] = links._length
     return out
 
 
@@ -274,9 +280,9 @@ def load_binary(cls: Any, path: str) -> Any:
         numbers = _array(data, "id_numbers", "iu", (n,), bad).astype(np.int64, copy=False)
         if n and int(numbers.min()) < 0:
             raise bad(f"entry 'id_numbers' must be >= 0, got {int(numbers.min())}")
-        # the ids f"{type}_{number}" are unique when the (type, number) pairs are
-        pairs = codes.astype(np.int64) * (int(numbers.max()) + 1) + numbers
-        if len(np.unique(pairs)) != n:
+        # the ids f"{type}_{number}" are unique when the (type, number) pairs are (0 .. n-1: the default)
+        if not np.array_equal(numbers, np.arange(n)) and (np.diff(np.sort(
+                codes.astype(np.int64) * (int(numbers.max()) + 1) + numbers)) == 0).any():
             raise bad("entry 'id_numbers' repeats a number within one type (the ids would repeat)")
 
     keys = _names(data, "class_vertex_keys", bad)
@@ -293,12 +299,22 @@ def load_binary(cls: Any, path: str) -> Any:
         corners = _coordinates(data, "room", (2, 3), bad)
         room = (corners[0], corners[1])
 
+    if len({"link_i" in data, "link_j" in data, "link_length" in data}) != 1:
+        raise bad("entries 'link_i', 'link_j' and 'link_length' must be given together")
     table = ObjectTable._trusted(type_names, codes, positions, sizes, ids, numbers, rotations, gnames, gcodes)
+    world = cls.__new__(cls)
+    if "link_i" in data:  # read by WorldModel._build_links: checked there, not searched again
+        stored = (_array(data, "link_i", "iu", (None,), bad), _array(data, "link_j", "iu", (None,), bad),
+                  _array(data, "link_length", "f", (None,), bad))
+        object.__setattr__(world, "_stored_links", (*stored, path))
     try:
-        return cls(table, max_link_length=mll, class_vertices=class_vertices, link_margin=margin, room=room,
-                   gravity_aligned=bool(gravity))
+        world.__init__(table, max_link_length=mll, class_vertices=class_vertices, link_margin=margin,
+                       room=room, gravity_aligned=bool(gravity))
+    except MalformedFileError:
+        raise
     except WorldGraphError as exc:
         raise bad(str(exc)) from exc
+    return world
 
 
 def binary_path(path: str | os.PathLike[str]) -> bool:
