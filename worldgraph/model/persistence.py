@@ -1,6 +1,7 @@
 """World-model files: :meth:`WorldModel.to_dict <worldgraph.model.WorldModel.to_dict>`,
 ``save``, ``load`` and ``from_dict`` call these functions (the JSON format is described in
-:mod:`worldgraph.model`; :data:`FILE_FORMAT`, :data:`FILE_VERSION`)."""
+:mod:`worldgraph.model`; :data:`FILE_FORMAT`, :data:`FILE_VERSION`); the binary ``.npz`` format
+is read and written by :mod:`worldgraph.model.binary_files`."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from numpy.typing import NDArray
 
 from .. import _checks
 from ..errors import ArgumentTypeError, MalformedFileError, WorldGraphError
+from . import binary_files
 from .objects import ObjectModel
 
 FILE_FORMAT = "worldgraph.WorldModel"
@@ -45,8 +47,13 @@ def world_to_dict(world: Any) -> dict[str, Any]:
 
 def save_world(world: Any, path: str | os.PathLike[str]) -> None:
     """The body of :meth:`WorldModel.save <worldgraph.model.WorldModel.save>`; ``world`` is a
-    :class:`~worldgraph.model.WorldModel` (not imported: the world module imports this one)."""
+    :class:`~worldgraph.model.WorldModel` (not imported: the world module imports this one).
+    A name ending in ``.npz`` is written in the binary format (:mod:`.binary_files`), any other
+    as JSON."""
     path = _check_path(path)
+    if binary_files.binary_path(path):
+        binary_files.save_binary(world, path)
+        return
     try:
         with open(path, "w", encoding="utf-8") as fh:
             json.dump(world.to_dict(), fh, indent=1, allow_nan=False)
@@ -61,6 +68,12 @@ def load_world(cls: Any, path: str | os.PathLike[str]) -> Any:
         path = _check_path(path)
     except WorldGraphError as exc:
         raise MalformedFileError(str(exc)) from exc
+    try:
+        binary = binary_files.is_binary_file(path)
+    except OSError as exc:
+        raise MalformedFileError(f"{path}: cannot read: {exc}") from exc
+    if binary:  # the zip magic: an .npz archive, whatever the file's name
+        return binary_files.load_binary(cls, path)
     try:
         with open(path, encoding="utf-8") as fh:
             data = json.load(fh)
