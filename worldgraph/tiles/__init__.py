@@ -28,11 +28,14 @@ spanning two tiles (use a halo), and the default region (each tile's own bounds,
 whole world's, unless ``region`` is given).
 """
 
+from .cluster import ClusterTiles
 from .dispatch import localize_tiled
+from .files import TileEntry, TileIndex, append_tiles, load_tile, read_index, save_tiles
 from .pool import TilePool
 from .prefilter import TileSummary, TileVisit, summarize, tiles_to_visit
 from .ranking import FAILURE_ORDER
 from .split import MAX_TILES, Tile, split
 
-__all__ = ["FAILURE_ORDER", "MAX_TILES", "Tile", "TilePool", "TileSummary", "TileVisit", "localize_tiled",
-           "split", "summarize", "tiles_to_visit"]
+__all__ = ["FAILURE_ORDER", "MAX_TILES", "ClusterTiles", "Tile", "TileEntry", "TileIndex", "TilePool",
+           "TileSummary", "TileVisit", "append_tiles", "load_tile", "localize_tiled", "read_index",
+           "save_tiles", "split", "summarize", "tiles_to_visit"]

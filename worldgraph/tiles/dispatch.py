@@ -6,6 +6,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import time
+import weakref
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
@@ -61,8 +62,13 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     method : str
         One of :data:`~worldgraph.localize.LOCALIZE_METHODS`.
     scheduler : str or distributed.Client, optional
-        A Dask scheduler address (``"tcp://host:8786"``) or a client: every tile is scattered to
-        the cluster and localised there.  Default: local processes.
+        A Dask scheduler address (``"tcp://host:8786"``) or a client: every tile is localised on
+        the cluster.  With a client, the tiles are scattered on the first call and stay on the
+        cluster while the tiles and the client live (later calls send only the percepts); an
+        address opens a client per call, which scatters them again.  For a map that should never
+        be in the calling process (larger than it, or shared by many robots), write it with
+        :func:`~worldgraph.tiles.save_tiles` and serve it with :class:`~worldgraph.tiles.ClusterTiles`.
+        Default: local processes.
     workers : int, optional
         Local worker processes (default ``min(len(tiles), os.cpu_count())``); 1 runs the tiles
         one after another in this process.  Ignored with ``scheduler``.  On platforms with
@@ -148,6 +154,30 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     return _tilt_checked(answer, plan, tol)
 
 
+#: The worlds of tiles scattered to a cluster by :func:`localize_tiled`, kept while the Tile lives:
+#: a later call with the same tiles and client sends only its percepts.
+_SCATTERED: weakref.WeakKeyDictionary[Tile, dict[int, Any]] = weakref.WeakKeyDictionary()
+
+
+def _on_cluster(client: Any, tiles: tuple[Tile, ...]) -> list[Any]:
+    """Futures of the tiles' worlds on ``client``'s cluster: scattered on the first call with
+    these tiles and this client, reused after (a future the cluster lost is scattered again)."""
+    key = id(client)
+    for t in tiles:  # futures of closed clients are dead: forget them
+        held = _SCATTERED.get(t, {})
+        dead = [k for k, f in held.items() if getattr(f.client, "status", "closed") in ("closed", "closing")]
+        for k in dead:
+            del held[k]
+    missing = [t for t in tiles if _SCATTERED.get(t, {}).get(key) is None
+               or _SCATTERED[t][key].status in ("lost", "error", "cancelled")
+               or _SCATTERED[t][key].client is not client]
+    if missing:
+        remote = client.scatter([t.world for t in missing], hash=False)
+        for t, f in zip(missing, remote, strict=True):
+            _SCATTERED.setdefault(t, {})[key] = f
+    return [_SCATTERED[t][key] for t in tiles]
+
+
 def _run_tiles(tiles: tuple[Tile, ...], args: list[tuple[Any, ...]], scheduler: Any, workers: int | None,
                pool: TilePool | None, tol: AssociationTolerances, t_start: float) -> LocalizationResult:
     """Every tile's :func:`_run_tile` with its ``args`` (on the pool, the cluster or local
@@ -157,7 +187,7 @@ def _run_tiles(tiles: tuple[Tile, ...], args: list[tuple[Any, ...]], scheduler: 
     elif scheduler is not None:
         client, opened = _client(scheduler)
         try:
-            remote = client.scatter([t.world for t in tiles], hash=False)
+            remote = _on_cluster(client, tiles)
             futures = [client.submit(_run_tile, w, *a, pure=False) for w, a in zip(remote, args, strict=True)]
             answers = client.gather(futures)
         finally:
