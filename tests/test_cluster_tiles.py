@@ -145,6 +145,14 @@ def test_cluster_tiles_answer_as_localize_tiled_and_the_whole_world(site, tiles,
         pose, percepts = scans[0]
         visits = remote.plan(percepts, near=pose[:3, 3], radius=1.0)
         assert any(not v.visit and v.reason == "outside_prior" for v in visits)
+        # one prior per query (a NaN row: none)
+        near = np.array([scans[0][0][:3, 3], [np.nan] * 3])
+        both = remote.localize_many([scans[0][1], scans[1][1]], near=near, radius=[1.0, 5.0])
+        _same(both[0], remote.localize(scans[0][1], near=near[0], radius=1.0))
+        _same(both[1], remote.localize(scans[1][1]))
+        assert "outside_prior" in both[0].message and "outside_prior" not in both[1].message
+        with pytest.raises(ArgumentTypeError, match="near"):
+            remote.localize_many([scans[0][1]], near=np.zeros((2, 3)), radius=1.0)
     assert remote.closed
     with pytest.raises(WorldGraphError, match="closed"):
         remote.localize(scans[0][1])

@@ -778,6 +778,39 @@ class WorldModel:
         return WorldModel(objs, self.max_link_length, cv, scene=None, link_margin=self.link_margin,
                           room=self.room, gravity_aligned=self.gravity_aligned)
 
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the world's arrays: positions, types, the objects' table, the link tables,
+        the type index and the k-d tree (an estimate of its nodes); what a process holding it
+        pays, and what Dask (which sizes objects by ``sys.getsizeof``) weighs before moving it."""
+        total = 0
+        seen: set[int] = set()
+
+        def add(value: object) -> None:
+            nonlocal total
+            if isinstance(value, np.ndarray) and id(value) not in seen:
+                seen.add(id(value))
+                total += int(value.nbytes)
+
+        for name in ("_types", "_positions"):
+            add(getattr(self, name, None))
+        table = self.objects
+        for name in ("codes", "positions", "sizes", "rotations", "numbers"):
+            add(getattr(table, name, None))
+        links = getattr(self, "_links", None)
+        for name in ("_pi", "_pj", "_length", "_present", "_first", "_last"):
+            add(getattr(links, name, None))
+        for v in getattr(self, "_type_index", {}).values():
+            add(v)
+        tree = getattr(self, "_tree", None)
+        if tree is not None:
+            add(tree.data)
+            total += 3 * int(tree.data.nbytes)  # its index and nodes, about as large again (twice)
+        return total
+
+    def __sizeof__(self) -> int:
+        return object.__sizeof__(self) + self.nbytes
+
     # -- files -----------------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary in the documented file format."""

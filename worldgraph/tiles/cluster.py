@@ -19,6 +19,8 @@ from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
+
 from perception import Percept
 
 from .. import _checks
@@ -81,9 +83,15 @@ class ClusterTiles:
                 raise MalformedFileError(f"{entry.path}: tile file of tile {entry.label} is missing")
         self._client, self._owned = _client(client)
         token = uuid.uuid4().hex[:12]
+        home = _spread([e.summary.n_objects for e in self.index.tiles], self._client)
+        # each load goes to a worker of its own, the largest tiles first to the least loaded worker
+        # (left to itself the scheduler puts quick independent tasks on one idle worker, and every
+        # query would then run there); allow_other_workers: when that worker dies, the load runs
+        # again elsewhere
         self._futures = [self._client.submit(load_tile, entry.path, pure=False,
-                                             key=f"worldgraph-tile-{entry.label}-{token}")
-                         for entry in self.index.tiles]
+                                             key=f"worldgraph-tile-{entry.label}-{token}",
+                                             workers=None if w is None else [w], allow_other_workers=True)
+                         for entry, w in zip(self.index.tiles, home, strict=True)]
         self._types = frozenset(t for entry in self.index.tiles for t in entry.summary.type_counts)
         self._closed = False
 
@@ -135,7 +143,9 @@ class ClusterTiles:
                       up_sigma: float | None = None, near: Any = None, radius: float | None = None,
                       timeout: float | None = None) -> list[LocalizationResult]:
         """:meth:`localize` of many robots' percepts at once (every query's tile tasks are
-        submitted before any is awaited, so the workers share the batch)."""
+        submitted before any is awaited, so the workers share the batch).  ``near`` is one (3,)
+        prior for all queries or ``(len(queries), 3)``, one per query (rows of NaN: no prior);
+        ``radius`` one value or one per query."""
         if self._closed:
             raise WorldGraphError("ClusterTiles is closed (close was called): make a new ClusterTiles")
         if not isinstance(method, str) or method not in LOCALIZE_METHODS:
@@ -157,7 +167,9 @@ class ClusterTiles:
                     raise ArgumentTypeError(f"queries[{q}][{k}] must be a perception.Percept, "
                                             f"got {_checks._short(p)}")
             lists.append(plist)
-        visits = [self.plan(p, tol=tol, near=near, radius=radius) for p in lists]
+        nears, radii = _per_query(near, radius, len(lists))
+        visits = [self.plan(p, tol=tol, near=n, radius=r)
+                  for p, n, r in zip(lists, nears, radii, strict=True)]
         up = None if plan.up is None else plan.up.copy()
         first = self._run(lists, visits, [up] * len(lists), method, tol, region, sigma, timeout, t_start)
         out: list[LocalizationResult] = list(first)
@@ -231,6 +243,40 @@ class ClusterTiles:
     def __repr__(self) -> str:
         state = "closed" if self._closed else "open"
         return f"ClusterTiles({len(self.index.tiles)} tiles from {self.index.folder!r}, {state})"
+
+
+def _per_query(near: Any, radius: Any, n: int) -> tuple[list[Any], list[Any]]:
+    """Each query's position prior ``(near, radius)`` from one shared or one per query."""
+    if near is None and radius is None:
+        return [None] * n, [None] * n
+    if near is None or radius is None:
+        raise ArgumentTypeError("near and radius go together: pass both (a position prior) or neither")
+    arr = np.asarray(near, dtype=np.float64) if not isinstance(near, str) else None
+    if arr is None or arr.shape not in ((3,), (n, 3)):
+        raise ArgumentTypeError(f"near must be a (3,) point or one per query ({n}, 3), "
+                                f"got {_checks._short(near)}")
+    rad = np.broadcast_to(np.asarray(radius, dtype=np.float64), (n,)) if np.ndim(radius) <= 1 else None
+    if rad is None or np.size(radius) not in (1, n):
+        raise ArgumentTypeError(f"radius must be one value or one per query ({n}), "
+                                f"got {_checks._short(radius)}")
+    points = [arr] * n if arr.ndim == 1 else list(arr)
+    out_n = [None if not np.all(np.isfinite(p)) else p for p in points]
+    return out_n, [None if p is None else float(r) for p, r in zip(out_n, rad, strict=True)]
+
+
+def _spread(sizes: list[int], client: Any) -> list[str | None]:
+    """A worker for each tile: greedy by object count onto the least loaded worker (None for every
+    tile when the cluster has no worker yet: the scheduler then places them)."""
+    workers = sorted(client.scheduler_info().get("workers", {}))
+    if not workers:
+        return [None] * len(sizes)
+    load = dict.fromkeys(workers, 0)
+    home: list[str | None] = [None] * len(sizes)
+    for k in sorted(range(len(sizes)), key=lambda j: -sizes[j]):
+        w = min(workers, key=lambda a: (load[a], a))
+        home[k] = w
+        load[w] += sizes[k]
+    return home
 
 
 def _noted(result: LocalizationResult, note: str) -> LocalizationResult:

@@ -40,6 +40,9 @@ class Tile:
     label: int
     own: NDArray[np.bool_]
 
+    def __sizeof__(self) -> int:  # Dask weighs an object by sys.getsizeof before it moves it
+        return object.__sizeof__(self) + self.world.__sizeof__() + int(self.index.nbytes + self.own.nbytes)
+
 
 def _halo_members(positions: NDArray[np.float64], own: NDArray[np.intp], others: NDArray[np.intp],
                   halo: float) -> NDArray[np.intp]:
