@@ -196,7 +196,7 @@ def _read_stored(fh: Any, info: zipfile.ZipInfo, bad: Any) -> NDArray[Any]:
     if array.size != count:
         raise bad(f"entry {info.filename!r}: truncated ({array.size} of {count} values)")
     if count:
-        crc = zlib.crc32(memoryview(array.reshape(-1).view(np.uint8)), crc)
+        crc = zlib.crc32(array.reshape(-1).view(np.uint8).data, crc)
     if crc != info.CRC:
         raise bad(f"entry {info.filename!r}: bad CRC-32 (the file is corrupt)")
     return array.reshape(shape[::-1]).T if fortran else array.reshape(shape)
