@@ -319,7 +319,7 @@ def _stored_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: c
     sample = np.arange(0, n, max(1, n // STORED_LINKS_SAMPLE))
     in_sample = np.zeros(n, dtype=bool)
     in_sample[sample] = True
-    degree = np.zeros(n, dtype=np.int64)
+    hits: list[NDArray[Any]] = []  # the rows' ends that are sampled objects
     starts_parts = [np.zeros(min(m, 1), dtype=np.intp)]
     present_parts = []
     # in chunks (one row of overlap for the differences): every temporary stays small, where
@@ -362,10 +362,8 @@ def _stored_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: c
             present_parts.append(key[:1])
         present_parts.append(key[new])
         own = slice(lo - first, None)  # this chunk's rows (the overlap row counted in the last)
-        for side in (a[own], b[own]):
-            hit = side[in_sample[side]]
-            if hit.size:
-                degree += np.bincount(hit, minlength=n)
+        hits.extend(side[in_sample[side]] for side in (a[own], b[own]))
+    degree = np.bincount(np.concatenate(hits), minlength=n) if hits else np.zeros(n, dtype=np.intp)
     starts = np.concatenate(starts_parts).astype(np.intp)
     present = (np.concatenate(present_parts).astype(np.int64) if present_parts
                else np.zeros(0, dtype=np.int64))
