@@ -159,6 +159,7 @@ def _returned_statuses(path):
 #: The modules of the localize package (``worldgraph/localize.py`` before issue 26).
 _LOCALIZE_FILES = sorted(p.relative_to(ROOT).as_posix()
                          for p in (ROOT / "worldgraph" / "localize").glob("*.py"))
+_TILES_FILES = sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "worldgraph" / "tiles").glob("*.py"))
 
 
 def _status_sets():
@@ -172,7 +173,7 @@ def _status_sets():
     return {
         # the localize package: every module of the pipeline hands out localisation statuses
         **{path: localize_module.LOCALIZE_STATUSES for path in _LOCALIZE_FILES},
-        "worldgraph/tiles.py": localize_module.LOCALIZE_STATUSES,
+        **{path: localize_module.LOCALIZE_STATUSES for path in _TILES_FILES},
         "worldgraph/active/plan.py": worldgraph.active.VIEW_STATUSES,
         "radialopt/position.py": radialopt.POSITION_STATUSES,
         "radialopt/projection.py": radialopt.STATUSES,

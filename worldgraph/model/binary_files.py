@@ -132,8 +132,9 @@ def save_binary(world: Any, path: str) -> None:
 # ----------------------------------------------------------------------------------------------
 # reading
 # ----------------------------------------------------------------------------------------------
-def _read_entries(path: str) -> dict[str, NDArray[Any]]:
-    """Every entry of the archive as an array (no pickles), or :class:`MalformedFileError`."""
+def read_entries(path: str, extra: tuple[str, ...] = ()) -> dict[str, NDArray[Any]]:
+    """Every entry of the archive as an array (no pickles), or :class:`MalformedFileError`;
+    ``extra`` names entries a file that builds on the world file may add (a tile file's)."""
     def bad(msg: str) -> MalformedFileError:
         return MalformedFileError(f"{path}: {msg}")
 
@@ -144,7 +145,7 @@ def _read_entries(path: str) -> dict[str, NDArray[Any]]:
         for key in _REQUIRED:
             if key not in names:
                 raise bad(f"missing entry {key!r} (a binary world file holds {list(_REQUIRED)})")
-        unknown = sorted(set(names) - set(_REQUIRED) - set(_OPTIONAL))
+        unknown = sorted(set(names) - set(_REQUIRED) - set(_OPTIONAL) - set(extra))
         if unknown:
             raise bad(f"unknown entries {unknown[:10]}")
         if all(i.compress_type == zipfile.ZIP_STORED for i in infos):  # what save writes
@@ -268,13 +269,15 @@ def _scalar(data: Mapping[str, NDArray[Any]], key: str, kinds: str, bad: Any) ->
     return _array(data, key, kinds, (), bad).item()
 
 
-def load_binary(cls: Any, path: str) -> Any:
+def load_binary(cls: Any, path: str, data: Mapping[str, NDArray[Any]] | None = None) -> Any:
     """Read a binary world file written by :func:`save_binary`; ``cls`` is the
-    :class:`~worldgraph.model.WorldModel` class (or subclass) to build."""
+    :class:`~worldgraph.model.WorldModel` class (or subclass) to build; ``data`` the file's
+    entries when the caller has read them (:func:`read_entries`)."""
     def bad(msg: str) -> MalformedFileError:
         return MalformedFileError(f"{path}: {msg}")
 
-    data = _read_entries(path)
+    if data is None:
+        data = read_entries(path)
     fmt = _array(data, "format", "U", (), bad).item()
     if fmt != BINARY_FORMAT:
         raise bad(f"format must be {BINARY_FORMAT!r}, got {_checks._short(fmt)}")

@@ -1,0 +1,253 @@
+"""A map that lives on a Dask cluster: :class:`ClusterTiles`.
+
+The client holds the tile index only (:func:`~worldgraph.tiles.read_index`: labels, files and the
+pre-filter's :class:`~worldgraph.tiles.TileSummary` of every tile).  Each tile is loaded on a
+worker by a task that reads its file (:func:`~worldgraph.tiles.load_tile`), and the client keeps
+that task's future, so the tile stays in the worker's memory between queries and Dask recomputes
+it on another worker when its worker dies.  A query sends the percepts and the small arguments
+to the tiles the pre-filter keeps (:func:`~worldgraph.tiles.tiles_to_visit`), each worker answers
+for its tile with indices mapped to the whole map's, and the client ranks the answers as
+:func:`~worldgraph.tiles.localize_tiled` does.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import uuid
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any
+
+from perception import Percept
+
+from .. import _checks
+from ..errors import ArgumentTypeError, MalformedFileError, WorldGraphError
+from ..localize.pipeline import (
+    LOCALIZE_METHODS,
+    _answered_by_free_search,
+    _gravity_unsupported,
+    _tilt_checked,
+)
+from ..localize.result import LocalizationResult, LocalizeStatus, _failed
+from ..pose.gravity import Gravity, _check_gravity, _check_up_sigma
+from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
+from .files import TileIndex, load_tile, read_index
+from .prefilter import TileVisit, tiles_to_visit
+from .ranking import _combine, _globalised_answer, _run_tile, _TileAnswer
+from .split import Tile
+
+__all__ = ["ClusterTiles"]
+
+
+def _answer(tile: Tile, *args: Any) -> _TileAnswer:
+    """One tile's answer on the worker that holds it, its indices mapped to the whole map's."""
+    return _globalised_answer(_run_tile(tile.world, *args), tile)
+
+
+def _visited_note(visits: Sequence[TileVisit]) -> str:
+    skipped: dict[str, int] = {}
+    for v in visits:
+        if not v.visit:
+            skipped[str(v.reason)] = skipped.get(str(v.reason), 0) + 1
+    n = sum(v.visit for v in visits)
+    why = ", ".join(f"{k} {c}" for k, c in sorted(skipped.items()))
+    return f"visited {n} of {len(visits)} tiles" + (f" (skipped: {why})" if why else "")
+
+
+class ClusterTiles:
+    """Tiles that stay on the workers of a Dask cluster between queries.
+
+    Parameters
+    ----------
+    folder : str or PathLike
+        Written by :func:`~worldgraph.tiles.save_tiles` (its index and one file per tile); the
+        workers read the tile files, so the folder must be visible to them at the same path.
+    client : distributed.Client or str
+        A client, or a scheduler address (``"tcp://host:8786"``; the client is then opened here
+        and closed by :meth:`close`).
+
+    Raises
+    ------
+    MalformedFileError
+        The index or a tile file is missing or unreadable (the file is named); a tile file that
+        turns out corrupt on its worker raises the same error from the first query.
+    """
+
+    def __init__(self, folder: str | os.PathLike[str], client: Any) -> None:
+        self.index: TileIndex = read_index(folder)
+        for entry in self.index.tiles:
+            if not os.path.isfile(entry.path):
+                raise MalformedFileError(f"{entry.path}: tile file of tile {entry.label} is missing")
+        self._client, self._owned = _client(client)
+        token = uuid.uuid4().hex[:12]
+        self._futures = [self._client.submit(load_tile, entry.path, pure=False,
+                                             key=f"worldgraph-tile-{entry.label}-{token}")
+                         for entry in self.index.tiles]
+        self._types = frozenset(t for entry in self.index.tiles for t in entry.summary.type_counts)
+        self._closed = False
+
+    # ------------------------------------------------------------------------------------------
+    @property
+    def closed(self) -> bool:
+        """True after :meth:`close`."""
+        return self._closed
+
+    def wait(self, timeout: float | None = None) -> None:
+        """Block until every tile is loaded on a worker (queries do not need this: a query waits
+        for the tiles it visits); a tile file that fails to load raises its
+        :class:`~worldgraph.errors.MalformedFileError` here."""
+        from distributed import wait
+
+        if timeout is not None:
+            timeout = _checks.positive_float("timeout", timeout)
+        try:
+            wait(self._futures, timeout=timeout)
+        except TimeoutError as exc:
+            raise WorldGraphError(f"the tiles did not load within timeout = {timeout:g} s") from exc
+        for f in self._futures:
+            if f.status == "error":
+                f.result()  # raises the load's own error (naming the file)
+
+    def plan(self, percepts: Sequence[Percept], *, tol: AssociationTolerances | None = None,
+             near: Any = None, radius: float | None = None) -> tuple[TileVisit, ...]:
+        """The pre-filter's word on every tile for these percepts (:func:`tiles_to_visit`)."""
+        summaries = [e.summary for e in self.index.tiles]
+        return tiles_to_visit(summaries, percepts, tol=tol, near=near, radius=radius)
+
+    def localize(self, percepts: Sequence[Percept], method: str = "ml", *,
+                 tol: AssociationTolerances | None = None, region: Any = None, gravity: Gravity = "auto",
+                 up_sigma: float | None = None, near: Any = None, radius: float | None = None,
+                 timeout: float | None = None) -> LocalizationResult:
+        """:func:`~worldgraph.localize.localize` on the tiles that can answer, ranked together.
+
+        ``method``, ``tol``, ``region``, ``gravity`` and ``up_sigma`` are those of
+        :func:`~worldgraph.tiles.localize_tiled`; ``near`` and ``radius`` a position prior for
+        the pre-filter (world frame, metres); ``timeout`` seconds to wait for the workers (None:
+        as long as it takes; Dask re-runs the tasks of a worker that dies).  The message says
+        how many tiles were visited and why the others were skipped.
+        """
+        return self.localize_many([percepts], method, tol=tol, region=region, gravity=gravity,
+                                  up_sigma=up_sigma, near=near, radius=radius, timeout=timeout)[0]
+
+    def localize_many(self, queries: Sequence[Sequence[Percept]], method: str = "ml", *,
+                      tol: AssociationTolerances | None = None, region: Any = None, gravity: Gravity = "auto",
+                      up_sigma: float | None = None, near: Any = None, radius: float | None = None,
+                      timeout: float | None = None) -> list[LocalizationResult]:
+        """:meth:`localize` of many robots' percepts at once (every query's tile tasks are
+        submitted before any is awaited, so the workers share the batch)."""
+        if self._closed:
+            raise WorldGraphError("ClusterTiles is closed (close was called): make a new ClusterTiles")
+        if not isinstance(method, str) or method not in LOCALIZE_METHODS:
+            raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
+        tol = ASSOCIATION_TOLERANCES if tol is None else tol
+        if not isinstance(tol, AssociationTolerances):
+            raise ArgumentTypeError(f"tol must be AssociationTolerances, got {_checks._short(tol)}")
+        plan = _check_gravity(gravity, tol)
+        sigma = _check_up_sigma(up_sigma, tol)
+        if timeout is not None:
+            timeout = _checks.positive_float("timeout", timeout)
+        items = _checks.as_list("queries", queries, "sequences of perception.Percept")
+        t_start = time.perf_counter()
+        lists = []
+        for q, percepts in enumerate(items):
+            plist = _checks.as_list(f"queries[{q}]", percepts, "perception.Percept", exclude=(Percept,))
+            for k, p in enumerate(plist):
+                if not isinstance(p, Percept):
+                    raise ArgumentTypeError(f"queries[{q}][{k}] must be a perception.Percept, "
+                                            f"got {_checks._short(p)}")
+            lists.append(plist)
+        visits = [self.plan(p, tol=tol, near=near, radius=radius) for p in lists]
+        up = None if plan.up is None else plan.up.copy()
+        first = self._run(lists, visits, [up] * len(lists), method, tol, region, sigma, timeout, t_start)
+        out: list[LocalizationResult] = list(first)
+        again = []
+        for q, (res, plist) in enumerate(zip(first, lists, strict=True)):
+            n_used = sum(1 for p in plist if p.type in self._types)
+            why = _gravity_unsupported(res, plan, tol, method, n_used)
+            if why:
+                again.append((q, why))
+        if again:
+            free = self._run([lists[q] for q, _ in again], [visits[q] for q, _ in again], [None] * len(again),
+                             method, tol, region, sigma, timeout, t_start)
+            for (q, why), res in zip(again, free, strict=True):
+                out[q] = _answered_by_free_search(res, out[q], why)
+        return [_tilt_checked(r, plan, tol) for r in out]
+
+    def _run(self, lists: list[list[Percept]], visits: list[tuple[TileVisit, ...]], ups: list[Any],
+             method: str, tol: AssociationTolerances, region: Any, sigma: float, timeout: float | None,
+             t_start: float) -> list[LocalizationResult]:
+        """Submit every query's tile tasks, then gather and rank each query's answers."""
+        jobs = []
+        for plist, visit, up in zip(lists, visits, ups, strict=True):
+            ks = [k for k, v in enumerate(visit) if v.visit]
+            futures = [self._client.submit(_answer, self._futures[k], plist, self._types, method, tol, region,
+                                           None, up, sigma, pure=False) for k in ks]
+            jobs.append((ks, futures))
+        out = []
+        for (ks, futures), plist, visit in zip(jobs, lists, visits, strict=True):
+            note = _visited_note(visit)
+            if not ks:
+                few = all(v.reason == "no_types" for v in visit)
+                status: LocalizeStatus = "too_few_percepts" if few else "no_association"
+                res = _failed(status, f"no tile can answer these percepts: {note}", len(plist), (),
+                              {"total": time.perf_counter() - t_start}, False)
+                out.append(res)
+                continue
+            answers = self._gather(futures, timeout)
+            labels = [self.index.tiles[k].label for k in ks]
+            out.append(_noted(_combine(labels, answers, tol, t_start), note))
+        return out
+
+    def _gather(self, futures: list[Any], timeout: float | None) -> list[_TileAnswer]:
+        """The tasks' answers; a task's own error (a corrupt tile file) is raised as it is."""
+        from distributed import wait
+
+        if timeout is not None:
+            try:
+                wait(futures, timeout=timeout)
+            except TimeoutError as exc:
+                raise WorldGraphError(f"the tile tasks of a query did not finish within timeout = "
+                                      f"{timeout:g} s (a worker lost, or a tile still loading?)") from exc
+        return list(self._client.gather(futures))
+
+    def close(self) -> None:
+        """Release the tiles on the workers (and the client when this object opened it); idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        futures, self._futures = self._futures, []
+        for f in futures:
+            f.release()
+        if self._owned:
+            self._client.close()
+
+    def __enter__(self) -> ClusterTiles:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        state = "closed" if self._closed else "open"
+        return f"ClusterTiles({len(self.index.tiles)} tiles from {self.index.folder!r}, {state})"
+
+
+def _noted(result: LocalizationResult, note: str) -> LocalizationResult:
+    return replace(result, message="; ".join(m for m in (result.message, note) if m))
+
+
+def _client(client: object) -> tuple[Any, bool]:
+    """A ``distributed.Client`` and whether this object opened it."""
+    try:
+        from distributed import Client
+    except ImportError as exc:  # pragma: no cover - distributed is in the test extra
+        raise WorldGraphError("ClusterTiles needs Dask distributed: pip install distributed") from exc
+    if isinstance(client, Client):
+        return client, False
+    if isinstance(client, str):
+        _checks.name_string("client", client)
+        return Client(client), True
+    raise ArgumentTypeError(f"client must be a distributed.Client or a scheduler address such as "
+                            f"'tcp://host:8786', got {_checks._short(client)}")
+
