@@ -310,3 +310,14 @@ def test_unreadable_paths(tmp_path):
     os.mkdir(tmp_path / "folder.npz")
     with pytest.raises(MalformedFileError):
         WorldModel.load(tmp_path / "folder.npz")
+
+
+def test_compressed_archive_loads(tmp_path):
+    world = _rotated_world(seed=5)
+    world.save(tmp_path / "w.npz")
+    entries = _entries(tmp_path / "w.npz")
+    with open(tmp_path / "small.npz", "wb") as fh:
+        np.savez_compressed(fh, **entries)
+    with zipfile.ZipFile(tmp_path / "small.npz") as z:
+        assert all(i.compress_type == zipfile.ZIP_DEFLATED for i in z.infolist())
+    _assert_same(WorldModel.load(tmp_path / "small.npz"), world)

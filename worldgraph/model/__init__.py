@@ -46,6 +46,37 @@ Every object's ``geometry`` must be a key of ``class_vertices``.  ``room`` (the 
 room, an axis-aligned box, :attr:`WorldModel.room`) is written only when it is set; files
 without it read as ``room = None``.
 
+Binary file format (:meth:`WorldModel.save` to a name ending in ``.npz``; :meth:`WorldModel.load`
+reads either format whatever the name: a file starting with the zip signature, bytes ``50 4B 03 04``, is
+binary), an uncompressed numpy ``.npz`` archive of columnar arrays, read with
+``allow_pickle=False`` (:mod:`worldgraph.model.binary_files` says why npz and not Parquet)::
+
+    format               0-d str     "worldgraph.WorldModel.npz"
+    version              0-d int     1
+    max_link_length      0-d float   as in JSON
+    link_margin          0-d float
+    gravity_aligned      0-d bool
+    type_names           (b,) uint8  the sorted distinct types, UTF-8, joined by NUL
+    codes                (n,) int32  object k's type is type_names[codes[k]]
+    positions, sizes     (n, 3) f8   box centres (the poses' translations) and extents
+    rotations            (n, 3, 3) f8, optional: the poses' rotations (absent: all identity)
+    geometry_names       (b,) uint8, optional: sorted distinct geometry keys, as type_names
+    geometry_codes       (n,) int32, optional (with geometry_names; absent: the key is the type)
+    ids                  (b,) uint8  the ids in object order, UTF-8, joined by NUL; or instead
+    id_numbers           (n,) int64  ids f"{type}_{number}" (worlds from arrays and the scenes)
+    class_vertex_keys    (b,) uint8  geometry keys, UTF-8, joined by NUL
+    class_vertex_offsets (g + 1,) int64, class_vertices (m, 3) f8: key c's vertices are rows
+                                     offsets[c]:offsets[c + 1]
+    room                 (2, 3) f8, optional: lower and upper corner
+    link_i, link_j       (l,) int64, link_length (l,) f8, optional: every link table's rows in
+                                     the order of the tables (by type pair, then length)
+
+The link tables are derived data: stored so that a load does not search and sort the pairs again
+(19 s of a 1M-object load), checked against the positions on load (vectorised over every row,
+lengths and neighbour counts on samples), and rebuilt when absent.  Every entry is checked (dtype,
+shape, finite, within :data:`MAX_COORDINATE`, rotations proper, codes in range, ids unique and
+non-empty); a problem is a :class:`~worldgraph.errors.MalformedFileError` naming the file.
+
 Where things live (the names are importable from here, as before):
 
 * :mod:`worldgraph.model.world`: :class:`WorldModel`;
@@ -60,6 +91,7 @@ Where things live (the names are importable from here, as before):
 * :mod:`worldgraph.model.far_pairs`: :class:`FarPairIndex` and the ``FAR_PAIR_*`` limits (set
   them on that module: the far-pair code reads them there);
 * :mod:`worldgraph.model.persistence`: the file format (:data:`FILE_FORMAT`, :data:`FILE_VERSION`);
+* :mod:`worldgraph.model.binary_files`: the binary file format (``BINARY_FORMAT``, ``BINARY_VERSION``);
 * :mod:`worldgraph.model.ring_join`: the compiled ring and shell joins (also
   ``worldgraph.ring_join``);
 * :mod:`worldgraph.model.units`: the millimetre hints (also ``worldgraph.units``).

@@ -197,7 +197,8 @@ def _build_world_links(world: Any, stored: tuple[NDArray[Any], ...] | None = Non
     types = world._types
     positions = world._positions
     table = world.objects
-    if hasattr(table, "type_names") and hasattr(table, "codes"):  # an ObjectTable: its codes, no string sort
+    if (hasattr(table, "type_names") and hasattr(table, "codes")  # an ObjectTable: its codes, no string sort
+            and list(table.type_names) == sorted(table.type_names)):
         used = np.flatnonzero(np.bincount(table.codes, minlength=len(table.type_names)))
         names = np.asarray(table.type_names, dtype=str)[used]
         recode = np.zeros(len(table.type_names), dtype=np.intp)
@@ -270,6 +271,8 @@ def _search_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: c
 #: Objects whose links (and link rows whose lengths) a binary file's link tables are checked
 #: against on load: a k-d tree query and the lengths recomputed from the positions.
 STORED_LINKS_SAMPLE = 1000
+#: Rows per chunk of the stored link tables' checks.
+_CHECK_CHUNK = 1 << 20
 
 
 def _stored_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: cKDTree,
@@ -306,54 +309,71 @@ def _stored_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: c
     if m and (min(int(si.min()), int(sj.min())) < 0 or max(int(si.max()), int(sj.max())) >= n):
         k = int(np.argmax((si < 0) | (si >= n) | (sj < 0) | (sj >= n)))
         raise bad(f"row {k} = ({int(si[k])}, {int(sj[k])}) is not a pair of object indices 0..{n - 1}")
-    pi, pj = si.astype(np.intp), sj.astype(np.intp)
-    small = codes.astype(np.int32)
-    ci, cj = small[pi], small[pj]
-    wrong = (ci > cj) | ((ci == cj) & (pi >= pj))
-    if wrong.any():
-        k = int(np.argmax(wrong))
-        raise bad(f"row {k} = ({int(pi[k])}, {int(pj[k])}) is not oriented (lower type first, or the lower "
-                  "index first within one type)")
-    del wrong
-    nt = len(names)
-    key = ci.astype(np.int64) * nt + cj
-    dk = np.diff(key)
-    if (dk < 0).any():
-        k = int(np.argmax(dk < 0))
-        raise bad(f"rows {k} and {k + 1} are not grouped by type pair in order")
     if m and (float(length.max()) >= radius or float(length.min()) < 0):
         k = int(np.argmax((length >= radius) | (length < 0)))
         raise bad(f"row {k} has length {float(length[k])!r} m, not in 0 <= length < max_link_length + "
                   f"link_margin = {radius!r}")
+    nt = len(names)
+    small = codes.astype(np.int32)
+    key_type = np.int32 if nt * nt < 2**31 else np.int64
+    sample = np.arange(0, n, max(1, n // STORED_LINKS_SAMPLE))
+    in_sample = np.zeros(n, dtype=bool)
+    in_sample[sample] = True
+    hits: list[NDArray[Any]] = []  # the rows' ends that are sampled objects
+    starts_parts = [np.zeros(min(m, 1), dtype=np.intp)]
+    present_parts = []
+    # in chunks (one row of overlap for the differences): every temporary stays small, where
+    # whole-table temporaries (27.8M rows at 1M objects) made the checks twice as slow
+    for lo in range(0, m, _CHECK_CHUNK):
+        hi = min(lo + _CHECK_CHUNK, m)
+        first = max(lo - 1, 0)
+        a, b, length_c = si[first:hi], sj[first:hi], length[first:hi]
+        ca, cb = small[a], small[b]
+        wrong = (ca > cb) | ((ca == cb) & (a >= b))
+        if wrong.any():
+            k = first + int(np.argmax(wrong))
+            raise bad(f"row {k} = ({int(si[k])}, {int(sj[k])}) is not oriented (lower type first, or the "
+                      "lower index first within one type)")
+        close = (ca == cb) & (length_c <= COINCIDENT_TOLERANCE)
+        if close.any():
+            k = first + int(np.argmax(close))
+            raise world._coincident(si[k], sj[k], float(length[k]))
+        key = ca.astype(key_type) * key_type(nt) + cb
+        dk = np.diff(key)
+        if (dk < 0).any():
+            k = first + int(np.argmax(dk < 0))
+            raise bad(f"rows {k} and {k + 1} are not grouped by type pair in order")
+        same = dk == 0
+        dl = np.diff(length_c)
+        unsorted = same & (dl < 0)
+        if unsorted.any():
+            k = first + int(np.argmax(unsorted))
+            raise bad(f"rows {k} and {k + 1} of one type pair are not sorted by length")
+        ties = np.flatnonzero(same & (dl == 0))
+        if ties.size:
+            before = a[ties].astype(np.int64) * n + b[ties]
+            after = a[ties + 1].astype(np.int64) * n + b[ties + 1]
+            if (after <= before).any():
+                k = first + int(ties[int(np.argmax(after <= before))])
+                raise bad(f"rows {k} and {k + 1} of equal length are not in object order (or repeat)")
+        new = np.flatnonzero(~same) + 1
+        starts_parts.append(new + first)
+        if lo == 0:
+            present_parts.append(key[:1])
+        present_parts.append(key[new])
+        own = slice(lo - first, None)  # this chunk's rows (the overlap row counted in the last)
+        hits.extend(side[in_sample[side]] for side in (a[own], b[own]))
+    degree = np.bincount(np.concatenate(hits), minlength=n) if hits else np.zeros(n, dtype=np.intp)
+    starts = np.concatenate(starts_parts).astype(np.intp)
+    present = (np.concatenate(present_parts).astype(np.int64) if present_parts
+               else np.zeros(0, dtype=np.int64))
     rows_checked = np.arange(0, m, max(1, m // STORED_LINKS_SAMPLE))
-    differ = _pair_lengths(positions, pi[rows_checked], pj[rows_checked]) != length[rows_checked]
+    differ = _pair_lengths(positions, si[rows_checked], sj[rows_checked]) != length[rows_checked]
     if differ.any():
         k = int(rows_checked[int(np.argmax(differ))])
         raise bad(f"row {k} has length {float(length[k])!r} m, but its objects are "
-                  f"{float(_pair_lengths(positions, pi[k:k + 1], pj[k:k + 1])[0])!r} m apart")
-    same = dk == 0
-    del dk
-    dl = np.diff(length)
-    unsorted = same & (dl < 0)
-    if unsorted.any():
-        k = int(np.argmax(unsorted))
-        raise bad(f"rows {k} and {k + 1} of one type pair are not sorted by length")
-    ties = np.flatnonzero(same & (dl == 0))
-    del same, dl, unsorted
-    if ties.size:
-        order_key = pi[ties] * n + pj[ties]
-        after = pi[ties + 1] * n + pj[ties + 1]
-        if (after <= order_key).any():
-            k = int(ties[int(np.argmax(after <= order_key))])
-            raise bad(f"rows {k} and {k + 1} of equal length are not in object order (or repeat)")
-    close = (ci == cj) & (length <= COINCIDENT_TOLERANCE)
-    if close.any():
-        k = int(np.argmax(close))
-        raise world._coincident(pi[k], pj[k], float(length[k]))
-    del ci, cj, close
+                  f"{float(_pair_lengths(positions, si[k:k + 1], sj[k:k + 1])[0])!r} m apart")
     # completeness on a sample: the links of each sampled object against the tree's neighbours
-    sample = np.arange(0, n, max(1, n // STORED_LINKS_SAMPLE))
-    degree = np.bincount(pi, minlength=n)[sample] + np.bincount(pj, minlength=n)[sample]
     found = tree.query_ball_point(positions[sample], radius * (1.0 + QUERY_WIDEN))
     lens = np.fromiter((len(f) for f in found), dtype=np.intp, count=len(found))
     rows = np.repeat(np.arange(len(sample)), lens)
@@ -361,12 +381,11 @@ def _stored_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: c
     near = _pair_lengths(positions, sample[rows], cols) < radius
     near &= cols != sample[rows]
     want = np.bincount(rows[near], minlength=len(sample))
-    if (want != degree).any():
-        k = int(np.argmax(want != degree))
-        raise bad(f"object {int(sample[k])} has {int(degree[k])} links, but {int(want[k])} objects lie "
+    have = degree[sample]
+    if (want != have).any():
+        k = int(np.argmax(want != have))
+        raise bad(f"object {int(sample[k])} has {int(have[k])} links, but {int(want[k])} objects lie "
                   f"within max_link_length + link_margin = {radius!r} of it")
-    starts = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]])) if m else np.zeros(0, np.intp)
-    present = key[starts]
     last = np.append(starts[1:], m)[: len(starts)]
-    return _LinkTables(names, pi, pj, length, present.astype(np.int64), starts.astype(np.intp),
-                       last.astype(np.intp))
+    return _LinkTables(names, si.astype(np.intp, copy=False), sj.astype(np.intp, copy=False), length, present,
+                       starts, last)

@@ -817,18 +817,25 @@ class WorldModel:
         return world_to_dict(self)
 
     def save(self, path: str | os.PathLike[str]) -> None:
-        """Write the model as JSON (see :mod:`worldgraph.model` for the format); a path that cannot be
-        written raises :class:`~worldgraph.errors.WorldGraphError` naming it."""
+        """Write the model as JSON, or in the binary format when the name ends in ``.npz`` (an
+        uncompressed numpy archive of columnar arrays with the link tables, fast to load; see
+        :mod:`worldgraph.model` for both formats); a path that cannot be written raises
+        :class:`~worldgraph.errors.WorldGraphError` naming it."""
         save_world(self, path)
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> WorldModel:
-        """Read a model written by :meth:`save` (or by hand).
+        """Read a model written by :meth:`save` (or by hand), JSON or binary: a file starting with
+        the zip magic bytes is read as the binary ``.npz`` format whatever its name, any other as
+        JSON.
 
         Every problem is a :class:`~worldgraph.errors.MalformedFileError` naming the path and the
         problem: a path that is not a ``str``/``PathLike`` or holds a NUL character, a file that
         cannot be read, is not UTF-8, not JSON, nested too deeply, or holds a bad value (numbers
-        beyond float64, non-rigid poses, coordinates above :data:`MAX_COORDINATE`, ...).
+        beyond float64, non-rigid poses, coordinates above :data:`MAX_COORDINATE`, ...); for a
+        binary file also a truncated or corrupt archive, a missing entry, a wrong dtype or
+        shape, an object array (never unpickled), or stored link tables that do not match the
+        positions.
         """
         return load_world(cls, path)
 
