@@ -1,13 +1,13 @@
 """Benchmark: a map bigger than one process, served to many robots from a Dask cluster.
 
 A site of ``--buildings`` office buildings (``worldgraph.scenes.building_site``, 5 storeys each,
-``--objects`` in all) is written tile by tile, one tile per building: each building is generated,
-its objects jittered by ``--jitter`` metres (rooms alike but not identical: exact repeats leave
-about half of the views honestly ambiguous), written with ``worldgraph.tiles.save_tiles`` and let
-go, so no process holds the whole map.  While a building is in memory, ``--robots`` robots per
-building are drawn (a robot 0.8 m above a random table of the building, random yaw, 8 true
-percepts within 8 m of its storey, sigma = rho^2 / 1000, 1 false percept) and kept with their true
-poses.
+``--objects`` in all, in a row 30 m apart) is written tile by tile, one tile per building: each
+building is generated, its objects jittered by ``--jitter`` metres (rooms alike but not identical:
+exact repeats leave about half of the views honestly ambiguous), written with
+``worldgraph.tiles.save_tiles`` and let go, so no process holds the whole map. While a building is
+in memory, ``--robots`` robots per building are drawn (a robot 0.8 m above a random table of the
+building, random yaw, 8 true percepts within 8 m of its storey, sigma = rho^2 / 1000, 1 false
+percept) and kept with their true poses.
 
 Then a ``distributed.LocalCluster`` of ``--workers`` worker processes with ``--memory-limit``
 each serves the folder through ``worldgraph.tiles.ClusterTiles``, and the table reports, from one
@@ -49,6 +49,7 @@ import psutil
 from scipy.spatial.transform import Rotation
 
 CHI2_6_3SIGMA = 20.06
+GAP = 30.0  # metres between buildings
 
 
 def log(msg: str) -> None:
@@ -100,13 +101,16 @@ def write_site(args: argparse.Namespace) -> list:
     per = args.objects // args.buildings
     robots: list = []
     offset = [0]
+    x_next = [0.0]
 
     def tiles():
         for b in range(args.buildings):
             t0 = time.perf_counter()
             site = scenes.building_site(storeys=5, n_objects=per, seed=args.seed * 1000 + b)
             rng = np.random.default_rng([args.seed, b])
-            shift = np.array([b * 150.0, 0.0, 0.0])  # buildings 150 m apart along x
+            lo, hi = site.world.bounds
+            shift = np.array([x_next[0] - lo[0], 0.0, 0.0])  # in a row along x, GAP metres apart
+            x_next[0] += float(hi[0] - lo[0]) + GAP
             jitter = rng.normal(0.0, args.jitter, site.world.positions.shape) * [1.0, 1.0, 0.0]
             pos = site.world.positions + shift + jitter
             world = wg.WorldModel.from_arrays(site.world.types, pos, gravity_aligned=True)
