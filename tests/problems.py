@@ -66,3 +66,29 @@ def random_rotation(rng: np.random.Generator) -> np.ndarray:
     if np.linalg.det(q) < 0:
         q[:, 0] = -q[:, 0]
     return q
+
+
+def robot_at_a_table(site, seed: int, n_true: int) -> tuple[np.ndarray, list]:
+    """A robot of a :class:`worldgraph.scenes.Site` 0.8 m above a random table, random yaw, and
+    ``n_true`` true percepts of its building's storey within 8 m (sigma = rho^2 / 1000) plus one
+    false percept, shuffled: ``(world_from_ego, percepts)``."""
+    from scipy.spatial.transform import Rotation
+
+    from perception.simulate import simulate_percepts
+
+    rng = np.random.default_rng(seed)
+    w = site.world
+    tables = np.flatnonzero(w.types == "table")
+    while True:
+        table = tables[rng.integers(len(tables))]
+        pose = np.eye(4)
+        pose[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
+        pose[:3, 3] = w.positions[table] + [0.0, 0.0, 0.8]
+        mask = (site.storey == site.storey[table]) & (site.building == site.building[table])
+        types = list(w.types[mask])
+        percepts, truth = simulate_percepts(types, w.positions[mask], pose, rng, depth_factor=1000.0,
+                                            max_range=8.0, n_false=1, false_types=sorted(set(types)))
+        true_idx = np.flatnonzero(truth >= 0)
+        if len(true_idx) >= n_true:
+            pick = np.concatenate([rng.choice(true_idx, n_true, replace=False), np.flatnonzero(truth < 0)])
+            return pose, [percepts[i] for i in rng.permutation(pick)]

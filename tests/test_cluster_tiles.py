@@ -14,11 +14,10 @@ import time
 import distributed
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
+from problems import robot_at_a_table
 
 import worldgraph as wg
 from perception import Percept
-from perception.simulate import simulate_percepts
 from worldgraph import scenes
 from worldgraph.errors import ArgumentTypeError, MalformedFileError, WorldGraphError
 from worldgraph.tiles import (
@@ -58,22 +57,7 @@ def cluster():
 
 
 def _scan(site: scenes.Site, seed: int) -> tuple[np.ndarray, list[Percept]]:
-    rng = np.random.default_rng(seed)
-    w = site.world
-    tables = np.flatnonzero(w.types == "table")
-    while True:
-        table = tables[rng.integers(len(tables))]
-        pose = np.eye(4)
-        pose[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
-        pose[:3, 3] = w.positions[table] + [0.0, 0.0, 0.8]
-        mask = (site.building == site.building[table]) & (site.storey == site.storey[table])
-        percepts, truth = simulate_percepts(list(w.types[mask]), w.positions[mask], pose, rng,
-                                            depth_factor=1000.0, max_range=8.0, n_false=1,
-                                            false_types=sorted(set(w.types[mask])))
-        true_idx = np.flatnonzero(truth >= 0)
-        if len(true_idx) >= 7:
-            pick = np.concatenate([rng.choice(true_idx, 7, replace=False), np.flatnonzero(truth < 0)])
-            return pose, [percepts[i] for i in rng.permutation(pick)]
+    return robot_at_a_table(site, seed, 7)
 
 
 def _same(a: wg.LocalizationResult, b: wg.LocalizationResult) -> None:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from problems import robot_at_a_table
 from scipy.spatial.transform import Rotation
 
 import worldgraph as wg
@@ -76,23 +77,7 @@ def _robot_in(world: wg.WorldModel, lab: np.ndarray, seed: int) -> tuple[int, np
 
 
 def _robot(site: scenes.Site, seed: int) -> tuple[np.ndarray, list[Percept]]:
-    """A robot 0.8 m above a random table, random yaw, 6 true percepts of its storey and 1 false."""
-    rng = np.random.default_rng(seed)
-    w = site.world
-    tables = np.flatnonzero(w.types == "table")
-    while True:
-        table = tables[rng.integers(len(tables))]
-        pose = np.eye(4)
-        pose[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
-        pose[:3, 3] = w.positions[table] + [0.0, 0.0, 0.8]
-        mask = (site.storey == site.storey[table]) & (site.building == site.building[table])
-        types, pos = list(w.types[mask]), w.positions[mask]
-        percepts, truth = simulate_percepts(types, pos, pose, rng, depth_factor=1000.0, max_range=8.0,
-                                            n_false=1, false_types=sorted(set(types)))
-        true_idx = np.flatnonzero(truth >= 0)
-        if len(true_idx) >= 6:
-            pick = np.concatenate([rng.choice(true_idx, 6, replace=False), np.flatnonzero(truth < 0)])
-            return pose, [percepts[i] for i in rng.permutation(pick)]
+    return robot_at_a_table(site, seed, 6)
 
 
 def test_summary_bins_hold_every_link(campus, summaries) -> None:

@@ -121,10 +121,15 @@ def world_arrays(world: Any) -> dict[str, NDArray[Any]]:
 
 def save_binary(world: Any, path: str) -> None:
     """Write ``world`` as an uncompressed ``.npz`` archive at ``path`` (the name is kept as given)."""
-    arrays = world_arrays(world)
+    write_entries(path, world_arrays(world))
+
+
+def write_entries(path: str, arrays: Mapping[str, NDArray[Any]]) -> None:
+    """Write ``arrays`` as an uncompressed ``.npz`` archive at ``path`` (the name kept as given);
+    a path that cannot be written raises :class:`~worldgraph.errors.WorldGraphError` naming it."""
     try:
         with open(path, "wb") as fh:  # a file object: np.savez does not append ".npz" to it
-            np.savez(fh, **cast(dict[str, Any], arrays))  # (typed: allow_pickle shares the keywords)
+            np.savez(fh, **cast(dict[str, Any], dict(arrays)))  # (typed: allow_pickle shares the keywords)
     except OSError as exc:
         raise WorldGraphError(f"{path}: cannot write: {exc}") from exc
 

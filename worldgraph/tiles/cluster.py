@@ -34,6 +34,7 @@ from ..localize.pipeline import (
 from ..localize.result import LocalizationResult, LocalizeStatus, _failed
 from ..pose.gravity import Gravity, _check_gravity, _check_up_sigma
 from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
+from .dispatch import _client
 from .files import TileIndex, load_tile, read_index
 from .prefilter import TileVisit, tiles_to_visit
 from .ranking import _combine, _globalised_answer, _run_tile, _TileAnswer
@@ -81,7 +82,7 @@ class ClusterTiles:
         for entry in self.index.tiles:
             if not os.path.isfile(entry.path):
                 raise MalformedFileError(f"{entry.path}: tile file of tile {entry.label} is missing")
-        self._client, self._owned = _client(client)
+        self._client, self._owned = _client(client, "client", "")
         token = uuid.uuid4().hex[:12]
         home = _spread([e.summary.n_objects for e in self.index.tiles], self._client)
         # each load goes to a worker of its own, the largest tiles first to the least loaded worker
@@ -281,19 +282,3 @@ def _spread(sizes: list[int], client: Any) -> list[str | None]:
 
 def _noted(result: LocalizationResult, note: str) -> LocalizationResult:
     return replace(result, message="; ".join(m for m in (result.message, note) if m))
-
-
-def _client(client: object) -> tuple[Any, bool]:
-    """A ``distributed.Client`` and whether this object opened it."""
-    try:
-        from distributed import Client
-    except ImportError as exc:  # pragma: no cover - distributed is in the test extra
-        raise WorldGraphError("ClusterTiles needs Dask distributed: pip install distributed") from exc
-    if isinstance(client, Client):
-        return client, False
-    if isinstance(client, str):
-        _checks.name_string("client", client)
-        return Client(client), True
-    raise ArgumentTypeError(f"client must be a distributed.Client or a scheduler address such as "
-                            f"'tcp://host:8786', got {_checks._short(client)}")
-

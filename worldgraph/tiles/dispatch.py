@@ -31,18 +31,20 @@ from .ranking import _combine, _globalised_answer, _run_tile
 from .split import Tile, _check_tiles
 
 
-def _client(scheduler: object) -> tuple[Any, bool]:
-    """A ``distributed.Client`` for ``scheduler`` and whether this call opened it."""
+def _client(scheduler: object, name: str = "scheduler", what: str = "None, ") -> tuple[Any, bool]:
+    """A ``distributed.Client`` for ``scheduler`` (an address or a client; the argument's
+    ``name`` and the other values it takes, ``what``, for messages) and whether this call opened
+    it."""
     try:
         from distributed import Client
     except ImportError as exc:  # pragma: no cover - distributed is in the test extra
-        raise WorldGraphError("scheduler needs Dask distributed: pip install distributed") from exc
+        raise WorldGraphError(f"{name} needs Dask distributed: pip install distributed") from exc
     if isinstance(scheduler, Client):
         return scheduler, False
     if isinstance(scheduler, str):
-        _checks.name_string("scheduler", scheduler)
+        _checks.name_string(name, scheduler)
         return Client(scheduler), True
-    raise ArgumentTypeError(f"scheduler must be None, a scheduler address such as 'tcp://host:8786' or a "
+    raise ArgumentTypeError(f"{name} must be {what}a scheduler address such as 'tcp://host:8786' or a "
                             f"distributed.Client, got {_checks._short(scheduler)}")
 
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,7 +26,7 @@ from numpy.typing import NDArray
 from .. import _checks
 from ..errors import ArgumentTypeError, MalformedFileError, WorldGraphError
 from ..model import WorldModel
-from ..model.binary_files import load_binary, read_entries, world_arrays
+from ..model.binary_files import load_binary, read_entries, world_arrays, write_entries
 from .prefilter import LINK_BIN, TileSummary, summarize
 from .split import Tile
 
@@ -68,11 +67,7 @@ def _write_tile(tile: Tile, path: str) -> None:
     arrays["tile_label"] = np.array(tile.label, dtype=np.int64)
     arrays["tile_index"] = np.asarray(tile.index, dtype=np.int64)
     arrays["tile_own"] = np.asarray(tile.own, dtype=bool)
-    try:
-        with open(path, "wb") as fh:
-            np.savez(fh, **cast(dict[str, Any], arrays))  # (typed: allow_pickle shares the keywords)
-    except OSError as exc:
-        raise WorldGraphError(f"{path}: cannot write: {exc}") from exc
+    write_entries(path, arrays)
 
 
 def load_tile(path: str | os.PathLike[str]) -> Tile:
@@ -144,12 +139,7 @@ def _write_index(folder: str, summaries: list[TileSummary], files: list[str]) ->
         "bins": np.array([_pack_bins(s, pairs, n_bins) for s in summaries], dtype=np.uint8).reshape(
             len(summaries), len(pairs), -1),
     }
-    path = os.path.join(folder, INDEX_FILE)
-    try:
-        with open(path, "wb") as fh:
-            np.savez(fh, **cast(dict[str, Any], arrays))
-    except OSError as exc:
-        raise WorldGraphError(f"{path}: cannot write: {exc}") from exc
+    write_entries(os.path.join(folder, INDEX_FILE), arrays)
 
 
 def read_index(folder: str | os.PathLike[str]) -> TileIndex:
