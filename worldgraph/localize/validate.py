@@ -262,9 +262,11 @@ def _tilted(ctx: _Context, pose: NDArray, information: NDArray, p_i: NDArray, ce
     prior = ctx.settings.tilt_prior
     if prior is None:
         return pose, information, None
-    try:  # the context's arrays are checked already: the fit itself, not refine_pose's checks
+    # the context's arrays are checked already, and the pose is the matches' ML pose (the
+    # validated fit or the SDP's): the fit itself, without refine_pose's checks and global search
+    try:
         tilted, info, tilt_chi2 = _refine(ctx.ego[p_i], centers, ctx.covs[p_i], pose, REFINE_MAX_ITER,
-                                          REFINE_TOL, prior)
+                                          REFINE_TOL, prior, search=False)
     except (PoseError, np.linalg.LinAlgError):
         return pose, information, None
     if tilt_chi2 > TILT_GATE:

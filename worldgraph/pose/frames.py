@@ -489,17 +489,6 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
         Degenerate correspondences (singular information), or no convergence within
         ``max_iter`` iterations (never reported as converged at the cap).
     """
-    pose, information, _ = _refine_pose(ego_points, world_points, covariances, world_from_ego, max_iter, tol,
-                                        tilt_prior)
-    return pose, information
-
-
-def _refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,
-                 world_from_ego: ArrayLike, max_iter: int = REFINE_MAX_ITER, tol: float = REFINE_TOL,
-                 tilt_prior: TiltPrior | None = None
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """:func:`refine_pose` and the cost its ``tilt_prior`` adds to the data's optimum (see
-    :func:`_refine`)."""
     x = _points("ego_points", ego_points)
     y = _points("world_points", world_points, len(x), "ego_points")
     if len(x) < 3:
@@ -511,7 +500,8 @@ def _refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Ar
     tilt_prior = _check_tilt_prior(tilt_prior)
     _finite_scale(x, y, C)
     try:
-        return _refine(x, y, C, T0, max_iter, tol, tilt_prior)
+        pose, information, _ = _refine(x, y, C, T0, max_iter, tol, tilt_prior)
+        return pose, information
     except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
         if isinstance(exc, PoseError):
             raise
@@ -537,14 +527,20 @@ def _data_cost(x: NDArray, y: NDArray, Cinv: NDArray, R: NDArray, t: NDArray) ->
 
 
 def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol: float,
-            tilt_prior: TiltPrior | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+            tilt_prior: TiltPrior | None = None, search: bool = True
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """``(world_from_ego, information, tilt_chi2)``: the ML pose of the data (then, with
     ``tilt_prior``, of the data and the prior, polished from there), its information (with the
     prior's) and the cost the prior adds to the data's optimum (0 without a prior; the squared
-    Mahalanobis distance between the data's tilt and the prior's, 2 degrees of freedom)."""
+    Mahalanobis distance between the data's tilt and the prior's, 2 degrees of freedom).
+    ``search=False``: ``T0`` is the data's ML pose already (a validated fit), so the global
+    search for it (grid starts) is skipped and it is only polished."""
     Cinv = np.linalg.inv(C)
     Cinv = 0.5 * (Cinv + np.swapaxes(Cinv, 1, 2))
-    R, t = _data_optimum(x, y, C, Cinv, T0, max_iter, tol)
+    if search:
+        R, t = _data_optimum(x, y, C, Cinv, T0, max_iter, tol)
+    else:
+        R, t = _polish(x, y, Cinv, T0[:3, :3], T0[:3, 3], max_iter, tol)
     if tilt_prior is None:
         out = transformation(R, t)
         return out, pose_information(out, x, C), 0.0

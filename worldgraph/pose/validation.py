@@ -59,7 +59,7 @@ from ..tolerances import (
     SIGNIFICANCE,
     TINY,
 )
-from .frames import MAX_POSE_COORDINATE, _covariances, _expm, _points, _refine_pose, _skew, pose_information
+from .frames import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, pose_information, refine_pose
 from .gravity import TiltPrior, _check_tilt_prior
 
 __all__ = [
@@ -267,11 +267,6 @@ class PoseFit:
         That object, or -1.
     cost : float
         Robust cost ``sum_p min(mahalanobis2_p, CHI2_3_GATE)``.
-    tilt_chi2 : float
-        With a tilt prior: what the prior adds to the ML cost of the inliers at their own optimum,
-        the squared Mahalanobis distance between the tilt they give and gravity's (2 degrees of
-        freedom; above :data:`~worldgraph.pose.gravity.TILT_GATE` they contradict gravity); 0
-        without a prior.  The information and covariance include the prior.
     """
 
     world_from_ego: NDArray[np.float64]
@@ -281,7 +276,6 @@ class PoseFit:
     mahalanobis2: NDArray[np.float64]
     nearest: NDArray[np.intp]
     cost: float
-    tilt_chi2: float = 0.0
 
     @property
     def inliers(self) -> int:
@@ -381,11 +375,8 @@ def _unique_inliers(d2: NDArray, obj: NDArray, second: NDArray, gate: float) -> 
 
 def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: NearestObjects,
                    pairs: tuple[tuple[int, int], ...], start: NDArray, max_rounds: int = 4,
-                   gate: float = CHI2_3_GATE, *, tilt_prior: TiltPrior | None = None) -> PoseFit | None:
+                   gate: float = CHI2_3_GATE) -> PoseFit | None:
     """ML pose of ``pairs`` from ``start``, then re-associated inliers until stable.
-
-    With ``tilt_prior`` every pose is the ML pose of the inliers and the prior
-    (:func:`~worldgraph.pose.refine_pose`), and its covariance carries the prior.
 
     Returns None when fewer than three inliers remain or they fix no pose.
     """
@@ -412,13 +403,12 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
         p_rows = np.array([a for a, _ in current])
         o_rows = np.array([b for _, b in current])
         try:
-            T_new, info, tilt_chi2 = _refine_pose(ego[p_rows], world.positions[o_rows], covs[p_rows], T,
-                                                  tilt_prior=tilt_prior)
+            T_new, info = refine_pose(ego[p_rows], world.positions[o_rows], covs[p_rows], T)
             cov6 = ros_pose_covariance(info)
         except PoseError:
             break
         d2, obj, second = nearest.query(T_new, ego, covs, cov6)
-        fit = PoseFit(T_new, info, cov6, current, d2, obj, float(np.minimum(d2, gate).sum()), tilt_chi2)
+        fit = PoseFit(T_new, info, cov6, current, d2, obj, float(np.minimum(d2, gate).sum()))
         T = T_new
         new = _unique_inliers(d2, obj, second, gate)
         if new == current or len(new) < 3:

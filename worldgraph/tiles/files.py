@@ -223,4 +223,5 @@ def _write_tiles(tiles: Iterable[Tile], folder: str, summaries: list[TileSummary
         summaries.append(summarize(tile))
         files.append(name)
     _write_index(folder, summaries, files)
-    return read_index(folder)
+    return TileIndex(folder, tuple(TileEntry(sm.label, os.path.join(folder, f), sm)
+                                   for sm, f in zip(summaries, files, strict=True)))
