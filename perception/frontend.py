@@ -106,6 +106,14 @@ OCCLUSION_MARGIN = 0.03
 #: Largest number of a region's pixels its statistics are computed from (a regular subsample
 #: of larger regions; the pixel count still sets how much the depth noise averages out).
 MAX_REGION_SAMPLES = 2048
+#: Pixels a detector's mask may bleed onto its neighbours: the mask's core, eroded by this,
+#: sets which depths are the object's (:func:`rgbd_percepts`).
+MASK_BLEED_PX = 2
+#: Fewest readings in a mask's core for its depth range to stand for the object's.
+MIN_CORE_PX = 20
+#: Percentile of a visible part's points that bounds its extent (and its upper counterpart):
+#: the middle of the extent places an object across the view (:func:`rgbd_percepts`).
+EXTENT_PERCENTILE = 1.0
 #: A visible surface is flat when its smallest spread is below this fraction of the middle one
 #: (its normal then orients the centre offset).
 FLAT_RATIO = 0.1
@@ -301,6 +309,28 @@ def _offset_direction(pts: NDArray[np.float64], centroid: NDArray[np.float64]
     return ray, spread
 
 
+def _visible_anchor(pts: NDArray[np.float64], up: NDArray[np.float64]
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Where an object's visible points ``pts`` (camera frame) put it before the centre offset:
+    ``(anchor, direction, spread)``.  Along ``direction`` (:func:`_offset_direction`) the anchor
+    is the points' centroid; across it, the middle of their extent (1st to 99th percentile) on
+    the axes ``up`` (the ego frame's z in the camera frame) and the points' main horizontal
+    directions.  The middle of the extent is where the centre of a box around the visible part
+    lies, whatever the perspective: the centroid of pixels leans towards the nearer side of a
+    slanted face and towards the bulk of an uneven shape (a kettle's body, not its spout)."""
+    centroid = pts.mean(axis=0)
+    direction, spread = _offset_direction(pts, centroid)
+    up = up / np.linalg.norm(up)
+    flat = (pts - centroid) - np.outer((pts - centroid) @ up, up)
+    _, V = np.linalg.eigh(flat.T @ flat)
+    axes = np.stack([up, V[:, 2], np.cross(up, V[:, 2])])
+    coords = pts @ axes.T
+    lo, hi = np.percentile(coords, [EXTENT_PERCENTILE, 100.0 - EXTENT_PERCENTILE], axis=0)
+    middle = axes.T @ (0.5 * (lo + hi))
+    across = middle - centroid
+    return centroid + across - (across @ direction) * direction, direction, spread
+
+
 def _percept(det: Detection, centre: NDArray[np.float64], own: NDArray[np.float64],
              loading: NDArray[np.float64], transform: NDArray[np.float64], sigma: float | None) -> Percept:
     """The ego-frame percept of a camera-frame centre with its own covariance and shared loading."""
@@ -343,13 +373,36 @@ def _region(det: Detection, shape: tuple[int, int], index: int) -> tuple[NDArray
     return mask, True
 
 
-def _foreground(z: NDArray[np.float64], seed: NDArray[np.float64], sigma_z: float) -> NDArray[np.bool_]:
-    """Pixels whose depth belongs to the object: within a robust window of the seed pixels'
-    median (3 scaled MADs, at least 3 sigma_z and 1 cm)."""
+def _depth_window(seed: NDArray[np.float64], sigma_z: float) -> tuple[float, float]:
+    """The depths that belong to the object, ``(nearest, farthest)``: a robust window about the
+    seed pixels' median (3 scaled MADs, at least 3 sigma_z and 1 cm)."""
     med = float(np.median(seed))
     mad = 1.4826 * float(np.median(np.abs(seed - med)))
     half = max(3.0 * mad, 3.0 * sigma_z, 0.01)
-    return np.abs(z - med) <= half
+    return med - half, med + half
+
+
+def _mask_window(mask: NDArray[np.bool_], box: NDArray[np.float64], depth: NDArray[np.float64], c: float
+                 ) -> tuple[float, float] | None:
+    """The depths of a mask's object, ``(nearest, farthest)``: the range of its core's readings
+    (the mask eroded by :data:`MASK_BLEED_PX`, which a detector's bleeding edge does not reach;
+    0.5th to 99.5th percentile) widened by 3 sigma_z and 1 cm.  Unlike a window about the
+    median, it keeps the whole of a slanted door and a handle before its leaf.  None when the
+    core holds fewer than :data:`MIN_CORE_PX` readings (a small or thin mask)."""
+    import cv2
+
+    v0, v1 = max(0, int(box[1])), min(mask.shape[0], int(box[3]) + 1)
+    u0, u1 = max(0, int(box[0])), min(mask.shape[1], int(box[2]) + 1)
+    side = 2 * MASK_BLEED_PX + 1
+    core = cv2.erode(mask[v0:v1, u0:u1].astype(np.uint8), np.ones((side, side), np.uint8),
+                     borderValue=0).astype(bool)
+    z = depth[v0:v1, u0:u1][core]
+    z = z[np.isfinite(z)]
+    if z.size < MIN_CORE_PX:
+        return None
+    lo, hi = np.percentile(z, [0.5, 99.5])
+    margin = 3.0 * c * float(hi) ** 2 + 0.01
+    return float(lo) - margin, float(hi) + margin
 
 
 def _box_seed(u: NDArray[np.intp], v: NDArray[np.intp], z: NDArray[np.float64], box: NDArray[np.float64],
@@ -369,26 +422,33 @@ def _box_seed(u: NDArray[np.intp], v: NDArray[np.intp], z: NDArray[np.float64], 
 
 
 def _occluded_fraction(mask: NDArray[np.bool_], box: NDArray[np.float64], depth: NDArray[np.float64],
-                       margin: float) -> float:
-    """Fraction of the valid readings in a 3-pixel ring outside the mask's outer outline that lie
-    nearer than the object's own nearest reading within 3 pixels of them, by more than
+                       window: tuple[float, float], from_box: bool, margin: float) -> float:
+    """Fraction of the valid readings in a 3-pixel ring outside the region's outer outline that
+    lie nearer than the object's own nearest reading within 3 pixels of them, by more than
     ``margin``: a nearer surface hides part of the object there (a slanted object's edge
-    continues its own surface and does not count)."""
+    continues its own surface and does not count).  The object's own readings are the region's
+    within its depth ``window`` (a mask that bleeds onto the occluder does not make the
+    occluder the object's own); the outline is a mask's own, or a box's object pixels'."""
     import cv2
 
     v0, v1 = max(0, int(box[1]) - 4), min(mask.shape[0], int(box[3]) + 5)
     u0, u1 = max(0, int(box[0]) - 4), min(mask.shape[1], int(box[2]) + 5)
     mask, depth = mask[v0:v1, u0:u1], depth[v0:v1, u0:u1]  # the outline's neighbourhood only
+    with np.errstate(invalid="ignore"):
+        object_px = mask & (depth >= window[0]) & (depth <= window[1])
+    if from_box:
+        mask = object_px
     m8 = mask.astype(np.uint8)
     contours, _ = cv2.findContours(m8, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     filled = np.zeros_like(m8)
     cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
     kernel = np.ones((7, 7), np.uint8)
     ring = cv2.dilate(filled, kernel).astype(bool) & ~filled.astype(bool)
-    own = np.where(mask & np.isfinite(depth), depth, np.inf).astype(np.float32)
+    none = np.float32(1e30)  # no reading of the object's (cv2 turns inf into the float32 maximum)
+    own = np.where(object_px, depth, none).astype(np.float32)
     nearest_own = cv2.erode(own, kernel)  # the object's nearest reading within 3 pixels
     zr, zo = depth[ring], nearest_own[ring]
-    keep = np.isfinite(zr) & np.isfinite(zo)
+    keep = np.isfinite(zr) & (zo < none)
     if not keep.any():
         return 0.0
     return float(np.mean(zr[keep] < zo[keep] - margin))
@@ -471,6 +531,7 @@ def rgbd_percepts(
     offsets = _centre_offsets(centre_offset, {d.type for d in dets})
     h, w = Z.shape
     Kinv = np.linalg.inv(Kc)
+    up = T[:3, :3].T @ np.array([0.0, 0.0, 1.0])  # the ego frame's up, in the camera frame
     percepts: list[Percept] = []
     sources: list[int] = []
     dropped: list[Dropped] = []
@@ -501,11 +562,11 @@ def rgbd_percepts(
         stride = -(-u.size // MAX_REGION_SAMPLES)  # statistics of a large region on a regular subsample
         if stride > 1:
             u, v, z = u[::stride], v[::stride], z[::stride]
-        if from_box:
-            seed = _box_seed(u, v, z, box, c, float(Kc[0, 0]))
-        else:  # a mask is mostly the object: its median depth is the object's
-            seed = z
-        fg = _foreground(z, seed, c * float(np.median(seed)) ** 2)
+        window = None if from_box else _mask_window(mask, box, Z, c)
+        if window is None:  # a box's central half, or a small mask (mostly the object): about the median
+            seed = _box_seed(u, v, z, box, c, float(Kc[0, 0])) if from_box else z
+            window = _depth_window(seed, c * float(np.median(seed)) ** 2)
+        fg = (z >= window[0]) & (z <= window[1])
         n_fg = int(fg.sum()) * stride
         if n_fg < min_pixels:
             dropped.append(Dropped(i, det.type, "no_depth", f"{n_fg} pixels at the object's depth "
@@ -513,27 +574,25 @@ def rgbd_percepts(
             continue
         u, v, z = u[fg], v[fg], z[fg]
         pts = (np.column_stack([u, v, np.ones(u.size)]) @ Kinv.T) * z[:, None]
-        centroid = pts.mean(axis=0)
-        zc = float(centroid[2])
+        anchor, direction, spread = _visible_anchor(pts, up)
+        zc = float(anchor[2])
         sigma_z = c * zc * zc
-        occ = _occluded_fraction(mask if not from_box else _box_fg(mask, v, u), box, Z,
-                                 OCCLUSION_MARGIN + 3.0 * sigma_z)
+        occ = _occluded_fraction(mask, box, Z, window, from_box, OCCLUSION_MARGIN + 3.0 * sigma_z)
         if occ > OCCLUDED_FRACTION:
             dropped.append(Dropped(i, det.type, "occluded", f"{100 * occ:.0f} % of the readings around its "
                                    f"outline are nearer (> {100 * OCCLUDED_FRACTION:.0f} %)"))
             continue
-        direction, spread = _offset_direction(pts, centroid)
         prior = offsets.get(det.type)
         if prior is not None:
             d, d_sd = prior.depth, float(prior.depth_sd)  # type: ignore[arg-type]  # set in __post_init__
         else:  # the relief of the visible surface: its far edge (the silhouette) minus its centroid
-            along = (pts - centroid) @ direction
+            along = (pts - anchor) @ direction
             d = max(0.0, float(np.percentile(along, 95)))
             d_sd = float(np.hypot(CENTRE_DEPTH_SIGMA, 0.5 * d))
-        centre = centroid + d * direction
+        centre = anchor + d * direction
         loading = np.column_stack([direction * d_sd, _lateral(direction, spread, prior, cut)])
         n_eff = max(1.0, n_fg / (corr * corr))
-        ray_z = centroid / zc  # a depth error dz moves the centroid by dz * ray_z
+        ray_z = anchor / zc  # a depth error dz moves the anchor by about dz * ray_z
         own = np.outer(ray_z, ray_z) * (sigma_z * sigma_z / n_eff)
         own += np.eye(3) * (DEPTH_COVARIANCE_FLOOR * sigma_z) ** 2  # keeps it positive definite
         try:
@@ -543,13 +602,6 @@ def rgbd_percepts(
             continue
         sources.append(i)
     return DetectionPercepts(tuple(percepts), tuple(sources), tuple(dropped))
-
-
-def _box_fg(mask: NDArray[np.bool_], v: NDArray[np.intp], u: NDArray[np.intp]) -> NDArray[np.bool_]:
-    """The object's pixels inside a box (its depth-foreground), as a mask for the occlusion test."""
-    fg = np.zeros_like(mask)
-    fg[v, u] = True
-    return fg
 
 
 # ----------------------------------------------------------------------------------------------
