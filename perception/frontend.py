@@ -14,8 +14,10 @@ visual geometry (:meth:`worldgraph.WorldModel.from_file`), but a camera sees its
 a door's front lies half its thickness before that centre, a cylindrical handle's visible
 half about two thirds of its radius.  Measured on rendered kitchens, 15 mm (door and drawer
 fronts) to 30 mm (handles): enough, uncorrected, to break the association.  Both front ends
-therefore refer each percept to the object's centre, ``centre = visible centroid + d n``, with
-``n`` the direction away from the camera (the visible surface's normal when it is flat, else the
+therefore refer each percept to the object's centre, ``centre = anchor + d n``, with the anchor
+the visible part's centroid along ``n`` and the middle of its extent across ``n`` (RGB-D: on
+gravity-aligned axes, as a box around the visible part is centred; stereo: the centroid), ``n``
+the direction away from the camera (the visible surface's normal when it is flat, else the
 viewing ray) and ``d`` the *centre offset* of the object's type, a prior with its uncertainty
 (:class:`CentreOffset`; ``centre_offset={type: CentreOffset(...)}`` or ``{type: d}``): from the
 map (:meth:`worldgraph.WorldModel.centre_depths`, half the thinnest extent), measured for your
@@ -470,10 +472,12 @@ def rgbd_percepts(
     """Percepts from detections and a registered depth image (an RGB-D camera).
 
     For each detection: its pixels (the mask, else the box), their valid depth readings, the
-    object's among them (a robust depth window around the median of the mask, or of the box's
-    central half, so background inside a box or at a mask's bleeding edge drops out), back-
-    projected through ``K`` into camera points; the percept is their centroid moved to the
-    object's centre (module docstring), mapped by ``ego_from_camera``.  Its covariance sums
+    object's among them (the depth range of the mask's core, eroded by :data:`MASK_BLEED_PX`; a
+    robust depth window about the median of a small mask or of a box's central half; so
+    background inside a box or at a mask's bleeding edge drops out), back-projected through ``K``
+    into camera points; the percept is their anchor (the centroid along the offset direction,
+    the middle of their extent across it, on axes of the ego frame's up) moved to the object's
+    centre (module docstring), mapped by ``ego_from_camera``.  Its covariance sums
 
     - the depth noise ``sigma_z = depth_noise * z^2`` along the centroid's ray, averaged over
       ``max(1, N / depth_correlation_px**2)`` independent patches of the ``N`` pixels;
