@@ -116,6 +116,9 @@ MIN_CORE_PX = 20
 #: Percentile of a visible part's points that bounds its extent (and its upper counterpart):
 #: the middle of the extent places an object across the view (:func:`rgbd_percepts`).
 EXTENT_PERCENTILE = 1.0
+#: Smallest cosine between a flat front's normal and a viewing ray taken for a pixel's surface
+#: (a face seen edge-on would otherwise give its last pixels unbounded weight).
+MIN_FACING = 0.05
 #: A visible surface is flat when its smallest spread is below this fraction of the middle one
 #: (its normal then orients the centre offset).
 FLAT_RATIO = 0.1
@@ -311,6 +314,15 @@ def _offset_direction(pts: NDArray[np.float64], centroid: NDArray[np.float64]
     return ray, spread
 
 
+def _weighted_percentiles(x: NDArray[np.float64], w: NDArray[np.float64], q: float) -> NDArray[np.float64]:
+    """The ``q``-th percentile of each column of ``x`` (n, m) under weights ``w`` (n,): the first
+    value, in sorted order, whose cumulative weight reaches ``q`` % of the total."""
+    order = np.argsort(x, axis=0)
+    cum = np.cumsum(w[order], axis=0)
+    at = np.argmax(cum >= (q / 100.0) * cum[-1], axis=0)
+    return x[order[at, np.arange(x.shape[1])], np.arange(x.shape[1])]
+
+
 def _visible_anchor(pts: NDArray[np.float64], up: NDArray[np.float64]
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Where an object's visible points ``pts`` (camera frame) put it before the centre offset:
@@ -326,8 +338,16 @@ def _visible_anchor(pts: NDArray[np.float64], up: NDArray[np.float64]
     flat = (pts - centroid) - np.outer((pts - centroid) @ up, up)
     _, V = np.linalg.eigh(flat.T @ flat)
     axes = np.stack([up, V[:, 2], np.cross(up, V[:, 2])])
+    # each pixel stands for the surface it images: z^3 / (f^2 |n . p|) on a flat front of normal
+    # n (z^3 / (f^2 |p|) facing the camera), so the extent's percentiles are the surface's, not
+    # the pixels' (which crowd at the near end of a slanted face)
+    dist = np.linalg.norm(pts, axis=1)
+    ray = centroid / np.linalg.norm(centroid)
+    facing = np.abs(pts @ direction) if direction @ ray < 1.0 - 1e-12 else dist
+    weight = pts[:, 2] ** 3 / np.maximum(facing, MIN_FACING * dist)
     coords = pts @ axes.T
-    lo, hi = np.percentile(coords, [EXTENT_PERCENTILE, 100.0 - EXTENT_PERCENTILE], axis=0)
+    lo = _weighted_percentiles(coords, weight, EXTENT_PERCENTILE)
+    hi = _weighted_percentiles(coords, weight, 100.0 - EXTENT_PERCENTILE)
     middle = axes.T @ (0.5 * (lo + hi))
     across = middle - centroid
     return centroid + across - (across @ direction) * direction, direction, spread
@@ -385,12 +405,15 @@ def _depth_window(seed: NDArray[np.float64], sigma_z: float) -> tuple[float, flo
 
 
 def _mask_window(mask: NDArray[np.bool_], box: NDArray[np.float64], depth: NDArray[np.float64], c: float
-                 ) -> tuple[float, float] | None:
-    """The depths of a mask's object, ``(nearest, farthest)``: the range of its core's readings
-    (the mask eroded by :data:`MASK_BLEED_PX`, which a detector's bleeding edge does not reach;
-    0.5th to 99.5th percentile) widened by 3 sigma_z and 1 cm.  Unlike a window about the
-    median, it keeps the whole of a slanted door and a handle before its leaf.  None when the
-    core holds fewer than :data:`MIN_CORE_PX` readings (a small or thin mask)."""
+                 ) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """The depths of a mask's object, two ``(nearest, farthest)`` windows: ``own``, the range of
+    its core's readings (the mask eroded by :data:`MASK_BLEED_PX`, which a detector's bleeding
+    edge does not reach) widened by 3 sigma_z and 1 cm, the readings the occlusion test takes
+    for the object's own; and ``surface``, ``own`` widened further by the depth the core's
+    surface gains over the eroded edge (a slanted face's far edge), the object's points.  Unlike
+    a window about the median, they keep the whole of a slanted door and a handle before its
+    leaf.  None when the core holds fewer than :data:`MIN_CORE_PX` readings (a small or thin
+    mask)."""
     import cv2
 
     v0, v1 = max(0, int(box[1])), min(mask.shape[0], int(box[3]) + 1)
@@ -398,13 +421,19 @@ def _mask_window(mask: NDArray[np.bool_], box: NDArray[np.float64], depth: NDArr
     side = 2 * MASK_BLEED_PX + 1
     core = cv2.erode(mask[v0:v1, u0:u1].astype(np.uint8), np.ones((side, side), np.uint8),
                      borderValue=0).astype(bool)
-    z = depth[v0:v1, u0:u1][core]
-    z = z[np.isfinite(z)]
+    crop = np.where(core, depth[v0:v1, u0:u1], np.nan)
+    z = crop[np.isfinite(crop)]
     if z.size < MIN_CORE_PX:
         return None
-    lo, hi = np.percentile(z, [0.5, 99.5])
-    margin = 3.0 * c * float(hi) ** 2 + 0.01
-    return float(lo) - margin, float(hi) + margin
+    # the edge the erosion took off continues the core's surface: as far in depth as the core's
+    # steepest steps (95th percentile, per pixel across and down) times the pixels taken off
+    steps = np.concatenate([np.abs(np.diff(crop, axis=1)).ravel(), np.abs(np.diff(crop, axis=0)).ravel()])
+    steps = steps[np.isfinite(steps)]
+    slope = float(np.percentile(steps, 95)) if steps.size else 0.0
+    lo, hi = float(z.min()), float(z.max())
+    margin = 3.0 * c * hi * hi + 0.01
+    edge = (MASK_BLEED_PX + 1) * slope
+    return (lo - margin, hi + margin), (lo - margin - edge, hi + margin + edge)
 
 
 def _box_seed(u: NDArray[np.intp], v: NDArray[np.intp], z: NDArray[np.float64], box: NDArray[np.float64],
@@ -566,11 +595,13 @@ def rgbd_percepts(
         stride = -(-u.size // MAX_REGION_SAMPLES)  # statistics of a large region on a regular subsample
         if stride > 1:
             u, v, z = u[::stride], v[::stride], z[::stride]
-        window = None if from_box else _mask_window(mask, box, Z, c)
-        if window is None:  # a box's central half, or a small mask (mostly the object): about the median
+        windows = None if from_box else _mask_window(mask, box, Z, c)
+        if windows is None:  # a box's central half, or a small mask (mostly the object): about the median
             seed = _box_seed(u, v, z, box, c, float(Kc[0, 0])) if from_box else z
             window = _depth_window(seed, c * float(np.median(seed)) ** 2)
-        fg = (z >= window[0]) & (z <= window[1])
+            windows = (window, window)
+        own, surface = windows
+        fg = (z >= surface[0]) & (z <= surface[1])
         n_fg = int(fg.sum()) * stride
         if n_fg < min_pixels:
             dropped.append(Dropped(i, det.type, "no_depth", f"{n_fg} pixels at the object's depth "
@@ -581,7 +612,7 @@ def rgbd_percepts(
         anchor, direction, spread = _visible_anchor(pts, up)
         zc = float(anchor[2])
         sigma_z = c * zc * zc
-        occ = _occluded_fraction(mask, box, Z, window, from_box, OCCLUSION_MARGIN + 3.0 * sigma_z)
+        occ = _occluded_fraction(mask, box, Z, own, from_box, OCCLUSION_MARGIN + 3.0 * sigma_z)
         if occ > OCCLUDED_FRACTION:
             dropped.append(Dropped(i, det.type, "occluded", f"{100 * occ:.0f} % of the readings around its "
                                    f"outline are nearer (> {100 * OCCLUDED_FRACTION:.0f} %)"))

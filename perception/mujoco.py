@@ -890,8 +890,9 @@ class MujocoScene:
                     if int(ok.sum()) < min_px:
                         continue
                     box = np.array([u.min(), v.min(), u.max(), v.max()], dtype=np.float64)
-                    lo, hi = (_mask_window(det.mask, box, view.depth, DEPTH_NOISE)
-                              or _depth_window(z[ok], DEPTH_NOISE * float(np.median(z[ok])) ** 2))
+                    windows = _mask_window(det.mask, box, view.depth, DEPTH_NOISE)
+                    lo, hi = (windows[1] if windows is not None
+                              else _depth_window(z[ok], DEPTH_NOISE * float(np.median(z[ok])) ** 2))
                     fg = ok & (z >= lo) & (z <= hi)  # the object's depths, as the front end takes them
                     pts = (Kinv @ np.stack([u[fg], v[fg], np.ones(int(fg.sum()))])).T * z[fg, None]
                     anchor, direction, _ = _visible_anchor(pts, up)  # as the front end places it

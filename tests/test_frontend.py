@@ -136,6 +136,50 @@ def test_occluded_and_cut_off_detections_are_dropped_with_their_reason():
     assert np.sqrt(v[-1]) > 0.05  # the centre may be anywhere along the cut side
 
 
+def test_a_mask_bleeding_onto_its_occluder_is_still_occluded():
+    # a detector's mask a pixel or two too wide takes in the edge of the nearer bar that hides
+    # part of the door: those readings are not the door's own, so the bar still occludes it
+    import cv2
+
+    door = (np.array([-0.3, -0.3, 2.98]), np.array([0.3, 0.3, 3.02]))
+    bar = (np.array([0.1, -0.5, 2.4]), np.array([0.2, 0.5, 2.45]))  # hides a strip of the door
+    Z, lab = raycast([door, bar])
+    exact = lab == 0
+    cross = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)
+    for grow in (0, 1, 2):
+        mask = cv2.dilate(exact.astype(np.uint8), cross, iterations=grow).astype(bool) if grow else exact
+        assert (mask & (lab == 1)).any() == (grow > 0)
+        res = pc.rgbd_percepts([pc.Detection("door", mask=mask)], Z, K, np.eye(4))
+        assert [d.reason for d in res.dropped] == ["occluded"], grow
+    # the same mask with the bar gone (the strip visible) is kept
+    Z2, lab2 = raycast([door])
+    res = pc.rgbd_percepts([pc.Detection("door", mask=lab2 == 0)], Z2, K, np.eye(4))
+    assert res.sources == (0,)
+
+
+def test_a_slanted_face_is_placed_at_its_middle_not_at_its_pixel_centroid():
+    # the side of a long thin box, seen at a slant: its near end fills more pixels than its far
+    # end, so the pixels' centroid lies well before the face's middle; the percept does not
+    side = (np.array([0.5, -0.2, 1.2]), np.array([0.51, 0.2, 3.2]))
+    Z, lab = raycast([side])
+    mask = lab == 0
+    v, u = np.nonzero(mask)
+    pts = (np.column_stack([u, v, np.ones(u.size)]) @ np.linalg.inv(K).T) * Z[v, u][:, None]
+    middle = 0.5 * (side[0] + side[1])
+    centroid_error = abs(pts.mean(axis=0)[2] - middle[2])
+    assert centroid_error > 0.15  # what a centroid would give (computed here, independently)
+    ego_from_camera = np.eye(4)
+    ego_from_camera[:3, :3] = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])  # REP 103
+    offset = {"door": pc.CentreOffset(depth=0.005, depth_sd=0.003, lateral_sd=0.01)}
+    res = pc.rgbd_percepts([pc.Detection("door", mask=mask)], Z, K, ego_from_camera, centre_offset=offset)
+    assert res.sources == (0,)
+    p = res.percepts[0]
+    truth = ego_from_camera[:3, :3] @ middle  # the box centre in the ego frame
+    e = p.position - truth
+    assert np.linalg.norm(e) < 0.02
+    assert float(e @ np.linalg.solve(p.covariance, e)) < CHI2_3_999
+
+
 def test_holes_in_the_depth_image_drop_the_detection_as_no_depth():
     Z, lab = raycast(door_boxes(np.random.default_rng(3), 1))
     Z = Z.copy()
