@@ -333,3 +333,16 @@ def test_a_centre_in_front_of_the_surface_and_a_lateral_prior():
         pc.CentreOffset(depth=0.01, depth_sd=-1.0)
     with pytest.raises(pc.PerceptionError, match=r"centre_offset\['door'\]"):
         pc.rgbd_percepts(det, Z, K, np.eye(4), centre_offset={"door": "deep"})
+
+
+def test_weighted_percentiles_equal_repeating_each_value_by_its_weight():
+    rng = np.random.default_rng(7)
+    for _ in range(50):
+        n = int(rng.integers(1, 40))
+        x = rng.normal(size=(n, 3)).round(1)  # ties included
+        w = rng.integers(1, 6, size=n).astype(float)
+        for q in (0.0, 1.0, 37.5, 50.0, 99.0, 100.0):
+            got = frontend._weighted_percentiles(x, w, q)
+            want = [np.percentile(np.repeat(x[:, j], w.astype(int)), q, method="inverted_cdf")
+                    for j in range(3)]
+            np.testing.assert_array_equal(got, want)
