@@ -306,15 +306,12 @@ def _within_reach(positions: NDArray[np.float64], radius: float) -> bool:
     return bool(math.sqrt(float(extent @ extent)) < radius)
 
 
-#: Object pairs per block of :func:`_dense_links`' enumeration (bounds its temporaries).
-_DENSE_CHUNK = 1 << 20
-
-
 def _dense_links(names: list[str], codes: NDArray[np.intp], positions: NDArray[np.float64],
                  radius: float) -> _LinkTables:
     """The link tables of a world whose objects lie within reach of each other: every pair
-    enumerated in blocks, without the k-d tree's pair search and, in the common cases, without
-    sorting (the tables :func:`_search_links` builds by its general path, row for row).
+    enumerated row by row (object ``a`` against the objects after it: contiguous slices, no
+    gathers), without the k-d tree's pair search and, in the common cases, without sorting (the
+    tables :func:`_tree_links` builds, row for row).
 
     The objects are put in type order (ascending index within a type), so that a pair ``(a, b)``
     with ``a < b`` in that order is already oriented (lower type first, lower index first within
@@ -328,25 +325,26 @@ def _dense_links(names: list[str], codes: NDArray[np.intp], positions: NDArray[n
     perm = np.argsort(codes, kind="stable").astype(np.intp)
     pos = positions[perm]
     code = codes[perm].astype(np.int64)
-    rows = max(1, _DENSE_CHUNK // n)
-    total = n * (n - 1) // 2  # at most; filled block by block (no concatenation: half the page faults)
+    total = n * (n - 1) // 2  # at most; filled row by row (contiguous slices, no gathers)
     pi, pj = np.empty(total, np.intp), np.empty(total, np.intp)
     length, key = np.empty(total), np.empty(total, np.int64)
     m = 0
-    for r0 in range(0, n - 1, rows):
-        row = np.arange(r0, min(r0 + rows, n - 1), dtype=np.intp)
-        counts = n - 1 - row
-        a = np.repeat(row, counts)
-        b = np.arange(len(a), dtype=np.intp) + np.repeat(row + 1 - (np.cumsum(counts) - counts), counts)
-        d = _pair_lengths(pos, a, b)
-        keep = d < radius
-        if not keep.all():
-            a, b, d = a[keep], b[keep], d[keep]
-        k = len(a)
-        np.take(perm, a, out=pi[m:m + k])
-        np.take(perm, b, out=pj[m:m + k])
-        length[m:m + k] = d
-        np.add(code[a] * nt, code[b], out=key[m:m + k])
+    for a in range(n - 1):
+        d = pos[a] - pos[a + 1:]
+        dist = np.sqrt(np.einsum("ij,ij->i", d, d))  # as _pair_lengths computes it
+        keep = dist < radius
+        if keep.all():
+            k = n - 1 - a
+            pj[m:m + k] = perm[a + 1:]
+            length[m:m + k] = dist
+            np.add(code[a + 1:], code[a] * nt, out=key[m:m + k])
+        else:
+            sel = np.flatnonzero(keep) + (a + 1)
+            k = len(sel)
+            pj[m:m + k] = perm[sel]
+            length[m:m + k] = dist[keep]
+            np.add(code[sel], code[a] * nt, out=key[m:m + k])
+        pi[m:m + k] = perm[a]
         m += k
     pi, pj, length, key = pi[:m], pj[:m], length[:m], key[:m]
     if len(key) > 1 and (key[1:] < key[:-1]).any():
