@@ -188,3 +188,73 @@ def test_to_dict_of_a_failed_result_has_no_numbers_for_the_pose():
     assert d["position"] == [None] * 3
     assert d["rotation_vector"] is None and d["rotation_3sigma"] is None
     assert d["correspondences"] == [] and d["n_near_best"] == 0
+
+
+# -- the status contract of every method (issue 34) ----------------------------------------------
+_POSELESS = ("degenerate", "degenerate_collinear", "no_association", "too_few_percepts")
+_METHODS = ("ml", "spheres", "paper", "srls", "gradient")
+
+
+def _check_status_contract(res: LocalizationResult) -> None:
+    """A success status comes with a finite rigid pose and covariance; a status that keeps no
+    pose returns none (NaN transformation, position and covariances), as the failures built by
+    the pipeline's own failure path do."""
+    from worldgraph.localize import LOCALIZE_STATUSES, POSE_STATUSES
+
+    assert res.status in LOCALIZE_STATUSES
+    if res.status in POSE_STATUSES:
+        T = res.transformation
+        assert np.all(np.isfinite(T)) and np.all(np.isfinite(res.pose_covariance))
+        assert np.all(np.isfinite(res.covariance)) and np.array_equal(res.position, T[:3, 3])
+        assert np.allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=1e-6) and np.linalg.det(T[:3, :3]) > 0
+    if res.status in _POSELESS:
+        assert np.all(np.isnan(res.transformation)) and np.all(np.isnan(res.position))
+        assert np.all(np.isnan(res.covariance)) and np.all(np.isnan(res.pose_covariance))
+        assert not res.has_pose and res.alternatives == () and res.certificate is None
+        assert "no pose" in res.summary() and res.to_dict()["transformation"][0][0] is None
+
+
+def test_gradient_degenerate_returns_no_pose() -> None:
+    """Issue 34 (adversarial harness): three coplanar landmarks with the robot 5 cm below their
+    plane.  The gradient ascent's position is resolved to its mirror candidate by the validated
+    3D pose, where the range-only CRLB is singular: an infinite covariance, so "weak", which the
+    final check turns into "degenerate" -- and that result still carried the finite pose."""
+    pos = np.array([[4.62712084, 0.45422056, 0.0],
+                    [1.65944892, 2.87415614, 0.0],
+                    [4.05734831, 3.8755705, 0.0]])
+    ego = np.array([[-0.81682678, 3.95818654, 0.05216828],
+                    [-2.0447911, 0.31621408, 0.06331194],
+                    [-3.8093695, 2.22654249, 0.06151075]])
+    world = WorldModel.from_arrays(["t0", "t1", "t2"], pos)
+    res = localize(world, [Percept(f"t{k}", ego[k], 0.02) for k in range(3)], method="gradient")
+    assert res.status == "degenerate"
+    assert "infinite covariance" in res.message and "numerical breakdown" in res.message
+    _check_status_contract(res)
+    assert res.correspondences  # the matches stay for diagnosis
+
+
+@pytest.mark.parametrize("layout", ["coplanar", "collinear", "nearly coplanar", "spread"])
+def test_every_method_keeps_the_status_contract(layout: str) -> None:
+    """Property over the five methods on small worlds of three to five landmarks (one object
+    per type) laid out to provoke the degenerate paths: every result keeps the status contract."""
+    rng = np.random.default_rng(["coplanar", "collinear", "nearly coplanar", "spread"].index(layout))
+    for _ in range(12):
+        n = int(rng.integers(3, 6))
+        if layout == "coplanar":
+            pos = np.column_stack([rng.uniform(0, 6, (n, 2)), np.zeros(n)])
+        elif layout == "collinear":
+            pos = np.outer(rng.uniform(0, 6, n), [1.0, 0.0, 0.0]) + rng.normal(0, 0.05, (n, 3))
+        elif layout == "nearly coplanar":
+            pos = np.column_stack([rng.uniform(0, 6, (n, 2)), rng.normal(0, 0.02, n)])
+        else:
+            pos = rng.uniform(0, 6, (n, 3))
+        types = [f"t{k}" for k in range(n)]
+        world = WorldModel.from_arrays(types, pos)
+        yaw = rng.uniform(0, 2 * math.pi)
+        R = Rotation.from_euler("z", yaw).as_matrix()
+        t = np.r_[rng.uniform(0, 6, 2), rng.uniform(-1, 2)]
+        sigma = float(rng.choice([0.001, 0.02, 0.1]))
+        percepts = [Percept(types[k], R.T @ (pos[k] - t) + sigma * rng.standard_normal(3), sigma)
+                    for k in range(n)]
+        for method in _METHODS:
+            _check_status_contract(localize(world, percepts, method=method))

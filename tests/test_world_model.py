@@ -804,3 +804,83 @@ def test_centre_depths_are_the_median_half_thinnest_extent_per_type():
     table = wg.scenes.kitchen(seed=0)
     depths = table.centre_depths()
     assert set(depths) == set(table.type_names) and 0.0 < depths["door"] < 0.05
+
+
+def _lexsort_tables(types: list[str], pos: np.ndarray, radius: float):
+    """Slow obvious reference for the link arrays: every pair tested, oriented by the LinkTable
+    rule, ordered by numpy's lexsort over (type pair, length, i, j)."""
+    names = sorted(set(types))
+    code = {t: c for c, t in enumerate(names)}
+    rows = []
+    for a, b in combinations(range(len(types)), 2):
+        d = pos[a] - pos[b]
+        length = float(np.sqrt(np.einsum("ij,ij->i", d[None], d[None]))[0])
+        if length >= radius:
+            continue
+        i, j = (a, b) if (code[types[a]], a) <= (code[types[b]], b) else (b, a)
+        rows.append((code[types[i]] * len(names) + code[types[j]], length, i, j))
+    key, length, i, j = (np.array([r[k] for r in rows]) for k in range(4))
+    order = np.lexsort((j, i, length, key)) if rows else np.zeros(0, np.intp)
+    return key[order], length[order], i[order], j[order]
+
+
+@pytest.mark.parametrize("case", ["one point, one object per type", "one point, repeated types",
+                                  "packed, repeated types", "packed, one object per type",
+                                  "five points, repeated types"])
+def test_dense_links_equal_the_pair_search_and_the_reference(case: str) -> None:
+    """Issue 34: objects packed in one place (every pair within reach) take the enumeration of
+    all pairs (_dense_links) instead of the k-d tree's pair search.  Both paths give the same
+    arrays, row for row, as the lexsort of all pairs (ties in length at one point, equal type
+    pairs, coincident objects of distinct types, pairs just beyond reach when packed)."""
+    from worldgraph.model.links import _dense_links, _tree_links, _within_reach
+
+    rng = np.random.default_rng(34)
+    n = 120
+    if "one point" in case:
+        pos = np.tile([1.5, -2.0, 0.25], (n, 1))
+    elif "five points" in case:  # 24 objects at each point, of 24 distinct types (ties in length)
+        pos = rng.uniform(0.0, 1.0, (5, 3))[np.arange(n) // 24]
+    else:
+        pos = rng.uniform(0.0, 2.8, (n, 3))
+    distinct = "one object per type" in case
+    types = [f"t{k}" for k in rng.permutation(n)] if distinct else [f"t{k}" for k in rng.integers(0, 7, n)]
+    if "one point" in case and not distinct:  # a type at most once at each point: two points
+        types = [f"t{k % 60}" for k in range(n)]
+        pos = pos + (np.arange(n) // 60)[:, None] * [0.0, 0.0, 0.5]
+    if "five points" in case:
+        types = [f"t{k}" for k in np.concatenate([rng.permutation(24) for _ in range(5)])]
+    radius = 4.5 if "packed" not in case else 4.0  # packed: box diagonal 4.85 > 4, some pairs out
+    w = WorldModel.from_arrays(types, pos, max_link_length=radius)
+    names = list(w.type_names)
+    codes = np.searchsorted(names, np.array(types)).astype(np.intp)
+    key, length, i, j = _lexsort_tables(types, pos, radius)
+    dense = _dense_links(names, codes, w.positions, radius)
+    tree = _tree_links(names, codes, w.positions, w.tree, radius)
+    assert _within_reach(w.positions, radius) == ("packed" not in case)
+    for tables in (dense, tree, w.links):
+        assert np.array_equal(tables._pi, i) and np.array_equal(tables._pj, j)
+        assert np.array_equal(tables._length, length)  # bit for bit: the same arithmetic
+        assert np.array_equal(tables._present, np.unique(key))
+        assert list(tables) == list(tree) and len(tables) == len(np.unique(key))
+        for pair in list(tree)[:50]:
+            assert np.array_equal(tables[pair].i, tree[pair].i)
+            assert np.array_equal(tables[pair].length, tree[pair].length)
+
+
+def test_distinct_types_at_one_point_build_or_refuse_before_the_work() -> None:
+    """Issue 34: 2,000 objects of 2,000 distinct types at one point are a world of 1,999,000
+    links, one per type pair (each of length 0); 10,000 such objects would be 49,995,000 links,
+    beyond MAX_LINKS: refused by the sample estimate with the argument and the numbers named."""
+    from worldgraph.model.links import MAX_LINKS
+
+    n = 2000
+    w = WorldModel.from_arrays([f"part{k}" for k in range(n)], np.zeros((n, 3)))
+    assert len(w.links) == n * (n - 1) // 2
+    table = w.links[("part0", "part1")]
+    assert len(table) == 1 and table.length[0] == 0.0
+    assert {int(table.i[0]), int(table.j[0])} == {0, 1}
+    n = 10_000
+    assert n * (n - 1) // 2 > MAX_LINKS
+    with pytest.raises(wg.OutOfRangeError, match=r"max_link_length = 5 m .*49,995,000 object pairs "
+                                                 r"\(10,000 objects"):
+        WorldModel.from_arrays([f"part{k}" for k in range(n)], np.zeros((n, 3)))

@@ -73,7 +73,7 @@ from ..pose.validation import CHI2_3_GATE, NearestObjects, percept_covariances
 from ..tolerances import ASSOCIATION_TOLERANCES, RIGID_TOLERANCE, AssociationTolerances, _tol_argument
 from .context import _Call, _Context, _Settings
 from .paper import _paper
-from .result import LOCALIZE_STATUSES, POSE_STATUSES, LocalizationResult
+from .result import _POSELESS_STATUSES, LOCALIZE_STATUSES, POSE_STATUSES, LocalizationResult, _without_pose
 from .validate import ASSOCIATION_CANDIDATES, _validated
 
 #: ``"ml"``: the maximum-likelihood 6D pose from the full 3D percepts (their covariances);
@@ -352,12 +352,15 @@ def _check_region(region: object) -> ro.Region | None:
 
 
 def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
-    """A success status only with a finite rigid pose and covariance; a listed status."""
+    """A success status only with a finite rigid pose and covariance; a listed status; no pose
+    with a status that keeps none (:data:`~worldgraph.localize.result._POSELESS_STATUSES`: a
+    pose that broke down here, e.g. "weak" with an infinite covariance, is not returned as a
+    finite transformation under "degenerate")."""
     status = result.status
     if status not in LOCALIZE_STATUSES:
-        return replace(result, status="degenerate", message=f"{result.message}; internal status {status!r} "
-                       "is not a localisation status".lstrip("; "))
-    if status in POSE_STATUSES:
+        result = replace(result, status="degenerate", message=f"{result.message}; internal status {status!r} "
+                         "is not a localisation status".lstrip("; "))
+    elif status in POSE_STATUSES:
         T = result.transformation
         finite = bool(np.all(np.isfinite(T)) and np.all(np.isfinite(result.pose_covariance))
                       and np.all(np.isfinite(result.covariance)))
@@ -365,8 +368,11 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
                                 and np.linalg.det(T[:3, :3]) > 0)
         if not rigid:
             why = "non-finite pose or covariance" if not finite else "a pose that is not rigid"
-            return replace(result, status="degenerate", ambiguous=False,
-                           message="; ".join(m for m in (result.message, f"numerical breakdown: {why}") if m))
+            note = f"numerical breakdown: {why}"
+            result = replace(result, status="degenerate", ambiguous=False,
+                             message="; ".join(m for m in (result.message, note) if m))
+    if result.status in _POSELESS_STATUSES and not np.all(np.isnan(result.transformation)):
+        return _without_pose(result)
     return result
 
 

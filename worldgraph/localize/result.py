@@ -4,7 +4,7 @@ literals and tuples, and the helpers of its summary and ``to_dict``."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal, get_args
 
 import numpy as np
@@ -47,6 +47,12 @@ LOCALIZE_STATUSES: tuple[str, ...] = get_args(LocalizeStatus)
 UNIQUE_STATUSES: tuple[str, ...] = get_args(UniqueStatus)
 #: ``"ok"``, ``"weak"`` and ``"ambiguous"``: a finite rigid pose and covariance, checked.
 POSE_STATUSES: tuple[str, ...] = get_args(PoseStatus)
+#: The failure statuses that keep no pose, not even for diagnosis: ``transformation``,
+#: ``position`` and the covariances are NaN (:func:`_without_pose`); the other failures
+#: (``"inconsistent"``, ``"outside_region"``, ``"degenerate_coplanar"``, ``"not_converged"``)
+#: keep the pose that failed.
+_POSELESS_STATUSES: tuple[str, ...] = ("degenerate", "degenerate_collinear", "no_association",
+                                       "too_few_percepts")
 
 
 @dataclass(frozen=True)
@@ -321,6 +327,19 @@ def _failed(status: LocalizeStatus, message: str, n: int, hyps: tuple = (), timi
     nan3 = np.full(3, np.nan)
     return LocalizationResult(np.full((4, 4), np.nan), nan3, np.full((3, 3), np.nan), (), hyps,
                               ambiguous, status, message, timings or {}, residuals=np.full(n, np.nan))
+
+
+def _without_pose(result: LocalizationResult) -> LocalizationResult:
+    """``result`` with every field that a pose determines as :func:`_failed` leaves it (NaN
+    transformation, position and covariances, NaN residuals, no inliers, no alternatives, no
+    certificate); the matches, hypotheses, position estimate, message and timings stay for
+    diagnosis.  What a status of :data:`_POSELESS_STATUSES` gets whatever built it."""
+    nan3 = np.full(3, np.nan)
+    return replace(result, transformation=np.full((4, 4), np.nan), position=nan3,
+                   covariance=np.full((3, 3), np.nan), pose_covariance=np.full((6, 6), np.nan),
+                   ambiguous=False, fitness=0.0, inlier_rmse=math.nan,
+                   residuals=np.full(len(result.residuals), np.nan), alternatives=(),
+                   log_likelihood_ratio=math.inf, certificate=None, near_best_costs=())
 
 
 def _worst_3sigma(block: NDArray[np.float64]) -> float:

@@ -4,6 +4,7 @@ builds it (:func:`_build_links`) and its limits :data:`MAX_LINK_LENGTH` and :dat
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -225,7 +226,9 @@ def _build_world_links(world: Any, stored: tuple[NDArray[Any], ...] | None = Non
 
 
 def _search_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: cKDTree) -> _LinkTables:
-    """The link tables of a world by a k-d tree pair search and three sorts."""
+    """The link tables of a world: refused beyond :data:`MAX_LINKS` (estimated on a sample before
+    anything is built), by enumeration when every pair is within reach (:func:`_dense_links`),
+    else by the k-d tree's pair search (:func:`_tree_links`)."""
     positions = world._positions
 
     radius = world.max_link_length + world.link_margin
@@ -239,6 +242,15 @@ def _search_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: c
                 f"would link about {estimate:,.0f} object pairs ({n:,} objects, about "
                 f"{counts.mean() - 1:,.0f} within reach of each), more than {MAX_LINKS:,}: lower "
                 "max_link_length or thin the world")
+    if n > 1 and _within_reach(positions, radius):
+        return _dense_links(names, codes, positions, radius)
+    return _tree_links(names, codes, positions, tree, radius)
+
+
+def _tree_links(names: list[str], codes: NDArray[np.intp], positions: NDArray[np.float64], tree: cKDTree,
+                radius: float) -> _LinkTables:
+    """The link tables (pairs closer than ``radius``) by the k-d tree's pair search and sorts."""
+    n = len(positions)
     # query slightly wide, then filter with the exact strict test below
     pairs = tree.query_pairs(radius * (1.0 + QUERY_WIDEN), output_type="ndarray")
     if pairs.size == 0:
@@ -259,13 +271,92 @@ def _search_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: c
     del swap
     key = np.minimum(ci, cj).astype(np.int64) * nt + np.maximum(ci, cj)
     del ci, cj
-    order = _link_order(pi, pj, length, key, n)
+    if nt == n:  # one object per type: every type pair has at most one link, the key alone orders them
+        order = np.argsort(key, kind="stable")
+    else:
+        order = _link_order(pi, pj, length, key, n)
     pi, pj, length, key = pi[order], pj[order], length[order], key[order]
     del order
-    present, first = np.unique(key, return_index=True)
-    last = np.append(first[1:], len(key))[: len(first)]
-    return _LinkTables(names, pi, pj, length, present.astype(np.int64), first.astype(np.intp),
-                       last.astype(np.intp))
+    return _sorted_tables(names, pi, pj, length, key)
+
+
+def _sorted_tables(names: list[str], pi: NDArray[np.intp], pj: NDArray[np.intp], length: NDArray[np.float64],
+                   key: NDArray[np.int64]) -> _LinkTables:
+    """The link tables of rows already in their final order (``key`` non-decreasing): the type
+    pairs present and their slices from the places where ``key`` changes (``np.unique`` of a
+    sorted key without its sort)."""
+    m = len(key)
+    change = np.flatnonzero(key[1:] != key[:-1]) + 1 if m else np.zeros(0, np.intp)
+    if len(change) == m - 1:  # one row per type pair (one object per type): no gather
+        first = np.arange(m, dtype=np.intp)
+        present = key.astype(np.int64, copy=False)
+        last = first + 1
+    else:
+        first = np.concatenate([np.zeros(min(m, 1), np.intp), change]).astype(np.intp, copy=False)
+        present = key[first].astype(np.int64, copy=False)
+        last = np.append(first[1:], m)[: len(first)].astype(np.intp, copy=False)
+    return _LinkTables(names, pi, pj, length, present, first, last)
+
+
+def _within_reach(positions: NDArray[np.float64], radius: float) -> bool:
+    """Whether every pair of objects may be a link: the diagonal of the objects' bounding box
+    is below ``radius`` (objects packed in one place, e.g. the parts of one machine, or a test
+    world at one point)."""
+    extent = positions.max(axis=0) - positions.min(axis=0)
+    return bool(math.sqrt(float(extent @ extent)) < radius)
+
+
+def _dense_links(names: list[str], codes: NDArray[np.intp], positions: NDArray[np.float64],
+                 radius: float) -> _LinkTables:
+    """The link tables of a world whose objects lie within reach of each other: every pair
+    enumerated row by row (object ``a`` against the objects after it: contiguous slices, no
+    gathers), without the k-d tree's pair search and, in the common cases, without sorting (the
+    tables :func:`_tree_links` builds, row for row).
+
+    The objects are put in type order (ascending index within a type), so that a pair ``(a, b)``
+    with ``a < b`` in that order is already oriented (lower type first, lower index first within
+    one type) and the row-major enumeration is in object order within every type pair.  With one
+    object per type the enumeration is in type-pair order too; with repeated types one stable sort
+    by type pair groups them, and the lengths are sorted within each pair only when they are not
+    already (all objects at one point: equal lengths).
+    """
+    n = len(positions)
+    nt = len(names)
+    perm = np.argsort(codes, kind="stable").astype(np.intp)
+    pos = positions[perm]
+    code = codes[perm].astype(np.int64)
+    total = n * (n - 1) // 2  # at most; filled row by row (contiguous slices, no gathers)
+    pi, pj = np.empty(total, np.intp), np.empty(total, np.intp)
+    length, key = np.empty(total), np.empty(total, np.int64)
+    m = 0
+    for a in range(n - 1):
+        d = pos[a] - pos[a + 1:]
+        dist = np.sqrt(np.einsum("ij,ij->i", d, d))  # as _pair_lengths computes it
+        keep = dist < radius
+        if keep.all():
+            k = n - 1 - a
+            pj[m:m + k] = perm[a + 1:]
+            length[m:m + k] = dist
+            np.add(code[a + 1:], code[a] * nt, out=key[m:m + k])
+        else:
+            sel = np.flatnonzero(keep) + (a + 1)
+            k = len(sel)
+            pj[m:m + k] = perm[sel]
+            length[m:m + k] = dist[keep]
+            np.add(code[sel], code[a] * nt, out=key[m:m + k])
+        pi[m:m + k] = perm[a]
+        m += k
+    pi, pj, length, key = pi[:m], pj[:m], length[:m], key[:m]
+    if len(key) > 1 and (key[1:] < key[:-1]).any():
+        order = np.argsort(key, kind="stable")
+        pi, pj, length, key = pi[order], pj[order], length[order], key[order]
+        del order
+    if len(key) > 1 and ((key[1:] == key[:-1]) & (length[1:] < length[:-1])).any():
+        order = np.argsort(length, kind="stable")  # rows in (type pair, object) order: stable twice
+        order = order[np.argsort(key[order], kind="stable")]
+        pi, pj, length, key = pi[order], pj[order], length[order], key[order]
+        del order
+    return _sorted_tables(names, pi, pj, length, key)
 
 
 #: Objects whose links (and link rows whose lengths) a binary file's link tables are checked
