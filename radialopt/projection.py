@@ -104,6 +104,7 @@ from .spheres import (
     GaussianSphere,
     Tolerances,
     check_distinct_centers,
+    checked_arrays,
     sphere_arrays,
 )
 from .tolerances import (
@@ -461,18 +462,34 @@ METHODS = tuple(_BACKENDS)
 
 
 def project_radii(
-    spheres: Sequence[GaussianSphere],
+    spheres: Sequence[GaussianSphere] | None = None,
     method: str = "active_set",
     solver: str | None = None,
     check: bool | str = False,
     tol: Tolerances = TOLERANCES,
+    *,
+    centers: ArrayLike | None = None,
+    radii: ArrayLike | None = None,
+    sigmas: ArrayLike | None = None,
 ) -> RadialSolution:
     """Project measured radii onto the restriction polytope in normalised radial space.
 
+    The spheres come either as a sequence of :class:`GaussianSphere` (``project_radii(spheres)``)
+    or as arrays, by keyword: ``project_radii(centers=c, radii=r, sigmas=s)`` -- the same
+    checks, the same answer, without building sphere objects (the fast way in from numpy; a
+    float64 input is checked in plain Python at small n).  Pass one form, not both.
+
     Parameters
     ----------
-    spheres : sequence of GaussianSphere, length n >= 2
+    spheres : sequence of GaussianSphere, length n >= 2, optional
         Centres (model landmarks), measured radii and their standard deviations.
+    centers : (n, 3) array, keyword only
+        Sphere centres, metres (instead of ``spheres``; with ``radii`` and ``sigmas``).
+    radii : (n,) array, keyword only
+        Measured radii >= 0, metres.
+    sigmas : (n,) array or scalar, keyword only
+        Standard deviations of the radii, > 0, metres (a scalar applies to every sphere), within
+        the relative range of :func:`~radialopt._checks.sigma_range`.
     method : {"active_set", "cvxpy", "vertices", "paper"}
         Backend, see the module docstring.
     solver : str, optional
@@ -511,11 +528,23 @@ def project_radii(
     instance(tol, "tol", Tolerances)
     if check == "exact":
         _cdd_gmp()  # fail before solving when the exact mode is missing
+    if centers is not None or radii is not None or sigmas is not None:
+        if spheres is not None:
+            raise ShapeError("pass either spheres or centers=, radii=, sigmas=, not both (got spheres "
+                             f"of type {type(spheres).__name__} and arrays)")
+        missing = [k for k, v in (("centers", centers), ("radii", radii), ("sigmas", sigmas)) if v is None]
+        if missing:
+            raise ShapeError("the array form needs centers=, radii= and sigmas=; missing "
+                             f"{', '.join(missing)}")
+        c, r, sg = checked_arrays(centers, radii, sigmas, min_count=2)
+        return _project_arrays(c, r, sg, method, solver, check, tol)
+    if spheres is None:
+        raise ShapeError("project_radii needs spheres, or centers=, radii= and sigmas= arrays")
     if not isinstance(spheres, (Sequence, str, bytes, GaussianSphere, np.ndarray)) and isinstance(
             spheres, Iterable):
         spheres = list(spheres)  # a generator is read once; check=True reads the spheres again
-    centers, radii, sigmas = sphere_arrays(spheres, min_count=2, tol=tol, check_centers=False)
-    return _project_arrays(centers, radii, sigmas, method, solver, check, tol)
+    c, r, sg = sphere_arrays(spheres, min_count=2, tol=tol, check_centers=False)
+    return _project_arrays(c, r, sg, method, solver, check, tol)
 
 
 def _project_radii_trusted(
