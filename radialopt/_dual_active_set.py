@@ -143,6 +143,16 @@ def _ldp_pairs(rows: _PairRows, n: int) -> tuple[list[float], list[float]] | Non
         gp_sq = a * a + b * b
         up = 0.0
         for _inner in range(n + 2):
+            if not act:  # an empty working set: the full step along gp (two nonzeros)
+                t = (a * z[i] + b * z[j] - hk) / gp_sq
+                z = list(z)
+                z[i] -= t * a
+                z[j] -= t * b
+                up += t
+                gram = [[gp_sq]]
+                act.append((i, j, a, b))
+                u = [up]
+                break
             if act:
                 r = _chol_solve(gram, [(a * ga if ia == i else a * gb if ja == i else 0.0)
                                        + (b * ga if ia == j else b * gb if ja == j else 0.0)
