@@ -805,6 +805,17 @@ def _batch_dual_active_set(
     up = np.zeros(K)
     eye = np.eye(n, dtype=bool)
     AT = np.ascontiguousarray(A.T)
+    # the first step in closed form: from z = 0 the most violated row joins the empty working
+    # set with the full step t = -h_p / |g_p|^2 (instances with no violated row are done, z = 0)
+    p0 = np.argmax(-h, axis=1)
+    h0 = h[live, p0]
+    gp0 = A[p0] * sg
+    t0 = -h0 / np.sum(gp0 * gp0, axis=1)
+    start = -h0 > tol
+    z[start] = -t0[start, None] * gp0[start]
+    W[start, 0] = gp0[start]
+    act[start, 0] = True
+    u[start, 0] = t0[start]
     for _ in range(4 * A.shape[0] + 8):
         if not len(live):
             break
