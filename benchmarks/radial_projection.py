@@ -11,6 +11,12 @@ alone; ratios against the fresh cvxpy problem from the same run; then the batch 
 the active-set path.  The paper's rule reports "over budget" when an instance needs more than
 ``PAPER_MAX_FLATS`` flats.
 Instances are infeasible (the projection does work), seeded, shared by every method.
+
+First (issue 34), at n = 4: the public call from spheres and from arrays
+(``project_radii(centers=, radii=, sigmas=)``), building the spheres, one ``GaussianSphere``,
+``project_radii_batch`` per instance over ``--batch`` instances and the loop of single solves
+it is tested against, each with its ratio to a fresh cvxpy + Clarabel problem of the same run.
+``--issue34-only`` prints that table and the batch throughput only.
 """
 
 from __future__ import annotations

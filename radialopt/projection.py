@@ -45,10 +45,14 @@ Every method's answer is checked against ``A r' <= b`` in metres: a violation ab
 ``tol.agreement * scale`` raises :class:`~radialopt.errors.SolverError` (``scale`` = the
 largest of the centre distances, the radii and 1 m).
 
-:func:`project_radii` checks its input (:func:`~radialopt.spheres.sphere_arrays`); internal
-callers whose data were checked where they were made (worldgraph's ``localize``, the
+:func:`project_radii` takes spheres or, by keyword, arrays (``centers=, radii=, sigmas=``) and
+checks its input (:func:`~radialopt.spheres.sphere_arrays`, :func:`~radialopt.spheres.checked_arrays`);
+internal callers whose data were checked where they were made (worldgraph's ``localize``, the
 range-only estimators) call :func:`_project_radii_trusted` with arrays: the same computation
-and answer without the checks.
+and answer without the checks.  :func:`project_radii_batch` solves many instances of the same
+sphere count at once: the small-instance dual active set vectorised across the instances
+(:func:`_batch_dual_active_set`), tested against the loop of single solves
+(:func:`_project_radii_batch_reference`).
 
 ``check=True`` verifies any method's answer against the vertex enumeration (V-form optimality
 certificate and the V-form optimum) and raises :class:`~radialopt.errors.VerificationError`
