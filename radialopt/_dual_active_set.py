@@ -37,25 +37,43 @@ def _pair_rows(
     """The whitened restriction rows of every pair (chi, alpha, beta, as :func:`pair_pattern`)
     and the centre distances, in plain Python; :class:`CoincidentCentersError` for a pair
     closer than ``tol.coincident``."""
+    rows, dist, _ = _pair_setup(centers, radii, sigmas, tol, centers_array)
+    return rows, dist
+
+
+_PairSetup = tuple[list[float], list[tuple[int, int, float, float, float]]]
+"""``(|g_i| per sphere, (i, j, h_chi, h_alpha, h_beta) per pair)``: :func:`_ldp_pairs` evaluates
+``G z - h`` per pair from them."""
+
+
+def _pair_setup(
+    centers: list[list[float]], radii: list[float], sigmas: list[float], tol: Tolerances,
+    centers_array: NDArray[np.float64],
+) -> tuple[_PairRows, list[float], _PairSetup]:
+    """:func:`_pair_rows` and, from the same pass, the per-pair form :func:`_ldp_pairs` uses."""
     q = _Q
     n = len(radii)
     coincident = tol.coincident
     rows: _PairRows = []
     dist: list[float] = []
+    pairs = []
+    gs = [q * sg for sg in sigmas]
     for i in range(n - 1):
         xi, yi, zi = centers[i]
-        ri, gi = radii[i], q * sigmas[i]
+        ri, gi = radii[i], gs[i]
         for j in range(i + 1, n):
             xj, yj, zj = centers[j]
             d = math.sqrt((xi - xj) ** 2 + (yi - yj) ** 2 + (zi - zj) ** 2)
             if d <= coincident:
                 check_distinct_centers(centers_array, tol)  # raises, naming the pair
             dist.append(d)
-            rj, gj, qd = radii[j], q * sigmas[j], q * d
-            rows += ((i, j, -gi, -gj, -qd + q * (ri + rj)),  # chi: -r_i - r_j <= -d
-                     (i, j, -gi, gj, qd - q * (rj - ri)),    # alpha: r_j - r_i <= d
-                     (i, j, gi, -gj, qd - q * (ri - rj)))    # beta: r_i - r_j <= d
-    return rows, dist
+            rj, gj, qd = radii[j], gs[j], q * d
+            h0, h1, h2 = -qd + q * (ri + rj), qd - q * (rj - ri), qd - q * (ri - rj)
+            rows += ((i, j, -gi, -gj, h0),  # chi: -r_i - r_j <= -d
+                     (i, j, -gi, gj, h1),   # alpha: r_j - r_i <= d
+                     (i, j, gi, -gj, h2))   # beta: r_i - r_j <= d
+            pairs.append((i, j, h0, h1, h2))
+    return rows, dist, (gs, pairs)
 
 
 def _chol_solve(M: list[list[float]], rhs: list[float]) -> list[float] | None:
@@ -102,7 +120,8 @@ def _dot(a: list[float], b: list[float]) -> float:
     return sum(map(operator.mul, a, b))
 
 
-def _ldp_pairs(rows: _PairRows, n: int) -> tuple[list[float], list[float]] | None:
+def _ldp_pairs(rows: _PairRows, n: int, setup: _PairSetup | None = None
+               ) -> tuple[list[float], list[float]] | None:
     """``min |z|^2 s.t. G z <= h`` for two-nonzero rows: Goldfarb and Idnani's dual active-set
     method (Math. Programming 27, 1983) with the identity Hessian, in plain Python.
 
@@ -124,12 +143,15 @@ def _ldp_pairs(rows: _PairRows, n: int) -> tuple[list[float], list[float]] | Non
     tol = ROUNDING_RTOL * max(max(excess), -min(excess), 1.0)
     # the rows come in triples (chi, alpha, beta) per pair, with |g_i| = sigma_i / sqrt 2, so
     # G z - h is evaluated per pair from v_i = |g_i| z_i (the same products as row by row)
-    gs = [0.0] * n
-    pairs = []
-    for k in range(0, len(rows), 3):
-        i, j, a, b, h0 = rows[k]
-        gs[i], gs[j] = -a, -b
-        pairs.append((i, j, h0, rows[k + 1][4], rows[k + 2][4]))
+    if setup is None:
+        gs = [0.0] * n
+        pairs = []
+        for k in range(0, len(rows), 3):
+            i, j, a, b, h0 = rows[k]
+            gs[i], gs[j] = -a, -b
+            pairs.append((i, j, h0, rows[k + 1][4], rows[k + 2][4]))
+    else:
+        gs, pairs = setup
     z = [0.0] * n
     act: list[tuple[int, int, float, float]] = []  # working rows (i, j, g_i, g_j)
     gram: list[list[float]] = []

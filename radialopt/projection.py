@@ -88,7 +88,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._checks import MAX_SIGMA, MIN_SIGMA_RELATIVE, instance, real_array, sigma_range
 from ._dual_active_set import SMALL_CORE_SPHERES as SMALL_CORE_SPHERES
-from ._dual_active_set import _dot, _ldp_pairs, _pair_rows
+from ._dual_active_set import _dot, _ldp_pairs, _pair_setup
 from ._exact_check import _cdd_gmp, _exact_generators, _exact_kkt_point
 from ._ldp import CONSTRAINT_GENERATION_ROWS as CONSTRAINT_GENERATION_ROWS
 from ._ldp import _polish_certified
@@ -628,9 +628,9 @@ def _active_set_small(
     r = radii.tolist()
     s = sigmas.tolist()
     n = len(r)
-    rows, dist = _pair_rows(centers.tolist(), r, s, tol, centers)
+    rows, dist, setup = _pair_setup(centers.tolist(), r, s, tol, centers)
     status = "optimal"
-    out = _ldp_pairs(rows, n)
+    out = _ldp_pairs(rows, n, setup)
     if out is None:  # not certified: the NNLS route decides
         G = np.zeros((len(rows), n))
         for k, (i, j, a, b, _) in enumerate(rows):
