@@ -37,25 +37,43 @@ def _pair_rows(
     """The whitened restriction rows of every pair (chi, alpha, beta, as :func:`pair_pattern`)
     and the centre distances, in plain Python; :class:`CoincidentCentersError` for a pair
     closer than ``tol.coincident``."""
+    rows, dist, _ = _pair_setup(centers, radii, sigmas, tol, centers_array)
+    return rows, dist
+
+
+_PairSetup = tuple[list[float], list[tuple[int, int, float, float, float]]]
+"""``(|g_i| per sphere, (i, j, h_chi, h_alpha, h_beta) per pair)``: :func:`_ldp_pairs` evaluates
+``G z - h`` per pair from them."""
+
+
+def _pair_setup(
+    centers: list[list[float]], radii: list[float], sigmas: list[float], tol: Tolerances,
+    centers_array: NDArray[np.float64],
+) -> tuple[_PairRows, list[float], _PairSetup]:
+    """:func:`_pair_rows` and, from the same pass, the per-pair form :func:`_ldp_pairs` uses."""
     q = _Q
     n = len(radii)
     coincident = tol.coincident
     rows: _PairRows = []
     dist: list[float] = []
+    pairs = []
+    gs = [q * sg for sg in sigmas]
     for i in range(n - 1):
         xi, yi, zi = centers[i]
-        ri, gi = radii[i], q * sigmas[i]
+        ri, gi = radii[i], gs[i]
         for j in range(i + 1, n):
             xj, yj, zj = centers[j]
             d = math.sqrt((xi - xj) ** 2 + (yi - yj) ** 2 + (zi - zj) ** 2)
             if d <= coincident:
                 check_distinct_centers(centers_array, tol)  # raises, naming the pair
             dist.append(d)
-            rj, gj, qd = radii[j], q * sigmas[j], q * d
-            rows += ((i, j, -gi, -gj, -qd + q * (ri + rj)),  # chi: -r_i - r_j <= -d
-                     (i, j, -gi, gj, qd - q * (rj - ri)),    # alpha: r_j - r_i <= d
-                     (i, j, gi, -gj, qd - q * (ri - rj)))    # beta: r_i - r_j <= d
-    return rows, dist
+            rj, gj, qd = radii[j], gs[j], q * d
+            h0, h1, h2 = -qd + q * (ri + rj), qd - q * (rj - ri), qd - q * (ri - rj)
+            rows += ((i, j, -gi, -gj, h0),  # chi: -r_i - r_j <= -d
+                     (i, j, -gi, gj, h1),   # alpha: r_j - r_i <= d
+                     (i, j, gi, -gj, h2))   # beta: r_i - r_j <= d
+            pairs.append((i, j, h0, h1, h2))
+    return rows, dist, (gs, pairs)
 
 
 def _chol_solve(M: list[list[float]], rhs: list[float]) -> list[float] | None:
@@ -102,7 +120,8 @@ def _dot(a: list[float], b: list[float]) -> float:
     return sum(map(operator.mul, a, b))
 
 
-def _ldp_pairs(rows: _PairRows, n: int) -> tuple[list[float], list[float]] | None:
+def _ldp_pairs(rows: _PairRows, n: int, setup: _PairSetup | None = None
+               ) -> tuple[list[float], list[float]] | None:
     """``min |z|^2 s.t. G z <= h`` for two-nonzero rows: Goldfarb and Idnani's dual active-set
     method (Math. Programming 27, 1983) with the identity Hessian, in plain Python.
 
@@ -122,9 +141,19 @@ def _ldp_pairs(rows: _PairRows, n: int) -> tuple[list[float], list[float]] | Non
     """
     excess = [-row[4] for row in rows]  # G z - h at z = 0
     tol = ROUNDING_RTOL * max(max(excess), -min(excess), 1.0)
+    # the rows come in triples (chi, alpha, beta) per pair, with |g_i| = sigma_i / sqrt 2, so
+    # G z - h is evaluated per pair from v_i = |g_i| z_i (the same products as row by row)
+    if setup is None:
+        gs = [0.0] * n
+        pairs = []
+        for k in range(0, len(rows), 3):
+            i, j, a, b, h0 = rows[k]
+            gs[i], gs[j] = -a, -b
+            pairs.append((i, j, h0, rows[k + 1][4], rows[k + 2][4]))
+    else:
+        gs, pairs = setup
     z = [0.0] * n
-    act: list[int] = []
-    dense: list[list[float]] = []
+    act: list[tuple[int, int, float, float]] = []  # working rows (i, j, g_i, g_j)
     gram: list[list[float]] = []
     u: list[float] = []
     for _ in range(2 * len(rows) + 2):
@@ -133,22 +162,36 @@ def _ldp_pairs(rows: _PairRows, n: int) -> tuple[list[float], list[float]] | Non
             return (z, excess) if min(u, default=0.0) >= -tol else None
         p = excess.index(worst)
         i, j, a, b, hk = rows[p]
-        gp = [0.0] * n
-        gp[i] += a
-        gp[j] += b
         gp_sq = a * a + b * b
         up = 0.0
         for _inner in range(n + 2):
+            if not act:  # an empty working set: the full step along gp (two nonzeros)
+                t = (a * z[i] + b * z[j] - hk) / gp_sq
+                z = list(z)
+                z[i] -= t * a
+                z[j] -= t * b
+                up += t
+                gram = [[gp_sq]]
+                act.append((i, j, a, b))
+                u = [up]
+                break
             if act:
-                r = _chol_solve(gram, [_dot(g, gp) for g in dense])
+                r = _chol_solve(gram, [(a * ga if ia == i else a * gb if ja == i else 0.0)
+                                       + (b * ga if ia == j else b * gb if ja == j else 0.0)
+                                       for ia, ja, ga, gb in act])
                 if r is None:
                     return None
-                w = list(gp)  # gp projected onto the working rows' null space
-                for rk, g in zip(r, dense, strict=True):
-                    for c in range(n):
-                        w[c] -= rk * g[c]
+                w = [0.0] * n  # gp projected onto the working rows' null space
+                w[i] = a
+                w[j] = b
+                for rk, (ia, ja, ga, gb) in zip(r, act, strict=True):
+                    w[ia] -= rk * ga
+                    w[ja] -= rk * gb
             else:
-                r, w = [], gp
+                r = []
+                w = [0.0] * n
+                w[i] = a
+                w[j] = b
             gd = _dot(w, w)
             t1, kd = math.inf, -1
             for k, rk in enumerate(r):
@@ -164,27 +207,21 @@ def _ldp_pairs(rows: _PairRows, n: int) -> tuple[list[float], list[float]] | Non
             u = [uk - t * rk for uk, rk in zip(u, r, strict=True)]
             up += t
             if t2 <= t1:  # full step: the row joins the working set
-                gram = [row + [_dot(g, gp)] for row, g in zip(gram, dense, strict=True)]
-                dense.append(gp)
-                gram.append([row[-1] for row in gram] + [gp_sq])
-                act.append(p)
+                col = [(a * ga if ia == i else a * gb if ja == i else 0.0)
+                       + (b * ga if ia == j else b * gb if ja == j else 0.0) for ia, ja, ga, gb in act]
+                gram = [row + [c] for row, c in zip(gram, col, strict=True)]
+                gram.append(col + [gp_sq])
+                act.append((i, j, a, b))
                 u.append(up)
                 break
-            del act[kd], dense[kd], u[kd], gram[kd]  # partial step: row kd leaves
+            del act[kd], u[kd], gram[kd]  # partial step: row kd leaves
             for row in gram:
                 del row[kd]
         else:
             return None
-        excess = [a * z[i] + b * z[j] - hk for i, j, a, b, hk in rows]
+        v = [g * zt for g, zt in zip(gs, z, strict=True)]
+        excess = []
+        for i, j, h0, h1, h2 in pairs:
+            vi, vj = v[i], v[j]
+            excess += (-vi - vj - h0, vj - vi - h1, vi - vj - h2)
     return None
-    # the exact KKT point of the final working set, certified
-    y = _chol_solve(gram, [-rows[k][4] for k in act])
-    if y is None or min(y) < -tol:
-        return None
-    z = [0.0] * n
-    for yk, g in zip(y, dense, strict=True):
-        for t in range(n):
-            z[t] -= yk * g[t]
-    if max([a * z[i] + b * z[j] - hk for i, j, a, b, hk in rows]) > tol:
-        return None
-    return z, "optimal"

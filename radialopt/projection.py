@@ -45,10 +45,14 @@ Every method's answer is checked against ``A r' <= b`` in metres: a violation ab
 ``tol.agreement * scale`` raises :class:`~radialopt.errors.SolverError` (``scale`` = the
 largest of the centre distances, the radii and 1 m).
 
-:func:`project_radii` checks its input (:func:`~radialopt.spheres.sphere_arrays`); internal
-callers whose data were checked where they were made (worldgraph's ``localize``, the
+:func:`project_radii` takes spheres or, by keyword, arrays (``centers=, radii=, sigmas=``) and
+checks its input (:func:`~radialopt.spheres.sphere_arrays`, :func:`~radialopt.spheres.checked_arrays`);
+internal callers whose data were checked where they were made (worldgraph's ``localize``, the
 range-only estimators) call :func:`_project_radii_trusted` with arrays: the same computation
-and answer without the checks.
+and answer without the checks.  :func:`project_radii_batch` solves many instances of the same
+sphere count at once: the small-instance dual active set vectorised across the instances
+(:func:`_batch_dual_active_set`), tested against the loop of single solves
+(:func:`_project_radii_batch_reference`).
 
 ``check=True`` verifies any method's answer against the vertex enumeration (V-form optimality
 certificate and the V-form optimum) and raises :class:`~radialopt.errors.VerificationError`
@@ -82,9 +86,9 @@ from typing import Literal, get_args
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import MAX_SIGMA, instance, real_array, sigma_range
+from ._checks import MAX_SIGMA, MIN_SIGMA_RELATIVE, instance, real_array, sigma_range
 from ._dual_active_set import SMALL_CORE_SPHERES as SMALL_CORE_SPHERES
-from ._dual_active_set import _dot, _ldp_pairs, _pair_rows
+from ._dual_active_set import _dot, _ldp_pairs, _pair_setup
 from ._exact_check import _cdd_gmp, _exact_generators, _exact_kkt_point
 from ._ldp import CONSTRAINT_GENERATION_ROWS as CONSTRAINT_GENERATION_ROWS
 from ._ldp import _polish_certified
@@ -104,6 +108,7 @@ from .spheres import (
     GaussianSphere,
     Tolerances,
     check_distinct_centers,
+    checked_arrays,
     sphere_arrays,
 )
 from .tolerances import (
@@ -461,18 +466,34 @@ METHODS = tuple(_BACKENDS)
 
 
 def project_radii(
-    spheres: Sequence[GaussianSphere],
+    spheres: Sequence[GaussianSphere] | None = None,
     method: str = "active_set",
     solver: str | None = None,
     check: bool | str = False,
     tol: Tolerances = TOLERANCES,
+    *,
+    centers: ArrayLike | None = None,
+    radii: ArrayLike | None = None,
+    sigmas: ArrayLike | None = None,
 ) -> RadialSolution:
     """Project measured radii onto the restriction polytope in normalised radial space.
 
+    The spheres come either as a sequence of :class:`GaussianSphere` (``project_radii(spheres)``)
+    or as arrays, by keyword: ``project_radii(centers=c, radii=r, sigmas=s)`` -- the same
+    checks, the same answer, without building sphere objects (the fast way in from numpy; a
+    float64 input is checked in plain Python at small n).  Pass one form, not both.
+
     Parameters
     ----------
-    spheres : sequence of GaussianSphere, length n >= 2
+    spheres : sequence of GaussianSphere, length n >= 2, optional
         Centres (model landmarks), measured radii and their standard deviations.
+    centers : (n, 3) array, keyword only
+        Sphere centres, metres (instead of ``spheres``; with ``radii`` and ``sigmas``).
+    radii : (n,) array, keyword only
+        Measured radii >= 0, metres.
+    sigmas : (n,) array or scalar, keyword only
+        Standard deviations of the radii, > 0, metres (a scalar applies to every sphere), within
+        the relative range of :func:`~radialopt._checks.sigma_range`.
     method : {"active_set", "cvxpy", "vertices", "paper"}
         Backend, see the module docstring.
     solver : str, optional
@@ -500,6 +521,31 @@ def project_radii(
         ``check`` or ``method="vertices"`` with more than
         :data:`~radialopt.vertices.MAX_VERTEX_SPHERES` spheres (vertex enumeration).
     """
+    if not (type(method) is str and method == "active_set" and solver is None and check is False
+            and type(tol) is Tolerances):
+        _check_arguments(method, solver, check, tol)  # the defaults need no check
+    if centers is not None or radii is not None or sigmas is not None:
+        if spheres is not None:
+            raise ShapeError("pass either spheres or centers=, radii=, sigmas=, not both (got spheres "
+                             f"of type {type(spheres).__name__} and arrays)")
+        if centers is None or radii is None or sigmas is None:
+            missing = [k for k, v in (("centers", centers), ("radii", radii), ("sigmas", sigmas))
+                       if v is None]
+            raise ShapeError("the array form needs centers=, radii= and sigmas=; missing "
+                             f"{', '.join(missing)}")
+        c, r, sg = checked_arrays(centers, radii, sigmas, min_count=2)
+        return _project_arrays(c, r, sg, method, solver, check, tol)
+    if spheres is None:
+        raise ShapeError("project_radii needs spheres, or centers=, radii= and sigmas= arrays")
+    if not isinstance(spheres, (Sequence, str, bytes, GaussianSphere, np.ndarray)) and isinstance(
+            spheres, Iterable):
+        spheres = list(spheres)  # a generator is read once; check=True reads the spheres again
+    c, r, sg = sphere_arrays(spheres, min_count=2, tol=tol, check_centers=False)
+    return _project_arrays(c, r, sg, method, solver, check, tol)
+
+
+def _check_arguments(method: object, solver: object, check: object, tol: object) -> None:
+    """The checks of :func:`project_radii`'s arguments other than the spheres."""
     if not isinstance(method, str) or method not in _BACKENDS:
         raise UnknownMethodError(f"unknown method {method!r:.100}; choose one of {', '.join(METHODS)}")
     if solver is not None and not isinstance(solver, str):
@@ -511,11 +557,6 @@ def project_radii(
     instance(tol, "tol", Tolerances)
     if check == "exact":
         _cdd_gmp()  # fail before solving when the exact mode is missing
-    if not isinstance(spheres, (Sequence, str, bytes, GaussianSphere, np.ndarray)) and isinstance(
-            spheres, Iterable):
-        spheres = list(spheres)  # a generator is read once; check=True reads the spheres again
-    centers, radii, sigmas = sphere_arrays(spheres, min_count=2, tol=tol, check_centers=False)
-    return _project_arrays(centers, radii, sigmas, method, solver, check, tol)
 
 
 def _project_radii_trusted(
@@ -587,9 +628,9 @@ def _active_set_small(
     r = radii.tolist()
     s = sigmas.tolist()
     n = len(r)
-    rows, dist = _pair_rows(centers.tolist(), r, s, tol, centers)
+    rows, dist, setup = _pair_setup(centers.tolist(), r, s, tol, centers)
     status = "optimal"
-    out = _ldp_pairs(rows, n)
+    out = _ldp_pairs(rows, n, setup)
     if out is None:  # not certified: the NNLS route decides
         G = np.zeros((len(rows), n))
         for k, (i, j, a, b, _) in enumerate(rows):
@@ -602,25 +643,33 @@ def _active_set_small(
     else:
         z, excess = out  # excess = G z - h = A r' - b, metres
     new = [ri + si * zi for ri, si, zi in zip(r, s, z, strict=True)]
-    if not all(map(math.isfinite, new)):
+    if not math.isfinite(sum(new)) and not all(map(math.isfinite, new)):
         raise SolverError(f"method 'active_set': non-finite radii {new}")
     d_max = max(dist)
-    L = max(d_max, max(map(abs, new)), 1.0)
-    status = _status_of(max(excess), L, RADIUS_ROUNDING * max(map(abs, r)), status, "active_set", tol)
-    cut = ACTIVE_SLACK * max(d_max, max(r), 1.0)
+    r_max = max(r)  # radii >= 0
+    L = max(d_max, max(new), -min(new), 1.0)
+    worst = max(excess)
+    if not worst <= min(tol.feasibility, tol.agreement) * L:  # else within both: the status stays
+        status = _status_of(worst, L, RADIUS_ROUNDING * r_max, status, "active_set", tol)
+    cut = ACTIVE_SLACK * max(d_max, r_max, 1.0)
     zz = _dot(z, z)
     new_arr = np.array(new)
-    return RadialSolution(
-        radii=new_arr,
-        displacement=new_arr - radii,
-        density=math.exp(-0.5 * zz),
-        status=status,
-        method="active_set",
-        solver=None,
-        solve_time=time.perf_counter() - t0,
-        active_rows=tuple(k for k, e in enumerate(excess) if abs(e) <= cut),
-        normalized_displacement=math.sqrt(zz),
-    )
+    return _radial_solution(
+        new_arr, new_arr - radii, math.exp(-0.5 * zz),
+        status, time.perf_counter() - t0, tuple([k for k, e in enumerate(excess) if -cut <= e <= cut]),
+        math.sqrt(zz))
+
+
+def _radial_solution(radii: NDArray[np.float64], displacement: NDArray[np.float64], density: float,
+                     status: str, solve_time: float, active_rows: tuple[int, ...],
+                     normalized_displacement: float) -> RadialSolution:
+    """An ``"active_set"`` :class:`RadialSolution` without the frozen dataclass's per-field
+    ``object.__setattr__`` (the same object; a microsecond less at small n)."""
+    sol = object.__new__(RadialSolution)
+    sol.__dict__.update(radii=radii, displacement=displacement, density=density, status=status,
+                        method="active_set", solver=None, solve_time=solve_time, active_rows=active_rows,
+                        normalized_displacement=normalized_displacement)
+    return sol
 
 
 @dataclass(frozen=True)
@@ -636,12 +685,25 @@ class BatchSolution:
 def project_radii_batch(
     centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike, tol: Tolerances = TOLERANCES
 ) -> BatchSolution:
-    """Exact projection of B instances at once (the active-set path, vectorised set-up).
+    """Exact projection of B instances at once, vectorised across the instances.
+
+    Up to :data:`SMALL_CORE_SPHERES` spheres every instance is solved by the dual active-set
+    method of :func:`~radialopt._dual_active_set._ldp_pairs` run on all instances together in
+    numpy (:func:`_batch_dual_active_set`: one step of every unfinished instance per pass, its
+    working set held in n slots, the working rows' Gram systems solved as one stacked
+    ``(B, n, n)`` solve).  An instance that does not settle there (a violated row dependent on
+    its working rows, a singular working set, more steps than the budget) and every instance of
+    more spheres is solved alone by the single-instance route (``project_radii(...,
+    method="active_set")``), the reference the vectorised path is tested against.  Each answer
+    is the unique optimum; the radii must satisfy ``A r <= b`` to ``tol.agreement`` times the
+    instance's length scale, else :class:`~radialopt.errors.SolverError`.
 
     Parameters
     ----------
     centers : (B, n, 3) float
     radii, sigmas : (B, n) float
+        Checked as by :func:`project_radii` (errors name the instance and sphere, e.g.
+        ``radii[3, 1]``).
 
     Returns
     -------
@@ -659,30 +721,182 @@ def project_radii_batch(
     if np.any(r < 0):
         raise NegativeRadiusError(
             f"radii{np.argwhere(r < 0)[0].tolist()} = {float(r[r < 0][0])!r} must be >= 0")
-    for b in range(c.shape[0]):
-        sigma_range(sg[b], f"sigmas[{b}]", max(float(np.abs(c[b]).max()), float(r[b].max())))
+    if c.shape[0]:
+        scale = np.maximum(np.maximum(np.abs(c).max(axis=(1, 2)), r.max(axis=1)), 1.0)[:, None]
+        bad = np.flatnonzero(np.any((sg < MIN_SIGMA_RELATIVE * scale) | (sg > scale / MIN_SIGMA_RELATIVE),
+                                    axis=1))
+        if bad.size:  # sigma_range names the sphere
+            b0 = int(bad[0])
+            sigma_range(sg[b0], f"sigmas[{b0}]", max(float(np.abs(c[b0]).max()), float(r[b0].max())))
     t0 = time.perf_counter()
-    iu, ju, A, b_sign = pair_pattern(c.shape[1])
-    d = np.linalg.norm(c[:, iu] - c[:, ju], axis=2)  # (B, p)
+    z, d, h = _batch_solve(c, r, sg, tol)
+    _batch_check(z, d, h, r, sg, tol)
+    zz = np.sum(z * z, axis=1)
+    return BatchSolution(r + sg * z, np.exp(-0.5 * zz), np.sqrt(zz), time.perf_counter() - t0)
+
+
+#: Instances per pass of :func:`_batch_dual_active_set` (bounds its temporaries).
+BATCH_CHUNK = 16384
+
+
+def _batch_solve(
+    c: NDArray[np.float64], r: NDArray[np.float64], sg: NDArray[np.float64], tol: Tolerances
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Whitened answers ``z (B, n)``, pair distances ``d (B, p)`` and ``h (B, m)`` of checked arrays."""
+    n = c.shape[1]
+    iu, ju, A, b_sign = pair_pattern(n)
+    d = np.sqrt(np.sum((c[:, iu] - c[:, ju]) ** 2, axis=2))  # (B, p)
     if np.any(d <= tol.coincident):
         k = int(np.argwhere(d <= tol.coincident)[0, 0])
         check_distinct_centers(c[k], tol)
-    b = b_sign * np.repeat(d, 3, axis=1)  # (B, m)
-    h = b - r @ A.T
-    G = A[None, :, :] * sg[:, None, :]
+    # a C-contiguous A^T: numpy's matmul with the transposed view took 30x longer at (10^4, 4)
+    h = b_sign * np.repeat(d, 3, axis=1) - r @ np.ascontiguousarray(A.T)  # (B, m)
     z = np.zeros_like(r)
-    for k in map(int, np.flatnonzero(h.min(axis=1) < 0)):
-        zk, status = least_distance(G[k], h[k])
-        if status != "optimal" or not np.all(np.isfinite(zk)):
-            raise SolverError(f"instance {k}: no feasible radii (status {status!r})")
-        scale = max(float(d[k].max()), float(r[k].max()), 1.0)
-        violation = float(np.max(G[k] @ zk - h[k]))
-        if violation > tol.agreement * scale:
-            raise SolverError(f"instance {k}: the radii violate A r <= b by {violation:.3g} m "
-                              f"(tolerance {tol.agreement * scale:.3g} m; sigmas {sg[k].tolist()})")
-        z[k] = zk
-    zz = np.sum(z * z, axis=1)
-    return BatchSolution(r + sg * z, np.exp(-0.5 * zz), np.sqrt(zz), time.perf_counter() - t0)
+    todo = np.flatnonzero(h.min(axis=1) < 0)  # the others: z = 0 exactly
+    failed: list[NDArray[np.int64]] = []
+    if n <= SMALL_CORE_SPHERES:
+        for lo in range(0, len(todo), BATCH_CHUNK):
+            idx = todo[lo:lo + BATCH_CHUNK]
+            zk, ok = _batch_dual_active_set(A, sg[idx], h[idx])
+            z[idx[ok]] = zk[ok]
+            failed.append(idx[~ok])
+        todo = np.concatenate(failed) if failed else todo[:0]
+    for k in map(int, todo):  # the single-instance route
+        z[k] = (_project_radii_trusted(c[k], r[k], sg[k], tol=tol).radii - r[k]) / sg[k]
+    return z, d, h
+
+
+def _batch_check(z: NDArray[np.float64], d: NDArray[np.float64], h: NDArray[np.float64],
+                 r: NDArray[np.float64], sg: NDArray[np.float64], tol: Tolerances) -> None:
+    """:class:`SolverError` naming the first instance whose radii violate ``A r <= b`` by more than
+    ``tol.agreement`` times its length scale, or that are not finite."""
+    if not z.size:
+        return
+    A = pair_pattern(z.shape[1])[2]
+    violation = np.max((sg * z) @ np.ascontiguousarray(A.T) - h, axis=1)
+    scale = np.maximum(np.maximum(d.max(axis=1), r.max(axis=1)), 1.0)
+    bad = np.flatnonzero(~(violation <= tol.agreement * scale) | ~np.all(np.isfinite(z), axis=1))
+    if bad.size:
+        k = int(bad[0])
+        raise SolverError(f"instance {k}: the radii violate A r <= b by {violation[k]:.3g} m "
+                          f"(tolerance {tol.agreement * scale[k]:.3g} m; sigmas {sg[k].tolist()})")
+
+
+def _batch_dual_active_set(
+    A: NDArray[np.float64], sg: NDArray[np.float64], h: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """``min |z|^2 s.t. G_k z <= h_k`` with ``G_k = A diag(sg_k)`` for K instances at once.
+
+    The dual active-set method of :func:`~radialopt._dual_active_set._ldp_pairs` (Goldfarb and
+    Idnani with the identity Hessian, the same steps and tolerances), vectorised: each
+    instance keeps its working rows in n slots (``W (K, n, n)``, empty slots zero, their Gram
+    diagonal one), and every pass makes one step of every unfinished instance -- pick the most
+    violated row if none is being added, else move along its direction projected onto the
+    working rows' null space, to the full step (the row joins a free slot) or the partial one
+    (the working row whose multiplier reaches zero first leaves).  Finished instances leave the
+    arrays.  Returns ``(z (K, n), ok (K,))``; ``ok`` is False where the loop did not certify a
+    KKT point (the caller solves those alone).
+    """
+    K, n = sg.shape
+    z_out = np.zeros((K, n))
+    ok_out = np.zeros(K, dtype=bool)
+    live = np.arange(K)
+    tol = ROUNDING_RTOL * np.maximum(np.abs(h).max(axis=1), 1.0)
+    z = np.zeros((K, n))
+    W = np.zeros((K, n, n))
+    act = np.zeros((K, n), dtype=bool)
+    u = np.zeros((K, n))
+    cur = np.full(K, -1)
+    up = np.zeros(K)
+    eye = np.eye(n, dtype=bool)
+    AT = np.ascontiguousarray(A.T)
+    # the first step in closed form: from z = 0 the most violated row joins the empty working
+    # set with the full step t = -h_p / |g_p|^2 (instances with no violated row are done, z = 0)
+    p0 = np.argmax(-h, axis=1)
+    h0 = h[live, p0]
+    gp0 = A[p0] * sg
+    t0 = -h0 / np.sum(gp0 * gp0, axis=1)
+    start = -h0 > tol
+    z[start] = -t0[start, None] * gp0[start]
+    W[start, 0] = gp0[start]
+    act[start, 0] = True
+    u[start, 0] = t0[start]
+    for _ in range(4 * A.shape[0] + 8):
+        if not len(live):
+            break
+        # instances between rows: done, or the most violated row starts to join
+        pick = np.flatnonzero(cur < 0)
+        out = np.zeros(len(live), dtype=bool)
+        if len(pick):
+            excess = (sg[pick] * z[pick]) @ AT - h[pick]
+            p = np.argmax(excess, axis=1)
+            done = excess[np.arange(len(p)), p] <= tol[pick]
+            cur[pick[~done]] = p[~done]
+            up[pick[~done]] = 0.0
+            fin = pick[done]
+            if len(fin):
+                out[fin] = True
+                ok_out[live[fin]] = np.all(~act[fin] | (u[fin] >= -tol[fin, None]), axis=1)
+                z_out[live[fin]] = z[fin]
+        if np.any(out):
+            keep = ~out
+            live, z, W, act, u = live[keep], z[keep], W[keep], act[keep], u[keep]
+            cur, up, sg, h, tol = cur[keep], up[keep], sg[keep], h[keep], tol[keep]
+            if not len(live):
+                break
+        # one step of every live instance along its row cur
+        rows = np.arange(len(live))
+        gp = A[cur] * sg
+        gram = W @ W.transpose(0, 2, 1)
+        gram[:, eye] += ~act
+        try:
+            rr = np.linalg.solve(gram, np.einsum("kij,kj->ki", W, gp)[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            break  # a singular working set: every live instance is left to the caller
+        w = gp - np.einsum("ki,kij->kj", rr, W)
+        gd = np.sum(w * w, axis=1)
+        pos = act & (rr > 0.0)
+        ratio = np.full(act.shape, np.inf)
+        np.divide(u, rr, out=ratio, where=pos)
+        kd = np.argmin(ratio, axis=1)
+        t1 = ratio[rows, kd]
+        dependent = gd <= RANK_RTOL * np.sum(gp * gp, axis=1)
+        stuck = (dependent & ~np.isfinite(t1)) | ~np.all(np.isfinite(rr), axis=1)
+        t2 = np.full(len(live), np.inf)
+        np.divide(np.sum(gp * z, axis=1) - h[rows, cur], gd, out=t2, where=~dependent)
+        t = np.minimum(t1, t2)
+        t[stuck] = 0.0
+        z -= np.where(dependent, 0.0, t)[:, None] * w
+        u -= t[:, None] * np.where(act, rr, 0.0)
+        up += t
+        full = (t2 <= t1) & ~stuck
+        slot = np.where(full, np.argmin(act, axis=1), kd)
+        f, fs = rows[full], slot[full]
+        act[f, fs] = True
+        u[f, fs] = up[full]
+        W[f, fs] = gp[full]
+        drop = ~full & ~stuck
+        dr, ds = rows[drop], slot[drop]
+        act[dr, ds] = False
+        u[dr, ds] = 0.0
+        W[dr, ds] = 0.0
+        cur[full] = -1
+        if np.any(stuck):  # left to the caller (ok_out stays False)
+            keep = ~stuck
+            live, z, W, act, u = live[keep], z[keep], W[keep], act[keep], u[keep]
+            cur, up, sg, h, tol = cur[keep], up[keep], sg[keep], h[keep], tol[keep]
+    return z_out, ok_out
+
+
+def _project_radii_batch_reference(
+    c: NDArray[np.float64], r: NDArray[np.float64], sg: NDArray[np.float64], tol: Tolerances = TOLERANCES
+) -> NDArray[np.float64]:
+    """The slow, obvious batch: one single-instance solve per instance (checked arrays);
+    the adjusted radii ``(B, n)``.  :func:`project_radii_batch` is tested against it."""
+    out = np.empty_like(r)
+    for k in range(len(r)):
+        out[k] = _project_radii_trusted(c[k], r[k], sg[k], tol=tol).radii
+    return out
 
 
 def verify_solution(

@@ -8,6 +8,7 @@ is the product (eq. 14), which in radial form is eq. 20.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -35,6 +36,9 @@ from .errors import (
 from .tolerances import TOLERANCES as TOLERANCES  # re-exported: radialopt.spheres.TOLERANCES
 from .tolerances import Tolerances as Tolerances
 
+_FLOATS = (float, np.float64)  # exact types of the fast path (not bool, not subclasses)
+_F64 = np.dtype(np.float64)
+
 
 @dataclass(frozen=True)
 class GaussianSphere:
@@ -55,6 +59,27 @@ class GaussianSphere:
     sigma: float
 
     def __post_init__(self) -> None:
+        # fast path: a float64 (3,) array or a list / tuple of three floats, and float radius and
+        # sigma in range; anything else (or any value out of range) takes the checks below,
+        # which raise the errors naming the argument and value
+        c, radius, sigma = self.center, self.radius, self.sigma
+        if type(radius) in _FLOATS and type(sigma) in _FLOATS and 0.0 <= radius <= MAX_LENGTH \
+                and 0.0 < sigma <= MAX_SIGMA:
+            if type(c) is np.ndarray and c.dtype == _F64 and c.shape == (3,):
+                center = c.copy()
+            elif type(c) in (list, tuple) and len(c) == 3 and all(type(v) in _FLOATS for v in c):
+                center = np.array(c, dtype=np.float64)
+            else:
+                center = None
+            if center is not None:
+                x, y, z = center.tolist()
+                if -MAX_LENGTH <= x <= MAX_LENGTH and -MAX_LENGTH <= y <= MAX_LENGTH \
+                        and -MAX_LENGTH <= z <= MAX_LENGTH:
+                    center.flags.writeable = False
+                    object.__setattr__(self, "center", center)
+                    object.__setattr__(self, "radius", float(radius))
+                    object.__setattr__(self, "sigma", float(sigma))
+                    return
         center = point3(self.center, "center")
         radius = real_scalar(self.radius, "radius")
         sigma = real_scalar(self.sigma, "sigma")
@@ -142,6 +167,58 @@ def sphere_arrays(
     if check_centers:
         check_distinct_centers(centers, tol)
     return centers, radii, sigmas
+
+
+def checked_arrays(
+    centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike, min_count: int = 2
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Check sphere data given as arrays: ``centers (n, 3)``, ``radii (n,)``, ``sigmas (n,)`` or a
+    scalar sigma (broadcast); return float64 arrays ``(n, 3)``, ``(n,)``, ``(n,)``.
+
+    The checks of :class:`GaussianSphere` and :func:`sphere_arrays` on every element (real,
+    finite, magnitudes, radii >= 0, sigmas > 0 within the relative range of
+    :func:`~radialopt._checks.sigma_range`); errors name the argument, the index and the value
+    (``"radii[2] = -1.0 must be >= 0"``).  Coincident centres are not tested here.  Float64
+    arrays of the right shapes are checked in plain Python (a few microseconds at small n); any
+    other input, or any value out of range, takes :func:`~radialopt._checks.real_array`.
+
+    Raises
+    ------
+    ShapeError, NonFiniteError, OutOfRangeError, NegativeRadiusError, NonPositiveSigmaError
+        Bad input, as above.
+    TooFewSpheresError
+        Fewer than ``min_count`` centres.
+    """
+    if (type(centers) is np.ndarray and type(radii) is np.ndarray and type(sigmas) is np.ndarray
+            and centers.dtype == _F64 and radii.dtype == _F64 and sigmas.dtype == _F64
+            and centers.ndim == 2 and centers.shape[1] == 3 and len(centers) >= min_count
+            and radii.shape == (len(centers),) and sigmas.shape in (radii.shape, ())):
+        flat = centers.ravel().tolist()
+        rl = radii.tolist()
+        sl = sigmas.tolist() if sigmas.ndim else [sigmas.item()]
+        total = sum(flat) + sum(rl) + sum(sl)  # NaN or inf if any element is (all are <= 1e100)
+        if math.isfinite(total):
+            lo, hi, rmax = min(flat), max(flat), max(rl)
+            scale = max(-lo, hi, rmax, 1.0)
+            if -MAX_LENGTH <= lo and hi <= MAX_LENGTH and 0.0 <= min(rl) and rmax <= MAX_LENGTH \
+                    and MIN_SIGMA_RELATIVE * scale <= min(sl) and max(sl) <= scale / MIN_SIGMA_RELATIVE:
+                s = sigmas if sigmas.ndim else np.full(len(rl), sl[0])
+                return centers, radii, s
+    c = real_array(centers, "centers", shape=(None, 3))
+    if len(c) < min_count:
+        raise TooFewSpheresError(f"need at least {min_count} spheres, got {len(c)} centres")
+    r = real_array(radii, "radii", shape=(len(c),), like="centers")
+    s = real_array(sigmas, "sigmas", ndim=(0, 1), max_abs=MAX_SIGMA)
+    if s.ndim == 0:
+        s = np.full(len(c), float(s))
+    if s.shape != r.shape:
+        raise ShapeError(f"sigmas must be a scalar or have shape ({len(c)},) like centers, got shape "
+                         f"{s.shape}")
+    bad = np.flatnonzero(r < 0)
+    if bad.size:
+        raise NegativeRadiusError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
+    sigma_range(s, "sigmas", max(float(np.abs(c).max(initial=0.0)), float(r.max(initial=0.0))))
+    return c, r, s
 
 
 def _sigma_bounds(length_scale: float) -> tuple[float, float]:

@@ -169,6 +169,8 @@ ENTRIES = {
     "project_radii": (ro.project_radii, lambda: dict(spheres=spheres_of(), method="active_set",
                                                       solver=None, check=False, tol=ro.TOLERANCES),
                       "proj"),
+    "project_radii_arrays": (ro.project_radii, lambda: dict(centers=CENTERS, radii=RADII, sigmas=SIGMAS,
+                                                             method="active_set"), "proj_arrays"),
     "project_radii_paper": (ro.project_radii, lambda: dict(spheres=spheres_of(), method="paper"), "proj"),
     "project_radii_batch": (ro.project_radii_batch, lambda: dict(
         centers=CENTERS[None], radii=RADII[None], sigmas=SIGMAS[None], tol=ro.TOLERANCES), "batch"),
@@ -230,6 +232,8 @@ def check_result(kind: str, out, kwargs) -> None:
     spheres = kwargs.get("spheres")
     if kind == "proj":
         check_projection(out, spheres)
+    elif kind == "proj_arrays":
+        check_projection(out, ro.make_spheres(kwargs["centers"], kwargs["radii"], kwargs["sigmas"]))
     elif kind == "batch":
         assert finite(out.radii) and finite(out.density)
         for b in range(len(out.radii)):

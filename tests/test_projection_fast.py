@@ -70,10 +70,10 @@ def test_small_core_is_the_route_taken_and_its_fallback_gives_the_same_answer(mo
             cases.append(ro.make_spheres(c, r, s))
     calls = []
     real = proj._ldp_pairs
-    monkeypatch.setattr(proj, "_ldp_pairs", lambda rows, n: calls.append(n) or real(rows, n))
+    monkeypatch.setattr(proj, "_ldp_pairs", lambda rows, n, *setup: calls.append(n) or real(rows, n, *setup))
     fast = [ro.project_radii(sp) for sp in cases]
     assert len(calls) == len(cases)
-    monkeypatch.setattr(proj, "_ldp_pairs", lambda rows, n: None)  # never certifies
+    monkeypatch.setattr(proj, "_ldp_pairs", lambda rows, n, *setup: None)  # never certifies
     for sp, f in zip(cases, fast, strict=True):
         slow = ro.project_radii(sp)
         np.testing.assert_allclose(f.radii, slow.radii, rtol=0, atol=1e-10)
