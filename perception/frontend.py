@@ -301,17 +301,17 @@ def _touches_border(box: NDArray[np.float64], width: int, height: int) -> bool:
 # geometry shared by both front ends
 # ----------------------------------------------------------------------------------------------
 def _offset_direction(pts: NDArray[np.float64], centroid: NDArray[np.float64]
-                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:
     """The direction (unit, camera frame) in which an object's centre lies behind the centroid of
     its visible points ``pts``: the normal of a flat front (smallest spread below
     :data:`FLAT_RATIO` times the middle one) pointing away from the camera, else the viewing ray;
-    and the points' spread (3x3 covariance)."""
+    the points' spread (3x3 covariance); and whether the front is flat."""
     spread = np.cov(pts.T, bias=True) if len(pts) > 1 else np.zeros((3, 3))
     ray = centroid / np.linalg.norm(centroid)
     wv, V = np.linalg.eigh(spread)
     if wv[0] < FLAT_RATIO * wv[1]:  # a flat front: its normal, away from the camera
-        return (V[:, 0] if V[:, 0] @ ray > 0 else -V[:, 0]), spread
-    return ray, spread
+        return (V[:, 0] if V[:, 0] @ ray > 0 else -V[:, 0]), spread, True
+    return ray, spread, False
 
 
 def _weighted_percentiles(x: NDArray[np.float64], w: NDArray[np.float64], q: float) -> NDArray[np.float64]:
@@ -333,7 +333,7 @@ def _visible_anchor(pts: NDArray[np.float64], up: NDArray[np.float64]
     lies, whatever the perspective: the centroid of pixels leans towards the nearer side of a
     slanted face and towards the bulk of an uneven shape (a kettle's body, not its spout)."""
     centroid = pts.mean(axis=0)
-    direction, spread = _offset_direction(pts, centroid)
+    direction, spread, flat_front = _offset_direction(pts, centroid)
     up = up / np.linalg.norm(up)
     flat = (pts - centroid) - np.outer((pts - centroid) @ up, up)
     _, V = np.linalg.eigh(flat.T @ flat)
@@ -342,8 +342,7 @@ def _visible_anchor(pts: NDArray[np.float64], up: NDArray[np.float64]
     # n (z^3 / (f^2 |p|) facing the camera), so the extent's percentiles are the surface's, not
     # the pixels' (which crowd at the near end of a slanted face)
     dist = np.linalg.norm(pts, axis=1)
-    ray = centroid / np.linalg.norm(centroid)
-    facing = np.abs(pts @ direction) if direction @ ray < 1.0 - 1e-12 else dist
+    facing = np.abs(pts @ direction) if flat_front else dist
     weight = pts[:, 2] ** 3 / np.maximum(facing, MIN_FACING * dist)
     coords = pts @ axes.T
     lo = _weighted_percentiles(coords, weight, EXTENT_PERCENTILE)
@@ -600,7 +599,7 @@ def rgbd_percepts(
             seed = _box_seed(u, v, z, box, c, float(Kc[0, 0])) if from_box else z
             window = _depth_window(seed, c * float(np.median(seed)) ** 2)
             windows = (window, window)
-        own, surface = windows
+        own_depths, surface = windows
         fg = (z >= surface[0]) & (z <= surface[1])
         n_fg = int(fg.sum()) * stride
         if n_fg < min_pixels:
@@ -612,7 +611,7 @@ def rgbd_percepts(
         anchor, direction, spread = _visible_anchor(pts, up)
         zc = float(anchor[2])
         sigma_z = c * zc * zc
-        occ = _occluded_fraction(mask, box, Z, own, from_box, OCCLUSION_MARGIN + 3.0 * sigma_z)
+        occ = _occluded_fraction(mask, box, Z, own_depths, from_box, OCCLUSION_MARGIN + 3.0 * sigma_z)
         if occ > OCCLUDED_FRACTION:
             dropped.append(Dropped(i, det.type, "occluded", f"{100 * occ:.0f} % of the readings around its "
                                    f"outline are nearer (> {100 * OCCLUDED_FRACTION:.0f} %)"))
