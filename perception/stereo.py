@@ -35,6 +35,9 @@ MAX_COORD = 1e150
 """Largest coordinate accepted for points (metres) and pixels."""
 MAX_BASELINE = 100.0
 """Largest baseline of :meth:`StereoRig.default`, metres."""
+MIN_BASELINE = 1e-6
+"""Smallest baseline of :meth:`StereoRig.default`, metres: a micrometre; below it the two cameras
+coincide to within rounding and the rig triangulates nothing."""
 MAX_DISTORTION = 1e4
 """Largest magnitude of an OpenCV distortion coefficient."""
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -312,18 +315,23 @@ class StereoRig:
         image_size : (int, int)
             ``(width, height)`` in pixels.
         baseline : float
-            Distance between the optical centres, metres (> 0).
+            Distance between the optical centres, metres, in [:data:`MIN_BASELINE`,
+            :data:`MAX_BASELINE`].
         hfov_deg : float
             Horizontal field of view in degrees, in (0, 180).
         """
         w, h = _image_size(image_size)
         baseline = real_scalar("baseline", baseline, positive=True)
-        if baseline > MAX_BASELINE:
-            raise CalibrationError(f"baseline must lie in (0, {MAX_BASELINE:g}] m, got {baseline!r}")
+        if not MIN_BASELINE <= baseline <= MAX_BASELINE:
+            raise CalibrationError(f"baseline must lie in [{MIN_BASELINE:g}, {MAX_BASELINE:g}] m, "
+                                   f"got {baseline!r}")
         hfov_deg = real_scalar("hfov_deg", hfov_deg)
         if not 1e-6 <= hfov_deg <= 179.0:
             raise CalibrationError(f"hfov_deg must lie in [1e-6, 179], got {hfov_deg!r}")
         f = (w / 2.0) / np.tan(np.radians(hfov_deg) / 2.0)
+        if f > MAX_PIXELS:
+            raise CalibrationError(f"hfov_deg = {hfov_deg!r} gives a focal length of {f:.4g} px for an image "
+                                   f"{w} px wide, more than {MAX_PIXELS:g} px: widen the field of view")
         K = np.array([[f, 0.0, w / 2.0], [0.0, f, h / 2.0], [0.0, 0.0, 1.0]])
         return cls(
             K1=K,

@@ -43,8 +43,8 @@ ALLOWED: dict[str, list[str]] = {
     "perception/simulate.py": ["1e-150", "1e-4", "1e-4"],
     # the physical depth-noise default of a depth camera (1/m)
     "perception/frontend.py": ["1.5e-3"],
-    # input range of the field of view (degrees)
-    "perception/stereo.py": ["1e-6"],
+    # input ranges of the field of view (degrees) and of the default rig's baseline (m)
+    "perception/stereo.py": ["1e-6", "1e-6"],
     # the differentiation step default (pixels, a user-facing size) and its input range
     "perception/uncertainty.py": ["1e-3", "1e-9"],
 }
