@@ -206,7 +206,7 @@ def checked_arrays(
                 return centers, radii, s
     c = real_array(centers, "centers", shape=(None, 3))
     if len(c) < min_count:
-        raise TooFewSpheresError(f"need at least {min_count} spheres, got {len(c)} centres")
+        raise TooFewSpheresError(f"centers: need at least {min_count} spheres (rows), got {len(c)}")
     r = real_array(radii, "radii", shape=(len(c),), like="centers")
     s = real_array(sigmas, "sigmas", ndim=(0, 1), max_abs=MAX_SIGMA)
     if s.ndim == 0:
@@ -238,7 +238,8 @@ def check_distinct_centers(centers: NDArray[np.float64], tol: Tolerances = TOLER
         i, j = (int(v) for v in pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))][0])
         dist = float(np.linalg.norm(centers[i] - centers[j]))
         raise CoincidentCentersError(
-            f"centres {i} and {j} coincide ({centers[i].tolist()}, distance "
+            f"centres {i} and {j} coincide (centers[{i}] = {centers[i].tolist()}, centers[{j}] = "
+            f"{centers[j].tolist()}, distance "
             f"{dist:.3g} <= {tol.coincident:g})"
         )
 
