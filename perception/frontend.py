@@ -335,8 +335,9 @@ def _visible_anchor(pts: NDArray[np.float64], up: NDArray[np.float64]
     centroid = pts.mean(axis=0)
     direction, spread, flat_front = _offset_direction(pts, centroid)
     up = up / np.linalg.norm(up)
-    flat = (pts - centroid) - np.outer((pts - centroid) @ up, up)
-    _, V = np.linalg.eigh(flat.T @ flat)
+    rel = pts - centroid
+    level = rel - np.outer(rel @ up, up)  # the points' spread with the vertical taken out
+    _, V = np.linalg.eigh(level.T @ level)
     axes = np.stack([up, V[:, 2], np.cross(up, V[:, 2])])
     # each pixel stands for the surface it images: z^3 / (f^2 |n . p|) on a flat front of normal
     # n (z^3 / (f^2 |p|) facing the camera), so the extent's percentiles are the surface's, not
@@ -433,6 +434,18 @@ def _mask_window(mask: NDArray[np.bool_], box: NDArray[np.float64], depth: NDArr
     margin = 3.0 * c * hi * hi + 0.01
     edge = (MASK_BLEED_PX + 1) * slope
     return (lo - margin, hi + margin), (lo - margin - edge, hi + margin + edge)
+
+
+def _depth_windows(mask: NDArray[np.bool_] | None, box: NDArray[np.float64], depth: NDArray[np.float64],
+                   c: float, seed: NDArray[np.float64]) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The object's depths as ``(own, surface)`` windows: a mask's (:func:`_mask_window`), else,
+    for a box (``mask`` None) or a mask whose core is too small, the window about the median of
+    the ``seed`` readings (:func:`_depth_window`) for both."""
+    windows = None if mask is None else _mask_window(mask, box, depth, c)
+    if windows is None:
+        window = _depth_window(seed, c * float(np.median(seed)) ** 2)
+        windows = (window, window)
+    return windows
 
 
 def _box_seed(u: NDArray[np.intp], v: NDArray[np.intp], z: NDArray[np.float64], box: NDArray[np.float64],
@@ -594,12 +607,9 @@ def rgbd_percepts(
         stride = -(-u.size // MAX_REGION_SAMPLES)  # statistics of a large region on a regular subsample
         if stride > 1:
             u, v, z = u[::stride], v[::stride], z[::stride]
-        windows = None if from_box else _mask_window(mask, box, Z, c)
-        if windows is None:  # a box's central half, or a small mask (mostly the object): about the median
-            seed = _box_seed(u, v, z, box, c, float(Kc[0, 0])) if from_box else z
-            window = _depth_window(seed, c * float(np.median(seed)) ** 2)
-            windows = (window, window)
-        own_depths, surface = windows
+        # a box's central half, or a small mask (mostly the object) seeds a window about the median
+        seed = _box_seed(u, v, z, box, c, float(Kc[0, 0])) if from_box else z
+        own_depths, surface = _depth_windows(None if from_box else mask, box, Z, c, seed)
         fg = (z >= surface[0]) & (z <= surface[1])
         n_fg = int(fg.sum()) * stride
         if n_fg < min_pixels:

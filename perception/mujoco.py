@@ -321,12 +321,12 @@ MAX_RENDER_SIDE = 8192
 #: Depths at or beyond this fraction of the far clipping plane are "nothing rendered".
 _FAR_FRACTION = 0.999
 
-#: Poses and seed of the renders :meth:`MujocoScene.default_centre_offsets` measures on.
 #: Smallest ``lateral_sd`` (m) :meth:`MujocoScene.centre_offsets` reports: exact renders place
 #: objects across the view to a few millimetres, a detector's masks do not (an edge a pixel or
 #: two off moves the extent of a door seen at 2-3 m by 0.5-1 cm; measured on the Franka kitchen
 #: with 1 px of mask jitter, a 5 mm floor left doors' percept NEES at 34 in the 90th percentile).
 CENTRE_LATERAL_FLOOR = 0.01
+#: Poses and seed of the renders :meth:`MujocoScene.default_centre_offsets` measures on.
 CALIBRATION_POSES = 12
 CALIBRATION_SEED = 20261202
 
@@ -860,7 +860,7 @@ class MujocoScene:
         PerceptionError
             (a subclass) a bad ``n_views``, ``image_size``, ``chain`` or ``min_pixels``.
         """
-        from .frontend import CENTRE_DEPTH_FLOOR, DEPTH_NOISE, _depth_window, _mask_window, _visible_anchor
+        from .frontend import CENTRE_DEPTH_FLOOR, DEPTH_NOISE, _depth_windows, _visible_anchor
 
         poses = real_array("world_from_egos", world_from_egos)
         if poses.shape[-2:] != (4, 4) or poses.ndim not in (2, 3) or poses.size == 0:
@@ -890,9 +890,7 @@ class MujocoScene:
                     if int(ok.sum()) < min_px:
                         continue
                     box = np.array([u.min(), v.min(), u.max(), v.max()], dtype=np.float64)
-                    windows = _mask_window(det.mask, box, view.depth, DEPTH_NOISE)
-                    lo, hi = (windows[1] if windows is not None
-                              else _depth_window(z[ok], DEPTH_NOISE * float(np.median(z[ok])) ** 2))
+                    _, (lo, hi) = _depth_windows(det.mask, box, view.depth, DEPTH_NOISE, z[ok])
                     fg = ok & (z >= lo) & (z <= hi)  # the object's depths, as the front end takes them
                     pts = (Kinv @ np.stack([u[fg], v[fg], np.ones(int(fg.sum()))])).T * z[fg, None]
                     anchor, direction, _ = _visible_anchor(pts, up)  # as the front end places it
