@@ -114,13 +114,18 @@ def _brute_force_nearest(world, T, ego, covs, types):
     return np.array(best), np.array(second), np.array(obj)
 
 
+@pytest.mark.parametrize("tree", [True, False])
 @pytest.mark.parametrize("seed", range(4))
-def test_nearest_objects_of_a_needle_lie_along_it(seed: int) -> None:
+def test_nearest_objects_of_a_needle_lie_along_it(seed: int, tree: bool, monkeypatch) -> None:
     """The Mahalanobis-nearest object of a needle may be 30 m away along its long axis while
     the Euclidean-nearest objects of its type sit a metre off it: the candidates must reach
     along the needle (the k Euclidean nearest did not, so the true object was missed, and an
-    equally likely second object along the needle too, which made the percept look unique)."""
+    equally likely second object along the needle too, which made the percept look unique).
+    Both paths: the k-d tree's, and the comparison with every object of a small type."""
+    import worldgraph.pose.validation as validation
     from worldgraph.validation import NearestObjects
+
+    monkeypatch.setattr(validation, "BRUTE_FORCE_OBJECTS", 0 if tree else 8)
 
     rng = np.random.default_rng(seed)
     axis = Rotation.random(random_state=rng).as_matrix()
@@ -157,11 +162,22 @@ SHAPES = {"isotropic": (1.0, 1.0, 1.0), "stereo": (1.0, 1.0, 30.0), "needle": (1
 
 
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(2, 40), shape=st.sampled_from(sorted(SHAPES)),
-       scale=st.sampled_from([1e-4, 1e-2, 1.0]), k=st.integers(1, 6))
-def test_nearest_objects_are_exact_for_any_covariance(seed, n, shape, scale, k) -> None:
+       scale=st.sampled_from([1e-4, 1e-2, 1.0]), k=st.integers(1, 6), tree=st.booleans())
+def test_nearest_objects_are_exact_for_any_covariance(seed, n, shape, scale, k, tree) -> None:
     """NearestObjects.query against brute force over every object of the type, for randomly
     oriented isotropic, stereo-shaped, needle and pancake covariances (the Euclidean nearest
-    are no candidates to trust for the last three)."""
+    are no candidates to trust for the last three); both of its paths: the k-d tree's (k
+    Euclidean nearest, then ball queries) and, for types of at most BRUTE_FORCE_OBJECTS
+    objects, its own comparison with every object."""
+    from unittest import mock
+
+    import worldgraph.pose.validation as validation
+
+    with mock.patch.object(validation, "BRUTE_FORCE_OBJECTS", 0 if tree else n):
+        _nearest_objects_are_exact(seed, n, shape, scale, k)
+
+
+def _nearest_objects_are_exact(seed, n, shape, scale, k) -> None:
     from worldgraph.validation import NearestObjects
 
     rng = np.random.default_rng(seed)

@@ -235,3 +235,31 @@ def test_pose_information_is_the_inverse_covariance_of_the_ml_pose() -> None:
     assert 0.8 < ratio < 1.25, ratio
     with pytest.raises(PoseError, match="positive definite"):
         refine_pose(exact, X, -C, T)
+
+
+@given(st.integers(0, 2**32 - 1), st.sampled_from([1.0, 1e-3, 1e-7, 1e-13, np.pi - 1e-9]))
+def test_rotation_log_matches_scipy_rotvec(seed: int, scale: float) -> None:
+    """The validation's rotation log (no scipy) against scipy's ``as_rotvec``: random axes at
+    every angle, tiny angles (its series) and angles a hair below pi (its largest-diagonal
+    branch); and ``_expm`` of it gives the matrix back."""
+    from worldgraph.pose.frames import _expm, _logm
+
+    rng = np.random.default_rng(seed)
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    angle = rng.uniform(0.0, np.pi) if scale == 1.0 else scale * rng.uniform(0.5, 1.0) \
+        if scale < 1.0 else scale
+    R = Rotation.from_rotvec(angle * axis).as_matrix()
+    got = _logm(R)
+    want = Rotation.from_matrix(R).as_rotvec()
+    assert np.allclose(got, want, rtol=1e-9, atol=1e-15 + 1e-9 * (np.pi - angle < 1e-6))
+    assert np.allclose(_expm(got), R, atol=1e-14)
+
+
+def test_rotation_log_at_pi_and_identity() -> None:
+    from worldgraph.pose.frames import _logm
+
+    assert np.array_equal(_logm(np.eye(3)), np.zeros(3))
+    R = np.diag([1.0, -1.0, -1.0])  # a half turn about x: either sign of the axis is right
+    got = _logm(R)
+    assert np.isclose(abs(got[0]), np.pi) and np.allclose(got[1:], 0.0)

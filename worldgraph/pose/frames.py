@@ -326,6 +326,11 @@ def pose_information(world_from_ego: ArrayLike, ego_points: ArrayLike, covarianc
     T = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
     x = _points("ego_points", ego_points)
     C = _covariances(covariances, len(x), like="ego_points")
+    return _pose_information(T, x, C)
+
+
+def _pose_information(T: NDArray, x: NDArray, C: NDArray) -> NDArray[np.float64]:
+    """:func:`pose_information` of checked arrays (the fits call it once per refinement)."""
     R = T[:3, :3]
     W = np.linalg.inv(R @ C @ R.T)  # (k, 3, 3)
     # an ill-conditioned covariance (a needle: variances 1e-8 and 1e4 m^2) has an inverse that is
@@ -392,6 +397,32 @@ def _expm(w: NDArray) -> NDArray:
         return np.eye(3) + _skew(w)
     K = _skew(w / theta)
     return np.eye(3) + math.sin(theta) * K + (1.0 - math.cos(theta)) * (K @ K)
+
+
+def _logm(R: NDArray) -> NDArray[np.float64]:
+    """Rotation vector of the rotation matrix ``R`` (the inverse of :func:`_expm`; angle in
+    [0, pi]), through the unit quaternion of the largest of ``1 + trace`` and ``1 + 2 R_ii -
+    trace`` (no cancellation near pi) and ``angle / sin(angle / 2)`` (its series near 0).  No
+    scipy overhead: the validation compares poses thousands of times a second."""
+    tr = float(R[0, 0] + R[1, 1] + R[2, 2])
+    k = int(np.argmax([R[0, 0], R[1, 1], R[2, 2]]))
+    if tr >= R[k, k]:
+        w = 0.5 * math.sqrt(max(1.0 + tr, 0.0))
+        v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]]) / (4.0 * w)
+    else:
+        i, j = (k + 1) % 3, (k + 2) % 3
+        v = np.empty(3)
+        v[k] = 0.5 * math.sqrt(max(1.0 + 2.0 * R[k, k] - tr, 0.0))
+        v[i] = (R[i, k] + R[k, i]) / (4.0 * v[k])
+        v[j] = (R[j, k] + R[k, j]) / (4.0 * v[k])
+        w = (R[j, i] - R[i, j]) / (4.0 * v[k])
+        if w < 0.0:
+            w, v = -w, -v
+    s = math.sqrt(float(v @ v))
+    angle = 2.0 * math.atan2(s, w)
+    if angle < SMALL_ANGLE:  # angle / sin(angle / 2) = 2 + angle^2 / 12 + ...
+        return (2.0 + angle * angle / 12.0) * v / math.hypot(s, w)
+    return (angle / s) * v
 
 
 def _reduced_descent(Q: NDArray, R: NDArray, max_iter: int) -> NDArray:
@@ -498,6 +529,14 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
     max_iter = strict_int("max_iter", max_iter, minimum=1)
     tol = positive_float("tol", tol, maximum=0.5)
     tilt_prior = _check_tilt_prior(tilt_prior)
+    return _refine_pose(x, y, C, T0, max_iter, tol, tilt_prior)
+
+
+def _refine_pose(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int = REFINE_MAX_ITER,
+                 tol: float = REFINE_TOL, tilt_prior: TiltPrior | None = None
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`refine_pose` of checked arrays (at least 3 pairs; covariances symmetric positive
+    definite; a rigid start): the scale test, the fit, numerical failures as PoseError."""
     _finite_scale(x, y, C)
     try:
         pose, information, _ = _refine(x, y, C, T0, max_iter, tol, tilt_prior)
@@ -543,12 +582,12 @@ def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol:
         R, t = _polish(x, y, Cinv, T0[:3, :3], T0[:3, 3], max_iter, tol)
     if tilt_prior is None:
         out = transformation(R, t)
-        return out, pose_information(out, x, C), 0.0
+        return out, _pose_information(out, x, C), 0.0
     data_cost = _data_cost(x, y, Cinv, R, t)
     R, t = _polish(x, y, Cinv, R, t, max_iter, tol, tilt_prior)
     out = transformation(R, t)
     added = _data_cost(x, y, Cinv, R, t) + tilt_prior.cost(R) - data_cost
-    return out, pose_information(out, x, C) + tilt_prior.information(R), max(added, 0.0)
+    return out, _pose_information(out, x, C) + tilt_prior.information(R), max(added, 0.0)
 
 
 def _data_optimum(x: NDArray, y: NDArray, C: NDArray, Cinv: NDArray, T0: NDArray, max_iter: int, tol: float

@@ -59,7 +59,16 @@ from ..tolerances import (
     SIGNIFICANCE,
     TINY,
 )
-from .frames import MAX_POSE_COORDINATE, _covariances, _expm, _points, _skew, pose_information, refine_pose
+from .frames import (
+    MAX_POSE_COORDINATE,
+    _covariances,
+    _expm,
+    _logm,
+    _points,
+    _refine_pose,
+    _skew,
+    pose_information,
+)
 from .gravity import TiltPrior, _check_tilt_prior
 
 __all__ = [
@@ -230,8 +239,7 @@ def _pose_cost(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_point
 def _pose_error(reference: NDArray, other: NDArray) -> NDArray[np.float64]:
     """``other - reference`` in ROS order: translation, then the rotation vector of
     ``R_other R_reference^T`` (the convention of every ``pose_covariance``)."""
-    return np.concatenate([other[:3, 3] - reference[:3, 3],
-                           Rotation.from_matrix(other[:3, :3] @ reference[:3, :3].T).as_rotvec()])
+    return np.concatenate([other[:3, 3] - reference[:3, 3], _logm(other[:3, :3] @ reference[:3, :3].T)])
 
 
 def _pose_nees(pose: NDArray, covariance: NDArray | None, other: NDArray) -> float:
@@ -283,6 +291,12 @@ class PoseFit:
         return len(self.pairs)
 
 
+#: :class:`NearestObjects` compares a percept with every object of its type when the type has at
+#: most this many objects (a kitchen's doors or handles): cheaper than the k-d tree's queries
+#: and the ball queries that make them exact; more objects go through the tree.
+BRUTE_FORCE_OBJECTS = 256
+
+
 class NearestObjects:
     """Nearest same-type model objects by Mahalanobis distance (k-d tree per type, ``k`` candidates)."""
 
@@ -299,6 +313,9 @@ class NearestObjects:
         self.groups = {t: np.array([i for i, s in enumerate(types) if s == t]) for t in sorted(set(types))}
         self.objects = {t: world.type_index[t] for t in self.groups}
         self.trees = {t: world.type_tree(t) for t in self.objects}  # kept with the world
+        # a type with few objects is searched by brute force (exact, no tree or ball queries)
+        self.points = {t: world.positions[o] for t, o in self.objects.items()
+                       if len(o) <= BRUTE_FORCE_OBJECTS}
 
     def query(self, world_from_ego: NDArray, ego: NDArray, covs: NDArray, pose_covariance: NDArray | None
               ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]:
@@ -323,6 +340,15 @@ class NearestObjects:
         S_inv = np.linalg.inv(S)
         for t, idx in self.groups.items():
             objs = self.objects[t]
+            if t in self.points:  # every object of the type
+                r = self.points[t][None, :, :] - pred[idx][:, None, :]
+                m2 = np.einsum("mca,mab,mcb->mc", r, S_inv[idx], r)
+                order = np.argsort(m2, axis=1, kind="stable")
+                rows = np.arange(len(idx))
+                d2[idx], obj[idx] = m2[rows, order[:, 0]], objs[order[:, 0]]
+                if min(self.k, len(objs)) > 1:  # as the tree's candidates: a runner-up from k >= 2
+                    second[idx] = m2[rows, order[:, 1]]
+                continue
             kk = min(self.k, len(objs))
             tree = self.trees[t]
             dist, j = tree.query(pred[idx], k=kk)
@@ -403,7 +429,7 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
         p_rows = np.array([a for a, _ in current])
         o_rows = np.array([b for _, b in current])
         try:
-            T_new, info = refine_pose(ego[p_rows], world.positions[o_rows], covs[p_rows], T)
+            T_new, info = _refine_pose(ego[p_rows], world.positions[o_rows], covs[p_rows], T)
             cov6 = ros_pose_covariance(info)
         except PoseError:
             break
