@@ -691,3 +691,36 @@ def test_gravity_link_window_keeps_every_pair_of_the_exact_test(seed: int) -> No
         want = set(zip(*np.nonzero(ok), strict=True))
         assert {tuple(x) for x in np.column_stack([a, b])} == want, (p, q)
     assert checked
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(1, 40), st.integers(1, 12))
+def test_rank_merges_as_same_pose_one_pair_at_a_time(seed: int, n: int, limit: int) -> None:
+    """``_rank`` compares a hypothesis with every kept one at once; the reference here walks
+    the kept ones with :func:`same_pose` (clusters of nearby poses, some matching a percept to
+    another object, so that both the merge and the keep branch run)."""
+    from scipy.spatial.transform import Rotation
+
+    from worldgraph.association import AssociationTolerances, same_pose
+    from worldgraph.association.hypotheses import AssociationHypothesis, _rank
+
+    rng = np.random.default_rng(seed)
+    tol = AssociationTolerances()
+    centres = [Rotation.random(random_state=rng).as_matrix() for _ in range(3)]
+    hyps = []
+    for _ in range(n):
+        T = np.eye(4)
+        step = rng.choice([0.1, 1.0, 3.0]) * tol.distinct_angle
+        T[:3, :3] = Rotation.from_rotvec(step * rng.normal(size=3) / 3).as_matrix() @ centres[rng.integers(3)]
+        T[:3, 3] = rng.choice([0.1, 1.0, 3.0]) * tol.distinct_translation * rng.normal(size=3) / 3
+        pairs = tuple((p, int(rng.integers(2))) for p in range(3))
+        hyps.append(AssociationHypothesis(pairs, float(rng.integers(5)), 3, T))
+    kept: list = []
+    for h in sorted(hyps, key=lambda h: (h.cost, -h.size, h.pairs)):
+        if any(same_pose(h.world_from_ego, g.world_from_ego, tol)
+               and all(dict(g.all_pairs).get(p, o) == o for p, o in h.all_pairs) for g in kept):
+            continue
+        kept.append(h)
+        if len(kept) >= limit:
+            break
+    got = _rank(hyps, tol, limit)
+    assert [id(h) for h in got] == [id(h) for h in kept]

@@ -340,13 +340,21 @@ def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: 
     hyps = sorted(hyps, key=lambda h: (h.cost, -h.size, h.pairs))
     kept: list[AssociationHypothesis] = []
     matched: list[dict[int, int]] = []
+    # the kept poses' translations and rotations, for :func:`_same_pose` against all at once
+    t_kept = np.empty((min(limit, len(hyps)), 3))
+    r_kept = np.empty((min(limit, len(hyps)), 3, 3))
     for h in hyps:
         mine = dict(h.all_pairs)
-        if any(_same_pose(h.world_from_ego, g.world_from_ego, tol)
-               and all(m.get(p, o) == o for p, o in mine.items())
-               for g, m in zip(kept, matched, strict=True)):
-            continue
+        n = len(kept)
+        if n:
+            T = h.world_from_ego
+            near = np.sqrt(np.sum((t_kept[:n] - T[:3, 3]) ** 2, axis=1)) < tol.distinct_translation
+            c = (np.sum(r_kept[:n] * T[:3, :3], axis=(1, 2)) - 1.0) / 2.0  # trace(Ra^T Rb)
+            near &= np.arccos(np.clip(c, -1.0, 1.0)) < tol.distinct_angle
+            if any(all(matched[g].get(p, o) == o for p, o in mine.items()) for g in np.flatnonzero(near)):
+                continue
         matched.append(mine)
+        t_kept[n], r_kept[n] = h.world_from_ego[:3, 3], h.world_from_ego[:3, :3]
         kept.append(h)
         if len(kept) >= limit:
             break
