@@ -138,13 +138,17 @@ def _chirality_ok(ego: NDArray, world: NDArray, sigmas: NDArray, tol: Associatio
         w = world[hh, quads]
         de, dw = e[:, :, 1:] - e[:, :, :1], w[:, :, 1:] - w[:, :, :1]
         ve = np.sum(de[:, :, 0] * _cross(de[:, :, 1], de[:, :, 2]), axis=-1)
-        vw = np.sum(dw[:, :, 0] * _cross(dw[:, :, 1], dw[:, :, 2]), axis=-1)
-        # std of 6V under isotropic point noise: |d(6V)/d point c| = twice the opposite face's area
+        n0 = _cross(dw[:, :, 1], dw[:, :, 2])  # also the normal of the face opposite vertex 1
+        vw = np.sum(dw[:, :, 0] * n0, axis=-1)
+        # std of 6V under isotropic point noise: |d(6V)/d point c| = twice the opposite face's
+        # area; the faces' normals from the edges at vertex 0 (the face opposite vertex 0 from
+        # its own edges)
         s = sigmas[hh, quads]
+        faces = (_cross(w[:, :, 2] - w[:, :, 1], w[:, :, 3] - w[:, :, 1]), n0,
+                 _cross(dw[:, :, 0], dw[:, :, 2]), _cross(dw[:, :, 0], dw[:, :, 1]))
         var = np.zeros(ve.shape)
         for drop in range(4):
-            i0, i1, i2 = (c for c in range(4) if c != drop)
-            area2 = np.linalg.norm(_cross(w[:, :, i1] - w[:, :, i0], w[:, :, i2] - w[:, :, i0]), axis=-1)
+            area2 = np.linalg.norm(faces[drop], axis=-1)
             var += area2**2 * s[:, :, drop] ** 2
         gate = tol.chirality_sigmas * tol.pair_factor * np.sqrt(var)
         bad = (np.abs(vw) > gate) & (np.abs(ve) > gate) & (np.sign(ve) != np.sign(vw))

@@ -232,7 +232,11 @@ def weighted_kabsch(ego_points: ArrayLike, world_points: ArrayLike, weights: Arr
     """
     x = _points("ego_points", ego_points)
     y = _points("world_points", world_points, len(x), "ego_points")
-    w = _weights(weights, len(x))
+    return _weighted_kabsch(x, y, _weights(weights, len(x)))
+
+
+def _weighted_kabsch(x: NDArray, y: NDArray, w: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`weighted_kabsch` of checked arrays (the ML fit's start, once per refinement)."""
     wn = w / w.sum()
     cx = wn @ x
     cy = wn @ y
@@ -598,7 +602,7 @@ def _data_optimum(x: NDArray, y: NDArray, C: NDArray, Cinv: NDArray, T0: NDArray
         return _data_cost(x, y, Cinv, R, t)
 
     scale = np.trace(C, axis1=1, axis2=2) / 3.0
-    Rk, tk = weighted_kabsch(x, y, 1.0 / scale)
+    Rk, tk = _weighted_kabsch(x, y, 1.0 / scale)
     if np.allclose(C, scale[:, None, None] * np.eye(3), rtol=ISOTROPIC_RTOL, atol=0.0):
         return (Rk, tk) if cost(Rk, tk) <= cost(T0[:3, :3], T0[:3, 3]) else (T0[:3, :3], T0[:3, 3])
     Q, WinvG, cx, cy = _reduced_matrix(x, y, Cinv)
