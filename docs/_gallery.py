@@ -1,7 +1,9 @@
 """The sphinx-gallery hooks of docs/conf.py, importable by name (so the configuration pickles).
 
 The examples save their figures as PNG files into ``--out`` and close them, so the gallery runs
-each with ``--out EXAMPLES_OUT`` and shows the files that appeared there.
+each with ``--out out`` (relative to ``examples/``, where sphinx-gallery runs them: the pages show
+``saved out/...``, as the README's commands print, and no path of the machine that built them)
+and shows the files that appeared in :data:`EXAMPLES_OUT`.
 """
 
 from __future__ import annotations
@@ -9,14 +11,17 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-EXAMPLES_OUT = Path(__file__).resolve().parent / "_build" / "examples_out"
+EXAMPLES_OUT = Path(__file__).resolve().parent.parent / "examples" / "out"  # ignored by git (out/)
 _shown: set[Path] = set()
 
 
 def reset_argv(gallery_conf, script_vars):
     """Command-line arguments of every example: its figures go to :data:`EXAMPLES_OUT`."""
-    EXAMPLES_OUT.mkdir(parents=True, exist_ok=True)
-    return ["--out", str(EXAMPLES_OUT)]
+    # the figures of an earlier build (or example) would pass for this one's: start empty
+    shutil.rmtree(EXAMPLES_OUT, ignore_errors=True)
+    EXAMPLES_OUT.mkdir(parents=True)
+    _shown.clear()
+    return ["--out", EXAMPLES_OUT.name]  # sphinx-gallery runs each example in its own directory
 
 
 def saved_figures(block, block_vars, gallery_conf):

@@ -35,6 +35,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",  # a copy of MathJax 3 served by the site itself: maths render offline
     "sphinx.ext.viewcode",
     "numpydoc",
     "myst_parser",
@@ -62,6 +63,11 @@ html_theme_options = {
     "navigation_depth": 3,
     "show_toc_level": 2,
 }
+# the top-level pages have no sub-pages: no empty "Section Navigation" column beside them (the
+# results, the API reference and the gallery keep theirs, which list their pages)
+html_sidebars = {"*": []}
+html_static_path = ["_static"]
+html_css_files = ["wide.css"]  # code and tables at full width: no line cut off at 1400 px
 
 
 sphinx_gallery_conf = {
@@ -75,6 +81,7 @@ sphinx_gallery_conf = {
     "remove_config_comments": True,
     "within_subsection_order": "FileNameSortKey",
     "abort_on_example_error": True,
+    "write_computation_times": False,  # its pages load jQuery and DataTables from CDNs
 }
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -110,8 +117,10 @@ def _data_docstring(app, what, name, obj, options, lines):
 
 def setup(app):
     """Constants documented by their own comments; the build fails when an example of the
-    gallery shows no figure."""
+    gallery shows no figure, or when a page loads from another host or names a builder path."""
     import _gallery
+    import _site_checks
 
     app.connect("autodoc-process-docstring", _data_docstring, priority=100)  # before numpydoc (500)
     app.connect("build-finished", _gallery.check_every_example_has_a_figure)
+    app.connect("build-finished", _site_checks.check_built_site)
