@@ -25,16 +25,26 @@ def reset_argv(gallery_conf, script_vars):
 
 
 def saved_figures(block, block_vars, gallery_conf):
-    """Image scraper: the PNG files written into :data:`EXAMPLES_OUT` since the last block."""
-    from sphinx_gallery.scrapers import figure_rst
-
+    """Image scraper: the PNG files written into :data:`EXAMPLES_OUT` since the last block, each
+    at the full width of the page and linking to the image at full size (a scaled image links
+    to its original: Sphinx's ``html_scaled_image_link``)."""
     paths = []
     new = sorted(p for p in EXAMPLES_OUT.glob("*.png") if p not in _shown)
     for png, target in zip(new, block_vars["image_path_iterator"], strict=False):
         shutil.copyfile(png, target)
         _shown.add(png)
         paths.append(target)
-    return figure_rst(paths, gallery_conf["src_dir"])
+    return figures_rst(paths, gallery_conf["src_dir"])
+
+
+def figures_rst(paths, src_dir) -> str:
+    """reST of full-width figures (``paths`` under ``src_dir``, shown from the source root)."""
+    out = []
+    for path in paths:
+        rel = Path(path).relative_to(src_dir).as_posix()
+        out.append(f"\n.. image:: /{rel}\n   :alt: {Path(path).stem}\n   :class: sphx-glr-single-img\n"
+                   "   :width: 100%\n")
+    return "".join(out)
 
 
 def check_every_example_has_a_figure(app, exception):

@@ -42,3 +42,12 @@ def test_an_example_without_its_figure_fails_the_build(tmp_path: Path) -> None:
 
 def test_the_repository_has_numbered_examples_for_the_gallery() -> None:
     assert len(sorted((ROOT / "examples").glob("[0-9][0-9]_*.py"))) >= 7
+
+
+def test_figures_are_full_width_and_link_to_full_size(tmp_path: Path) -> None:
+    """A scaled image (``:width: 100%``) links to its original in Sphinx's HTML."""
+    src = tmp_path / "docs"
+    rst = gallery.figures_rst([src / "auto_examples" / "images" / "sphx_glr_03_x_001.png"], src)
+    assert ".. image:: /auto_examples/images/sphx_glr_03_x_001.png" in rst
+    assert ":width: 100%" in rst
+    assert gallery.figures_rst([], src) == ""
