@@ -63,8 +63,8 @@ html_theme_options = {
     "navigation_depth": 3,
     "show_toc_level": 2,
     # an example's page has one section: its code gets the right-hand column's width instead
-    "secondary_sidebar_items": {"*": ["page-toc", "sourcelink"], "results/*": ["page-toc", "sourcelink"],
-                                "api/**": ["page-toc", "sourcelink"], "auto_examples/*": []},
+    "secondary_sidebar_items": {**dict.fromkeys(("*", "results/*", "api/**"), ["page-toc", "sourcelink"]),
+                                "auto_examples/*": []},
 }
 # the top-level pages have no sub-pages: no empty "Section Navigation" column beside them (the
 # results, the API reference and the gallery keep theirs, which list their pages)

@@ -696,8 +696,9 @@ def test_gravity_link_window_keeps_every_pair_of_the_exact_test(seed: int) -> No
 @given(st.integers(0, 2**32 - 1), st.integers(1, 40), st.integers(1, 12))
 def test_rank_merges_as_same_pose_one_pair_at_a_time(seed: int, n: int, limit: int) -> None:
     """``_rank`` compares a hypothesis with every kept one at once; the reference here walks
-    the kept ones with :func:`same_pose` (clusters of nearby poses, some matching a percept to
-    another object, so that both the merge and the keep branch run)."""
+    the kept ones with the pose test written out (translation norm, ``rotation_angle``) and
+    checks ``same_pose`` against it on the way (clusters of nearby poses, some matching a
+    percept to another object, so that both the merge and the keep branch run)."""
     from scipy.spatial.transform import Rotation
 
     from worldgraph.association import AssociationTolerances, same_pose
@@ -714,9 +715,17 @@ def test_rank_merges_as_same_pose_one_pair_at_a_time(seed: int, n: int, limit: i
         T[:3, 3] = rng.choice([0.1, 1.0, 3.0]) * tol.distinct_translation * rng.normal(size=3) / 3
         pairs = tuple((p, int(rng.integers(2))) for p in range(3))
         hyps.append(AssociationHypothesis(pairs, float(rng.integers(5)), 3, T))
+    from worldgraph.pose import rotation_angle
+
+    def close(a: np.ndarray, b: np.ndarray) -> bool:
+        out = bool(np.linalg.norm(a[:3, 3] - b[:3, 3]) < tol.distinct_translation
+                   and rotation_angle(a[:3, :3], b[:3, :3]) < tol.distinct_angle)
+        assert same_pose(a, b, tol) == out
+        return out
+
     kept: list = []
     for h in sorted(hyps, key=lambda h: (h.cost, -h.size, h.pairs)):
-        if any(same_pose(h.world_from_ego, g.world_from_ego, tol)
+        if any(close(h.world_from_ego, g.world_from_ego)
                and all(dict(g.all_pairs).get(p, o) == o for p, o in h.all_pairs) for g in kept):
             continue
         kept.append(h)

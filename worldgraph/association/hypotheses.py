@@ -138,13 +138,13 @@ def _chirality_ok(ego: NDArray, world: NDArray, sigmas: NDArray, tol: Associatio
         w = world[hh, quads]
         de, dw = e[:, :, 1:] - e[:, :, :1], w[:, :, 1:] - w[:, :, :1]
         ve = np.sum(de[:, :, 0] * _cross(de[:, :, 1], de[:, :, 2]), axis=-1)
-        n0 = _cross(dw[:, :, 1], dw[:, :, 2])  # also the normal of the face opposite vertex 1
-        vw = np.sum(dw[:, :, 0] * n0, axis=-1)
+        n1 = _cross(dw[:, :, 1], dw[:, :, 2])  # the normal of the face opposite vertex 1
+        vw = np.sum(dw[:, :, 0] * n1, axis=-1)
         # std of 6V under isotropic point noise: |d(6V)/d point c| = twice the opposite face's
-        # area; the faces' normals from the edges at vertex 0 (the face opposite vertex 0 from
-        # its own edges)
+        # area; faces[c] is the normal of the face opposite vertex c, from the edges at vertex 0
+        # (the face opposite vertex 0 from its own edges)
         s = sigmas[hh, quads]
-        faces = (_cross(w[:, :, 2] - w[:, :, 1], w[:, :, 3] - w[:, :, 1]), n0,
+        faces = (_cross(w[:, :, 2] - w[:, :, 1], w[:, :, 3] - w[:, :, 1]), n1,
                  _cross(dw[:, :, 0], dw[:, :, 2]), _cross(dw[:, :, 0], dw[:, :, 1]))
         var = np.zeros(ve.shape)
         for drop in range(4):
@@ -328,12 +328,18 @@ def same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
 
 
 def _same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
-    """:func:`same_pose` of checked transforms (no checks: it runs for every pair of ranked
-    hypotheses); the angle as :func:`~worldgraph.pose.rotation_angle`."""
-    if float(np.linalg.norm(a[:3, 3] - b[:3, 3])) >= tol.distinct_translation:
-        return False
-    c = (float(np.sum(a[:3, :3] * b[:3, :3])) - 1.0) / 2.0  # trace(Ra^T Rb)
-    return math.acos(min(max(c, -1.0), 1.0)) < tol.distinct_angle
+    """:func:`same_pose` of checked transforms: :func:`_near_poses` of one."""
+    return bool(_near_poses(b, a[None, :3, 3], a[None, :3, :3], tol)[0])
+
+
+def _near_poses(T: NDArray, translations: NDArray, rotations: NDArray, tol: AssociationTolerances
+                ) -> NDArray[np.bool_]:
+    """Which of the poses ``(translations (k, 3), rotations (k, 3, 3))`` are the same pose as
+    ``T`` (4, 4) by :func:`same_pose`'s test (no checks; ``_rank`` runs it for every ranked
+    hypothesis against every kept one); the angle as :func:`~worldgraph.pose.rotation_angle`."""
+    near = np.sqrt(np.sum((translations - T[:3, 3]) ** 2, axis=1)) < tol.distinct_translation
+    c = (np.sum(rotations * T[:3, :3], axis=(1, 2)) - 1.0) / 2.0  # trace(Ra^T Rb)
+    return near & (np.arccos(np.clip(c, -1.0, 1.0)) < tol.distinct_angle)
 
 
 def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: int
@@ -344,17 +350,14 @@ def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: 
     hyps = sorted(hyps, key=lambda h: (h.cost, -h.size, h.pairs))
     kept: list[AssociationHypothesis] = []
     matched: list[dict[int, int]] = []
-    # the kept poses' translations and rotations, for :func:`_same_pose` against all at once
+    # the kept poses' translations and rotations, for :func:`_near_poses` against all at once
     t_kept = np.empty((min(limit, len(hyps)), 3))
     r_kept = np.empty((min(limit, len(hyps)), 3, 3))
     for h in hyps:
         mine = dict(h.all_pairs)
         n = len(kept)
         if n:
-            T = h.world_from_ego
-            near = np.sqrt(np.sum((t_kept[:n] - T[:3, 3]) ** 2, axis=1)) < tol.distinct_translation
-            c = (np.sum(r_kept[:n] * T[:3, :3], axis=(1, 2)) - 1.0) / 2.0  # trace(Ra^T Rb)
-            near &= np.arccos(np.clip(c, -1.0, 1.0)) < tol.distinct_angle
+            near = _near_poses(h.world_from_ego, t_kept[:n], r_kept[:n], tol)
             if any(all(matched[g].get(p, o) == o for p, o in mine.items()) for g in np.flatnonzero(near)):
                 continue
         matched.append(mine)
