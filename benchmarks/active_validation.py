@@ -52,7 +52,7 @@ from perception.simulate import simulate_percepts
 from worldgraph import active, scenes
 from worldgraph.active import active_localize, plan_view
 from worldgraph.association import discriminator
-from worldgraph.localize import LocalizationResult
+from worldgraph.localization import LocalizationResult
 
 PERCEPT_TYPES = ("door", "handle", "drawer", "knob")
 FOV_DEG = 60.0

@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 from perception.simulate import simulate_percepts
 from worldgraph import scenes
 from worldgraph.association import AssociationTolerances, associate
-from worldgraph.localize import localize
+from worldgraph.localization import localize
 from worldgraph.model import WorldModel
 
 CHI2_6_3SIGMA = 20.06

@@ -35,7 +35,7 @@ from scipy.spatial.transform import Rotation
 
 from perception import Percept
 from worldgraph import scenes
-from worldgraph.localize import localize
+from worldgraph.localization import localize
 from worldgraph.model import WorldModel
 
 CHI2_6_3SIGMA = 20.06

@@ -27,7 +27,7 @@ from layouts import landmark_world, sample_pose, simulate  # noqa: E402
 
 import radialopt as ro  # noqa: E402
 from worldgraph import scenes  # noqa: E402
-from worldgraph.localize import localize, match_spheres  # noqa: E402
+from worldgraph.localization import localize, match_spheres  # noqa: E402
 
 
 def main() -> None:

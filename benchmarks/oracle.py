@@ -40,7 +40,7 @@ as well as the truth does.
   ``up_sigma``) says whether an ideal estimator could meet them; "no rival and determined" is the
   bound on unique-correct answers (an ideal estimator's covariance, before any calibration).
 
-The library on the same trial: ``worldgraph.localize.localize(world, percepts, gravity=...)``
+The library on the same trial: ``worldgraph.localize(world, percepts, gravity=...)``
 with every other default, judged by ``layouts.verdict`` (unique-correct: "ok", 6D NEES <= 20.06,
 rotation error <= 2 deg); ``--gravity up`` passes the true up vector in the ego frame, ``none``
 passes None.  ``--active`` also runs ``worldgraph.active_localize`` (max_looks=2, the same
@@ -79,7 +79,7 @@ from scipy.spatial.transform import Rotation
 
 from perception import Percept
 from worldgraph import ASSOCIATION_TOLERANCES, scenes
-from worldgraph.localize import localize
+from worldgraph.localization import localize
 
 GATE = 14.16  # chi-square, 3 dof, 3 sigma
 DETERMINED_POSITION = 0.25  # m: localize's default max_position_3sigma ...

@@ -80,7 +80,7 @@ from perception.simulate import simulate_percepts  # noqa: E402
 from worldgraph import scenes  # noqa: E402
 from worldgraph.active import active_localize  # noqa: E402
 from worldgraph.association import AssociationTolerances, associate  # noqa: E402
-from worldgraph.localize import localize  # noqa: E402
+from worldgraph.localization import localize  # noqa: E402
 from worldgraph.model import WorldModel  # noqa: E402
 from worldgraph.tiles import TilePool, localize_tiled, split  # noqa: E402
 

@@ -20,7 +20,7 @@ from scipy.spatial.transform import Rotation
 
 import perception as pc
 from worldgraph import scenes
-from worldgraph.localize import localize
+from worldgraph.localization import localize
 from worldgraph.pose.validation import CHI2_6_GATE
 
 

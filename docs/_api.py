@@ -85,12 +85,7 @@ def write_pages(out: Path) -> None:
                 own.append(n)  # under the module the automodule above makes current
             title = f"``{mod_name}``"
             lines += [title, "-" * len(title), ""]
-            parent, _, short = mod_name.rpartition(".")
-            clash = getattr(importlib.import_module(parent), short, module) is not module
-            lines += [f".. automodule:: {mod_name}", "   :no-members:"]
-            if clash:  # e.g. the module worldgraph.localize and the function worldgraph.localize
-                lines += ["   :no-index:"]
-            lines += [""]
+            lines += [f".. automodule:: {mod_name}", "   :no-members:", ""]
             if own:
                 lines += ["Names documented here (the others are under the package's names above):", ""]
                 lines += _autosummary(own)

@@ -37,7 +37,7 @@ from worldgraph.errors import (
 )
 from worldgraph.filters import discriminator
 from worldgraph.hypotheses import AssociationHypothesis
-from worldgraph.localize import LocalizationResult
+from worldgraph.localization import LocalizationResult
 
 HANDLES = np.array([[3.0, -1.0, 0.0], [3.0, 0.0, 0.5], [3.0, 1.0, 0.0], [3.0, 0.5, -0.5]])
 KNOB = np.array([-3.0, 0.0, 0.0])

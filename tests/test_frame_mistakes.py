@@ -4,7 +4,6 @@ vector is meant."""
 
 from __future__ import annotations
 
-import importlib
 import math
 import re
 
@@ -81,7 +80,7 @@ def test_without_gravity_any_tilt_is_answered(kitchen_scan):
 @pytest.mark.parametrize("down", [[0.0, 0.0, -9.81], [0.5, 0.0, -1.0]])
 def test_a_gravity_vector_for_the_up_vector_raises_before_any_search(kitchen_scan, down, monkeypatch):
     world, percepts, _ = kitchen_scan
-    pipeline = importlib.import_module("worldgraph.localize.pipeline")  # the module, not the function
+    from worldgraph.localization import pipeline
 
     def no_search(*args, **kwargs):
         raise AssertionError("searched")

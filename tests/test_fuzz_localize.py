@@ -421,7 +421,7 @@ def test_consistency_graph_min_size(min_size) -> None:
 @given(pairs=st.sampled_from([[(0, 0), (1, 1), (2, 2)], [(0, 99)], [(-1, 0)], [(0.5, 1)], [(True, 1)], None,
                               "ab", [(0,)], [[0, 1, 2]], []]))
 def test_match_spheres_and_default_region(pairs) -> None:
-    from worldgraph.localize import default_region, match_spheres
+    from worldgraph.localization import default_region, match_spheres
 
     out = _call(match_spheres, ("pairs",), WORLD, CLEAN, pairs)
     if out is not None:

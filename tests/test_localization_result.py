@@ -199,7 +199,7 @@ def _check_status_contract(res: LocalizationResult) -> None:
     """A success status comes with a finite rigid pose and covariance; a status that keeps no
     pose returns none (NaN transformation, position and covariances), as the failures built by
     the pipeline's own failure path do."""
-    from worldgraph.localize import LOCALIZE_STATUSES, POSE_STATUSES
+    from worldgraph.localization import LOCALIZE_STATUSES, POSE_STATUSES
 
     assert res.status in LOCALIZE_STATUSES
     if res.status in POSE_STATUSES:

@@ -12,7 +12,7 @@ import radialopt as ro
 from perception import Percept
 from perception.simulate import simulate_percepts
 from worldgraph.errors import UnknownTypeError, WorldGraphError
-from worldgraph.localize import localize
+from worldgraph.localization import localize
 from worldgraph.model import WorldModel
 
 TYPES = ("door", "handle", "knob", "drawer")

@@ -11,7 +11,7 @@ import radialopt as ro
 from perception.simulate import simulate_percepts
 from worldgraph import scenes
 from worldgraph.errors import WorldGraphError
-from worldgraph.localize import localize, match_spheres
+from worldgraph.localization import localize, match_spheres
 
 
 @pytest.fixture(scope="module")
@@ -173,11 +173,9 @@ def test_check_true_verifies_the_validated_hypotheses_and_solves_the_others(monk
 def test_localize_solves_through_the_unchecked_route(monkeypatch) -> None:
     """localize's radial solutions do not re-validate the spheres: radialopt's checking entry
     (project_radii -> sphere_arrays) is never reached, the unchecked route is."""
-    import importlib
 
     import radialopt.projection as proj
-
-    loc = importlib.import_module("worldgraph.localize.radial")  # where _radial looks it up
+    from worldgraph.localization import radial as loc
     world, views = _kitchen_views(2, seed=5)
     checks, trusted = [], []
     real_arrays, real_trusted = proj.sphere_arrays, loc._project_radii_trusted

@@ -8,7 +8,6 @@
 
 from __future__ import annotations
 
-import importlib
 import math
 
 import numpy as np
@@ -17,14 +16,13 @@ from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
 import radialopt as ro
+import worldgraph.localization as wl
 from perception import Percept
 from worldgraph import scenes
 from worldgraph.errors import WorldGraphError
-from worldgraph.localize import LOCALIZE_STATUSES, default_region, localize
+from worldgraph.localization import LOCALIZE_STATUSES, default_region, localize
 from worldgraph.model import WorldModel
 from worldgraph.validation import self_check
-
-wl = importlib.import_module("worldgraph.localize")  # the package re-exports the function by that name
 
 
 def facing(position: np.ndarray, yaw: float) -> np.ndarray:
@@ -331,7 +329,7 @@ def test_paper_method_is_not_ok_when_its_rotation_contradicts_its_matches(monkey
     pose = facing(np.array([2.0, -3.0, 1.5]), math.pi / 2)
     percepts = percepts_of(world, pose, range(6), rng)
     assert localize(world, percepts, "paper").status == "ok"
-    paper = importlib.import_module("worldgraph.localize.paper")  # where _paper looks it up
+    from worldgraph.localization import paper
     real = paper._eq5_rotation
 
     def off_by_twenty_degrees(*args, **kwargs):
@@ -449,7 +447,7 @@ def test_fits_at_the_same_pose_widen_the_covariance_instead_of_making_it_ambiguo
     e = e_of(res)
     assert e @ np.linalg.solve(res.pose_covariance, e) <= chi2.ppf(0.9973, 6)
     # the premise: without merging the fits at the same pose, the runner-up makes it ambiguous
-    validate = importlib.import_module("worldgraph.localize.validate")  # where _choose_step looks it up
+    from worldgraph.localization import validate
     monkeypatch.setattr(validate, "_same_pose", lambda *args: False)
     alone = localize(world, percepts, up_sigma=math.inf)
     assert alone.status == "ambiguous"

@@ -18,7 +18,7 @@ from scipy.stats import chi2
 
 import worldgraph as wg
 from perception import Percept
-from worldgraph.localize import UNIQUE_STATUSES
+from worldgraph.localization import UNIQUE_STATUSES
 from worldgraph.validation import constrained_directions
 
 NEEDLE = (1e-8, 1e-6, 1e4)

@@ -156,9 +156,9 @@ def _returned_statuses(path):
     return found
 
 
-#: The modules of the localize package (``worldgraph/localize.py`` before issue 26).
+#: The modules of the localization subpackage.
 _LOCALIZE_FILES = sorted(p.relative_to(ROOT).as_posix()
-                         for p in (ROOT / "worldgraph" / "localize").glob("*.py"))
+                         for p in (ROOT / "worldgraph" / "localization").glob("*.py"))
 _TILES_FILES = sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "worldgraph" / "tiles").glob("*.py"))
 
 
@@ -169,7 +169,7 @@ def _status_sets():
     import radialopt.comparison
     import worldgraph
 
-    localize_module = _sys.modules["worldgraph.localize"]  # worldgraph.localize is the function
+    localize_module = _sys.modules["worldgraph.localization"]  # the subpackage
     return {
         # the localize package: every module of the pipeline hands out localisation statuses
         **{path: localize_module.LOCALIZE_STATUSES for path in _LOCALIZE_FILES},
@@ -208,7 +208,7 @@ def test_status_subsets_derive_from_their_literals():
     import radialopt
     import worldgraph
 
-    L = _sys.modules["worldgraph.localize"]
+    L = _sys.modules["worldgraph.localization"]
     assert L.LOCALIZE_STATUSES == ("ok", "weak", "ambiguous", "inconsistent", "no_association",
                                    "too_few_percepts", "degenerate", "outside_region",
                                    "degenerate_coplanar", "degenerate_collinear", "not_converged")
@@ -223,3 +223,20 @@ def test_status_subsets_derive_from_their_literals():
     assert radialopt.POSITION_SUCCESS == ("ok", "ambiguous")
     assert set(radialopt.POSITION_SUCCESS) < set(radialopt.POSITION_STATUSES)
     assert radialopt.CERTIFICATE_METHODS == ("closed_form", "branch_and_bound", "sdp", "none")
+
+
+def test_no_module_is_shadowed_by_a_name_of_its_package():
+    # `import a.b` and `a.b` must be the same object: a module named like one of its package's
+    # names (once worldgraph.localize, the function and the subpackage) makes them disagree
+    import importlib
+    import pkgutil
+
+    shadowed = []
+    for top in ("perception", "worldgraph", "radialopt"):
+        pkg = importlib.import_module(top)
+        for info in pkgutil.walk_packages(pkg.__path__, top + "."):
+            module = importlib.import_module(info.name)
+            parent, _, leaf = info.name.rpartition(".")
+            if getattr(importlib.import_module(parent), leaf, None) is not module:
+                shadowed.append(info.name)
+    assert shadowed == []

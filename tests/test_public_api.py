@@ -21,7 +21,7 @@ def test_every_recorded_name_is_still_importable(module):
 
 def test_the_snapshot_covers_the_packages():
     now = api()
-    assert {"perception", "worldgraph", "radialopt", "worldgraph.localize",
+    assert {"perception", "worldgraph", "radialopt", "worldgraph.localization",
             "radialopt.projection"} <= set(now)
     assert "localize" in RECORDED["worldgraph"] and "project_radii" in RECORDED["radialopt"]
     assert sum(len(v) for v in RECORDED.values()) > 500

@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 import perception as pc
 import radialopt as ro
 from worldgraph import scenes
-from worldgraph.localize import localize
+from worldgraph.localization import localize
 from worldgraph.pose import pose_information, refine_pose, transformation, weighted_rotation
 from worldgraph.validation import (
     CHI2_6_GATE,

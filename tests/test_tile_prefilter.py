@@ -17,7 +17,7 @@ from perception import Percept
 from perception.simulate import simulate_percepts
 from worldgraph import scenes
 from worldgraph.errors import ArgumentTypeError, UnknownTypeError
-from worldgraph.localize.result import POSE_STATUSES
+from worldgraph.localization.result import POSE_STATUSES
 from worldgraph.tiles import TileSummary, localize_tiled, split, summarize, tiles_to_visit
 
 

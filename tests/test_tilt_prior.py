@@ -4,7 +4,6 @@ localize's up_sigma, and "ambiguous" only for a rival the gravity search can sta
 
 from __future__ import annotations
 
-import importlib
 import math
 from types import SimpleNamespace
 
@@ -17,14 +16,13 @@ import radialopt as ro
 import worldgraph as wg
 from perception import Percept
 from worldgraph.errors import ArgumentTypeError, OutOfRangeError
-from worldgraph.localize import localize
+from worldgraph.localization import localize, validate
 from worldgraph.pose import refine_pose
 from worldgraph.pose.gravity import _FREE, TILT_GATE, TiltPrior, _Plan
 from worldgraph.pose.validation import PoseFit
 from worldgraph.tolerances import ASSOCIATION_TOLERANCES
 
 EZ = np.array([0.0, 0.0, 1.0])
-validate = importlib.import_module("worldgraph.localize.validate")
 
 # a wall of typed landmarks, not symmetric, 2-6 m ahead of a robot at the origin (head 1.5 m)
 LANDMARKS = np.array([[3.0, -1.2, 0.9], [3.4, 0.3, 1.6], [4.1, 1.5, 0.4], [5.2, -0.4, 2.1],

@@ -34,7 +34,7 @@ from .errors import (
 )
 from .figures import plots, rerun_log
 from .importers.franka import franka_kitchen_path, load_franka_kitchen
-from .localize import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
+from .localization import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
 from .model import LinkTable, ObjectModel, ObjectTable, WorldModel, box_vertices
 from .pose import gravity
 from .pose.frames import percept_frame, pose_from_frames, weighted_kabsch

@@ -8,7 +8,7 @@ same ego spot may hold another object of the same type, and then both hypotheses
 same sight.  :func:`plan_view` scores gaze directions by what would actually be seen:
 
 1. The near-best hypotheses are the chosen pose and every ``alternatives`` pose of the
-   :class:`~worldgraph.localize.LocalizationResult` (all validated fits within the ambiguity
+   :class:`~worldgraph.LocalizationResult` (all validated fits within the ambiguity
    margin, not only two), weighted ``w_h ∝ exp(-cost_h / 2)`` with their robust costs
    (``near_best_costs``, twice a negative log-likelihood).
 2. Under hypothesis ``h`` every recognisable object ``o`` is predicted at the ego point

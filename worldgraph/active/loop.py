@@ -15,8 +15,8 @@ from perception import KinematicChain, Percept
 from .._checks import as_list, float_array, positive_float, strict_int
 from ..association.consistency import check_world_and_percepts
 from ..errors import ArgumentTypeError, OutOfRangeError
-from ..localize.pipeline import localize
-from ..localize.result import LocalizationResult, PoseStatus
+from ..localization.pipeline import localize
+from ..localization.result import LocalizationResult, PoseStatus
 from ..model import WorldModel
 from ..pose.gravity import Gravity, _check_gravity, _check_up_sigma
 from ..tolerances import (

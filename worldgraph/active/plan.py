@@ -16,7 +16,7 @@ from perception import KinematicChain, Percept
 
 from .._checks import as_list, float_array, generator, positive_float, strict_int
 from ..errors import ArgumentTypeError, OutOfRangeError
-from ..localize.result import LocalizationResult
+from ..localization.result import LocalizationResult
 from ..model import WorldModel
 from ..tolerances import (
     NORM_FLOOR,

@@ -17,7 +17,7 @@ from perception import Percept, PerceptionError, depth_sigma
 
 from .._checks import as_list
 from ..errors import NonFiniteError, UnknownTypeError
-from ..localize.result import LocalizationResult
+from ..localization.result import LocalizationResult
 from ..model import WorldModel
 from ..pose.validation import _pose_error
 from ..tolerances import (

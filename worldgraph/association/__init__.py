@@ -1,6 +1,6 @@
 """The consistency graph, cliques, filters, hypotheses: data association of percepts to objects.
 
-* :mod:`worldgraph.association.associate`: :func:`associate`, which drives both methods (the
+* :mod:`worldgraph.association.matching`: :func:`associate`, which drives both methods (the
   typed consistency-graph cliques and the paper's filters); its public names are re-exported
   here, so ``worldgraph.association`` keeps the names it had as a module.
 * :mod:`worldgraph.association.consistency`: the typed consistency graph (candidate pairs, far
@@ -10,7 +10,7 @@
 * :mod:`worldgraph.association.hypotheses`: hypothesis fits, the mirror check, ranking.
 """
 
-from .associate import (
+from .matching import (
     ASSOCIATION_METHODS,
     ASSOCIATION_TOLERANCES,
     AssociationHypothesis,

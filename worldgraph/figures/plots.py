@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from .._checks import _short, as_list, float_array, positive_float, strict_int
 from .._rigid import rigid_transform
 from ..errors import ArgumentTypeError, ImporterError, ShapeError
-from ..localize import LocalizationResult
+from ..localization import LocalizationResult
 from ..model import WorldModel
 from ..tolerances import PSD_RTOL, SAME_POSITION, SYMMETRY_RTOL, TINY
 

@@ -44,7 +44,7 @@ from perception import Percept
 from .._checks import _short, as_list, name_string, positive_float
 from .._rigid import rigid_transform
 from ..errors import ArgumentTypeError, ImporterError
-from ..localize import LocalizationResult
+from ..localization import LocalizationResult
 from ..model import WorldModel
 from .plots import type_colours
 

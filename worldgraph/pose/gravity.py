@@ -1,7 +1,7 @@
 """Gravity as a per-call fact: which way is up in the robot's ego frame, and which search answers.
 
-Every entry point that associates percepts (:func:`~worldgraph.association.associate`,
-:func:`~worldgraph.localize.localize`, :func:`~worldgraph.active.active_localize`,
+Every entry point that associates percepts (:func:`~worldgraph.association.matching`,
+:func:`~worldgraph.localize`, :func:`~worldgraph.active.active_localize`,
 :func:`~worldgraph.tiles.localize_tiled`) takes ``gravity``:
 
 ``"auto"`` (default)
@@ -23,7 +23,7 @@ a (3,) up vector in the ego frame
 ``None``
     The free 3D search.
 
-With gravity known (``"auto"`` or an up vector), :func:`~worldgraph.localize.localize` gives no
+With gravity known (``"auto"`` or an up vector), :func:`~worldgraph.localize` gives no
 success (``"inconsistent"``, the message naming the likely mistake, e.g. percepts in a camera
 frame) for a pose that tilts the ego up vector more than
 :data:`~worldgraph.tolerances.MAX_EGO_TILT` (45 degrees) from world up, or, with an explicit up

@@ -15,7 +15,7 @@
 * :func:`building` / :func:`building_site` and :func:`campus` / :func:`campus_site`:
   multi-storey office buildings (identical room modules along corridors, stair cores, each
   storey nearly the plan of the one below) and campuses of them, built from arrays, with the
-  building and storey of every object (:class:`Site`) for :func:`worldgraph.tiles.split`.
+  building and storey of every object (:class:`Site`) for :func:`worldgraph.tiles.tiling`.
 
 Every object of a scene is a geometry node of a :class:`trimesh.Scene` named
 ``f"{type}_{k:03d}"`` whose node metadata holds ``{"type": type}``; each mesh's metadata

@@ -7,7 +7,7 @@
 * :func:`building` / :func:`building_site` and :func:`campus` / :func:`campus_site`:
   multi-storey office buildings (identical room modules along corridors, stair cores, each
   storey nearly the plan of the one below) and campuses of them, built from arrays, with the
-  building and storey of every object (:class:`Site`) for :func:`worldgraph.tiles.split`.
+  building and storey of every object (:class:`Site`) for :func:`worldgraph.tiles.tiling`.
 """
 
 from __future__ import annotations
@@ -259,7 +259,7 @@ class Site:
     storey: NDArray[np.intp]
 
     def labels(self, by: str = "building") -> NDArray[np.intp]:
-        """Tile labels for :func:`worldgraph.tiles.split`: ``"building"`` or ``"storey"`` (one
+        """Tile labels for :func:`worldgraph.tiles.tiling`: ``"building"`` or ``"storey"`` (one
         label per building and storey, ``building * (max storey + 1) + storey``)."""
         if by == "building":
             return self.building

@@ -4,7 +4,7 @@
 building or storey of :class:`worldgraph.scenes.Site`), each tile a world model of its objects
 plus, with ``halo > 0``, the objects of other labels within ``halo`` metres of them (so that a
 robot at a tile's border still finds the landmarks it sees).  :func:`localize_tiled` runs
-:func:`~worldgraph.localize.localize` on every tile at once -- on local processes by default,
+:func:`~worldgraph.localize` on every tile at once -- on local processes by default,
 on a Dask cluster with ``scheduler="tcp://host:8786"`` or a ``distributed.Client`` (as
 :func:`radialopt.comparison.compare_solvers` does) -- maps the answers back to global object
 indices and ranks the tiles' best poses together by the rule of :func:`localize`:
@@ -34,7 +34,7 @@ from .files import TileEntry, TileIndex, append_tiles, load_tile, read_index, sa
 from .pool import TilePool
 from .prefilter import TileSummary, TileVisit, summarize, tiles_to_visit
 from .ranking import FAILURE_ORDER
-from .split import MAX_TILES, Tile, split
+from .tiling import MAX_TILES, Tile, split
 
 __all__ = ["FAILURE_ORDER", "MAX_TILES", "ClusterTiles", "Tile", "TileEntry", "TileIndex", "TilePool",
            "TileSummary", "TileVisit", "append_tiles", "load_tile", "localize_tiled", "read_index",

@@ -25,20 +25,20 @@ from perception import Percept
 
 from .. import _checks
 from ..errors import ArgumentTypeError, MalformedFileError, WorldGraphError
-from ..localize.pipeline import (
+from ..localization.pipeline import (
     LOCALIZE_METHODS,
     _answered_by_free_search,
     _gravity_unsupported,
     _tilt_checked,
 )
-from ..localize.result import LocalizationResult, LocalizeStatus, _failed
+from ..localization.result import LocalizationResult, LocalizeStatus, _failed
 from ..pose.gravity import Gravity, _check_gravity, _check_up_sigma
 from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 from .dispatch import _client
 from .files import TileIndex, load_tile, read_index
 from .prefilter import TileVisit, tiles_to_visit
 from .ranking import _combine, _globalised_answer, _run_tile, _TileAnswer
-from .split import Tile
+from .tiling import Tile
 
 __all__ = ["ClusterTiles"]
 
@@ -128,7 +128,7 @@ class ClusterTiles:
                  tol: AssociationTolerances | None = None, region: Any = None, gravity: Gravity = "auto",
                  up_sigma: float | None = None, near: Any = None, radius: float | None = None,
                  timeout: float | None = None) -> LocalizationResult:
-        """:func:`~worldgraph.localize.localize` on the tiles that can answer, ranked together.
+        """:func:`~worldgraph.localize` on the tiles that can answer, ranked together.
 
         ``method``, ``tol``, ``region``, ``gravity`` and ``up_sigma`` are those of
         :func:`~worldgraph.tiles.localize_tiled`; ``near`` and ``radius`` a position prior for

@@ -17,18 +17,18 @@ from perception import Percept
 
 from .. import _checks
 from ..errors import ArgumentTypeError, WorldGraphError
-from ..localize.pipeline import (
+from ..localization.pipeline import (
     LOCALIZE_METHODS,
     _answered_by_free_search,
     _gravity_unsupported,
     _tilt_checked,
 )
-from ..localize.result import LocalizationResult
+from ..localization.result import LocalizationResult
 from ..pose.gravity import Gravity, _check_gravity, _check_up_sigma
 from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _tol_argument
 from .pool import TilePool
 from .ranking import _combine, _globalised_answer, _run_tile
-from .split import Tile, _check_tiles
+from .tiling import Tile, _check_tiles
 
 
 def _client(scheduler: object, name: str = "scheduler", what: str = "None, ") -> tuple[Any, bool]:
@@ -53,7 +53,7 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
                    tol: AssociationTolerances | None = None, rng: np.random.Generator | None = None,
                    region: Any = None, gravity: Gravity = "auto", up_sigma: float | None = None,
                    tolerances: AssociationTolerances | None = None) -> LocalizationResult:
-    """:func:`~worldgraph.localize.localize` on every tile in parallel, the answers ranked together.
+    """:func:`~worldgraph.localize` on every tile in parallel, the answers ranked together.
 
     Parameters
     ----------
@@ -62,7 +62,7 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     percepts : sequence of perception.Percept
         Fused percepts in the ego frame (sent to every tile).
     method : str
-        One of :data:`~worldgraph.localize.LOCALIZE_METHODS`.
+        One of :data:`~worldgraph.LOCALIZE_METHODS`.
     scheduler : str or distributed.Client, optional
         A Dask scheduler address (``"tcp://host:8786"``) or a client: every tile is localised on
         the cluster.  With a client, the tiles are scattered on the first call and stay on the
@@ -88,11 +88,11 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     region : radialopt.Region or (lower, upper), optional
         Passed to every tile's :func:`localize` (default: each tile's default region).
     gravity : "auto", (3,) float or None
-        As in :func:`~worldgraph.localize.localize`.  ``"auto"`` decides on the combined
+        As in :func:`~worldgraph.localize`.  ``"auto"`` decides on the combined
         answer: every tile runs the gravity search, and only when the best tile's answer has no
         pose, too few inliers or a tilted pose do all tiles run the free search.
     up_sigma : float, optional
-        Gravity's tilt prior of the pose (radians), as in :func:`~worldgraph.localize.localize`.
+        Gravity's tilt prior of the pose (radians), as in :func:`~worldgraph.localize`.
     tolerances : AssociationTolerances, optional
         Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
         :class:`~worldgraph.errors.ArgumentTypeError`).

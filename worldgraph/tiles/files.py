@@ -28,7 +28,7 @@ from ..errors import ArgumentTypeError, MalformedFileError, WorldGraphError
 from ..model import WorldModel
 from ..model.binary_files import load_binary, read_entries, world_arrays, write_entries
 from .prefilter import LINK_BIN, TileSummary, summarize
-from .split import Tile
+from .tiling import Tile
 
 __all__ = ["INDEX_FILE", "TileEntry", "TileIndex", "append_tiles", "load_tile", "read_index", "save_tiles"]
 
@@ -213,7 +213,7 @@ def _write_tiles(tiles: Iterable[Tile], folder: str, summaries: list[TileSummary
     labels = {s.label for s in summaries}
     for k, tile in enumerate(tiles):
         if not isinstance(tile, Tile):
-            raise ArgumentTypeError(f"tiles[{k}] must be a Tile (from worldgraph.tiles.split), "
+            raise ArgumentTypeError(f"tiles[{k}] must be a Tile (from worldgraph.tiles.tiling), "
                                     f"got {_checks._short(tile)}")
         if tile.label in labels:
             raise WorldGraphError(f"tiles[{k}]: label {tile.label} is already in {folder}")

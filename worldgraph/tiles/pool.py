@@ -11,7 +11,7 @@ from typing import Any
 from .. import _checks
 from ..errors import WorldGraphError
 from .ranking import _run_tile, _TileAnswer
-from .split import Tile, _check_tiles
+from .tiling import Tile, _check_tiles
 
 #: :class:`TilePool` registers them under a token before it forks and removes them on close.
 _SHARED: dict[int, tuple[Tile, ...]] = {}

@@ -2,7 +2,7 @@
 index of a thousand tiles) and the pre-filter that visits only the tiles whose summary admits the
 percepts (:func:`tiles_to_visit`).
 
-A tile is skipped only when :func:`~worldgraph.localize.localize` on it could not find a pose:
+A tile is skipped only when :func:`~worldgraph.localize` on it could not find a pose:
 
 * ``"no_types"``: fewer than ``max(3, tol.min_clique_size)`` percepts have a type the tile holds
   (``localize`` would say ``"too_few_percepts"`` or raise ``UnknownTypeError``);
@@ -37,7 +37,7 @@ from perception import Percept
 from .. import _checks
 from ..errors import ArgumentTypeError
 from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
-from .split import Tile
+from .tiling import Tile
 
 __all__ = ["LINK_BIN", "SKIP_REASONS", "TOLERANCE_SLACK", "SkipReason", "TileSummary", "TileVisit",
            "summarize", "tiles_to_visit"]
@@ -88,7 +88,7 @@ class TileSummary:
 def summarize(tile: Tile, bin_width: float = LINK_BIN) -> TileSummary:
     """The :class:`TileSummary` of ``tile`` (from its world's link tables)."""
     if not isinstance(tile, Tile):
-        raise ArgumentTypeError(f"tile must be a Tile (from worldgraph.tiles.split), "
+        raise ArgumentTypeError(f"tile must be a Tile (from worldgraph.tiles.tiling), "
                                 f"got {_checks._short(tile)}")
     bin_width = _checks.positive_float("bin_width", bin_width)
     world = tile.world
@@ -156,7 +156,7 @@ def tiles_to_visit(summaries: Sequence[TileSummary], percepts: Sequence[Percept]
     summaries : sequence of TileSummary
     percepts : sequence of perception.Percept
     tol : AssociationTolerances, optional
-        The tolerances the query's :func:`~worldgraph.localize.localize` uses (its pair
+        The tolerances the query's :func:`~worldgraph.localize` uses (its pair
         tolerance and ``min_clique_size``).
     near : (3,) float, optional
         A position prior (world frame, metres): the robot stands within ``radius`` of it.

@@ -1,5 +1,5 @@
 """One tile's answer (run in a worker: :func:`_run_tile`) and the ranking of the tiles' answers
-together (:func:`_combine`, the rule of :func:`~worldgraph.localize.localize`)."""
+together (:func:`_combine`, the rule of :func:`~worldgraph.localize`)."""
 
 from __future__ import annotations
 
@@ -16,10 +16,10 @@ from perception import Percept
 
 from ..association.hypotheses import AssociationHypothesis
 from ..errors import UnknownTypeError, WorldGraphError
-from ..localize.pipeline import (
+from ..localization.pipeline import (
     localize,
 )
-from ..localize.result import POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult
+from ..localization.result import POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult
 from ..model import WorldModel
 from ..pose.validation import (
     CHI2_3_GATE,
@@ -30,7 +30,7 @@ from ..pose.validation import (
     percept_covariances,
 )
 from ..tolerances import AssociationTolerances
-from .split import Tile
+from .tiling import Tile
 
 #: result of the first tile with the earliest status in this order is returned.
 FAILURE_ORDER = ("outside_region", "inconsistent", "degenerate_coplanar", "degenerate_collinear",

@@ -1,20 +1,20 @@
 """Global self-localisation, the pipeline: association -> validation -> 6D pose with its covariance.
 
-* :mod:`worldgraph.localize.pipeline`: :func:`localize` (the steps in order: the arguments, the
+* :mod:`worldgraph.localization.pipeline`: :func:`localize` (the steps in order: the arguments, the
   percepts of known types, association, the measurements, the gravity search's fallback) and
   :func:`default_region`; its docstring describes the whole pipeline.
-* :mod:`worldgraph.localize.result`: :class:`LocalizationResult` and the status literals and
+* :mod:`worldgraph.localization.result`: :class:`LocalizationResult` and the status literals and
   tuples (:data:`LOCALIZE_STATUSES`, ...).
-* :mod:`worldgraph.localize.context`: one call's checked settings and the state its steps share.
-* :mod:`worldgraph.localize.validate`: the validated pose (ML fits, the range test, the choice
+* :mod:`worldgraph.localization.context`: one call's checked settings and the state its steps share.
+* :mod:`worldgraph.localization.validate`: the validated pose (ML fits, the range test, the choice
   among the fits, the pose of the method).
-* :mod:`worldgraph.localize.radial`: :func:`match_spheres`, the radial projection of the matched
+* :mod:`worldgraph.localization.radial`: :func:`match_spheres`, the radial projection of the matched
   Gaussian spheres and the range-only position.
-* :mod:`worldgraph.localize.finish`: the answer checks itself and becomes the result.
-* :mod:`worldgraph.localize.paper`: the paper's pipeline (``method="paper"``, eq. 5).
+* :mod:`worldgraph.localization.finish`: the answer checks itself and becomes the result.
+* :mod:`worldgraph.localization.paper`: the paper's pipeline (``method="paper"``, eq. 5).
 
-The names of the old module ``worldgraph.localize`` are re-exported here; to patch a function
-the pipeline calls, patch it in the module that holds it.
+:func:`worldgraph.localize` is the pipeline's function (``localize`` here, re-exported by the
+package); to patch a function the pipeline calls, patch it in the module that holds it.
 """
 
 from .paper import _eq5_rotation as _eq5_rotation

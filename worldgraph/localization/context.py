@@ -1,4 +1,4 @@
-"""One :func:`~worldgraph.localize.localize` call as its steps see it: the checked settings, the
+"""One :func:`~worldgraph.localize` call as its steps see it: the checked settings, the
 percepts of known types, the measurements the steps share, and what a pose step hands on
 (:class:`_Answer`, :class:`_Choice`)."""
 
@@ -32,7 +32,7 @@ def _remap(h: AssociationHypothesis, idx: NDArray[np.intp]) -> AssociationHypoth
 
 @dataclass(frozen=True)
 class _Settings:
-    """The checked arguments of one :func:`~worldgraph.localize.localize` call (all but the world
+    """The checked arguments of one :func:`~worldgraph.localize` call (all but the world
     and the percepts)."""
 
     method: str
@@ -107,7 +107,7 @@ class _Choice:
 
 @dataclass(frozen=True)
 class _Answer:
-    """A pose step's pose, before the answer checks itself (:func:`~worldgraph.localize.finish._finish`)."""
+    """A pose step's pose, before the answer checks itself (``finish._finish``)."""
 
     pose: NDArray[np.float64]
     cov6: NDArray[np.float64]

@@ -103,11 +103,11 @@ def split(world: WorldModel, labels: ArrayLike, halo: float = 0.0) -> tuple[Tile
 
 
 def _check_tiles(tiles: object) -> tuple[Tile, ...]:
-    items = _checks.as_list("tiles", tiles, "Tile (from worldgraph.tiles.split)")
+    items = _checks.as_list("tiles", tiles, "Tile (from worldgraph.tiles.tiling)")
     if not items:
         raise EmptyWorldError("tiles must hold at least one Tile, got none")
     for k, t in enumerate(items):
         if not isinstance(t, Tile):
-            raise ArgumentTypeError(f"tiles[{k}] must be a Tile (from worldgraph.tiles.split), "
+            raise ArgumentTypeError(f"tiles[{k}] must be a Tile (from worldgraph.tiles.tiling), "
                                     f"got {_checks._short(t)}")
     return tuple(items)

@@ -1,6 +1,6 @@
-"""Step 9 of :func:`~worldgraph.localize.localize`: the answer checks itself (its matches'
+"""Step 9 of :func:`~worldgraph.localize`: the answer checks itself (its matches'
 chi-square, its inliers, the region, how well it is determined), is certified when asked and
-becomes the :class:`~worldgraph.localize.LocalizationResult`."""
+becomes the :class:`~worldgraph.LocalizationResult`."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Steps 5-8 of :func:`~worldgraph.localize.localize` for every method but ``"paper"``: ML fits
+"""Steps 5-8 of :func:`~worldgraph.localize` for every method but ``"paper"``: ML fits
 of the best hypotheses, the range test, the choice among the fits (the region, ambiguity, fits at
 the same pose) and the pose of the method."""
 

@@ -1,4 +1,4 @@
-"""The answer of :func:`~worldgraph.localize.localize`: :class:`LocalizationResult`, the status
+"""The answer of :func:`~worldgraph.localize`: :class:`LocalizationResult`, the status
 literals and tuples, and the helpers of its summary and ``to_dict``."""
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ _POSELESS_STATUSES: tuple[str, ...] = ("degenerate", "degenerate_collinear", "no
 
 @dataclass(frozen=True)
 class LocalizationResult:
-    """Result of :func:`~worldgraph.localize.localize`.
+    """Result of :func:`~worldgraph.localize`.
 
     Attributes
     ----------
@@ -75,7 +75,7 @@ class LocalizationResult:
     hypotheses : tuple of AssociationHypothesis
         The association's hypotheses, the validated ones first in their validated order;
         percept indices refer to the ``percepts`` passed in.  Each carries its radial solution
-        (``radial``, see ``solver`` and ``check`` of :func:`~worldgraph.localize.localize`).
+        (``radial``, see ``solver`` and ``check`` of :func:`~worldgraph.localize`).
     ambiguous : bool
     status : LocalizeStatus
         One of :data:`LOCALIZE_STATUSES`.

@@ -2,7 +2,7 @@
 
 :func:`localize` runs the pipeline of the paper (sections 2.2-2.3, 4) on fused percepts:
 
-1. association (:func:`worldgraph.association.associate`; ``method="paper"`` uses the paper's
+1. association (:func:`worldgraph.association.matching`; ``method="paper"`` uses the paper's
    proximity and orientation filters, every other method the typed consistency-graph cliques);
 2. hypothesis validation (:mod:`worldgraph.pose.validation`; every method but ``"paper"``): the
    best association hypotheses are fitted by maximum likelihood, every percept is re-associated
@@ -53,9 +53,9 @@ import radialopt as ro
 from perception import Percept
 
 from .._checks import float_array, generator, positive_float
-from ..association.associate import _associate_searched
 from ..association.consistency import MAX_COORDINATE, check_world_and_percepts
 from ..association.hypotheses import AssociationHypothesis
+from ..association.matching import _associate_searched
 from ..errors import ArgumentTypeError, OutOfRangeError, UnknownTypeError, WorldGraphError
 from ..model import WorldModel
 from ..model.units import units_hint
@@ -353,7 +353,7 @@ def _check_region(region: object) -> ro.Region | None:
 
 def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
     """A success status only with a finite rigid pose and covariance; a listed status; no pose
-    with a status that keeps none (:data:`~worldgraph.localize.result._POSELESS_STATUSES`: a
+    with a status that keeps none (:data:`~worldgraph.localization.result._POSELESS_STATUSES`: a
     pose that broke down here, e.g. "weak" with an infinite covariance, is not returned as a
     finite transformation under "degenerate")."""
     status = result.status
