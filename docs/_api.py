@@ -14,6 +14,9 @@ import inspect
 import pkgutil
 from pathlib import Path
 
+from sphinx.errors import PycodeError
+from sphinx.pycode import ModuleAnalyzer
+
 PACKAGES = {
     "perception": "Stereo measurement, the head's kinematic chain, fusion and recognition: from "
                   "pixels or a simulated scan to percepts in the robot's ego frame.",
@@ -25,12 +28,21 @@ PACKAGES = {
 
 
 def _public_names(module) -> list[str]:
+    """``__all__`` (or else the public classes and functions the module defines), and the public
+    constants it documents with a ``#:`` comment (the docstrings refer to them)."""
+    try:
+        commented = ModuleAnalyzer.for_module(module.__name__).find_attr_docs()
+    except PycodeError:
+        commented = {}
+    constants = sorted(name for scope, name in commented if scope == "" and not name.startswith("_")
+                       and name in vars(module))
     names = getattr(module, "__all__", None)
     if names is not None:
-        return list(names)
-    return sorted(n for n, obj in vars(module).items() if not n.startswith("_")
-                  and getattr(obj, "__module__", None) == module.__name__
-                  and (inspect.isclass(obj) or inspect.isfunction(obj)))
+        return list(names) + [n for n in constants if n not in names]
+    own = {n for n, obj in vars(module).items() if not n.startswith("_")
+           and getattr(obj, "__module__", None) == module.__name__
+           and (inspect.isclass(obj) or inspect.isfunction(obj))}
+    return sorted(own | set(constants))
 
 
 def _modules(package: str) -> list[str]:
@@ -63,7 +75,7 @@ def write_pages(out: Path) -> None:
     for package, blurb in PACKAGES.items():
         pkg = importlib.import_module(package)
         top = _public_names(pkg)
-        lines = [package, "=" * len(package), "", blurb, "",
+        lines = [package, "=" * len(package), "", f".. module:: {package}", "", blurb, "",
                  "Names of the package (``import " + package + "``)",
                  "-" * (len(package) + 36), ""]
         entries = []
@@ -72,7 +84,7 @@ def write_pages(out: Path) -> None:
             if inspect.ismodule(obj):
                 continue
             seen.add(_key(obj, n))
-            entries.append(f"{package}.{n}")
+            entries.append(n)  # under the package the module directive above makes current
         lines += _autosummary(entries)
         for mod_name in _modules(package):
             module = importlib.import_module(mod_name)
@@ -96,3 +108,17 @@ def write_pages(out: Path) -> None:
              "the names of each package come first, then its modules.", "",
              ".. toctree::", "   :maxdepth: 2", ""] + [f"   {p}" for p in PACKAGES]
     (out / "index.rst").write_text("\n".join(index) + "\n")
+
+
+def class_aliases() -> dict[str, str]:
+    """Short name -> package path of every class the three packages export (names two packages
+    share, like ``ShapeError``, are left out: a bare name cannot say which one it means)."""
+    found: dict[str, set[str]] = {}
+    for package in PACKAGES:
+        pkg = importlib.import_module(package)
+        for n in _public_names(pkg):
+            if inspect.isclass(getattr(pkg, n, None)):
+                found.setdefault(n, set()).add(f"{package}.{n}")
+    aliases = {n: next(iter(paths)) for n, paths in found.items() if len(paths) == 1}
+    aliases.update({path: path for paths in found.values() for path in paths})  # written in full
+    return aliases

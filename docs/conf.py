@@ -34,6 +34,7 @@ except Exception:  # a source tree that was never installed
 extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
+    "sphinx.ext.intersphinx",
     "sphinx.ext.mathjax",
     "sphinx-mathjax-offline",  # a copy of MathJax 3 served by the site itself: maths render offline
     "sphinx.ext.viewcode",
@@ -51,11 +52,29 @@ myst_heading_anchors = 3
 
 # API reference: one page per module of the new homes (docs/api/*.rst list them)
 autosummary_generate = True
+# a class page documents every method and field (each a link target), without tables of them
+templates_path = ["_templates"]
 autodoc_default_options = {"members": True, "show-inheritance": True}
 autodoc_typehints = "none"  # numpydoc's Parameters sections say the types
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_validation_checks: set[str] = set()
+
+# every reference must resolve: the library's own names through docs/_xref.py, the other
+# projects' through the inventories kept in docs/inventories (the build has no network)
+nitpicky = True
+import _inventories  # noqa: E402  (docs/_inventories.py)
+
+intersphinx_mapping = _inventories.write_inventories(ROOT / "docs" / "inventories",
+                                                     ROOT / "docs" / "_build" / "inventories")
+# numpy's own private names, in the expansion of ``ArrayLike`` that autodoc prints for a type alias
+nitpick_ignore = [("py:class", "numpy._typing._array_like._SupportsArray"),
+                  ("py:class", "numpy._typing._array_like._Buffer"),
+                  ("py:class", "numpy._typing._nested_sequence._NestedSequence")]
+# parameter types link: numpydoc's usual names (float, ndarray, array_like, ...) and the
+# library's own classes; other words in a type stay text
+numpydoc_xref_param_type = True
+numpydoc_xref_ignore = "all"
 
 html_theme = "pydata_sphinx_theme"
 html_title = "gaussian-spheres"
@@ -91,6 +110,9 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 import _api  # noqa: E402  (docs/_api.py: the API pages, written before Sphinx reads the sources)
 
 _api.write_pages(ROOT / "docs" / "api")
+# "WorldModel" in a parameter type links to worldgraph.WorldModel, "numpy.random.Generator" to
+# NumPy's page (the classes of docs/inventories, written in full)
+numpydoc_xref_aliases = {**_inventories.class_names(ROOT / "docs" / "inventories"), **_api.class_aliases()}
 
 
 def _data_docstring(app, what, name, obj, options, lines):
@@ -123,6 +145,9 @@ def setup(app):
     gallery shows no figure, or when a page loads from another host or names a builder path."""
     import _gallery
     import _site_checks
+    import _xref
+
+    _xref.setup(app)
 
     app.connect("autodoc-process-docstring", _data_docstring, priority=100)  # before numpydoc (500)
     app.connect("build-finished", _gallery.check_every_example_has_a_figure)

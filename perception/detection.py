@@ -103,7 +103,7 @@ class Detection:
         Number of the object's pixels, > 0. Default: the mask's pixel count, else the box's area
         ``(u_max - u_min + 1) (v_max - v_min + 1)``.
     features : (d,) float, optional
-        A feature vector (the colour recogniser's :data:`~perception.FEATURE_NAMES`); empty by
+        A feature vector (the colour recogniser's :data:`~perception.recognition.FEATURE_NAMES`); empty by
         default.
     log_likelihood : float
         The classifier's log-likelihood of the type, NaN when not known.

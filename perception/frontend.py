@@ -326,7 +326,7 @@ def _weighted_percentiles(x: NDArray[np.float64], w: NDArray[np.float64], q: flo
 def _visible_anchor(pts: NDArray[np.float64], up: NDArray[np.float64]
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Where an object's visible points ``pts`` (camera frame) put it before the centre offset:
-    ``(anchor, direction, spread)``.  Along ``direction`` (:func:`_offset_direction`) the anchor
+    ``(anchor, direction, spread)``.  Along ``direction`` (``_offset_direction``) the anchor
     is the points' centroid; across it, the middle of their extent (1st to 99th percentile) on
     the axes ``up`` (the ego frame's z in the camera frame) and the points' main horizontal
     directions.  The middle of the extent is where the centre of a box around the visible part
@@ -438,9 +438,9 @@ def _mask_window(mask: NDArray[np.bool_], box: NDArray[np.float64], depth: NDArr
 
 def _depth_windows(mask: NDArray[np.bool_] | None, box: NDArray[np.float64], depth: NDArray[np.float64],
                    c: float, seed: NDArray[np.float64]) -> tuple[tuple[float, float], tuple[float, float]]:
-    """The object's depths as ``(own, surface)`` windows: a mask's (:func:`_mask_window`), else,
+    """The object's depths as ``(own, surface)`` windows: a mask's (``_mask_window``), else,
     for a box (``mask`` None) or a mask whose core is too small, the window about the median of
-    the ``seed`` readings (:func:`_depth_window`) for both."""
+    the ``seed`` readings (``_depth_window``) for both."""
     windows = None if mask is None else _mask_window(mask, box, depth, c)
     if windows is None:
         window = _depth_window(seed, c * float(np.median(seed)) ** 2)

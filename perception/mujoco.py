@@ -96,7 +96,7 @@ def import_mujoco() -> Any:
     """The ``mujoco`` module, imported on first use.
 
     Headless (no ``DISPLAY`` in the environment) it sets ``MUJOCO_GL=egl`` first unless the
-    variable is set, so that :class:`mujoco.Renderer` gets an offscreen context.
+    variable is set, so that ``mujoco.Renderer`` gets an offscreen context.
 
     Returns
     -------
@@ -328,6 +328,7 @@ _FAR_FRACTION = 0.999
 CENTRE_LATERAL_FLOOR = 0.01
 #: Poses and seed of the renders :meth:`MujocoScene.default_centre_offsets` measures on.
 CALIBRATION_POSES = 12
+#: The seed of those poses.
 CALIBRATION_SEED = 20261202
 
 Sensor = Literal["rgbd", "stereo"]

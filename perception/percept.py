@@ -70,8 +70,8 @@ class Percept:
     ------
     NonPositiveSigmaError
         Neither ``sigma`` nor ``covariance`` given, or a ``sigma`` that contradicts the
-        covariance (ratio outside ``[1/F, F]``, ``F =`` :data:`~perception.tolerances.
-        SIGMA_COVARIANCE_FACTOR`).
+        covariance (ratio outside ``[1/F, F]``, ``F =``
+        :data:`~perception.tolerances.SIGMA_COVARIANCE_FACTOR`).
     PerceptionError
         (a subclass) naming the field and the bad value.
 

@@ -83,7 +83,7 @@ def _sigmas(sig: NDArray[np.float64]) -> None:
 
 def _simulated_sigmas(rho: NDArray[np.float64], depth_factor: float, min_sigma: float) -> NDArray[np.float64]:
     """``max(min_sigma, rho^2 / depth_factor)`` (eq. 6, :func:`depth_sigma`) of the depths ``rho (k,)``,
-    checked by :func:`_sigmas` (an overflow is reported as a sigma outside the range, as before)."""
+    checked by ``_sigmas`` (an overflow is reported as a sigma outside the range, as before)."""
     try:
         sig = np.asarray(depth_sigma(rho, depth_factor, min_sigma=min_sigma), dtype=np.float64)
     except NonFiniteError as exc:

@@ -3,7 +3,7 @@
 The URDF's joint tree is walked from the camera link up to the base link; the joints on that
 path, from the base down, become the chain. Revolute and continuous joints become
 :class:`~perception.Joint` s, fixed joints are folded into the next transform
-(:mod:`perception._urdf` reads the file; :meth:`perception.KinematicChain.from_urdf` builds the
+(``perception._urdf`` reads the file; :meth:`perception.KinematicChain.from_urdf` builds the
 chain).
 """
 

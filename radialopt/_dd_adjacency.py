@@ -1,8 +1,8 @@
 """The adjacency step of the double-description method in :mod:`radialopt.vertices`.
 
-Zero sets are uint64 bitsets over the processed rows; :func:`_adjacent_combinations` makes the
+Zero sets are uint64 bitsets over the processed rows; ``_adjacent_combinations`` makes the
 new rays of the pairs that pass the combinatorial adjacency test (Fukuda and Prodon 1996,
-Prop. 7), :func:`_only_two_contain` is that test, :func:`_unpack_bits` and :func:`_popcount`
+Prop. 7), ``_only_two_contain`` is that test, ``_unpack_bits`` and ``_popcount``
 read the bitsets.
 """
 

@@ -1,7 +1,7 @@
 """The pure-Python core of ``method="active_set"`` for small instances (:mod:`radialopt.projection`).
 
 Up to :data:`SMALL_CORE_SPHERES` spheres: Goldfarb and Idnani's dual active-set method on the
-two-nonzero rows of the pairs (:func:`_pair_rows`, :func:`_ldp_pairs`), in plain Python
+two-nonzero rows of the pairs (``_pair_rows``, ``_ldp_pairs``), in plain Python
 (numpy's per-call cost dominates arrays this small), ending on a certified KKT point.
 """
 
@@ -17,7 +17,7 @@ from .polytope import _SQRT_HALF
 from .spheres import Tolerances, check_distinct_centers
 from .tolerances import RANK_RTOL, ROUNDING_RTOL
 
-#: Most spheres the pure-Python dual active-set core (:func:`_ldp_pairs`) handles; beyond it the
+#: Most spheres the pure-Python dual active-set core (``_ldp_pairs``) handles; beyond it the
 #: NNLS route (:func:`least_distance`) runs.  At these sizes numpy's per-call cost (1-10 us per
 #: operation on arrays of 4-84 numbers) outweighs the arithmetic, a few hundred flops (measured
 #: on a loaded 2-core machine, unchecked route, median of 15 instances: 65 against 174 us at
@@ -42,7 +42,7 @@ def _pair_rows(
 
 
 _PairSetup = tuple[list[float], list[tuple[int, int, float, float, float]]]
-"""``(|g_i| per sphere, (i, j, h_chi, h_alpha, h_beta) per pair)``: :func:`_ldp_pairs` evaluates
+"""``(|g_i| per sphere, (i, j, h_chi, h_alpha, h_beta) per pair)``: ``_ldp_pairs`` evaluates
 ``G z - h`` per pair from them."""
 
 
@@ -50,7 +50,7 @@ def _pair_setup(
     centers: list[list[float]], radii: list[float], sigmas: list[float], tol: Tolerances,
     centers_array: NDArray[np.float64],
 ) -> tuple[_PairRows, list[float], _PairSetup]:
-    """:func:`_pair_rows` and, from the same pass, the per-pair form :func:`_ldp_pairs` uses."""
+    """``_pair_rows`` and, from the same pass, the per-pair form ``_ldp_pairs`` uses."""
     q = _Q
     n = len(radii)
     coincident = tol.coincident
@@ -132,7 +132,7 @@ def _ldp_pairs(rows: _PairRows, n: int, setup: _PairSetup | None = None
     so each step solves a positive definite system of at most n rows (Cholesky).  The
     multipliers stay >= 0 by construction, so the loop ends on a KKT point: it stops when no
     row is violated by more than ``tol = ROUNDING_RTOL * max(|h|, 1)`` (the test of
-    :func:`~radialopt._ldp._polish_certified`), and the answer is returned only then with every multiplier
+    ``_polish_certified``), and the answer is returned only then with every multiplier
     >= -tol.
 
     Returns ``(z, G z - h)`` at the optimum, or None when it did not settle, met a violated row dependent

@@ -1,8 +1,8 @@
 """Exact rational arithmetic for ``check="exact"`` of :mod:`radialopt.projection`.
 
-pycddlib's GMP mode enumerates the vertices and rays exactly (:func:`_exact_generators`); the
+pycddlib's GMP mode enumerates the vertices and rays exactly (``_exact_generators``); the
 sigma-weighted projection onto the affine hull of the tight rows is solved in Fractions
-(:func:`_exact_kkt_point`).  :func:`~radialopt.projection.verify_solution_exact` uses them.
+(``_exact_kkt_point``).  :func:`~radialopt.projection.verify_solution_exact` uses them.
 """
 
 from __future__ import annotations

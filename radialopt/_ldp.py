@@ -2,7 +2,7 @@
 
 Lawson and Hanson's route (Solving Least Squares Problems, 1974, ch. 23): a non-negative least
 squares problem solved by :func:`scipy.optimize.nnls`, then an exact equality-constrained polish
-on the active rows with a KKT check (:func:`least_distance`, :func:`_polish_certified`).  It is
+on the active rows with a KKT check (:func:`least_distance`, ``_polish_certified``).  It is
 the ``"active_set"`` method beyond :data:`~radialopt.projection.SMALL_CORE_SPHERES` spheres (and
 when the small core does not certify); the cvxpy path reuses the polish.
 """
@@ -89,7 +89,7 @@ def _polish(
 def _polish_certified(
     G: NDArray[np.float64], h: NDArray[np.float64], z: NDArray[np.float64], support: NDArray[np.bool_]
 ) -> tuple[NDArray[np.float64], bool]:
-    """:func:`_polish` that also says whether it ended on a KKT point: ``(z, True)`` when the
+    """``_polish`` that also says whether it ended on a KKT point: ``(z, True)`` when the
     returned ``z`` has multipliers ``>= 0`` on its working set and violates no row (to 1e-12
     of ``max|h|``), ``(z_in, False)`` when the loop did not settle.  An empty support with a
     feasible origin is the KKT point ``z = 0``."""

@@ -1,8 +1,8 @@
 """Weighted squared-range least squares (Beck, Stoica, Li 2008), solved globally.
 
 :func:`srls` (re-exported by :mod:`radialopt.position`, the seed of its ``"ml"`` estimator and its
-``"srls"`` method), the generalized trust-region subproblem :func:`_gtrs` it reduces to, and
-:class:`_Frame`, the centred principal frame of the landmarks the estimators share.
+``"srls"`` method), the generalized trust-region subproblem ``_gtrs`` it reduces to, and
+``_Frame``, the centred principal frame of the landmarks the estimators share.
 """
 
 from __future__ import annotations

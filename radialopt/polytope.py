@@ -235,7 +235,7 @@ def common_point_exists(
     ``h^2 = 1/2 CM(X1, X2, X3, P) / -CM(X1, X2, X3)``, is >= 0.  For four spheres with
     non-coplanar centres P exists iff its squared height over the centres' hyperplane in R^4,
     ``h^2 = -1/2 CM(X1..X4, P) / CM(X1..X4)``, is 0.  Degenerate centre sets (collinear,
-    coplanar) and n > 4 use the radical-plane reduction of :func:`_common_point_linear`.
+    coplanar) and n > 4 use the radical-plane reduction of ``_common_point_linear``.
 
     ``tol`` is relative to the squared scale of the configuration.
     """

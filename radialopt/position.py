@@ -38,8 +38,8 @@ and a position on the plane of coplanar centres give a status and a message.  Wi
 centres the mirror image of every candidate across that plane has the same density: both are
 returned and the status is ``"ambiguous"`` unless the region keeps only one.
 
-:class:`EstimatorOptions` lives in :mod:`radialopt._estimator_options`, :func:`fisher_information`
-and :func:`crlb` in :mod:`radialopt.fisher`, :func:`srls` in :mod:`radialopt._srls`; this module
+:class:`EstimatorOptions` lives in ``radialopt._estimator_options``, :func:`fisher_information`
+and :func:`crlb` in :mod:`radialopt.fisher`, :func:`srls` in ``radialopt._srls``; this module
 imports and re-exports them.
 """
 

@@ -10,9 +10,9 @@ All methods solve it in whitened variables ``z = H (r' - r)``::
 which is a least-distance problem.  Four methods, one entry point :func:`project_radii`:
 
 ``"active_set"`` (default, the fast path)
-    Up to :data:`SMALL_CORE_SPHERES` spheres: Goldfarb and Idnani's dual active-set method on
+    Up to ``SMALL_CORE_SPHERES`` spheres: Goldfarb and Idnani's dual active-set method on
     the two-nonzero rows of the pairs, in plain Python (numpy's per-call cost dominates arrays
-    this small), ending on a certified KKT point (:func:`_ldp_pairs`).  Beyond that, or when
+    this small), ending on a certified KKT point (``_ldp_pairs``).  Beyond that, or when
     that loop does not certify: Lawson and Hanson's least-distance programming, a non-negative
     least squares problem (Solving Least Squares Problems, 1974, ch. 23) solved by
     :func:`scipy.optimize.nnls` in compiled code, then polished by an exact equality-
@@ -48,11 +48,11 @@ largest of the centre distances, the radii and 1 m).
 :func:`project_radii` takes spheres or, by keyword, arrays (``centers=, radii=, sigmas=``) and
 checks its input (:func:`~radialopt.spheres.sphere_arrays`, :func:`~radialopt.spheres.checked_arrays`);
 internal callers whose data were checked where they were made (worldgraph's ``localize``, the
-range-only estimators) call :func:`_project_radii_trusted` with arrays: the same computation
+range-only estimators) call ``_project_radii_trusted`` with arrays: the same computation
 and answer without the checks.  :func:`project_radii_batch` solves many instances of the same
 sphere count at once: the small-instance dual active set vectorised across the instances
-(:func:`_batch_dual_active_set`), tested against the loop of single solves
-(:func:`_project_radii_batch_reference`).
+(``_batch_dual_active_set``), tested against the loop of single solves
+(``_project_radii_batch_reference``).
 
 ``check=True`` verifies any method's answer against the vertex enumeration (V-form optimality
 certificate and the V-form optimum) and raises :class:`~radialopt.errors.VerificationError`
@@ -64,9 +64,9 @@ largest violation), then polishes the answer exactly on the rows the solver repo
 it reports ``"optimal"`` only when the polish ends on an exact KKT point and the solver said
 ``optimal``, otherwise ``"optimal_inaccurate"``.
 
-The least-distance solvers live in :mod:`radialopt._ldp` (the NNLS route and its polish) and
-:mod:`radialopt._dual_active_set` (the small-instance core), the rational arithmetic of
-``check="exact"`` in :mod:`radialopt._exact_check`; this module imports them.
+The least-distance solvers live in ``radialopt._ldp`` (the NNLS route and its polish) and
+``radialopt._dual_active_set`` (the small-instance core), the rational arithmetic of
+``check="exact"`` in ``radialopt._exact_check``; this module imports them.
 """
 
 from __future__ import annotations
@@ -243,7 +243,7 @@ class _Problem:
 
 def _status_of(violation: float, L: float, rounding: float, status: str, method: str,
                tol: Tolerances) -> str:
-    """The rule of :meth:`_Problem.checked_status` once the violation (metres), the length
+    """The rule of ``_Problem.checked_status`` once the violation (metres), the length
     ``L`` and the rounding term are known."""
     if not violation <= tol.agreement * L + rounding:
         raise SolverError(
@@ -326,7 +326,7 @@ def _scaled_instance(
 
 
 def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDArray, str]:
-    """Scaled solve (see :func:`_scaled_instance`), then an exact polish on the rows the solver
+    """Scaled solve (see ``_scaled_instance``), then an exact polish on the rows the solver
     reports active; the answer is called ``"optimal"`` only when the solver said so and the
     polish ended on an exact KKT point (multipliers >= 0, no violated row), else
     ``"optimal_inaccurate"`` (a solver's own ``optimal_inaccurate`` is never upgraded)."""
@@ -493,7 +493,7 @@ def project_radii(
         Measured radii >= 0, metres.
     sigmas : (n,) array or scalar, keyword only
         Standard deviations of the radii, > 0, metres (a scalar applies to every sphere), within
-        the relative range of :func:`~radialopt._checks.sigma_range`.
+        the relative range of ``sigma_range``.
     method : {"active_set", "cvxpy", "vertices", "paper"}
         Backend, see the module docstring.
     solver : str, optional
@@ -575,7 +575,7 @@ def _project_radii_trusted(
     sigmas), method, solver, check, tol)``; only the validation is skipped.  The caller
     guarantees: ``centers`` a float64 ``(n, 3)`` array and ``radii``, ``sigmas`` float64
     ``(n,)`` arrays with ``n >= 2``, all finite, radii >= 0, sigmas > 0 within the relative
-    range :func:`~radialopt._checks.sigma_range` accepts, and ``method``, ``solver``,
+    range ``sigma_range`` accepts, and ``method``, ``solver``,
     ``check``, ``tol`` valid arguments of :func:`project_radii`.  Coincident centres still
     raise :class:`~radialopt.errors.CoincidentCentersError` (the pair distances are computed
     anyway); anything else outside the contract gives undefined results.
@@ -587,7 +587,7 @@ def _project_arrays(
     centers: NDArray[np.float64], radii: NDArray[np.float64], sigmas: NDArray[np.float64],
     method: str, solver: str | None, check: bool | str, tol: Tolerances,
 ) -> RadialSolution:
-    """:func:`project_radii` after its input checks (shared with :func:`_project_radii_trusted`)."""
+    """:func:`project_radii` after its input checks (shared with ``_project_radii_trusted``)."""
     n = len(radii)
     if check is not False or method == "vertices":
         from .vertices import check_vertex_spheres
@@ -620,10 +620,10 @@ def _active_set_small(
     centers: NDArray[np.float64], radii: NDArray[np.float64], sigmas: NDArray[np.float64],
     tol: Tolerances, t0: float,
 ) -> RadialSolution:
-    """``method="active_set"`` for at most :data:`SMALL_CORE_SPHERES` spheres in plain Python:
-    the rows of :func:`_pair_rows`, the dual active set :func:`_ldp_pairs` (the NNLS route of
+    """``method="active_set"`` for at most ``SMALL_CORE_SPHERES`` spheres in plain Python:
+    the rows of ``_pair_rows``, the dual active set ``_ldp_pairs`` (the NNLS route of
     :func:`least_distance` when it does not certify), and the status rule and result of
-    :meth:`_Problem.checked_status` and :meth:`_Problem.solution`; ``G z - h = A r' - b``
+    ``_Problem.checked_status`` and ``_Problem.solution``; ``G z - h = A r' - b``
     gives the violation in metres and the slacks from one pass over the rows."""
     r = radii.tolist()
     s = sigmas.tolist()
@@ -687,9 +687,9 @@ def project_radii_batch(
 ) -> BatchSolution:
     """Exact projection of B instances at once, vectorised across the instances.
 
-    Up to :data:`SMALL_CORE_SPHERES` spheres every instance is solved by the dual active-set
-    method of :func:`~radialopt._dual_active_set._ldp_pairs` run on all instances together in
-    numpy (:func:`_batch_dual_active_set`: one step of every unfinished instance per pass, its
+    Up to ``SMALL_CORE_SPHERES`` spheres every instance is solved by the dual active-set
+    method of ``_ldp_pairs`` run on all instances together in
+    numpy (``_batch_dual_active_set``: one step of every unfinished instance per pass, its
     working set held in n slots, the working rows' Gram systems solved as one stacked
     ``(B, n, n)`` solve).  An instance that does not settle there (a violated row dependent on
     its working rows, a singular working set, more steps than the budget) and every instance of
@@ -735,7 +735,7 @@ def project_radii_batch(
     return BatchSolution(r + sg * z, np.exp(-0.5 * zz), np.sqrt(zz), time.perf_counter() - t0)
 
 
-#: Instances per pass of :func:`_batch_dual_active_set` (bounds its temporaries).
+#: Instances per pass of ``_batch_dual_active_set`` (bounds its temporaries).
 BATCH_CHUNK = 16384
 
 
@@ -787,7 +787,7 @@ def _batch_dual_active_set(
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """``min |z|^2 s.t. G_k z <= h_k`` with ``G_k = A diag(sg_k)`` for K instances at once.
 
-    The dual active-set method of :func:`~radialopt._dual_active_set._ldp_pairs` (Goldfarb and
+    The dual active-set method of ``_ldp_pairs`` (Goldfarb and
     Idnani with the identity Hessian, the same steps and tolerances), vectorised: each
     instance keeps its working rows in n slots (``W (K, n, n)``, empty slots zero, their Gram
     diagonal one), and every pass makes one step of every unfinished instance -- pick the most

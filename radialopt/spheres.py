@@ -177,10 +177,10 @@ def checked_arrays(
 
     The checks of :class:`GaussianSphere` and :func:`sphere_arrays` on every element (real,
     finite, magnitudes, radii >= 0, sigmas > 0 within the relative range of
-    :func:`~radialopt._checks.sigma_range`); errors name the argument, the index and the value
+    ``sigma_range``); errors name the argument, the index and the value
     (``"radii[2] = -1.0 must be >= 0"``).  Coincident centres are not tested here.  Float64
     arrays of the right shapes are checked in plain Python (a few microseconds at small n); any
-    other input, or any value out of range, takes :func:`~radialopt._checks.real_array`.
+    other input, or any value out of range, takes ``real_array``.
 
     Raises
     ------
@@ -222,7 +222,7 @@ def checked_arrays(
 
 
 def _sigma_bounds(length_scale: float) -> tuple[float, float]:
-    """The range :func:`~radialopt._checks.sigma_range` accepts at this length scale."""
+    """The range ``sigma_range`` accepts at this length scale."""
     scale = max(float(length_scale), 1.0)
     return MIN_SIGMA_RELATIVE * scale, scale / MIN_SIGMA_RELATIVE
 
@@ -306,7 +306,7 @@ def radial_density(radii: ArrayLike, measured: ArrayLike, sigmas: ArrayLike) -> 
 # --- conformal model (docs/design.md#m1) ---------------------------------------------------
 # A conformal vector is stored as the 5 coefficients (e1, e2, e3, e0, e_inf) with the metric
 # e_i . e_i = 1, e0 . e0 = e_inf . e_inf = 0, e0 . e_inf = -1.
-#: Largest magnitude of a conformal coordinate accepted (|X|^2 / 2 of a MAX_LENGTH point is 5e17).
+#: Largest magnitude of a conformal coordinate accepted (``|X|^2 / 2`` of a MAX_LENGTH point is 5e17).
 CONFORMAL_MAX = 1e100
 
 CONFORMAL_METRIC = np.array(

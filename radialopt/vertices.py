@@ -11,7 +11,7 @@ Two enumerators, tested against each other and against pycddlib:
 * ``"double_description"``: the double-description method (Motzkin et al. 1953; Fukuda and
   Prodon 1996) on the homogenised cone ``{(t, x) : t >= 0, t b - A x >= 0}`` with the
   combinatorial adjacency test on zero sets (the adjacency step, on uint64 bitsets, lives in
-  :mod:`radialopt._dd_adjacency`).
+  ``radialopt._dd_adjacency``).
 
 :func:`project_vform` solves the sigma-weighted projection over ``conv(V) + cone(R)`` with
 Wolfe's minimum-norm-point algorithm (1976), and :func:`certify_projection` checks a candidate

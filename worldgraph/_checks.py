@@ -9,7 +9,7 @@ a float64 array, a :class:`numpy.random.Generator`).
   optionally bounded by ``max_abs``; complex, bool, str, None, ragged input rejected.
 * :func:`finite_float`, :func:`positive_float` -- a real scalar (int or float, not bool).
 * :func:`strict_int` -- an integer (Python or numpy int, not bool/float/NaN/None/str), in range.
-* :func:`worldgraph._rigid.rigid_transform` -- a (4, 4) rigid transform: finite, last row
+* ``worldgraph._rigid.rigid_transform`` -- a (4, 4) rigid transform: finite, last row
   ``0 0 0 1``, rotation orthonormal with determinant +1 (no scale, shear or reflection); apart,
   because its default tolerance lives in :mod:`worldgraph.tolerances`, which uses these checks.
 * :func:`generator`, :func:`rng_from_seed` -- a :class:`numpy.random.Generator`, or a seed.

@@ -1,4 +1,4 @@
-"""Rigid transforms as arguments: :func:`rigid_transform` (apart from :mod:`worldgraph._checks`
+"""Rigid transforms as arguments: :func:`rigid_transform` (apart from ``worldgraph._checks``
 because its default tolerance lives in :mod:`worldgraph.tolerances`, which uses those checks)."""
 
 from __future__ import annotations

@@ -343,7 +343,7 @@ def _tol_argument(function: str, tol: AssociationTolerances | None, tolerances: 
 
 def _resolved_tol(function: str, tol: AssociationTolerances | None, tolerances: object,
                   world: _GravityNoted | None = None) -> AssociationTolerances:
-    """:func:`_tol_argument`, ``None`` as :data:`ASSOCIATION_TOLERANCES`, then checked (and
-    ``gravity_aligned`` resolved against ``world``) by :func:`_check_tolerances`."""
+    """``_tol_argument``, ``None`` as :data:`ASSOCIATION_TOLERANCES`, then checked (and
+    ``gravity_aligned`` resolved against ``world``) by ``_check_tolerances``."""
     tol = _tol_argument(function, tol, tolerances, stacklevel=4)
     return _check_tolerances(ASSOCIATION_TOLERANCES if tol is None else tol, "tol", world=world)

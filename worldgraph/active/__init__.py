@@ -31,7 +31,7 @@ same sight.  :func:`plan_view` scores gaze directions by what would actually be 
    the *expected information* of the look (nats): the expected drop in half the log-determinant
    of the pose's covariance, the mixture of the hypotheses treated as one Gaussian (its
    covariance the result's ``pose_covariance`` plus the hypotheses' scatter), with the
-   hypotheses ruled out with the score's probability (:func:`_information`).  For a unique
+   hypotheses ruled out with the score's probability (``_information``).  For a unique
    answer this is the D-optimal gain ``0.5 log det (I + C dI)``: a look at a tight cluster of
    objects pins the cluster's position but hardly the rotation, while objects spread across
    the view pin both.  For hypotheses far apart, telling them apart dominates; for close ones,

@@ -46,7 +46,7 @@ VIEW_STATUSES: tuple[str, ...] = get_args(ViewStatus)
 #: object directions.
 N_FIXED_DIRECTIONS = 64
 #: The planner recentres its candidates on the objects they would see this many times
-#: (:func:`_recentred`; the first time on those within the full view angle).
+#: (``_recentred``; the first time on those within the full view angle).
 RECENTRE_STEPS = 2
 #: Random candidate directions added when ``rng`` is given.
 N_RANDOM_DIRECTIONS = 32

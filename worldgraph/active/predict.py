@@ -177,7 +177,7 @@ def _predict(world: WorldModel, result: LocalizationResult, types: object, fov: 
 def _cos_limits(rho: Sequence[NDArray[np.float64]], half: float, blur: tuple[float, float]
                 ) -> list[NDArray[np.float64]]:
     """Per hypothesis, the cosine above which each object is surely in view: within the half angle
-    ``half`` less its direction's uncertainty under the pose (``blur``, :func:`_view_blur`): the
+    ``half`` less its direction's uncertainty under the pose (``blur``, ``_view_blur``): the
     position's share (an object as near as the position is uncertain is in no view), and the
     rotation's, at most a share of the half angle (the same for every object: a pose whose
     rotation is known too poorly to aim at anything still aims at the objects)."""
@@ -320,7 +320,7 @@ def _look_values(pred: _Prediction, directions: NDArray[np.float64], detection: 
                  max_sights: int | None) -> tuple[NDArray[np.float64], ...]:
     """Per candidate direction: the probability that the look rules out all but the true
     hypothesis (module docstring, step 3), its expected information about the 6D pose (nats,
-    :func:`_information`), and the expected number of objects in view (weighted over the
+    ``_information``), and the expected number of objects in view (weighted over the
     hypotheses)."""
     H, C = len(pred.poses), len(directions)
     per_h = np.zeros((H, C))
@@ -354,10 +354,10 @@ def _information(pred: _Prediction, covs: NDArray[np.float64], per_h: NDArray[np
 
     The pose's belief is the mixture of the hypotheses (weights ``w_h``) with the covariance
     ``C`` each (``C^-1``: the result's pose information plus the vague prior of
-    :data:`VAGUE_POSE_STD`, :func:`_prior`); as a Gaussian it has covariance ``C + S`` (``S`` the
+    :data:`VAGUE_POSE_STD`, ``_prior``); as a Gaussian it has covariance ``C + S`` (``S`` the
     weighted scatter of the hypotheses).  If ``h`` is true, a look adds the information ``dI_h(d)``:
     the sights in view (:func:`sight_information`, objects that would be matched to one
-    object only) times the probability that each comes back (:func:`_kept`); and with
+    object only) times the probability that each comes back (``_kept``); and with
     probability ``s_h(d)`` (``per_h``) it rules out every other hypothesis.  The expected
     posterior log-determinant is ``sum_h w_h [s_h log det C_h+ + (1 - s_h) log det (sum_j w_j
     C_j+ + S)]`` with ``C_h+ = (C^-1 + dI_h)^-1`` (``covs``, (H, C, 6, 6)); the information

@@ -3,8 +3,8 @@
 Two implementations of one branch and bound, with identical answers (cliques in the same order,
 maximum, complete flag, node count):
 
-* :func:`_python_search`: candidate sets as Python-int bitsets; the slow obvious reference.
-* :func:`_search_kernel`: compiled by numba (a main dependency), iterative with an explicit
+* ``_python_search``: candidate sets as Python-int bitsets; the slow obvious reference.
+* ``_search_kernel``: compiled by numba (a main dependency), iterative with an explicit
   stack; the candidates of each part are sorted index lists, intersected with the visited
   vertex's CSR neighbour list (a merge, or a binary search per neighbour for the big first
   lists), so memory stays linear in the vertices and edges: no dense ``n_p x n_q`` matrix.
@@ -197,7 +197,7 @@ def _intersect(pool: Any, c_at: int, c_len: int, cols: Any, r0: int, r1: int, ou
 def _search_kernel(kind: Any, row_at: Any, indptr: Any, cols: Any, start_at: Any, start_len: Any,
                    pool0: Any, floor: int, near_maximum: int, max_nodes: int, max_cliques: int,
                    stop_at: int) -> tuple[Any, Any, int, int, bool]:
-    """The branch and bound of :func:`_python_search`, iterative (compiled by numba; plain Python
+    """The branch and bound of ``_python_search``, iterative (compiled by numba; plain Python
     otherwise).  Parts are numbered by depth.  The candidates of part e at depth d are
     ``pool[at[d, e]:at[d, e] + size[d, e]]``, sorted; choosing vertex a at depth d writes the
     candidates of depth d + 1 (each intersected with a's CSR neighbour list, or kept for an
@@ -382,7 +382,7 @@ def _compiled_search(kernels: dict[str, Callable[..., Any]], sizes: list[int],
                      checked: dict[tuple[int, int], _Entry], order: list[int], usable: list[NDArray[np.intp]],
                      limits: tuple[int, int, int, int | None, int | None]
                      ) -> tuple[int, list[tuple[int, tuple[tuple[int, int], ...]]], int, bool]:
-    """:func:`_python_search` by the compiled kernel: every adjacency form turned into one CSR
+    """``_python_search`` by the compiled kernel: every adjacency form turned into one CSR
     layout per ordered part pair (by depth; "all" and "none" pairs hold no rows)."""
     floor, near_maximum, max_nodes, max_cliques, stop_at = limits
     k = len(sizes)

@@ -90,7 +90,7 @@ def _check_inputs(world: WorldModel, percepts: Sequence[Percept]) -> list[Percep
 
 @dataclass(frozen=True)
 class _SupportIndex:
-    """Edges of a :class:`_Graph` for vectorised pruning: global vertex ids ``u``/``v`` (vertex
+    """Edges of a ``_Graph`` for vectorised pruning: global vertex ids ``u``/``v`` (vertex
     ``a`` of part ``p`` is ``offsets[p] + a``); ``order`` sorts the ``2 E`` (vertex, other part)
     keys of both edge ends, ``starts`` begins each distinct key and ``key_vertex`` is its vertex;
     ``free_p``/``free_q`` are the unconstrained part pairs."""
@@ -120,7 +120,7 @@ class _Graph:
     @cached_property
     def support_index(self) -> _SupportIndex:
         """All constrained edges as global vertex ids, grouped by (vertex, other part) once, for
-        :func:`_prune` (which runs once per clique size tried)."""
+        ``_prune`` (which runs once per clique size tried)."""
         k = len(self.objects)
         sizes = np.array([len(o) for o in self.objects], dtype=np.int64)
         off = np.concatenate([[0], np.cumsum(sizes)])
@@ -224,7 +224,7 @@ def _pair_reach(world: WorldModel, percepts: list[Percept], p: int, q: int, tau:
 def _far_index(world: WorldModel, tp: str, tq: str, diff: NDArray[np.float64], d: float, ztol: float,
                tau: float, reach: float, tol: AssociationTolerances) -> tuple[FarPairIndex, bool] | None:
     """The world's far-pair index of the two types when it covers the percept pair's window, and
-    whether it is kept as (tq, tp) (see :meth:`WorldModel._far_pair_index`)."""
+    whether it is kept as (tq, tp) (see ``WorldModel._far_pair_index``)."""
     if tol.gravity_aligned:
         if math.hypot(diff[0], diff[1]) + tau >= FAR_PAIR_RANGE or abs(diff[2]) + ztol >= FAR_PAIR_HEIGHT:
             return None
@@ -264,7 +264,7 @@ def _indexed_candidates(world: WorldModel, found: tuple[FarPairIndex, bool], dif
     """Far percept pair candidates from the world's far-pair index: the pairs in the key window
     (3D distance, or gravity-aligned horizontal distance and dz) whose p object is in ``sub``
     (all when None) and whose q object is in ``sub_q`` (all when None), tested exactly as the
-    other branches of :func:`_pair_candidates` do.  The float32 keys are within
+    other branches of ``_pair_candidates`` do.  The float32 keys are within
     :data:`FAR_PAIR_SLACK` of the float64 values, so pairs that pass by more than the slack pass
     the exact test and only the pairs near the edge are computed again from the positions.
     An index kept as (q's type, p's type) is read as the pair (q, p), offset ``-diff``."""
@@ -314,7 +314,7 @@ def _members(world: WorldModel, idx: NDArray[np.intp]) -> NDArray[np.bool_]:
 #: Far pairs beyond the far-pair index between more than this many object pairs go through the
 #: compiled ring join (:mod:`worldgraph.model.ring_join`, against the types' kept grids) when numba is
 #: installed (the ``fast`` extra); smaller ones, and every one without numba, through the k-d
-#: trees of :func:`_tree_pairs`, which give the same pairs (the tests run both).  ``None`` turns
+#: trees of ``_tree_pairs``, which give the same pairs (the tests run both).  ``None`` turns
 #: the ring join off.  On the 1M campus (12 views, A/B in one process) the associate median went
 #: from 1.43 to 1.21 s and the mean from 1.97 to 1.49 s; on denser layouts the query itself is
 #: 2-4x faster at 50-180 k-d tree hits per row (the ring keeps a few percent of the disk).
@@ -393,7 +393,7 @@ def _pair_candidates(world: WorldModel, percepts: list[Percept], p: int, q: int,
                      ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """Model pairs consistent with the percept pair (p, q): local indices ``(a, b)`` into
     ``objects[p]`` and ``objects[q]``.  ``rows`` and ``cols`` (local indices into ``objects[p]``
-    and ``objects[q]``; used for far pairs, see :func:`_is_far`) restrict p's and q's side to
+    and ``objects[q]``; used for far pairs, see ``_is_far``) restrict p's and q's side to
     those objects."""
     tp, tq = percepts[p].type, percepts[q].type
     op, oq = objects[p], objects[q]
@@ -480,7 +480,7 @@ def _renumber(world: WorldModel, tp: str, tq: str, op: NDArray[np.intp], oq: NDA
     return _local(op, i), _local(oq, j)
 
 
-#: The far pairs of :class:`_LazyGraph` are filled in rounds, cheapest first: each round takes the
+#: The far pairs of ``_LazyGraph`` are filled in rounds, cheapest first: each round takes the
 #: pairs with at most this many times the rows of the cheapest (counted as at least
 #: ``FAR_ROUND_MIN_ROWS``), then prunes.
 FAR_ROUND_FACTOR = 2
@@ -495,7 +495,7 @@ def _far_hits_per_row(world: WorldModel, percepts: list[Percept], p: int, q: int
                       tol: AssociationTolerances, objects: list[NDArray[np.intp]]) -> float:
     """About how many model pairs the far-pair query of one of p's objects visits (at least 1):
     the index window's pairs per p object, or the k-d tree hits of an even sample of p's objects
-    (the disk of :func:`_pair_candidates`, which keeps only its shell)."""
+    (the disk of ``_pair_candidates``, which keeps only its shell)."""
     tp, tq = percepts[p].type, percepts[q].type
     diff, d, tau, ztol, reach, _ = _pair_reach(world, percepts, p, q, tau, tol)
     op = objects[p]
@@ -512,13 +512,13 @@ def _far_hits_per_row(world: WorldModel, percepts: list[Percept], p: int, q: int
 
 @dataclass
 class _FarPair:
-    """What :class:`_LazyGraph` has queried of one far percept pair (p, q): ``done`` marks the
+    """What ``_LazyGraph`` has queried of one far percept pair (p, q): ``done`` marks the
     rows (p's local indices) queried, each against (at least) the q objects ``covered`` marks;
     ``parts`` holds the candidates found; ``repeated`` says that some of them may be found twice
     (a row queried again against revived q objects)."""
 
     tau: float
-    hits: float  # the model pairs one row's query visits (:func:`_far_hits_per_row`)
+    hits: float  # the model pairs one row's query visits (``_far_hits_per_row``)
     done: NDArray[np.bool_]
     covered: NDArray[np.bool_]
     parts: list[tuple[NDArray[np.intp], NDArray[np.intp]]] = field(default_factory=list)
@@ -530,7 +530,7 @@ class _FarPair:
 
 
 class _LazyGraph:
-    """The consistency graph with the far percept pairs (:func:`_is_far`) filled on demand.
+    """The consistency graph with the far percept pairs (``_is_far``) filled on demand.
 
     Pruning for a clique size ``need`` first treats every far pair as unconstrained; that keeps a
     superset of the vertices the exact pruning keeps (pruning is monotone in the edges).  The far
@@ -563,7 +563,7 @@ class _LazyGraph:
         that pruning.
 
         Far pairs are filled in rounds, the cheapest first (rows to query times the model pairs a
-        row's query visits, :func:`_far_hits_per_row`, times the alive fraction of q's objects:
+        row's query visits, ``_far_hits_per_row``, times the alive fraction of q's objects:
         on the 1M campus the cost order cut the associate median by a fifth against rows alone),
         and the graph is pruned again after each round: a far pair counts as unconstrained until
         every alive vertex of its p side is queried against every alive vertex of its q side, and
@@ -653,7 +653,7 @@ def _consistency_graph(world: WorldModel, percepts: list[Percept], tol: Associat
     return _Graph(objects, edges)
 
 
-#: :func:`_prune` loops over the part pairs up to this many pairs (16 percepts) and works on all
+#: ``_prune`` loops over the part pairs up to this many pairs (16 percepts) and works on all
 #: edges at once beyond (the loop costs a few numpy calls per pair and iteration; the vectorised
 #: form sorts every edge once per graph).
 PRUNE_LOOP_MAX_PAIRS = 120
@@ -675,7 +675,7 @@ def _prune(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | None = Non
 
 def _prune_by_pairs(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | None = None
                     ) -> list[NDArray[np.bool_]]:
-    """:func:`_prune` with a loop over the part pairs; each pair's edges shrink to the alive ones."""
+    """``_prune`` with a loop over the part pairs; each pair's edges shrink to the alive ones."""
     k = len(graph.objects)
     cur = [np.ones(len(o), dtype=bool) for o in graph.objects] if alive is None else [a.copy() for a in alive]
     edges = dict(graph.edges)
@@ -714,7 +714,7 @@ def _prune_by_pairs(graph: _Graph, need: int, alive: list[NDArray[np.bool_]] | N
 
 def _prune_vectorised(graph: _Graph, need: int, start: list[NDArray[np.bool_]] | None = None
                       ) -> list[NDArray[np.bool_]]:
-    """:func:`_prune` over all edges at once (see :meth:`_Graph.support_index`)."""
+    """``_prune`` over all edges at once (see ``_Graph.support_index``)."""
     ix = graph.support_index
     k, off = len(graph.objects), ix.offsets
     alive = np.ones(int(off[-1]), dtype=bool) if start is None else np.concatenate(

@@ -87,7 +87,7 @@ def _cross(a: NDArray, b: NDArray) -> NDArray:
 
 
 #: Point sets with at most this many tetrahedra (C(11, 4)) have every one tested by the mirror
-#: check; larger sets test a bounded family of ``2 m - 3`` (see :func:`_tetrahedra`), so memory
+#: check; larger sets test a bounded family of ``2 m - 3`` (see ``_tetrahedra``), so memory
 #: and time grow linearly with the clique size instead of as C(m, 4).
 MAX_ALL_TETRAHEDRA = 330
 
@@ -122,7 +122,7 @@ def _tetrahedra(world: NDArray) -> NDArray[np.intp]:
 def _chirality_ok(ego: NDArray, world: NDArray, sigmas: NDArray, tol: AssociationTolerances
                   ) -> NDArray[np.bool_]:
     """Per point set: no tested tetrahedron of the members has a significant signed volume of
-    opposite sign (:func:`_tetrahedra`: all of them up to 11 members, a linear-size family above).
+    opposite sign (``_tetrahedra``: all of them up to 11 members, a linear-size family above).
 
     ``ego, world (h, m, 3)``, ``sigmas (h, m)``.  With ``gravity_aligned`` triangles are tested
     too: the sign of the z component of their normal.
@@ -328,7 +328,7 @@ def same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
 
 
 def _same_pose(a: NDArray, b: NDArray, tol: AssociationTolerances) -> bool:
-    """:func:`same_pose` of checked transforms: :func:`_near_poses` of one."""
+    """:func:`same_pose` of checked transforms: ``_near_poses`` of one."""
     return bool(_near_poses(b, a[None, :3, 3], a[None, :3, :3], tol)[0])
 
 
@@ -350,7 +350,7 @@ def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: 
     hyps = sorted(hyps, key=lambda h: (h.cost, -h.size, h.pairs))
     kept: list[AssociationHypothesis] = []
     matched: list[dict[int, int]] = []
-    # the kept poses' translations and rotations, for :func:`_near_poses` against all at once
+    # the kept poses' translations and rotations, for ``_near_poses`` against all at once
     t_kept = np.empty((min(limit, len(hyps)), 3))
     r_kept = np.empty((min(limit, len(hyps)), 3, 3))
     for h in hyps:

@@ -18,7 +18,7 @@ Formats, chosen by the file suffix (or ``file_format``):
   references read for ``v``); faces before the first ``o``/``g`` line form a part named after
   the file.  Materials, textures and normals are not read.
 * ``.xml``, ``.mjcf``: MJCF, compiled by MuJoCo (``mujoco.MjModel.from_xml_path``, then
-  :class:`mujoco.MjData` and ``mujoco.mj_forward`` at the model's reference configuration
+  ``mujoco.MjData`` and ``mujoco.mj_forward`` at the model's reference configuration
   ``qpos0``), so any MJCF MuJoCo reads works.  Needs the ``mjcf`` extra
   (``pip install gaussian-spheres[mjcf]``).  ``mjcf_objects`` says what a candidate is:
 

@@ -5,7 +5,7 @@ kitchen in ``gymnasium_robotics/envs/assets/kitchen_franka/kitchen_assets/``.  I
 dependencies (mujoco, gymnasium) are not needed here: install it with
 ``pip install --no-deps gymnasium-robotics``; this module only reads its XML and STL files.
 
-:func:`load_franka_kitchen` parses ``kitchen_env_model.xml`` with :mod:`xml.etree`, expands
+:func:`load_franka_kitchen` parses ``kitchen_env_model.xml`` with :mod:`xml.etree.ElementTree`, expands
 ``<include file=...>`` (paths relative to the main file, as MuJoCo does), merges ``<compiler>``
 settings (``angle`` radian/degree, ``eulerseq``, ``meshdir``), resolves ``<default>`` classes
 (``class`` / ``childclass``), accumulates ``pos`` and ``quat`` / ``euler`` / ``axisangle`` /

@@ -1,6 +1,6 @@
 """One :func:`~worldgraph.localize` call as its steps see it: the checked settings, the
 percepts of known types, the measurements the steps share, and what a pose step hands on
-(:class:`_Answer`, :class:`_Choice`)."""
+(``_Answer``, ``_Choice``)."""
 
 from __future__ import annotations
 

@@ -241,7 +241,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
 
 def _tilt_checked(result: LocalizationResult, plan: _Plan, tol: AssociationTolerances) -> LocalizationResult:
     """``result``, made ``"inconsistent"`` when its pose contradicts the gravity the call was
-    given (:func:`~worldgraph.pose.gravity._tilt_contradiction`; only statuses that trust their
+    given (``_tilt_contradiction``; only statuses that trust their
     pose, ``"ok"``, ``"weak"``, ``"ambiguous"``, change; the pose stays for diagnosis)."""
     if result.status not in POSE_STATUSES:
         return result
@@ -256,7 +256,7 @@ def _gravity_unsupported(result: LocalizationResult, plan: _Plan, tol: Associati
                          n_used: int) -> str:
     """Why ``gravity="auto"`` falls back from the gravity pass's ``result`` (of ``n_used``
     percepts of known types) to the free search, "" when it keeps it
-    (:func:`~worldgraph.pose.gravity._unsupported`, with the pass's status)."""
+    (``_unsupported``, with the pass's status)."""
     if not plan.fallback or plan.up is None or method == "paper" or result.search != "gravity":
         return ""
     if result.status == "too_few_percepts":
@@ -353,7 +353,7 @@ def _check_region(region: object) -> ro.Region | None:
 
 def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
     """A success status only with a finite rigid pose and covariance; a listed status; no pose
-    with a status that keeps none (:data:`~worldgraph.localization.result._POSELESS_STATUSES`: a
+    with a status that keeps none (``_POSELESS_STATUSES``: a
     pose that broke down here, e.g. "weak" with an infinite covariance, is not returned as a
     finite transformation under "degenerate")."""
     status = result.status

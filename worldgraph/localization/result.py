@@ -48,7 +48,7 @@ UNIQUE_STATUSES: tuple[str, ...] = get_args(UniqueStatus)
 #: ``"ok"``, ``"weak"`` and ``"ambiguous"``: a finite rigid pose and covariance, checked.
 POSE_STATUSES: tuple[str, ...] = get_args(PoseStatus)
 #: The failure statuses that keep no pose, not even for diagnosis: ``transformation``,
-#: ``position`` and the covariances are NaN (:func:`_without_pose`); the other failures
+#: ``position`` and the covariances are NaN (``_without_pose``); the other failures
 #: (``"inconsistent"``, ``"outside_region"``, ``"degenerate_coplanar"``, ``"not_converged"``)
 #: keep the pose that failed.
 _POSELESS_STATUSES: tuple[str, ...] = ("degenerate", "degenerate_collinear", "no_association",
@@ -330,10 +330,10 @@ def _failed(status: LocalizeStatus, message: str, n: int, hyps: tuple = (), timi
 
 
 def _without_pose(result: LocalizationResult) -> LocalizationResult:
-    """``result`` with every field that a pose determines as :func:`_failed` leaves it (NaN
+    """``result`` with every field that a pose determines as ``_failed`` leaves it (NaN
     transformation, position and covariances, NaN residuals, no inliers, no alternatives, no
     certificate); the matches, hypotheses, position estimate, message and timings stay for
-    diagnosis.  What a status of :data:`_POSELESS_STATUSES` gets whatever built it."""
+    diagnosis.  What a status of ``_POSELESS_STATUSES`` gets whatever built it."""
     nan3 = np.full(3, np.nan)
     return replace(result, transformation=np.full((4, 4), np.nan), position=nan3,
                    covariance=np.full((3, 3), np.nan), pose_covariance=np.full((6, 6), np.nan),

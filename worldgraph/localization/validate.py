@@ -231,7 +231,7 @@ def _same_pose_spread(best: PoseFit, same: list[PoseFit]) -> NDArray[np.float64]
 def _ml_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
     """Step 8 (``"ml"``): the validated 6D pose (or the rotation SDP's, when better), fitted again
     with gravity's tilt prior when the gravity search answers and the percepts agree with it
-    (:func:`_tilted`), and its calibrated covariance."""
+    (``_tilted``), and its calibrated covariance."""
     pairs = best.pairs
     p_i = np.array([p for p, _ in pairs])
     centers = ctx.world.positions[np.array([o for _, o in pairs])]

@@ -23,7 +23,7 @@ FAR_PAIR_RANGE = 16.0
 FAR_PAIR_HEIGHT = 4.0
 #: The association builds a missing far-pair index on first use when True; by default (False)
 #: it uses only those built (:meth:`WorldModel.build_far_pairs`) and sends the other far pairs
-#: to the compiled ring join (see :meth:`WorldModel._far_pair_index` for the measurements).
+#: to the compiled ring join (see ``WorldModel._far_pair_index`` for the measurements).
 FAR_PAIR_BUILD_ON_USE = False
 #: One far-pair index holds at most this many pairs (about 16 bytes each) ...
 FAR_PAIR_MAX_PAIRS = 30_000_000
@@ -64,7 +64,7 @@ def _far_pair_query(gravity: bool) -> tuple[float, float]:
 
 
 def _far_pair_estimate(world: Any, a: str, b: str, gravity: bool) -> float:
-    """How many pairs the query of :func:`_build_far_pairs` returns, from a strided sample of
+    """How many pairs the query of ``_build_far_pairs`` returns, from a strided sample of
     ``a``'s objects (at most about 2000), before anything is built (kept with the world:
     :meth:`WorldModel.build_far_pairs` orders by it, then each build checks it)."""
     estimates = world._far_estimates
@@ -76,13 +76,13 @@ def _far_pair_estimate(world: Any, a: str, b: str, gravity: bool) -> float:
     return estimates[(a, b, gravity)]
 
 
-#: Objects per block of :func:`_far_type_pairs`' pair enumeration (bounds its memory).
+#: Objects per block of ``_far_type_pairs``' pair enumeration (bounds its memory).
 FAR_TYPE_BLOCK = 2048
 
 
 def _far_type_pairs(world: Any, gravity: bool) -> list[tuple[str, str]]:
     """The type pairs ``(a, b)``, ``a <= b``, with two distinct objects inside the far-pair
-    query of each other (:func:`_far_pair_query`): the only ones whose :class:`FarPairIndex`
+    query of each other (``_far_pair_query``): the only ones whose :class:`FarPairIndex`
     is not empty.  One k-d tree over all objects, queried in blocks of :data:`FAR_TYPE_BLOCK`
     objects; its cost follows the object pairs within reach, not the number of type pairs."""
     names = sorted(world.type_index)

@@ -1,6 +1,6 @@
 """The link look-up table of a world model: :class:`LinkTable` (the object pairs of one type
-pair, sorted by length), the mapping of all of them (:class:`_LinkTables`), how the world
-builds it (:func:`_build_links`) and its limits :data:`MAX_LINK_LENGTH` and :data:`MAX_LINKS`."""
+pair, sorted by length), the mapping of all of them (``_LinkTables``), how the world
+builds it (``_build_links``) and its limits :data:`MAX_LINK_LENGTH` and :data:`MAX_LINKS`."""
 
 from __future__ import annotations
 
@@ -193,7 +193,7 @@ def _build_world_links(world: Any, stored: tuple[NDArray[Any], ...] | None = Non
     :class:`~worldgraph.model.WorldModel` (not imported: the world module imports this one).
 
     ``stored``: the link rows ``(i, j, length)`` of a binary world file (the arrays of the link tables
-    in their order, :func:`_stored_links`), used instead of the pair search and sorts when they
+    in their order, ``_stored_links``), used instead of the pair search and sorts when they
     pass its checks (``source`` names the file in its errors)."""
     types = world._types
     positions = world._positions
@@ -227,8 +227,8 @@ def _build_world_links(world: Any, stored: tuple[NDArray[Any], ...] | None = Non
 
 def _search_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: cKDTree) -> _LinkTables:
     """The link tables of a world: refused beyond :data:`MAX_LINKS` (estimated on a sample before
-    anything is built), by enumeration when every pair is within reach (:func:`_dense_links`),
-    else by the k-d tree's pair search (:func:`_tree_links`)."""
+    anything is built), by enumeration when every pair is within reach (``_dense_links``),
+    else by the k-d tree's pair search (``_tree_links``)."""
     positions = world._positions
 
     radius = world.max_link_length + world.link_margin
@@ -311,7 +311,7 @@ def _dense_links(names: list[str], codes: NDArray[np.intp], positions: NDArray[n
     """The link tables of a world whose objects lie within reach of each other: every pair
     enumerated row by row (object ``a`` against the objects after it: contiguous slices, no
     gathers), without the k-d tree's pair search and, in the common cases, without sorting (the
-    tables :func:`_tree_links` builds, row for row).
+    tables ``_tree_links`` builds, row for row).
 
     The objects are put in type order (ascending index within a type), so that a pair ``(a, b)``
     with ``a < b`` in that order is already oriented (lower type first, lower index first within
@@ -370,7 +370,7 @@ def _stored_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: c
                   stored: tuple[NDArray[Any], ...], source: str) -> _LinkTables:
     """The link tables of a world from the rows ``(i, j, length)`` a binary file stores, checked.
 
-    Vectorised checks over every row: indices in range, rows oriented as :func:`_search_links`
+    Vectorised checks over every row: indices in range, rows oriented as ``_search_links``
     orients them, grouped by type pair, sorted by length, below ``max_link_length +
     link_margin``, ties in object order (so no row repeats).  On samples: the lengths of
     :data:`STORED_LINKS_SAMPLE` rows spread over the table equal those recomputed from the

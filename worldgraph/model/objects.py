@@ -33,7 +33,7 @@ _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 def box_vertices(size: ArrayLike) -> NDArray[np.float64]:
     """The 8 corners ``(8, 3)`` of an axis-aligned box of extents ``size (3,)`` (metres, finite,
-    ``>= 0``, at most :data:`MAX_COORDINATE`) centred at 0."""
+    ``>= 0``, at most :data:`~worldgraph.model.MAX_COORDINATE`) centred at 0."""
     half = 0.5 * _check_size("size", size)
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64)
     return signs * half

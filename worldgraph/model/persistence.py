@@ -23,7 +23,7 @@ FILE_VERSION = 1
 
 
 def _check_path(path: Any) -> str:
-    """A file path as ``str`` (:func:`worldgraph._checks.file_path`)."""
+    """A file path as ``str`` (``worldgraph._checks.file_path``)."""
     return _checks.file_path("path", path)
 
 

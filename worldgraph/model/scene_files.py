@@ -88,7 +88,7 @@ _MJCF_PIP = "pip install gaussian-spheres[mjcf]"
 def type_rule(type_of: Any) -> Callable[[str], str | None]:
     """The callable ``name -> type or None`` that a ``type_of`` argument stands for.
 
-    :func:`perception.type_rule` with its errors as worldgraph's.
+    :func:`perception.type_rules.type_rule` with its errors as worldgraph's.
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """Reading a :class:`trimesh.Scene` into a world model: its geometry nodes (transforms, vertex
 bounds, default types), the object table of :meth:`WorldModel.from_trimesh
-<worldgraph.model.WorldModel.from_trimesh>` (:func:`_trimesh_table`) and the room box
+<worldgraph.model.WorldModel.from_trimesh>` (``_trimesh_table``) and the room box
 (:func:`room_from_trimesh`, :data:`ROOM_TYPES`, :data:`DEFAULT_ROOM_HEIGHT`)."""
 
 from __future__ import annotations
@@ -130,8 +130,8 @@ def _vertices(name: str, geometry: Any) -> NDArray[np.float64] | None:
 
 
 def _scene_nodes(scene: trimesh.Scene) -> tuple[list[Any], NDArray[np.float64], list[str], list[Any]]:
-    """What :func:`_geometry_nodes` yields, as lists and one ``(n, 4, 4)`` array of transforms
-    checked together (the first bad one raises the error of :func:`_geometry_nodes`)."""
+    """What ``_geometry_nodes`` yields, as lists and one ``(n, 4, 4)`` array of transforms
+    checked together (the first bad one raises the error of ``_geometry_nodes``)."""
     nodes: list[Any] = []
     matrices: list[Any] = []
     geom_names: list[str] = []
@@ -156,7 +156,7 @@ def _scene_nodes(scene: trimesh.Scene) -> tuple[list[Any], NDArray[np.float64], 
 
 
 def _fast_vertex_bounds(name: str, geometry: Any) -> NDArray[np.float64] | None:
-    """:func:`_vertex_bounds` without copying float vertices: the bounds are checked instead of
+    """``_vertex_bounds`` without copying float vertices: the bounds are checked instead of
     every vertex (a NaN or an infinity reaches them); anything unusual goes through the full check."""
     raw = getattr(geometry, "vertices", None)
     if raw is None or np.size(raw) == 0:
@@ -169,7 +169,7 @@ def _fast_vertex_bounds(name: str, geometry: Any) -> NDArray[np.float64] | None:
 
 
 def _proper_rotations(lin: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`_rotation_and_scale` of a stack ``(n, 3, 3)`` (the same numbers, batched)."""
+    """``_rotation_and_scale`` of a stack ``(n, 3, 3)`` (the same numbers, batched)."""
     n = len(lin)
     rot = np.empty((n, 3, 3))
     scale = np.empty((n, 3))

@@ -857,7 +857,7 @@ def _typed_origins(scene: trimesh.Scene, types: Mapping[str, Any]) -> NDArray[np
 
 def _on_its_side(scene: trimesh.Scene, positions: NDArray[np.float64], path: str) -> str | None:
     """The warning of :meth:`WorldModel.from_file` for a world that looks like a room on its
-    side (:func:`~worldgraph.model.scene_nodes._likely_up`), naming the ``up_axis`` to pass;
+    side (``_likely_up``), naming the ``up_axis`` to pass;
     ``None`` when z looks up."""
     found = _likely_up(scene, positions)
     if found is None:

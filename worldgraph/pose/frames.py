@@ -404,7 +404,7 @@ def _expm(w: NDArray) -> NDArray:
 
 
 def _logm(R: NDArray) -> NDArray[np.float64]:
-    """Rotation vector of the rotation matrix ``R`` (the inverse of :func:`_expm`; angle in
+    """Rotation vector of the rotation matrix ``R`` (the inverse of ``_expm``; angle in
     [0, pi]), through the unit quaternion of the largest of ``1 + trace`` and ``1 + 2 R_ii -
     trace`` (no cancellation near pi) and ``angle / sin(angle / 2)`` (its series near 0).  No
     scipy overhead: the validation compares poses thousands of times a second."""

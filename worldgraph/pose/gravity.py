@@ -27,7 +27,7 @@ With gravity known (``"auto"`` or an up vector), :func:`~worldgraph.localize` gi
 success (``"inconsistent"``, the message naming the likely mistake, e.g. percepts in a camera
 frame) for a pose that tilts the ego up vector more than
 :data:`~worldgraph.tolerances.MAX_EGO_TILT` (45 degrees) from world up, or, with an explicit up
-vector, more than ``tilt_allowance`` plus :data:`TILT_SLACK` (:func:`_tilt_contradiction`).
+vector, more than ``tilt_allowance`` plus :data:`TILT_SLACK` (``_tilt_contradiction``).
 
 The result says which search answered (``LocalizationResult.search``,
 ``AssociationHypothesis.search``).  ``AssociationTolerances.gravity_aligned`` (when not None)

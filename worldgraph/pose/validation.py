@@ -74,6 +74,7 @@ from .gravity import TiltPrior, _check_tilt_prior
 __all__ = [
     "CHI2_3_GATE",
     "CHI2_6_GATE",
+    "NearestObjects",
     "PoseFit",
     "calibrated_pose_covariance",
     "constrained_directions",
@@ -161,11 +162,12 @@ def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
 def constrained_directions(covs: NDArray[np.float64]) -> NDArray[np.intp]:
     """How many directions each percept constrains, ``(k,)`` from its ``(k, 3, 3)`` covariance.
 
-    The eigen-directions whose variance is at most :data:`~worldgraph.tolerances.
-    CONSTRAINED_VARIANCE_RATIO` times the percept's smallest variance (3 for an isotropic or a
-    stereo-shaped percept, 2 for a needle, 1 for a pancake).  The inlier count of an answer sums
-    these rather than counting percepts: a needle agrees with any pose that puts its object
-    anywhere along its long axis, so it checks a pose in two directions only.
+    The eigen-directions whose variance is at most
+    :data:`~worldgraph.tolerances.CONSTRAINED_VARIANCE_RATIO` times the percept's smallest
+    variance (3 for an isotropic or a stereo-shaped percept, 2 for a needle, 1 for a pancake).
+    The inlier count of an answer sums these rather than counting percepts: a needle agrees
+    with any pose that puts its object anywhere along its long axis, so it checks a pose in two
+    directions only.
     """
     C = float_array("covs", covs, (None, 3, 3))
     C = _covariances(C, len(C), "covs")

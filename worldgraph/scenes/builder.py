@@ -1,5 +1,5 @@
 """The scene builder shared by the procedural scenes: seed and link checks, the mesh helpers
-(prisms, rounded boxes, frustums), run frames and :class:`_Builder`, which adds typed box,
+(prisms, rounded boxes, frustums), run frames and ``_Builder``, which adds typed box,
 cylinder and polyhedron nodes to a :class:`trimesh.Scene`; and :func:`scene_statistics`, the
 primitive, object and vertex counts of a scene.
 """

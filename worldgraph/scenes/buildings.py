@@ -287,7 +287,7 @@ def _building_arrays(rng: np.random.Generator, storeys: int, n_objects: int, hei
     """Type codes, positions and storeys of one building of exactly ``n_objects`` objects.
 
     All storeys share one corridor grid; the module kinds of a storey copy the storey below
-    with probability :data:`_STOREY_KEEP`; the furniture is drawn for every room.  Objects are
+    with probability ``_STOREY_KEEP``; the furniture is drawn for every room.  Objects are
     generated storey by storey, corridor by corridor; the plan is sized so that it holds at
     least ``n_objects`` and the top storey is cut (its last corridors) to the exact count.
     """

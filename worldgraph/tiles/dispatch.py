@@ -182,7 +182,7 @@ def _on_cluster(client: Any, tiles: tuple[Tile, ...]) -> list[Any]:
 
 def _run_tiles(tiles: tuple[Tile, ...], args: list[tuple[Any, ...]], scheduler: Any, workers: int | None,
                pool: TilePool | None, tol: AssociationTolerances, t_start: float) -> LocalizationResult:
-    """Every tile's :func:`_run_tile` with its ``args`` (on the pool, the cluster or local
+    """Every tile's ``_run_tile`` with its ``args`` (on the pool, the cluster or local
     processes), combined."""
     if pool is not None:
         answers = pool._map(args)

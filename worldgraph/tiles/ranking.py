@@ -1,5 +1,5 @@
-"""One tile's answer (run in a worker: :func:`_run_tile`) and the ranking of the tiles' answers
-together (:func:`_combine`, the rule of :func:`~worldgraph.localize`)."""
+"""One tile's answer (run in a worker: ``_run_tile``) and the ranking of the tiles' answers
+together (``_combine``, the rule of :func:`~worldgraph.localize`)."""
 
 from __future__ import annotations
 
@@ -111,7 +111,7 @@ def _globalised_answer(answer: _TileAnswer, tile: Tile) -> _TileAnswer:
 def _combine(labels: Sequence[int], answers: list[_TileAnswer], tol: AssociationTolerances,
              t_start: float) -> LocalizationResult:
     """The tiles' answers (``answers[k]`` of the tile labelled ``labels[k]``, object indices
-    already global: :func:`_globalised_answer`) ranked together."""
+    already global: ``_globalised_answer``) ranked together."""
     results = {k: a.result for k, a in enumerate(answers) if a.result is not None}
     with_pose = [k for k, r in results.items() if r.status in _WITH_POSE]
     posed = sorted(with_pose, key=lambda k: (answers[k].cost, k))
