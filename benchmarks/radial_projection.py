@@ -6,7 +6,7 @@ Prints a Markdown table: the median wall time per solve of every method, of a fr
 cvxpy problem (compiled on each call, the naive use of cvxpy), of the bare least-distance
 core of the active set (the plain-Python dual active set on the pair rows up to
 ``SMALL_CORE_SPHERES`` spheres, NNLS beyond), of the unchecked internal route that localize
-and the estimators call (``_project_radii_trusted``, arrays in), and of vertex enumeration
+and the estimators call (``project_radii_unchecked``, arrays in), and of vertex enumeration
 alone; ratios against the fresh cvxpy problem from the same run; then the batch throughput of
 the active-set path.  The paper's rule reports "over budget" when an instance needs more than
 ``PAPER_MAX_FLATS`` flats.
@@ -38,10 +38,10 @@ from radialopt.projection import (  # noqa: E402
     SMALL_CORE_SPHERES,
     _Problem,
     _project_radii_batch_reference,
-    _project_radii_trusted,
     fresh_cvxpy_problem,
     least_distance,
     pair_pattern,
+    project_radii_unchecked,
     solver_options,
 )
 from radialopt.vertices import enumerate_vertices  # noqa: E402
@@ -180,7 +180,7 @@ def main() -> None:
         rep = args.repeat
         t_act = median_time(lambda s: ro.project_radii(s), items, rep)
         arrays = [(p.centers, p.radii, p.sigmas) for p in probs]
-        t_trusted = median_time(lambda a: _project_radii_trusted(*a), arrays, rep)
+        t_trusted = median_time(lambda a: project_radii_unchecked(*a), arrays, rep)
         if n <= SMALL_CORE_SPHERES:
             rows = [_pair_rows(c.tolist(), r.tolist(), s.tolist(), ro.TOLERANCES, c)[0]
                     for c, r, s in arrays]

@@ -306,11 +306,11 @@ def _paper_candidates(spheres: Sequence[GaussianSphere], d: _Data, region: Regio
                       limit: int) -> NDArray:
     # imported where used: only "paper" and "ml" need it; the unchecked route, since
     # estimate_position checked the spheres (sphere_arrays) before any method runs
-    from .projection import _project_radii_trusted
+    from .projection import project_radii_unchecked
 
     keep = _generation_subset(d.sigmas, limit)
     spheres = [spheres[i] for i in keep]
-    sol = _project_radii_trusted(d.centers[keep], d.radii[keep], d.sigmas[keep], method="active_set")
+    sol = project_radii_unchecked(d.centers[keep], d.radii[keep], d.sigmas[keep], method="active_set")
     adjusted = [s.with_radius(max(float(r), 0.0)) for s, r in zip(spheres, sol.radii, strict=True)]
     return generate_hypotheses(adjusted, region=region, keep_imaginary=True).positions
 

@@ -48,7 +48,7 @@ largest of the centre distances, the radii and 1 m).
 :func:`project_radii` takes spheres or, by keyword, arrays (``centers=, radii=, sigmas=``) and
 checks its input (:func:`~radialopt.spheres.sphere_arrays`, :func:`~radialopt.spheres.checked_arrays`);
 internal callers whose data were checked where they were made (worldgraph's ``localize``, the
-range-only estimators) call ``_project_radii_trusted`` with arrays: the same computation
+range-only estimators) call ``project_radii_unchecked`` with arrays: the same computation
 and answer without the checks.  :func:`project_radii_batch` solves many instances of the same
 sphere count at once: the small-instance dual active set vectorised across the instances
 (``_batch_dual_active_set``), tested against the loop of single solves
@@ -126,6 +126,31 @@ from .tolerances import FARKAS_LAST_ZERO as FARKAS_LAST_ZERO  # re-exported (._l
 from .tolerances import FARKAS_ZERO as FARKAS_ZERO
 from .tolerances import ROUNDING_RTOL as ROUNDING_RTOL
 from .tolerances import SOLVER_OPTIONS as SOLVER_OPTIONS
+
+__all__ = [
+    "BATCH_CHUNK",
+    "BatchSolution",
+    "CLARABEL_TIGHT",
+    "CONSTRAINT_GENERATION_ROWS",
+    "FARKAS_LAST_ZERO",
+    "FARKAS_ZERO",
+    "METHODS",
+    "PAPER_MAX_FLATS",
+    "ROUNDING_RTOL",
+    "RadialSolution",
+    "RadialStatus",
+    "SMALL_CORE_SPHERES",
+    "SOLVER_OPTIONS",
+    "STATUSES",
+    "fresh_cvxpy_problem",
+    "installed_cvxpy_solvers",
+    "least_distance",
+    "project_radii",
+    "project_radii_batch",
+    "solver_options",
+    "verify_solution",
+    "verify_solution_exact",
+]
 
 #: The shared status set every backend maps its native status onto.
 RadialStatus = Literal["optimal", "optimal_inaccurate", "infeasible", "error"]
@@ -559,7 +584,7 @@ def _check_arguments(method: object, solver: object, check: object, tol: object)
         _cdd_gmp()  # fail before solving when the exact mode is missing
 
 
-def _project_radii_trusted(
+def project_radii_unchecked(
     centers: NDArray[np.float64],
     radii: NDArray[np.float64],
     sigmas: NDArray[np.float64],
@@ -587,7 +612,7 @@ def _project_arrays(
     centers: NDArray[np.float64], radii: NDArray[np.float64], sigmas: NDArray[np.float64],
     method: str, solver: str | None, check: bool | str, tol: Tolerances,
 ) -> RadialSolution:
-    """:func:`project_radii` after its input checks (shared with ``_project_radii_trusted``)."""
+    """:func:`project_radii` after its input checks (shared with ``project_radii_unchecked``)."""
     n = len(radii)
     if check is not False or method == "vertices":
         from .vertices import check_vertex_spheres
@@ -762,7 +787,7 @@ def _batch_solve(
             failed.append(idx[~ok])
         todo = np.concatenate(failed) if failed else todo[:0]
     for k in map(int, todo):  # the single-instance route
-        z[k] = (_project_radii_trusted(c[k], r[k], sg[k], tol=tol).radii - r[k]) / sg[k]
+        z[k] = (project_radii_unchecked(c[k], r[k], sg[k], tol=tol).radii - r[k]) / sg[k]
     return z, d, h
 
 
@@ -895,7 +920,7 @@ def _project_radii_batch_reference(
     the adjusted radii ``(B, n)``.  :func:`project_radii_batch` is tested against it."""
     out = np.empty_like(r)
     for k in range(len(r)):
-        out[k] = _project_radii_trusted(c[k], r[k], sg[k], tol=tol).radii
+        out[k] = project_radii_unchecked(c[k], r[k], sg[k], tol=tol).radii
     return out
 
 

@@ -7,6 +7,7 @@ a function (a lazy import) or under ``if TYPE_CHECKING:``, as ``farm-studio look
 from __future__ import annotations
 
 import ast
+import sys
 from pathlib import Path
 
 import pytest
@@ -159,3 +160,63 @@ def test_nothing_inside_the_packages_imports_a_shim():
     offenders = sorted(f"{m} imports {s}" for m, deps in graph.items() if m not in shims
                        for s in deps & shims)
     assert offenders == []
+
+
+def _private_imports(name: str, path: Path) -> list[tuple[str, str]]:
+    """``(source module, private name)`` of every private name module ``name`` imports from a
+    room it is not in. A name ``_x`` (or a private module ``_x``) belongs to the directory that
+    holds it: any module in that directory or below may import it, no module elsewhere may."""
+    is_package = path.name == "__init__.py"
+    here = name if is_package else name.rpartition(".")[0]
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        if node.level:
+            base = here.split(".")[: len(here.split(".")) - (node.level - 1)]
+            source = ".".join(base + ([node.module] if node.module else []))
+        else:
+            source = node.module or ""
+        if source.split(".")[0] not in PACKAGES:
+            continue
+        parts = source.split(".")
+        for i, part in enumerate(parts):  # a private module on the way: its directory owns it
+            if part.startswith("_") and not _inside(here, ".".join(parts[:i])):
+                found.append((source, part))
+                break
+        source_dir = ROOT.joinpath(*parts)
+        for alias in node.names:
+            if not alias.name.startswith("_") or alias.name.startswith("__"):
+                continue
+            submodule = (source_dir / alias.name).is_dir() or (source_dir / f"{alias.name}.py").is_file()
+            owner = source if (submodule or source_dir.is_dir()) else source.rpartition(".")[0]
+            if not _inside(here, owner):
+                found.append((source, alias.name))
+    return found
+
+
+def _inside(here: str, owner: str) -> bool:
+    return here == owner or here.startswith(owner + ".")
+
+
+def test_no_private_name_crosses_a_subpackage():
+    crossing = {name: found for name, path in _modules().items() if (found := _private_imports(name, path))}
+    assert crossing == {}
+
+
+def test_the_private_import_reader_finds_one_across_rooms(tmp_path, monkeypatch):
+    # the counter above must see a crossing where there is one, and allow one within a room
+    pkg = tmp_path / "worldgraph"
+    (pkg / "pose").mkdir(parents=True)
+    (pkg / "tiles").mkdir()
+    for d in (pkg, pkg / "pose", pkg / "tiles"):
+        (d / "__init__.py").write_text("")
+    (pkg / "_checks.py").write_text("def real_array(): pass\n")
+    (pkg / "pose" / "gravity.py").write_text("_Plan = 1\n")
+    (pkg / "pose" / "frames.py").write_text("from .gravity import _Plan\n")
+    (pkg / "tiles" / "dispatch.py").write_text(
+        "from .. import _checks\nfrom ..pose.gravity import _Plan, level\nfrom ..pose import gravity\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    assert _private_imports("worldgraph.pose.frames", pkg / "pose" / "frames.py") == []
+    assert _private_imports("worldgraph.tiles.dispatch", pkg / "tiles" / "dispatch.py") == [
+        ("worldgraph.pose.gravity", "_Plan")]

@@ -23,7 +23,7 @@ from perception.simulate import simulate_percepts
 from worldgraph.errors import NonRigidError, OutOfRangeError, UnknownGeometryError
 from worldgraph.model import ObjectModel, ObjectTable, room_from_trimesh
 from worldgraph.model.objects import _check_type_name
-from worldgraph.model.scene_nodes import _default_type, _geometry_nodes, _rotation_and_scale, _vertices
+from worldgraph.model.scene_nodes import _geometry_nodes, _rotation_and_scale, _vertices, default_type
 
 SIZES = {"chair": (0.4375, 0.4375, 0.875), "door": (0.875, 0.0625, 2.0),
          "socket": (0.078125, 0.015625, 0.078125), "switch": (0.078125, 0.015625, 0.078125),
@@ -127,7 +127,7 @@ def _reference_from_trimesh(scene, type_of=None):
         if verts is None:
             empty.append(str(node))
             continue
-        typ = type_of(node, geometry) if type_of is not None else _default_type(scene, node, geometry)
+        typ = type_of(node, geometry) if type_of is not None else default_type(scene, node, geometry)
         if typ is None:
             continue
         _check_type_name(typ, f"type of node {node!r}")

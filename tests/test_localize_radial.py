@@ -178,9 +178,9 @@ def test_localize_solves_through_the_unchecked_route(monkeypatch) -> None:
     from worldgraph.localization import radial as loc
     world, views = _kitchen_views(2, seed=5)
     checks, trusted = [], []
-    real_arrays, real_trusted = proj.sphere_arrays, loc._project_radii_trusted
+    real_arrays, real_trusted = proj.sphere_arrays, loc.project_radii_unchecked
     monkeypatch.setattr(proj, "sphere_arrays", lambda *a, **k: checks.append(1) or real_arrays(*a, **k))
-    monkeypatch.setattr(loc, "_project_radii_trusted",
+    monkeypatch.setattr(loc, "project_radii_unchecked",
                         lambda *a, **k: trusted.append(1) or real_trusted(*a, **k))
     for percepts in views:
         res = localize(world, percepts)

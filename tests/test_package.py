@@ -119,7 +119,7 @@ def _returned(node):
 
 
 #: Failure helpers and the position of their status argument.
-_FAILERS = {"_failed": 0, "failed": 0, "_nan_estimate": 1}
+_FAILERS = {"poseless_result": 0, "failed": 0, "_nan_estimate": 1}
 
 
 def _returned_statuses(path):

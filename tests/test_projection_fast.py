@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 import radialopt as ro
 import radialopt.projection as proj
 from radialopt._ldp import _least_distance_dense
-from radialopt.projection import _Problem, _project_radii_trusted
+from radialopt.projection import _Problem, project_radii_unchecked
 from tests.problems import sphere_sets
 
 
@@ -33,7 +33,7 @@ def grid_spheres(draw, min_n: int = 2, max_n: int = 6):
 def test_checked_and_unchecked_routes_give_the_same_answer(spheres):
     for method in ("active_set", "paper") if len(spheres) <= 5 else ("active_set",):
         checked = ro.project_radii(spheres, method=method)
-        trusted = _project_radii_trusted(*arrays(spheres), method=method)
+        trusted = project_radii_unchecked(*arrays(spheres), method=method)
         np.testing.assert_allclose(trusted.radii, checked.radii, rtol=0, atol=1e-12)
         assert trusted.status == checked.status
         assert trusted.active_rows == checked.active_rows
@@ -84,7 +84,7 @@ def test_small_core_is_the_route_taken_and_its_fallback_gives_the_same_answer(mo
 def test_unchecked_route_still_names_coincident_centres():
     c = np.array([[0.0, 0, 0], [1.0, 0, 0], [1.0, 0, 0]])
     with pytest.raises(ro.CoincidentCentersError, match="1 and 2"):
-        _project_radii_trusted(c, np.array([0.1, 0.1, 0.1]), np.full(3, 0.1))
+        project_radii_unchecked(c, np.array([0.1, 0.1, 0.1]), np.full(3, 0.1))
 
 
 def test_public_route_keeps_its_input_checks():

@@ -18,7 +18,7 @@ from perception import Percept
 from worldgraph.errors import ArgumentTypeError, OutOfRangeError
 from worldgraph.localization import localize, validate
 from worldgraph.pose import refine_pose
-from worldgraph.pose.gravity import _FREE, TILT_GATE, TiltPrior, _Plan
+from worldgraph.pose.gravity import FREE_SEARCH, TILT_GATE, SearchPlan, TiltPrior
 from worldgraph.pose.validation import PoseFit
 from worldgraph.tolerances import ASSOCIATION_TOLERANCES
 
@@ -188,7 +188,7 @@ def _fit(pose: np.ndarray, cost: float) -> PoseFit:
                    np.arange(4), cost)
 
 
-def _ctx(plan: _Plan) -> SimpleNamespace:
+def _ctx(plan: SearchPlan) -> SimpleNamespace:
     settings = SimpleNamespace(tol=ASSOCIATION_TOLERANCES, pos_tol=0.25, rot_tol=math.radians(5.0), plan=plan)
     return SimpleNamespace(region=ro.Region(np.full(3, -50.0), np.full(3, 50.0)), explicit_region=False,
                            settings=settings, notes=[])
@@ -199,11 +199,11 @@ def test_a_rival_tilted_beyond_the_allowance_does_not_make_a_gravity_answer_ambi
     on_its_side = _pose(30.0, tilt_deg=90.0)
     on_its_side[:3, 3] += [1.0, 2.0, 0.0]
     rival = _fit(on_its_side, 11.0)
-    gravity = _Plan(EZ.copy(), None, True)
+    gravity = SearchPlan(EZ.copy(), None, True)
     chosen, choice = validate._choose_step(_ctx(gravity), [(best, 0), (rival, 1)], False)
     assert chosen is best and not choice.ambiguous
     # the free search knows no up: the same rival is a rival
-    _, choice = validate._choose_step(_ctx(_FREE), [(best, 0), (rival, 1)], False)
+    _, choice = validate._choose_step(_ctx(FREE_SEARCH), [(best, 0), (rival, 1)], False)
     assert choice.ambiguous
     # and a level rival is one for the gravity search too
     level = _pose(30.0)

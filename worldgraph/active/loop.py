@@ -18,7 +18,7 @@ from ..errors import ArgumentTypeError, OutOfRangeError
 from ..localization.pipeline import localize
 from ..localization.result import LocalizationResult, PoseStatus
 from ..model import WorldModel
-from ..pose.gravity import Gravity, _check_gravity, _check_up_sigma
+from ..pose.gravity import Gravity, check_gravity, check_up_sigma
 from ..tolerances import (
     ASSOCIATION_TOLERANCES,
     AssociationTolerances,
@@ -197,8 +197,8 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     tol = _tol_argument("active_localize", tol, tolerances)
     tol = ASSOCIATION_TOLERANCES if tol is None else tol
     current = check_world_and_percepts(world, percepts)
-    _check_gravity(gravity, tol)  # a bad gravity (or up_sigma) fails before the first look
-    _check_up_sigma(up_sigma, tol)
+    check_gravity(gravity, tol)  # a bad gravity (or up_sigma) fails before the first look
+    check_up_sigma(up_sigma, tol)
     learn_cap = max_sights is None
     cap = None if max_sights is None else strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
     detection = positive_float("detection", detection, maximum=1.0)

@@ -19,7 +19,7 @@ from .._checks import as_list
 from ..errors import NonFiniteError, UnknownTypeError
 from ..localization.result import LocalizationResult
 from ..model import WorldModel
-from ..pose.validation import _pose_error
+from ..pose.validation import pose_difference
 from ..tolerances import (
     COSINE_ROUNDING,
     NORM_FLOOR,
@@ -292,7 +292,7 @@ def _prior(result: LocalizationResult, poses: list[NDArray[np.float64]], weights
             vals = np.clip(vals, max(top * PD_RTOL, POSE_VARIANCE_FLOOR), None)
             prior = (vecs / vals) @ vecs.T + vague
     T0 = poses[0]
-    dev = np.array([_pose_error(T0, T) for T in poses])
+    dev = np.array([pose_difference(T0, T) for T in poses])
     centred = dev - weights @ dev
     return 0.5 * (prior + prior.T), (centred * weights[:, None]).T @ centred
 

@@ -55,14 +55,14 @@ from ..errors import (
 from ..model import WorldModel
 from ..model.units import UnitsWarning, units_hint
 from ..pose.gravity import (
-    _FREE,
+    FREE_SEARCH,
     Gravity,
-    _check_gravity,
-    _levelled,
-    _Plan,
-    _tol_for,
-    _unlevelled_pose,
-    _unsupported,
+    SearchPlan,
+    check_gravity,
+    levelled_percepts,
+    tolerances_for_plan,
+    unlevelled_pose,
+    unsupported_reason,
 )
 from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _resolved_tol
 from .cliques import CliqueSearch, maximum_cliques
@@ -175,11 +175,12 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
         raise WorldGraphError(f"method must be one of {ASSOCIATION_METHODS}, got {method!r}")
     percepts = _check_inputs(world, percepts)
     tol = _resolved_tol("associate", tol, tolerances)
-    plan = _check_gravity(gravity, tol)
-    hyps = _associate_searched(world, percepts, tol, method, max_hypotheses, plan)
+    plan = check_gravity(gravity, tol)
+    hyps = associate_searched(world, percepts, tol, method, max_hypotheses, plan)
     if plan.fallback and plan.up is not None and method != "paper" and (
-            not hyps or _unsupported(hyps[0].world_from_ego, hyps[0].inliers, len(percepts), plan.up, tol)):
-        hyps = _associate_searched(world, percepts, tol, method, max_hypotheses, _FREE)
+            not hyps
+            or unsupported_reason(hyps[0].world_from_ego, hyps[0].inliers, len(percepts), plan.up, tol)):
+        hyps = associate_searched(world, percepts, tol, method, max_hypotheses, FREE_SEARCH)
     if not hyps:
         hint = units_hint(world, percepts)
         if hint is not None:
@@ -187,15 +188,16 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     return hyps
 
 
-def _associate_searched(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances, method: str,
-                        max_hypotheses: int | None, plan: _Plan) -> list[AssociationHypothesis]:
+def associate_searched(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances, method: str,
+                        max_hypotheses: int | None, plan: SearchPlan) -> list[AssociationHypothesis]:
     """``_associate`` with the plan's search: the percepts levelled for the gravity search,
     the hypotheses' poses of the ego frame as given, each marked with its search.  The paper's
     filters use no gravity: the free search."""
     if method == "paper":
-        plan = _FREE
-    hyps = _associate(world, _levelled(percepts, plan.level), _tol_for(plan, tol), method, max_hypotheses)
-    return [replace(h, world_from_ego=_unlevelled_pose(h.world_from_ego, plan.level), search=plan.search)
+        plan = FREE_SEARCH
+    hyps = _associate(world, levelled_percepts(percepts, plan.level), tolerances_for_plan(plan, tol), method,
+                      max_hypotheses)
+    return [replace(h, world_from_ego=unlevelled_pose(h.world_from_ego, plan.level), search=plan.search)
             for h in hyps]
 
 

@@ -17,7 +17,6 @@
 package); to patch a function the pipeline calls, patch it in the module that holds it.
 """
 
-from .paper import _eq5_rotation as _eq5_rotation
 from .pipeline import (
     LOCALIZE_METHODS,
     MAX_POSITION_3SIGMA,
@@ -27,8 +26,6 @@ from .pipeline import (
     localize,
 )
 from .pipeline import MIN_ROOM_SIZE as MIN_ROOM_SIZE
-from .pipeline import _answered_by_free_search as _answered_by_free_search
-from .pipeline import _gravity_unsupported as _gravity_unsupported
 from .radial import CANDIDATE_DENSITY_RATIO as CANDIDATE_DENSITY_RATIO
 from .radial import MAX_CVXPY_SPHERES as MAX_CVXPY_SPHERES
 from .radial import MAX_RADIAL_SPHERES as MAX_RADIAL_SPHERES
@@ -45,7 +42,6 @@ from .result import (
 )
 from .validate import ASSOCIATION_CANDIDATES as ASSOCIATION_CANDIDATES
 from .validate import MAX_VALIDATED as MAX_VALIDATED
-from .validate import _same_pose as _same_pose
 
 __all__ = [
     "LOCALIZE_METHODS",

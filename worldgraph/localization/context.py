@@ -17,10 +17,10 @@ from perception import Percept
 
 from ..association.hypotheses import AssociationHypothesis
 from ..model import WorldModel
-from ..pose.gravity import TiltPrior, _Plan
+from ..pose.gravity import SearchPlan, TiltPrior
 from ..pose.validation import NearestObjects
 from ..tolerances import AssociationTolerances
-from .result import LocalizationResult, LocalizeStatus, _failed
+from .result import LocalizationResult, LocalizeStatus, poseless_result
 
 
 def _remap(h: AssociationHypothesis, idx: NDArray[np.intp]) -> AssociationHypothesis:
@@ -44,7 +44,7 @@ class _Settings:
     solver: str  # "active_set" or an installed cvxpy solver's name, upper case
     check: bool
     certify: bool
-    plan: _Plan  # the search: gravity (about which up vector) or free, and whether "auto" may fall back
+    plan: SearchPlan  # the search: gravity (about which up vector) or free, and whether "auto" may fall back
     tilt_sd: float = math.inf  # the tilt prior's standard deviation (rad) for the gravity search; inf: none
 
     @property
@@ -75,7 +75,8 @@ class _Call:
     def failed(self, status: LocalizeStatus, message: str, hyps: tuple = (), ambiguous: bool = False
                ) -> LocalizationResult:
         self.timings["total"] = time.perf_counter() - self.t_start
-        return _failed(status, "; ".join(self.notes + [message]), self.n_all, hyps, self.timings, ambiguous)
+        return poseless_result(status, "; ".join(self.notes + [message]), self.n_all, hyps, self.timings,
+                               ambiguous)
 
 
 @dataclass

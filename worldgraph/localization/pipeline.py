@@ -55,19 +55,19 @@ from perception import Percept
 from .._checks import float_array, generator, positive_float
 from ..association.consistency import MAX_COORDINATE, check_world_and_percepts
 from ..association.hypotheses import AssociationHypothesis
-from ..association.matching import _associate_searched
+from ..association.matching import associate_searched
 from ..errors import ArgumentTypeError, OutOfRangeError, UnknownTypeError, WorldGraphError
 from ..model import WorldModel
 from ..model.units import units_hint
 from ..pose.gravity import (
-    _FREE,
+    FREE_SEARCH,
     Gravity,
     SearchKind,
-    _check_gravity,
-    _check_up_sigma,
-    _Plan,
-    _tilt_contradiction,
-    _unsupported,
+    SearchPlan,
+    check_gravity,
+    check_up_sigma,
+    tilt_contradiction,
+    unsupported_reason,
 )
 from ..pose.validation import CHI2_3_GATE, NearestObjects, percept_covariances
 from ..tolerances import ASSOCIATION_TOLERANCES, RIGID_TOLERANCE, AssociationTolerances, _tol_argument
@@ -75,6 +75,16 @@ from .context import _Call, _Context, _Settings
 from .paper import _paper
 from .result import _POSELESS_STATUSES, LOCALIZE_STATUSES, POSE_STATUSES, LocalizationResult, _without_pose
 from .validate import ASSOCIATION_CANDIDATES, _validated
+
+__all__ = [
+    "LOCALIZE_METHODS",
+    "MAX_POSITION_3SIGMA",
+    "MAX_ROTATION_3SIGMA",
+    "MIN_ROOM_SIZE",
+    "REGION_MARGIN",
+    "default_region",
+    "localize",
+]
 
 #: ``"ml"``: the maximum-likelihood 6D pose from the full 3D percepts (their covariances);
 #: ``"spheres"``: the range-only maximum-likelihood position of the Gaussian spheres
@@ -232,31 +242,32 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
     with _raised_as_worldgraph_errors(settings.method):
         result = _localize(world, percepts, settings, t_start)
         n_used = sum(1 for p in percepts if p.type in world.type_index)
-        why = _gravity_unsupported(result, settings.plan, settings.tol, settings.method, n_used)
+        why = gravity_unsupported(result, settings.plan, settings.tol, settings.method, n_used)
         if why:
-            free = _localize(world, percepts, replace(settings, plan=_FREE), t_start)
-            result = _answered_by_free_search(free, result, why)
-    return _tilt_checked(_sane(result, len(percepts)), settings.plan, settings.tol)
+            free = _localize(world, percepts, replace(settings, plan=FREE_SEARCH), t_start)
+            result = answered_by_free_search(free, result, why)
+    return tilt_checked(_sane(result, len(percepts)), settings.plan, settings.tol)
 
 
-def _tilt_checked(result: LocalizationResult, plan: _Plan, tol: AssociationTolerances) -> LocalizationResult:
+def tilt_checked(result: LocalizationResult, plan: SearchPlan,
+                 tol: AssociationTolerances) -> LocalizationResult:
     """``result``, made ``"inconsistent"`` when its pose contradicts the gravity the call was
-    given (``_tilt_contradiction``; only statuses that trust their
+    given (``tilt_contradiction``; only statuses that trust their
     pose, ``"ok"``, ``"weak"``, ``"ambiguous"``, change; the pose stays for diagnosis)."""
     if result.status not in POSE_STATUSES:
         return result
-    why = _tilt_contradiction(result.transformation, plan, tol)
+    why = tilt_contradiction(result.transformation, plan, tol)
     if not why:
         return result
     return replace(result, status="inconsistent", ambiguous=False,
                    message="; ".join(m for m in (why, f"(was {result.status!r})", result.message) if m))
 
 
-def _gravity_unsupported(result: LocalizationResult, plan: _Plan, tol: AssociationTolerances, method: str,
+def gravity_unsupported(result: LocalizationResult, plan: SearchPlan, tol: AssociationTolerances, method: str,
                          n_used: int) -> str:
     """Why ``gravity="auto"`` falls back from the gravity pass's ``result`` (of ``n_used``
     percepts of known types) to the free search, "" when it keeps it
-    (``_unsupported``, with the pass's status)."""
+    (``unsupported_reason``, with the pass's status)."""
     if not plan.fallback or plan.up is None or method == "paper" or result.search != "gravity":
         return ""
     if result.status == "too_few_percepts":
@@ -266,11 +277,11 @@ def _gravity_unsupported(result: LocalizationResult, plan: _Plan, tol: Associati
     # but not matched), at least its matches
     explained = int(np.count_nonzero(result.residuals ** 2 <= CHI2_3_GATE))
     support = max(len(result.correspondences), explained)
-    why = _unsupported(result.transformation, support, n_used, plan.up, tol)
+    why = unsupported_reason(result.transformation, support, n_used, plan.up, tol)
     return f"{why} ({result.status})" if why else ""
 
 
-def _answered_by_free_search(free: LocalizationResult, gravity_pass: LocalizationResult, why: str
+def answered_by_free_search(free: LocalizationResult, gravity_pass: LocalizationResult, why: str
                              ) -> LocalizationResult:
     """The free search's answer, its message saying why the gravity pass was not kept and its
     timings holding the gravity pass's total as ``"gravity_pass"``."""
@@ -314,9 +325,9 @@ def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str
     if not big <= MAX_COORDINATE:
         raise OutOfRangeError(f"world positions reach {big:.3g} m; localize handles coordinates up to "
                               f"{MAX_COORDINATE:g} m (shift the world's origin)")
-    plan = _check_gravity(gravity, tol)
+    plan = check_gravity(gravity, tol)
     return checked, _Settings(method, tol, box, gen, pos_tol, rot_tol, solver_name, bool(check),
-                              bool(certify), plan, _check_up_sigma(up_sigma, tol))
+                              bool(certify), plan, check_up_sigma(up_sigma, tol))
 
 
 @contextmanager
@@ -424,7 +435,7 @@ def _associate_step(call: _Call) -> list[AssociationHypothesis]:
     t0 = time.perf_counter()
     tol = call.settings.tol
     how = "paper" if call.settings.method == "paper" else "clique"
-    hyps = _associate_searched(call.world, call.used, tol, how,
+    hyps = associate_searched(call.world, call.used, tol, how,
                                max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES), call.settings.plan)
     call.timings["association"] = time.perf_counter() - t0
     return hyps

@@ -14,7 +14,7 @@ from scipy.stats import chi2
 
 import radialopt as ro
 from perception import Percept
-from radialopt.projection import _project_radii_trusted
+from radialopt.projection import project_radii_unchecked
 
 from .._checks import strict_int
 from ..association.consistency import check_world_and_percepts
@@ -111,7 +111,7 @@ def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]], check: bool | None 
     ``check`` (default: the call's ``check``) verifies the answer against vertex enumeration up
     to ``radialopt.MAX_VERTEX_SPHERES`` spheres.  The world and the percepts were checked on
     entry (:func:`check_world_and_percepts`), so the spheres' arrays go to radialopt's unchecked
-    route (``radialopt.projection._project_radii_trusted``): the same answer as
+    route (``radialopt.projection.project_radii_unchecked``): the same answer as
     ``project_radii(match_spheres(...)[2], ...)`` without validating them again per hypothesis.
     """
     sph = _distinct_centres(ctx.world, pairs)
@@ -130,8 +130,8 @@ def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]], check: bool | None 
             ctx.notes.append(note)
     centers, radii, sigmas = ctx.world.positions[o_i], ctx.ranges[p_i], ctx.sigmas[p_i]
     if ctx.settings.solver == "active_set":
-        return _project_radii_trusted(centers, radii, sigmas, method="active_set", check=check)
-    return _project_radii_trusted(centers, radii, sigmas, method="cvxpy", solver=ctx.settings.solver,
+        return project_radii_unchecked(centers, radii, sigmas, method="active_set", check=check)
+    return project_radii_unchecked(centers, radii, sigmas, method="cvxpy", solver=ctx.settings.solver,
                                   check=check)
 
 

@@ -17,6 +17,17 @@ from ..association.hypotheses import AssociationHypothesis
 from ..errors import PoseError
 from ..pose.gravity import SearchKind
 
+__all__ = [
+    "FailureStatus",
+    "LOCALIZE_STATUSES",
+    "LocalizationResult",
+    "LocalizeStatus",
+    "POSE_STATUSES",
+    "PoseStatus",
+    "UNIQUE_STATUSES",
+    "UniqueStatus",
+]
+
 #: Statuses of a unique answer (:attr:`LocalizationResult.unique`).
 UniqueStatus = Literal[
     "ok",                    # a unique pose, well determined, consistent with its matches
@@ -322,15 +333,17 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-def _failed(status: LocalizeStatus, message: str, n: int, hyps: tuple = (), timings: dict | None = None,
-            ambiguous: bool = False) -> LocalizationResult:
+def poseless_result(status: LocalizeStatus, message: str, n: int, hyps: tuple = (),
+                    timings: dict | None = None, ambiguous: bool = False) -> LocalizationResult:
+    """A result without a pose: ``status`` and ``message``, NaN pose and covariances, ``n``
+    NaN residuals, the hypotheses tried."""
     nan3 = np.full(3, np.nan)
     return LocalizationResult(np.full((4, 4), np.nan), nan3, np.full((3, 3), np.nan), (), hyps,
                               ambiguous, status, message, timings or {}, residuals=np.full(n, np.nan))
 
 
 def _without_pose(result: LocalizationResult) -> LocalizationResult:
-    """``result`` with every field that a pose determines as ``_failed`` leaves it (NaN
+    """``result`` with every field that a pose determines as ``poseless_result`` leaves it (NaN
     transformation, position and covariances, NaN residuals, no inliers, no alternatives, no
     certificate); the matches, hypotheses, position estimate, message and timings stay for
     diagnosis.  What a status of ``_POSELESS_STATUSES`` gets whatever built it."""

@@ -15,16 +15,16 @@ from numpy.typing import NDArray
 from ..association.hypotheses import AssociationHypothesis
 from ..errors import PoseError
 from ..pose.certificate import solve_pose_sdp
-from ..pose.frames import REFINE_MAX_ITER, _refine, pose_information, transformation, weighted_rotation
+from ..pose.frames import REFINE_MAX_ITER, ml_refine, pose_information, transformation, weighted_rotation
 from ..pose.gravity import TILT_GATE, TILT_SLACK, TiltPrior, tilt_angle
 from ..pose.validation import (
     CHI2_6_GATE,
     PoseFit,
-    _pose_error,
-    _pose_nees,
     calibrated_pose_covariance,
     fit_hypothesis,
     pose_cost,
+    pose_difference,
+    pose_nees,
     ros_pose_covariance,
     rotation_only_covariance,
     shared_range_covariance,
@@ -86,7 +86,7 @@ def _fit_step(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> _Fits:
     for h_i, h in enumerate(hyps_local):
         if len(fits) >= MAX_VALIDATED:
             break
-        if any(_pose_nees(f.world_from_ego, f.pose_covariance, h.world_from_ego) <= CHI2_6_GATE
+        if any(pose_nees(f.world_from_ego, f.pose_covariance, h.world_from_ego) <= CHI2_6_GATE
                for f, _ in fits.values()):
             continue  # its pose lies inside a fit's 3-sigma ellipsoid: it would converge there
         # from the clique alone, and from the clique with the association's validated matches:
@@ -165,7 +165,7 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
         (same if _same_pose(best.world_from_ego, f.world_from_ego, ctx.settings) else others).append(f)
     others = _level_enough(ctx, others)
     runners = [f for f in others if f.cost - best.cost < tol.ambiguity_margin
-               and _pose_nees(best.world_from_ego, best.pose_covariance, f.world_from_ego) > CHI2_6_GATE]
+               and pose_nees(best.world_from_ego, best.pose_covariance, f.world_from_ego) > CHI2_6_GATE]
     spread = _same_pose_spread(best, same)
     if spread is not None:
         ctx.notes.append(f"{len(same)} other fit(s) at the same pose (other objects of the percepts' "
@@ -209,7 +209,7 @@ def _same_pose(a: NDArray, b: NDArray, settings: _Settings) -> bool:
     at most ``(0.71 d)^2`` to the variance, which keeps the 3-sigma bound of a sharp fit inside
     the tolerance) and than the association's ``distinct_translation`` and ``distinct_angle``
     (so lenient tolerances never merge two places into one wide answer)."""
-    e = _pose_error(a, b)
+    e = pose_difference(a, b)
     tol = settings.tol
     return bool(np.linalg.norm(e[:3]) < min(settings.pos_tol / 3.0, tol.distinct_translation)
                 and np.linalg.norm(e[3:]) < min(settings.rot_tol / 3.0, tol.distinct_angle))
@@ -224,7 +224,7 @@ def _same_pose_spread(best: PoseFit, same: list[PoseFit]) -> NDArray[np.float64]
         return None
     w = np.exp(-0.5 * np.array([f.cost - best.cost for f in same]))
     w = w / (1.0 + w.sum())
-    d = np.array([_pose_error(best.world_from_ego, f.world_from_ego) for f in same])
+    d = np.array([pose_difference(best.world_from_ego, f.world_from_ego) for f in same])
     return (d * w[:, None]).T @ d
 
 
@@ -265,7 +265,7 @@ def _tilted(ctx: _Context, pose: NDArray, information: NDArray, p_i: NDArray, ce
     # the context's arrays are checked already, and the pose is the matches' ML pose (the
     # validated fit or the SDP's): the fit itself, without refine_pose's checks and global search
     try:
-        tilted, info, tilt_chi2 = _refine(ctx.ego[p_i], centers, ctx.covs[p_i], pose, REFINE_MAX_ITER,
+        tilted, info, tilt_chi2 = ml_refine(ctx.ego[p_i], centers, ctx.covs[p_i], pose, REFINE_MAX_ITER,
                                           REFINE_TOL, prior, search=False)
     except (PoseError, np.linalg.LinAlgError):
         return pose, information, None

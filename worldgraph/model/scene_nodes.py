@@ -19,6 +19,15 @@ from ..errors import (
 )
 from .objects import MAX_COORDINATE, ObjectModel, ObjectTable, _check_unique_ids, _rotation_errors
 
+__all__ = [
+    "DEFAULT_ROOM_HEIGHT",
+    "FLAT_FLOOR_RATIO",
+    "ROOM_TYPES",
+    "TALL_RATIO",
+    "TALL_SPREAD",
+    "room_from_trimesh",
+]
+
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
 
@@ -50,7 +59,7 @@ def _check_room(room: Any, what: str = "room") -> radialopt.Region | None:
         raise WorldGraphError(f"{what} = {_checks._short(room)} is not a valid box: {exc}") from exc
 
 
-def _default_type(scene: trimesh.Scene, node: str, geometry: Any) -> Any:
+def default_type(scene: trimesh.Scene, node: str, geometry: Any) -> Any:
     """The type of a scene node by the default rule of :meth:`WorldModel.from_trimesh`."""
     meta = None
     parent = scene.graph.transforms.parents.get(node)
@@ -78,7 +87,7 @@ def _world_bounds(matrix: NDArray[np.float64], bounds: NDArray[np.float64]) -> N
     return np.array([world.min(axis=0), world.max(axis=0)])
 
 
-def _check_scene(scene: Any) -> None:
+def check_scene(scene: Any) -> None:
     try:
         import trimesh as _trimesh
     except ImportError as exc:  # pragma: no cover
@@ -203,13 +212,13 @@ def room_from_trimesh(scene: trimesh.Scene) -> radialopt.Region | None:
     nodes; the upper z is the bottom of the ceiling (the lowest), else the top of the walls, else
     the lower z + :data:`DEFAULT_ROOM_HEIGHT`.
     """
-    _check_scene(scene)
+    check_scene(scene)
     meta = getattr(scene, "metadata", None) or {}
     if isinstance(meta, Mapping) and meta.get("room") is not None:
         return _check_room(meta["room"], 'scene.metadata["room"]')
     found: dict[str, list[NDArray[np.float64]]] = {t: [] for t in ROOM_TYPES}
     for node, matrix, geom_name, geometry in _geometry_nodes(scene):
-        typ = _default_type(scene, node, geometry)
+        typ = default_type(scene, node, geometry)
         if isinstance(typ, str) and typ in found:
             bounds = _vertex_bounds(f"vertices of geometry {geom_name!r}", geometry)
             if bounds is not None:
@@ -241,7 +250,7 @@ def _likely_up(scene: trimesh.Scene, positions: NDArray[np.float64]
     """
     floors = []
     for node, matrix, geom_name, geometry in _geometry_nodes(scene):
-        if _default_type(scene, node, geometry) == "floor":
+        if default_type(scene, node, geometry) == "floor":
             bounds = _vertex_bounds(f"vertices of geometry {geom_name!r}", geometry)
             if bounds is not None:
                 floors.append(_world_bounds(matrix, bounds))

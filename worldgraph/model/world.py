@@ -54,8 +54,6 @@ from .scene_files import typed_scene, z_up_from
 from .scene_nodes import (
     ROOM_TYPES,
     _check_room,
-    _check_scene,
-    _default_type,
     _fast_vertex_bounds,
     _geometry_nodes,
     _likely_up,
@@ -63,6 +61,8 @@ from .scene_nodes import (
     _scene_nodes,
     _trimesh_table,
     _world_bounds,
+    check_scene,
+    default_type,
 )
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -153,7 +153,7 @@ class WorldModel:
         if not len(objects):
             raise EmptyWorldError("objects must hold at least one object (an ObjectModel), got 0")
         if self.scene is not None:
-            _check_scene(self.scene)
+            check_scene(self.scene)
         if table is None:
             for k, obj in enumerate(objects):
                 if not isinstance(obj, ObjectModel):
@@ -342,7 +342,7 @@ class WorldModel:
         ``|x| <=`` :data:`MAX_COORDINATE`.  An exception inside ``type_of`` is re-raised as a
         :class:`~worldgraph.errors.WorldGraphError` naming the node.
         """
-        _check_scene(scene)
+        check_scene(scene)
         if type_of is not None and not callable(type_of):
             raise ArgumentTypeError(f"type_of must be a callable or None, got {_checks._short(type_of)}")
         auto = isinstance(room, str)
@@ -369,7 +369,7 @@ class WorldModel:
             else:
                 bounds = bounds_of[geom_name] = _fast_vertex_bounds(f"vertices of geometry {geom_name!r}",
                                                                     geometry)
-            default = _default_type(scene, node, geometry) if auto or type_of is None else None
+            default = default_type(scene, node, geometry) if auto or type_of is None else None
             if auto and bounds is not None and isinstance(default, str) and default in found:
                 found[default].append(_world_bounds(matrices[k], bounds))
             if bounds is None:  # an empty Trimesh or PointCloud: nothing to perceive

@@ -543,7 +543,7 @@ def _refine_pose(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int 
     definite; a rigid start): the scale test, the fit, numerical failures as PoseError."""
     _finite_scale(x, y, C)
     try:
-        pose, information, _ = _refine(x, y, C, T0, max_iter, tol, tilt_prior)
+        pose, information, _ = ml_refine(x, y, C, T0, max_iter, tol, tilt_prior)
         return pose, information
     except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
         if isinstance(exc, PoseError):
@@ -569,7 +569,7 @@ def _data_cost(x: NDArray, y: NDArray, Cinv: NDArray, R: NDArray, t: NDArray) ->
     return float(np.einsum("ka,kab,kb->", r, Cinv, r))
 
 
-def _refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol: float,
+def ml_refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol: float,
             tilt_prior: TiltPrior | None = None, search: bool = True
             ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """``(world_from_ego, information, tilt_chi2)``: the ML pose of the data (then, with

@@ -27,7 +27,7 @@ With gravity known (``"auto"`` or an up vector), :func:`~worldgraph.localize` gi
 success (``"inconsistent"``, the message naming the likely mistake, e.g. percepts in a camera
 frame) for a pose that tilts the ego up vector more than
 :data:`~worldgraph.tolerances.MAX_EGO_TILT` (45 degrees) from world up, or, with an explicit up
-vector, more than ``tilt_allowance`` plus :data:`TILT_SLACK` (``_tilt_contradiction``).
+vector, more than ``tilt_allowance`` plus :data:`TILT_SLACK` (``tilt_contradiction``).
 
 The result says which search answered (``LocalizationResult.search``,
 ``AssociationHypothesis.search``).  ``AssociationTolerances.gravity_aligned`` (when not None)
@@ -92,7 +92,7 @@ MIN_TILT_SD = math.radians(0.1)
 _EZ = np.array([0.0, 0.0, 1.0])
 
 
-def _check_up_sigma(up_sigma: object, tol: AssociationTolerances) -> float:
+def check_up_sigma(up_sigma: object, tol: AssociationTolerances) -> float:
     """The tilt prior's standard deviation (rad) of a call: ``up_sigma``, or by default
     ``tol.tilt_allowance / TILT_PRIOR_SIGMAS`` (at least :data:`MIN_TILT_SD`); ``inf``: no prior."""
     if up_sigma is None:
@@ -170,7 +170,7 @@ class TiltPrior:
 
 
 @dataclass(frozen=True)
-class _Plan:
+class SearchPlan:
     """One call's search: ``up`` the unit up vector in the ego frame (None: the free search),
     ``level`` the rotation that takes ego vectors into the levelled frame (None: identity), and
     whether ``"auto"`` may fall back to the free search."""
@@ -184,7 +184,7 @@ class _Plan:
         return "free" if self.up is None else "gravity"
 
 
-_FREE = _Plan(None, None, False)
+FREE_SEARCH = SearchPlan(None, None, False)
 
 
 def level_rotation(up: ArrayLike) -> NDArray[np.float64]:
@@ -260,17 +260,17 @@ def tilt_widening(h: float | NDArray, dz: float | NDArray, tilt: float
     return h * c1 + adz * s, h * s + adz * c1
 
 
-def _check_gravity(gravity: object, tol: AssociationTolerances) -> _Plan:
+def check_gravity(gravity: object, tol: AssociationTolerances) -> SearchPlan:
     """The search of a call from its ``gravity`` argument and ``tol.gravity_aligned``."""
     if isinstance(gravity, str):
         if gravity not in GRAVITY_MODES:
             raise ArgumentTypeError(f"gravity must be 'auto', a (3,) up vector in the ego frame or None, "
                                     f"got {gravity!r}")
         if tol.gravity_aligned is None:
-            return _Plan(_EZ.copy(), None, True)
-        return _Plan(_EZ.copy(), None, False) if tol.gravity_aligned else _FREE
+            return SearchPlan(_EZ.copy(), None, True)
+        return SearchPlan(_EZ.copy(), None, False) if tol.gravity_aligned else FREE_SEARCH
     if gravity is None:
-        return _FREE
+        return FREE_SEARCH
     if isinstance(gravity, bool | np.bool_):
         raise ArgumentTypeError(f"gravity must be 'auto', a (3,) up vector in the ego frame or None, "
                                 f"got {gravity!r} (True: use 'auto' or (0, 0, 1); False: None)")
@@ -286,7 +286,7 @@ def _check_gravity(gravity: object, tol: AssociationTolerances) -> _Plan:
             "knowledge pass gravity=None"
         )
     level = None if math.hypot(u[0], u[1]) < LEVEL_TOLERANCE and u[2] > 0 else level_rotation(u)
-    return _Plan(u, level, False)
+    return SearchPlan(u, level, False)
 
 
 #: OpenCV camera axes in the ego frame's place: world up is then the camera's -y axis.
@@ -296,7 +296,7 @@ _CAMERA_UP = np.array([0.0, -1.0, 0.0])
 _CAMERA_LIKE = math.radians(20.0)
 
 
-def _tilt_contradiction(pose: NDArray[np.float64], plan: _Plan, tol: AssociationTolerances) -> str:
+def tilt_contradiction(pose: NDArray[np.float64], plan: SearchPlan, tol: AssociationTolerances) -> str:
     """Why a pose contradicts the gravity a call was given ("" when it does not, or when the call
     knows no gravity): it tilts the ego up vector more than
     :data:`~worldgraph.tolerances.MAX_EGO_TILT` from world up (any search of ``"auto"``), or
@@ -326,13 +326,13 @@ def _tilt_contradiction(pose: NDArray[np.float64], plan: _Plan, tol: Association
             "this much: pass its up vector (an IMU's) as gravity=, or gravity=None to accept any tilt")
 
 
-def _tol_for(plan: _Plan, tol: AssociationTolerances) -> AssociationTolerances:
+def tolerances_for_plan(plan: SearchPlan, tol: AssociationTolerances) -> AssociationTolerances:
     """``tol`` with ``gravity_aligned`` set to the plan's search."""
     want = plan.up is not None
     return tol if tol.gravity_aligned is want else replace(tol, gravity_aligned=want)
 
 
-def _levelled(percepts: Sequence[Percept], level: NDArray[np.float64] | None) -> list[Percept]:
+def levelled_percepts(percepts: Sequence[Percept], level: NDArray[np.float64] | None) -> list[Percept]:
     """The percepts rotated by ``level`` (positions, covariances and shared loadings)."""
     if level is None:
         return list(percepts)
@@ -344,7 +344,7 @@ def _levelled(percepts: Sequence[Percept], level: NDArray[np.float64] | None) ->
     return out
 
 
-def _unlevelled_pose(pose: NDArray[np.float64], level: NDArray[np.float64] | None) -> NDArray[np.float64]:
+def unlevelled_pose(pose: NDArray[np.float64], level: NDArray[np.float64] | None) -> NDArray[np.float64]:
     """``world_from_level`` as ``world_from_ego``: ``x_level = L x_ego``."""
     if level is None:
         return pose
@@ -353,7 +353,7 @@ def _unlevelled_pose(pose: NDArray[np.float64], level: NDArray[np.float64] | Non
     return out
 
 
-def _unsupported(pose: NDArray[np.float64], n_inliers: int, n_used: int, up: NDArray[np.float64],
+def unsupported_reason(pose: NDArray[np.float64], n_inliers: int, n_used: int, up: NDArray[np.float64],
                  tol: AssociationTolerances) -> str:
     """Why ``gravity="auto"`` does not keep a gravity-pass answer (its pose and the number of
     percepts it explains, of ``n_used``), "" when it does: no pose, fewer explained than

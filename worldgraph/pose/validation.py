@@ -238,19 +238,19 @@ def _pose_cost(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_point
     return float(np.einsum("ka,ka->", r, np.linalg.solve(covs, r[..., None])[..., 0]))
 
 
-def _pose_error(reference: NDArray, other: NDArray) -> NDArray[np.float64]:
+def pose_difference(reference: NDArray, other: NDArray) -> NDArray[np.float64]:
     """``other - reference`` in ROS order: translation, then the rotation vector of
     ``R_other R_reference^T`` (the convention of every ``pose_covariance``)."""
     return np.concatenate([other[:3, 3] - reference[:3, 3], _logm(other[:3, :3] @ reference[:3, :3].T)])
 
 
-def _pose_nees(pose: NDArray, covariance: NDArray | None, other: NDArray) -> float:
+def pose_nees(pose: NDArray, covariance: NDArray | None, other: NDArray) -> float:
     """``e^T C^-1 e`` of ``other`` against ``pose`` and its covariance ``C`` (ROS order; inf
     without a covariance or with a singular one): a pose inside another's 3-sigma ellipsoid
     is the same answer, not an ambiguity."""
     if covariance is None:
         return math.inf
-    e = _pose_error(pose, other)
+    e = pose_difference(pose, other)
     try:
         return float(e @ np.linalg.solve(covariance, e))
     except np.linalg.LinAlgError:

@@ -15,7 +15,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from .. import _checks
-from ..model.scene_nodes import _check_scene
+from ..model.scene_nodes import check_scene
 
 __all__ = ["scene_statistics"]
 
@@ -158,7 +158,7 @@ class _Builder:
 
 def scene_statistics(scene: trimesh.Scene) -> dict[str, int]:
     """Geometry nodes per primitive kind, objects, and vertices counted per instance."""
-    _check_scene(scene)
+    check_scene(scene)
     out = {"box": 0, "cylinder": 0, "polyhedron": 0, "other": 0, "vertices": 0, "objects": 0}
     for node in scene.graph.nodes_geometry:
         geom = scene.geometry[scene.graph[node][1]]

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 from .. import _checks
 from ..errors import WorldGraphError
 from ..model import WorldModel
-from ..model.scene_nodes import _default_type
+from ..model.scene_nodes import default_type
 from ..tolerances import FIT_SLACK
 from .builder import _UP, _Builder, _frame, _link_args, _seed, _translate
 from .furniture import (
@@ -274,7 +274,7 @@ def kitchen_layout(kind: str, seed: int = 0, max_link_length: float = 5.0,
     scene = kitchen_layout_scene(kind, seed)
 
     def type_of(node: str, geometry: object) -> str | None:
-        typ = _default_type(scene, node, geometry)
+        typ = default_type(scene, node, geometry)
         return None if typ in STRUCTURAL_TYPES else typ
 
     return WorldModel.from_trimesh(scene, type_of=type_of, max_link_length=max_link_length,

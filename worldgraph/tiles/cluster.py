@@ -27,12 +27,12 @@ from .. import _checks
 from ..errors import ArgumentTypeError, MalformedFileError, WorldGraphError
 from ..localization.pipeline import (
     LOCALIZE_METHODS,
-    _answered_by_free_search,
-    _gravity_unsupported,
-    _tilt_checked,
+    answered_by_free_search,
+    gravity_unsupported,
+    tilt_checked,
 )
-from ..localization.result import LocalizationResult, LocalizeStatus, _failed
-from ..pose.gravity import Gravity, _check_gravity, _check_up_sigma
+from ..localization.result import LocalizationResult, LocalizeStatus, poseless_result
+from ..pose.gravity import Gravity, check_gravity, check_up_sigma
 from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 from .dispatch import _client
 from .files import TileIndex, load_tile, read_index
@@ -154,8 +154,8 @@ class ClusterTiles:
         tol = ASSOCIATION_TOLERANCES if tol is None else tol
         if not isinstance(tol, AssociationTolerances):
             raise ArgumentTypeError(f"tol must be AssociationTolerances, got {_checks._short(tol)}")
-        plan = _check_gravity(gravity, tol)
-        sigma = _check_up_sigma(up_sigma, tol)
+        plan = check_gravity(gravity, tol)
+        sigma = check_up_sigma(up_sigma, tol)
         if timeout is not None:
             timeout = _checks.positive_float("timeout", timeout)
         items = _checks.as_list("queries", queries, "sequences of perception.Percept")
@@ -177,15 +177,15 @@ class ClusterTiles:
         again = []
         for q, (res, plist) in enumerate(zip(first, lists, strict=True)):
             n_used = sum(1 for p in plist if p.type in self._types)
-            why = _gravity_unsupported(res, plan, tol, method, n_used)
+            why = gravity_unsupported(res, plan, tol, method, n_used)
             if why:
                 again.append((q, why))
         if again:
             free = self._run([lists[q] for q, _ in again], [visits[q] for q, _ in again], [None] * len(again),
                              method, tol, region, sigma, timeout, t_start)
             for (q, why), res in zip(again, free, strict=True):
-                out[q] = _answered_by_free_search(res, out[q], why)
-        return [_tilt_checked(r, plan, tol) for r in out]
+                out[q] = answered_by_free_search(res, out[q], why)
+        return [tilt_checked(r, plan, tol) for r in out]
 
     def _run(self, lists: list[list[Percept]], visits: list[tuple[TileVisit, ...]], ups: list[Any],
              method: str, tol: AssociationTolerances, region: Any, sigma: float, timeout: float | None,
@@ -203,7 +203,7 @@ class ClusterTiles:
             if not ks:
                 few = all(v.reason == "no_types" for v in visit)
                 status: LocalizeStatus = "too_few_percepts" if few else "no_association"
-                res = _failed(status, f"no tile can answer these percepts: {note}", len(plist), (),
+                res = poseless_result(status, f"no tile can answer these percepts: {note}", len(plist), (),
                               {"total": time.perf_counter() - t_start}, False)
                 out.append(res)
                 continue

@@ -19,12 +19,12 @@ from .. import _checks
 from ..errors import ArgumentTypeError, WorldGraphError
 from ..localization.pipeline import (
     LOCALIZE_METHODS,
-    _answered_by_free_search,
-    _gravity_unsupported,
-    _tilt_checked,
+    answered_by_free_search,
+    gravity_unsupported,
+    tilt_checked,
 )
 from ..localization.result import LocalizationResult
-from ..pose.gravity import Gravity, _check_gravity, _check_up_sigma
+from ..pose.gravity import Gravity, check_gravity, check_up_sigma
 from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _tol_argument
 from .pool import TilePool
 from .ranking import _combine, _globalised_answer, _run_tile
@@ -136,8 +136,8 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         if not pool.serves(tiles):
             raise WorldGraphError(f"pool serves other tiles ({len(pool.tiles)} tiles) than the {len(tiles)} "
                                   "given: make a TilePool of these tiles")
-    plan = _check_gravity(gravity, tol)
-    sigma = _check_up_sigma(up_sigma, tol)
+    plan = check_gravity(gravity, tol)
+    sigma = check_up_sigma(up_sigma, tol)
     rngs: list[np.random.Generator | None] = [None] * len(tiles)
     if rng is not None:
         rngs = list(_checks.generator("rng", rng).spawn(len(tiles)))
@@ -148,12 +148,12 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     answer = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, up, sigma) for r in rngs],
                         scheduler, workers, pool, tol, t_start)
     n_used = sum(1 for p in percepts if p.type in world_types)
-    why = _gravity_unsupported(answer, plan, tol, method, n_used)
+    why = gravity_unsupported(answer, plan, tol, method, n_used)
     if why:
         free = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, None, sigma) for r in rngs],
                           scheduler, workers, pool, tol, t_start)
-        answer = _answered_by_free_search(free, answer, why)
-    return _tilt_checked(answer, plan, tol)
+        answer = answered_by_free_search(free, answer, why)
+    return tilt_checked(answer, plan, tol)
 
 
 #: The worlds of tiles scattered to a cluster by :func:`localize_tiled`, kept while the Tile lives:

@@ -25,9 +25,9 @@ from ..pose.validation import (
     CHI2_3_GATE,
     CHI2_6_GATE,
     NearestObjects,
-    _pose_nees,
     fit_hypothesis,
     percept_covariances,
+    pose_nees,
 )
 from ..tolerances import AssociationTolerances
 from .tiling import Tile
@@ -131,7 +131,7 @@ def _combine(labels: Sequence[int], answers: list[_TileAnswer], tol: Association
     res = results[best_k]
     pose = res.transformation
     runners = [k for k in posed[1:] if answers[k].cost - best.cost < tol.ambiguity_margin
-               and _pose_nees(pose, best.fit_covariance, results[k].transformation) > CHI2_6_GATE]
+               and pose_nees(pose, best.fit_covariance, results[k].transformation) > CHI2_6_GATE]
     notes = [res.message] if res.message else []
     notes.append(f"tile {labels[best_k]} of {len(labels)} (robust cost {best.cost:.3g})")
     status = res.status
