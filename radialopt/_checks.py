@@ -31,7 +31,7 @@ def _index(idx: tuple[int | np.integer, ...]) -> str:
     return "[" + ", ".join(str(int(i)) for i in idx) + "]" if idx else ""
 
 
-def real_array(value: Any, name: str, shape: tuple[int | str | None, ...] | None = None,
+def real_array(name: str, value: Any, shape: tuple[int | str | None, ...] | None = None,
                ndim: tuple[int, ...] | None = None, max_abs: float | None = MAX_LENGTH,
                like: str = "") -> NDArray[np.float64]:
     """``value`` as a float64 array of real, finite numbers.
@@ -90,7 +90,7 @@ def real_array(value: Any, name: str, shape: tuple[int | str | None, ...] | None
     return arr
 
 
-def real_scalar(value: Any, name: str, lo: float | None = None, hi: float | None = None,
+def real_scalar(name: str, value: Any, lo: float | None = None, hi: float | None = None,
                 lo_open: bool = False, max_abs: float | None = None) -> float:
     """``value`` as a finite Python float in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
     if isinstance(value, (bool, np.bool_)) or value is None or isinstance(value, (str, bytes, complex)) \
@@ -115,7 +115,7 @@ def real_scalar(value: Any, name: str, lo: float | None = None, hi: float | None
     return out
 
 
-def integer(value: Any, name: str, lo: int | None = None, hi: int | None = None) -> int:
+def integer(name: str, value: Any, lo: int | None = None, hi: int | None = None) -> int:
     """``value`` as a Python int in ``[lo, hi]``; bools, floats (even 3.0), None, str rejected."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
         raise ShapeError(f"{name} must be an integer, got {value!r:.100} ({type(value).__name__})")
@@ -127,12 +127,12 @@ def integer(value: Any, name: str, lo: int | None = None, hi: int | None = None)
     return out
 
 
-def point3(value: Any, name: str) -> NDArray[np.float64]:
+def point3(name: str, value: Any) -> NDArray[np.float64]:
     """A point of shape (3,) with finite coordinates of at most :data:`MAX_LENGTH` metres."""
-    return real_array(value, name, shape=(3,))
+    return real_array(name, value, shape=(3,))
 
 
-def sigma_range(sigmas: NDArray[np.float64], name: str, length_scale: float) -> None:
+def sigma_range(name: str, sigmas: NDArray[np.float64], length_scale: float) -> None:
     """Every sigma > 0 and within ``[MIN_SIGMA_RELATIVE, 1 / MIN_SIGMA_RELATIVE]`` times the length
     scale (the largest coordinate or radius, at least 1 m)."""
     s = np.asarray(sigmas, dtype=np.float64).reshape(-1)
@@ -152,7 +152,7 @@ def sigma_range(sigmas: NDArray[np.float64], name: str, length_scale: float) -> 
             "of the centres and radii)")
 
 
-def instance(value: Any, name: str, cls: type | tuple[type, ...]) -> Any:
+def instance(name: str, value: Any, cls: type | tuple[type, ...]) -> Any:
     """``value`` if it is an instance of ``cls``, else a :class:`ShapeError` naming both."""
     if not isinstance(value, cls):
         names = cls.__name__ if isinstance(cls, type) else " or ".join(c.__name__ for c in cls)
@@ -177,6 +177,6 @@ def dataclass_fields(obj: Any, ints: dict[str, tuple[int | None, int | None]],
     """
     cls = type(obj).__name__
     for name, (lo, hi) in ints.items():
-        object.__setattr__(obj, name, integer(getattr(obj, name), f"{cls}.{name}", lo, hi))
+        object.__setattr__(obj, name, integer(f"{cls}.{name}", getattr(obj, name), lo, hi))
     for name, (flo, fhi, lo_open) in floats.items():
-        object.__setattr__(obj, name, real_scalar(getattr(obj, name), f"{cls}.{name}", flo, fhi, lo_open))
+        object.__setattr__(obj, name, real_scalar(f"{cls}.{name}", getattr(obj, name), flo, fhi, lo_open))

@@ -115,15 +115,15 @@ def srls(centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike,
         across their plane (one point when the solution lies on the plane); an empty
         ``(0, 3)`` array when the centres are collinear or fewer than three.
     """
-    c = real_array(centers, "centers", shape=(None, 3))
-    r = real_array(radii, "radii", shape=(len(c),), like="centers")
-    s = real_array(sigmas, "sigmas", shape=(len(c),), max_abs=MAX_SIGMA, like="centers")
-    rank_tol = real_scalar(rank_tol, "rank_tol", 0.0, 1.0)
+    c = real_array("centers", centers, shape=(None, 3))
+    r = real_array("radii", radii, shape=(len(c),), like="centers")
+    s = real_array("sigmas", sigmas, shape=(len(c),), max_abs=MAX_SIGMA, like="centers")
+    rank_tol = real_scalar("rank_tol", rank_tol, 0.0, 1.0)
     bad = np.flatnonzero(r < 0)
     if bad.size:
         raise NegativeRadiusError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
     if len(c):
-        sigma_range(s, "sigmas", max(float(np.abs(c).max()), float(r.max())))
+        sigma_range("sigmas", s, max(float(np.abs(c).max()), float(r.max())))
     if len(c) < 3:
         return np.zeros((0, 3))
     frame = _Frame.of(c)

@@ -112,7 +112,7 @@ def as_conformal(sphere: GaussianSphere | ArrayLike, name: str = "sphere"
     """
     if isinstance(sphere, GaussianSphere):
         return np.array(sphere.center, dtype=np.float64), sphere.radius**2
-    v = real_array(sphere, name, max_abs=CONFORMAL_MAX)
+    v = real_array(name, sphere, max_abs=CONFORMAL_MAX)
     if v.shape != (5,):
         raise ShapeError(f"{name} must be a GaussianSphere or a conformal 5-vector, got shape "
                          f"{v.shape}: {v!r:.200}")
@@ -251,8 +251,8 @@ class PointBatch:
 # --- batched meets -----------------------------------------------------------------------
 
 def _check_batch(centers: ArrayLike, radii_sq: ArrayLike, m: int) -> tuple[NDArray, NDArray]:
-    c = real_array(centers, "centers", shape=("k", m, 3))
-    r2 = real_array(radii_sq, "radii_sq", shape=c.shape[:2], max_abs=MAX_LENGTH**2)
+    c = real_array("centers", centers, shape=("k", m, 3))
+    r2 = real_array("radii_sq", radii_sq, shape=c.shape[:2], max_abs=MAX_LENGTH**2)
     for name, arr in (("centers", c), ("radii_sq", r2)):
         if not np.all(np.isfinite(arr)):
             raise NonFiniteError(f"{name} must be finite; first bad index "
@@ -321,7 +321,7 @@ def meet2_batch(centers: ArrayLike, radii_sq: ArrayLike,
     -------
     CircleBatch
     """
-    instance(tol, "tol", MeetTolerances)
+    instance("tol", tol, MeetTolerances)
     c, r2 = _check_batch(centers, radii_sq, 2)
     return _chunked(_meet2_rows, c, r2, tol)
 
@@ -369,7 +369,7 @@ def meet3_batch(centers: ArrayLike, radii_sq: ArrayLike,
     PointPairBatch
         ``points[:, 0]`` lies on the ``-axis`` side, ``points[:, 1]`` on the ``+axis`` side.
     """
-    instance(tol, "tol", MeetTolerances)
+    instance("tol", tol, MeetTolerances)
     c, r2 = _check_batch(centers, radii_sq, 3)
     return _chunked(_meet3_rows, c, r2, tol)
 
@@ -421,7 +421,7 @@ def meet4_batch(centers: ArrayLike, radii_sq: ArrayLike,
         ``residual`` is the common power rho^2 of the radical centre (zero iff the four
         spheres share it).
     """
-    instance(tol, "tol", MeetTolerances)
+    instance("tol", tol, MeetTolerances)
     c, r2 = _check_batch(centers, radii_sq, 4)
     return _chunked(_meet4_rows, c, r2, tol)
 
@@ -500,7 +500,7 @@ def meet(*spheres: GaussianSphere | ArrayLike,
     ShapeError, NonFiniteError, NotASphereError
         A sphere that is not a valid sphere.
     """
-    instance(tol, "tol", MeetTolerances)
+    instance("tol", tol, MeetTolerances)
     if len(spheres) < 2:
         raise TooFewSpheresError(f"the meet needs 2 to 4 spheres, got {len(spheres)}")
     if len(spheres) > 4:

@@ -20,12 +20,12 @@ __all__ = ["crlb", "fisher_information"]
 
 def _check_crlb_input(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike
                       ) -> tuple[NDArray, NDArray, NDArray]:
-    c = real_array(centers, "centers", shape=(None, 3))
+    c = real_array("centers", centers, shape=(None, 3))
     if len(c) == 0:
         raise ShapeError("centers must hold at least one centre, got shape (0, 3)")
-    s = real_array(sigmas, "sigmas", shape=(len(c),), max_abs=MAX_SIGMA, like="centers")
-    x = point3(position, "position")
-    sigma_range(s, "sigmas", max(float(np.abs(c).max()), float(np.abs(x).max())))
+    s = real_array("sigmas", sigmas, shape=(len(c),), max_abs=MAX_SIGMA, like="centers")
+    x = point3("position", position)
+    sigma_range("sigmas", s, max(float(np.abs(c).max()), float(np.abs(x).max())))
     return c, s, x
 
 
@@ -92,7 +92,7 @@ def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
         ``u_i`` in a plane (the position on the plane of coplanar centres) or on a line.
     """
     c, s, x = _check_crlb_input(centers, sigmas, position)
-    rcond = real_scalar(rcond, "rcond", 0.0, 1.0)
+    rcond = real_scalar("rcond", rcond, 0.0, 1.0)
     u = _unit_directions(c, x)
     J = np.einsum("ni,nj->ij", u / s[:, None] ** 2, u)
     geometric = np.linalg.eigvalsh(u.T @ u / len(u))

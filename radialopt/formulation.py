@@ -87,7 +87,7 @@ class RadialProblem:
     def __init__(self, n: int, objective: str = "l2", huber_delta: float = 1.0) -> None:
         import cvxpy as cp
 
-        n = integer(n, "n")
+        n = integer("n", n)
         if n < 2:
             raise TooFewSpheresError(f"n must be >= 2 spheres, got n={n}")
         if n > MAX_SPHERES:
@@ -96,7 +96,7 @@ class RadialProblem:
         if not isinstance(objective, str) or objective not in OBJECTIVES:
             raise UnknownMethodError(
                 f"unknown objective={objective!r:.100}; choose one of {', '.join(OBJECTIVES)}")
-        delta = real_scalar(huber_delta, "huber_delta", 0.0, MAX_LENGTH, lo_open=True)
+        delta = real_scalar("huber_delta", huber_delta, 0.0, MAX_LENGTH, lo_open=True)
         self.n = int(n)
         self.objective = objective
         self.huber_delta = delta
@@ -199,22 +199,22 @@ class RadialProblem:
 
     def fix_radius(self, i: int, value: float) -> RadialProblem:
         """Constrain ``radii[i] == value`` (metres)."""
-        i = integer(i, "i")
+        i = integer("i", i)
         if not 0 <= i < self.n:  # no wrap-around: i = -1 is a caller's bug, not the last sphere
             raise ShapeError(f"i = {i!r} must be a sphere index in [0, {self.n})")
-        v = real_scalar(value, "value", 0.0, max_abs=MAX_LENGTH)  # a radius, metres
+        v = real_scalar("value", value, 0.0, max_abs=MAX_LENGTH)  # a radius, metres
         return self._add(lambda x: [x[i] == v], f"fix_radius(i={i}, value={v!r})")
 
     def _vector(self, v: ArrayLike, name: str) -> np.ndarray:
         """``v`` (scalar or (n,)) as an (n,) float array: real, not NaN, finite values of at most
         MAX_LENGTH metres; +-inf allowed (an open side)."""
         try:
-            arr = real_array(v, name, ndim=(0, 1))
+            arr = real_array(name, v, ndim=(0, 1))
         except NonFiniteError:
             arr = np.asarray(v, dtype=np.float64)  # real_array rejected bools etc. before this
             if np.any(np.isnan(arr)):
                 raise
-            real_array(np.where(np.isinf(arr), 0.0, arr), name, ndim=(0, 1))  # range of the rest
+            real_array(name, np.where(np.isinf(arr), 0.0, arr), ndim=(0, 1))  # range of the rest
         if arr.ndim == 1 and arr.shape != (self.n,):
             raise ShapeError(f"{name} must be a scalar or shape ({self.n},), got shape {arr.shape}")
         return np.broadcast_to(arr, (self.n,)).copy()
@@ -256,7 +256,7 @@ class RadialProblem:
 
         if not isinstance(solver, str):
             raise UnknownMethodError(f"solver must be a cvxpy solver name, got {solver!r:.100}")
-        instance(tol, "tol", Tolerances)
+        instance("tol", tol, Tolerances)
         name = solver.upper()
         if name not in installed_cvxpy_solvers():
             raise UnknownMethodError(

@@ -59,8 +59,8 @@ class Region:
     upper: NDArray[np.float64]
 
     def __post_init__(self) -> None:
-        lo = point3(self.lower, "Region.lower")
-        hi = point3(self.upper, "Region.upper")
+        lo = point3("Region.lower", self.lower)
+        hi = point3("Region.upper", self.upper)
         if np.any(lo > hi):
             raise InvalidRegionError(f"Region lower {lo.tolist()} must be <= upper {hi.tolist()} "
                                      "in every coordinate")
@@ -72,7 +72,7 @@ class Region:
     def contains(self, x: ArrayLike, tol: float = REGION_SLACK) -> bool | NDArray[np.bool_]:
         """Whether points ``(3,)`` or ``(k, 3)`` lie in the box (``tol`` metres of slack)."""
         pts, single = as_points(x)
-        tol = real_scalar(tol, "tol", 0.0, MAX_LENGTH)
+        tol = real_scalar("tol", tol, 0.0, MAX_LENGTH)
         inside = np.all((pts >= self.lower - tol) & (pts <= self.upper + tol), axis=1)
         return bool(inside[0]) if single else inside
 
@@ -205,10 +205,10 @@ def generate_hypotheses(
         Two centres coincide.
     """
     if region is not None:
-        instance(region, "region", Region)
+        instance("region", region, Region)
     if not isinstance(keep_imaginary, (bool, np.bool_)):
         raise ShapeError(f"keep_imaginary must be a bool, got {keep_imaginary!r:.100}")
-    instance(tol, "tol", MeetTolerances)
+    instance("tol", tol, MeetTolerances)
     centers, radii, sigmas = sphere_arrays(spheres, min_count=1)
     if len(centers) > MAX_HYPOTHESIS_SPHERES:
         raise TooManySpheresError(

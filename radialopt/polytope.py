@@ -99,7 +99,7 @@ class RestrictionPolytope:
         cls, spheres: Sequence[GaussianSphere], tol: Tolerances = TOLERANCES
     ) -> RestrictionPolytope:
         """Build the polytope in raw radial space ``S^n`` from at least two spheres."""
-        instance(tol, "tol", Tolerances)
+        instance("tol", tol, Tolerances)
         centers, _, sigmas = sphere_arrays(spheres, min_count=2, tol=tol)
         return cls.from_centers(centers, sigmas, tol=tol)
 
@@ -111,13 +111,13 @@ class RestrictionPolytope:
         tol: Tolerances = TOLERANCES,
     ) -> RestrictionPolytope:
         """Build the polytope from sphere centres ``(n, 3)`` (the radii do not enter it)."""
-        instance(tol, "tol", Tolerances)
-        c = real_array(centers, "centers", shape=(None, 3))
+        instance("tol", tol, Tolerances)
+        c = real_array("centers", centers, shape=(None, 3))
         if c.shape[0] < 2:
             raise ShapeError(f"centers must have shape (n, 3) with n >= 2, got shape {c.shape}")
         n = c.shape[0]
-        s = np.ones(n) if sigmas is None else real_array(sigmas, "sigmas", shape=(n,), max_abs=MAX_SIGMA)
-        sigma_range(s, "sigmas", float(np.abs(c).max()))
+        s = np.ones(n) if sigmas is None else real_array("sigmas", sigmas, shape=(n,), max_abs=MAX_SIGMA)
+        sigma_range("sigmas", s, float(np.abs(c).max()))
         iu, ju, A, b_sign = pair_pattern(n)
         d = np.linalg.norm(c[iu] - c[ju], axis=1)
         _raise_if_coincident(c, iu, ju, d, tol)
@@ -155,7 +155,7 @@ class RestrictionPolytope:
 
     def slack(self, x: ArrayLike) -> NDArray[np.float64]:
         """``b - A x`` for a point (n,) or points (k, n) in this polytope's space."""
-        arr = real_array(x, "x", ndim=(1, 2), max_abs=None)
+        arr = real_array("x", x, ndim=(1, 2), max_abs=None)
         if arr.shape[-1:] != (self.dim,):
             raise ShapeError(f"x must have shape ({self.dim},) or (k, {self.dim}), got {arr.shape}")
         return self.b - arr @ self.A.T
@@ -167,19 +167,19 @@ class RestrictionPolytope:
         ``r / sigma`` for ``space == "Sd"``.
         """
         s = self.slack(x)
-        tol = real_scalar(tol, "tol", 0.0)
+        tol = real_scalar("tol", tol, 0.0)
         ok = np.all(s >= -tol, axis=-1)
         return bool(ok) if np.ndim(ok) == 0 else ok
 
     def violated_rows(self, x: ArrayLike, tol: float = TOLERANCES.feasibility) -> list[str]:
         """Human-readable names of the rows that ``x`` violates, e.g. ``"chi(0,2)"``."""
         s = self.slack(x)
-        tol = real_scalar(tol, "tol", 0.0)
+        tol = real_scalar("tol", tol, 0.0)
         return [self.row_name(int(k)) for k in np.flatnonzero(s < -tol)]
 
     def row_name(self, k: int) -> str:
         """Name of row ``k``: kind and sphere pair, e.g. ``"beta(1,3)"``."""
-        k = integer(k, "k", 0, len(self.kinds) - 1)  # no wrap-around: k = -1 is a caller's bug
+        k = integer("k", k, 0, len(self.kinds) - 1)  # no wrap-around: k = -1 is a caller's bug
         i, j = self.pairs[k]
         return f"{self.kinds[k]}({i},{j})"
 
@@ -240,7 +240,7 @@ def common_point_exists(
     ``tol`` is relative to the squared scale of the configuration.
     """
     centers, radii, _ = sphere_arrays(spheres, min_count=2)
-    tol = real_scalar(tol, "tol", 0.0, 1.0)
+    tol = real_scalar("tol", tol, 0.0, 1.0)
     n = len(centers)
     scale = max(float(np.max(radii)), float(np.ptp(centers, axis=0).max()), TINY)
     atol = tol * scale**2

@@ -491,7 +491,7 @@ def estimate_position(
     if rng is not None and not isinstance(rng, np.random.Generator):
         raise ShapeError(f"rng must be a numpy.random.Generator or None, got {type(rng).__name__} "
                          f"({rng!r:.100})")
-    instance(options, "options", EstimatorOptions)
+    instance("options", options, EstimatorOptions)
     if not isinstance(certify, (bool, np.bool_)):
         raise ShapeError(f"certify must be a bool, got {certify!r:.100}")
     if certify:

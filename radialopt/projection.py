@@ -579,7 +579,7 @@ def _check_arguments(method: object, solver: object, check: object, tol: object)
         raise UnknownMethodError(f"solver={solver!r} only applies to method='cvxpy', not {method!r}")
     if not (check is False or check is True or (isinstance(check, str) and check == "exact")):
         raise UnknownMethodError(f"check must be False, True or 'exact', got check={check!r:.100}")
-    instance(tol, "tol", Tolerances)
+    instance("tol", tol, Tolerances)
     if check == "exact":
         _cdd_gmp()  # fail before solving when the exact mode is missing
 
@@ -734,12 +734,12 @@ def project_radii_batch(
     -------
     BatchSolution with ``radii (B, n)``, ``density (B,)``, ``normalized_displacement (B,)``.
     """
-    instance(tol, "tol", Tolerances)
-    c = real_array(centers, "centers", shape=("B", "n", 3))
+    instance("tol", tol, Tolerances)
+    c = real_array("centers", centers, shape=("B", "n", 3))
     if c.shape[1] < 2:
         raise ShapeError(f"centers must have shape (B, n, 3) with n >= 2, got shape {c.shape}")
-    r = real_array(radii, "radii", shape=c.shape[:2])
-    sg = real_array(sigmas, "sigmas", shape=c.shape[:2], max_abs=MAX_SIGMA)
+    r = real_array("radii", radii, shape=c.shape[:2])
+    sg = real_array("sigmas", sigmas, shape=c.shape[:2], max_abs=MAX_SIGMA)
     if np.any(sg <= 0):
         raise NonPositiveSigmaError(f"sigmas{np.argwhere(sg <= 0)[0].tolist()} = {float(sg[sg <= 0][0])!r} "
                                     "must be > 0")
@@ -752,7 +752,7 @@ def project_radii_batch(
                                     axis=1))
         if bad.size:  # sigma_range names the sphere
             b0 = int(bad[0])
-            sigma_range(sg[b0], f"sigmas[{b0}]", max(float(np.abs(c[b0]).max()), float(r[b0].max())))
+            sigma_range(f"sigmas[{b0}]", sg[b0], max(float(np.abs(c[b0]).max()), float(r[b0].max())))
     t0 = time.perf_counter()
     z, d, h = _batch_solve(c, r, sg, tol)
     _batch_check(z, d, h, r, sg, tol)

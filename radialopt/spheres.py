@@ -80,15 +80,15 @@ class GaussianSphere:
                     object.__setattr__(self, "radius", float(radius))
                     object.__setattr__(self, "sigma", float(sigma))
                     return
-        center = point3(self.center, "center")
-        radius = real_scalar(self.radius, "radius")
-        sigma = real_scalar(self.sigma, "sigma")
+        center = point3("center", self.center)
+        radius = real_scalar("radius", self.radius)
+        sigma = real_scalar("sigma", self.sigma)
         if radius < 0:
             raise NegativeRadiusError(f"radius = {radius!r} must be >= 0")
         if sigma <= 0:
             raise NonPositiveSigmaError(f"sigma = {sigma!r} must be > 0")
-        radius = real_scalar(radius, "radius", max_abs=MAX_LENGTH)
-        sigma = real_scalar(sigma, "sigma", max_abs=MAX_SIGMA)
+        radius = real_scalar("radius", radius, max_abs=MAX_LENGTH)
+        sigma = real_scalar("sigma", sigma, max_abs=MAX_SIGMA)
         center.setflags(write=False)
         object.__setattr__(self, "center", center)
         object.__setattr__(self, "radius", radius)
@@ -121,7 +121,7 @@ class GaussianSphere:
 
 def as_points(x: ArrayLike, name: str = "x") -> tuple[NDArray[np.float64], bool]:
     """Validate points of shape (3,) or (k, 3); return them as (k, 3) and a 'was single' flag."""
-    arr = real_array(x, name, ndim=(1, 2))
+    arr = real_array(name, x, ndim=(1, 2))
     single = arr.ndim == 1
     pts = arr.reshape(1, -1) if single else arr
     if pts.shape[1] != 3 or pts.shape[0] == 0:
@@ -163,7 +163,7 @@ def sphere_arrays(
         scale = max(float(np.abs(centers).max()), max(radius_list))
         floor, ceiling = _sigma_bounds(scale)
         if not all(floor <= s <= ceiling for s in sigma_list):  # sigma_range names the first
-            sigma_range(sigmas, "sigmas", scale)
+            sigma_range("sigmas", sigmas, scale)
     if check_centers:
         check_distinct_centers(centers, tol)
     return centers, radii, sigmas
@@ -204,11 +204,11 @@ def checked_arrays(
                     and MIN_SIGMA_RELATIVE * scale <= min(sl) and max(sl) <= scale / MIN_SIGMA_RELATIVE:
                 s = sigmas if sigmas.ndim else np.full(len(rl), sl[0])
                 return centers, radii, s
-    c = real_array(centers, "centers", shape=(None, 3))
+    c = real_array("centers", centers, shape=(None, 3))
     if len(c) < min_count:
         raise TooFewSpheresError(f"centers: need at least {min_count} spheres (rows), got {len(c)}")
-    r = real_array(radii, "radii", shape=(len(c),), like="centers")
-    s = real_array(sigmas, "sigmas", ndim=(0, 1), max_abs=MAX_SIGMA)
+    r = real_array("radii", radii, shape=(len(c),), like="centers")
+    s = real_array("sigmas", sigmas, ndim=(0, 1), max_abs=MAX_SIGMA)
     if s.ndim == 0:
         s = np.full(len(c), float(s))
     if s.shape != r.shape:
@@ -217,7 +217,7 @@ def checked_arrays(
     bad = np.flatnonzero(r < 0)
     if bad.size:
         raise NegativeRadiusError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
-    sigma_range(s, "sigmas", max(float(np.abs(c).max(initial=0.0)), float(r.max(initial=0.0))))
+    sigma_range("sigmas", s, max(float(np.abs(c).max(initial=0.0)), float(r.max(initial=0.0))))
     return c, r, s
 
 
@@ -248,9 +248,9 @@ def make_spheres(
     centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike
 ) -> list[GaussianSphere]:
     """Build spheres from ``centers (n, 3)``, ``radii (n,)``, ``sigmas (n,)`` (a scalar broadcasts)."""
-    c = real_array(centers, "centers", shape=(None, 3))
-    r = real_array(radii, "radii", shape=(len(c),), like="centers")
-    s = real_array(sigmas, "sigmas", ndim=(0, 1), max_abs=MAX_SIGMA)
+    c = real_array("centers", centers, shape=(None, 3))
+    r = real_array("radii", radii, shape=(len(c),), like="centers")
+    s = real_array("sigmas", sigmas, ndim=(0, 1), max_abs=MAX_SIGMA)
     s = np.broadcast_to(s, r.shape) if s.ndim == 0 else s
     if s.shape != r.shape:
         raise ShapeError(f"sigmas must be a scalar or have shape ({len(c)},), got shape {s.shape}")
@@ -268,7 +268,7 @@ def density(sphere: GaussianSphere, x: ArrayLike) -> NDArray[np.float64] | float
 
     ``x`` is a point (3,) -> float, or points (k, 3) -> (k,).
     """
-    instance(sphere, "sphere", GaussianSphere)
+    instance("sphere", sphere, GaussianSphere)
     pts, single = as_points(x)
     dev = np.linalg.norm(pts - sphere.center, axis=1) - sphere.radius
     out = np.exp(-0.5 * (dev / sphere.sigma) ** 2)
@@ -295,10 +295,10 @@ def total_density(spheres: Sequence[GaussianSphere], x: ArrayLike) -> NDArray[np
 
 def radial_density(radii: ArrayLike, measured: ArrayLike, sigmas: ArrayLike) -> float:
     """Eq. 18/20 in radial space: ``exp(-1/2 |H (radii - measured)|^2)``, H = diag(1/sigma)."""
-    x = real_array(radii, "radii", ndim=(1,))
-    m = real_array(measured, "measured", shape=x.shape, like="radii")
-    s = real_array(sigmas, "sigmas", shape=x.shape, max_abs=MAX_SIGMA, like="radii")
-    sigma_range(s, "sigmas", max(float(np.abs(np.r_[x, m]).max(initial=0.0)), 1.0))
+    x = real_array("radii", radii, ndim=(1,))
+    m = real_array("measured", measured, shape=x.shape, like="radii")
+    s = real_array("sigmas", sigmas, shape=x.shape, max_abs=MAX_SIGMA, like="radii")
+    sigma_range("sigmas", s, max(float(np.abs(np.r_[x, m]).max(initial=0.0)), 1.0))
     z = (x - m) / s
     return float(np.exp(-0.5 * float(z @ z)))
 
@@ -327,8 +327,8 @@ def conformal_sphere(center: ArrayLike, radius: float) -> NDArray[np.float64]:
     where d is the distance between the centres.  ``radius**2`` may be negative for an
     imaginary sphere; pass ``radius = 1j * rho`` semantics through :func:`conformal_sphere_sq`.
     """
-    x = point3(center, "center")
-    rad = real_scalar(radius, "radius", max_abs=MAX_LENGTH)
+    x = point3("center", center)
+    rad = real_scalar("radius", radius, max_abs=MAX_LENGTH)
     if rad < 0:
         raise NegativeRadiusError(f"radius = {rad!r} must be >= 0 (an imaginary sphere goes through "
                                   "conformal_sphere_sq with a negative squared radius)")
@@ -343,8 +343,8 @@ def conformal_sphere_sq(center: ArrayLike, radius_sq: float) -> NDArray[np.float
 
 def conformal_inner(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64] | float:
     """Inner product of conformal vectors (last axis of length 5)."""
-    a = real_array(a, "a", max_abs=CONFORMAL_MAX)
-    b = real_array(b, "b", max_abs=CONFORMAL_MAX)
+    a = real_array("a", a, max_abs=CONFORMAL_MAX)
+    b = real_array("b", b, max_abs=CONFORMAL_MAX)
     for name, arr in (("a", a), ("b", b)):
         if arr.ndim == 0 or arr.shape[-1] != 5:
             raise ShapeError(f"{name} must have a last axis of length 5, got shape {arr.shape}")

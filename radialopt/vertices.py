@@ -163,10 +163,10 @@ def _read_inequalities(polytope: Any) -> tuple[NDArray[np.float64], NDArray[np.f
             f"polytope must be a RestrictionPolytope or a pair (A (m, n), b (m,)), got "
             f"{type(polytope).__name__}"
         )
-    A = real_array(A_in, "polytope.A", shape=("m", "n"), max_abs=POLYTOPE_MAX)
+    A = real_array("polytope.A", A_in, shape=("m", "n"), max_abs=POLYTOPE_MAX)
     if A.shape[0] < 1 or A.shape[1] < 1:
         raise ShapeError(f"polytope.A must have shape (m, n) with m, n >= 1, got shape {A.shape}")
-    b = real_array(b_in, "polytope.b", shape=(A.shape[0],), max_abs=POLYTOPE_MAX)
+    b = real_array("polytope.b", b_in, shape=(A.shape[0],), max_abs=POLYTOPE_MAX)
     return A, b
 
 
@@ -238,7 +238,7 @@ def enumerate_vertices(
     """
     if not isinstance(method, str) or method not in ENUMERATION_METHODS:
         raise UnknownMethodError(f"unknown method {method!r:.100}; choose one of {ENUMERATION_METHODS}")
-    instance(tol, "tol", VertexTolerances)
+    instance("tol", tol, VertexTolerances)
     A, b = _read_inequalities(polytope)
     m, n = A.shape
     if isinstance(polytope, RestrictionPolytope):
@@ -527,10 +527,10 @@ def _check_target(enumeration: VertexEnumeration, target: ArrayLike, sigmas: Arr
     if not isinstance(enumeration, VertexEnumeration):
         raise ShapeError(f"enumeration must be a VertexEnumeration, got {type(enumeration).__name__}")
     n = enumeration.dim
-    t = real_array(target, "target", shape=(n,))
-    s = real_array(sigmas, "sigmas", shape=(n,), max_abs=MAX_SIGMA)
+    t = real_array("target", target, shape=(n,))
+    s = real_array("sigmas", sigmas, shape=(n,), max_abs=MAX_SIGMA)
     scale = max(float(np.abs(t).max(initial=0.0)), float(np.abs(enumeration.vertices).max(initial=0.0)))
-    sigma_range(s, "sigmas", scale)
+    sigma_range("sigmas", s, scale)
     if enumeration.vertices.shape[0] == 0:
         raise EmptyPolyhedronError("the polyhedron is empty: there is nothing to project onto")
     return t, s
@@ -580,8 +580,8 @@ def project_vform(
         No convergence within ``max_iter`` cycles.
     """
     t, s = _check_target(enumeration, target, sigmas)
-    tol = real_scalar(tol, "tol", 0.0, 1.0)
-    max_iter = integer(max_iter, "max_iter", 1, 10**7)
+    tol = real_scalar("tol", tol, 0.0, 1.0)
+    max_iter = integer("max_iter", max_iter, 1, 10**7)
     V, R = enumeration.vertices, enumeration.rays
     k, n = V.shape
     W = (V - t) / s
@@ -711,8 +711,8 @@ def certify_projection(
     n = enumeration.dim
     if A.shape[1] != n:
         raise ShapeError(f"polytope has dimension {A.shape[1]}, enumeration has {n}")
-    x = real_array(point, "point", shape=(n,))
-    tol = real_scalar(tol, "tol", 0.0, 1.0)
+    x = real_array("point", point, shape=(n,))
+    tol = real_scalar("tol", tol, 0.0, 1.0)
     row_norm = np.linalg.norm(A, axis=1)
     viol = (A @ x - b) / np.where(row_norm > 0, row_norm, 1.0)
     feas = float(max(0.0, viol.max()))
