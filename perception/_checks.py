@@ -147,7 +147,7 @@ def spd(name: str, value: Any, size: int = 3) -> NDArray[np.float64]:
     return S
 
 
-def rng(name: str, value: Any) -> np.random.Generator:
+def generator(name: str, value: Any) -> np.random.Generator:
     """A ``numpy.random.Generator`` (seeds, strings and legacy RandomState are refused)."""
     if not isinstance(value, np.random.Generator):
         raise PerceptionError(
@@ -157,7 +157,7 @@ def rng(name: str, value: Any) -> np.random.Generator:
     return value
 
 
-def name_str(name: str, value: Any, error: type[PerceptionError] = PerceptionError) -> str:
+def name_string(name: str, value: Any, error: type[PerceptionError] = PerceptionError) -> str:
     """A non-empty string without NUL characters that encodes as UTF-8 (no lone surrogates)."""
     if not isinstance(value, str) or not value or "\0" in value:
         raise error(f"{name} must be a non-empty string without NUL characters, got {_short(value)}")
@@ -218,7 +218,7 @@ def sequence(name: str, value: Any, kind: type | None = None, error: type[Percep
         raise error(f"{name} must be a sequence of {what}, got {type(value).__name__}") from exc
     for i, item in enumerate(out):
         if kind is None:
-            name_str(f"{name}[{i}]", item, UnknownClassError)
+            name_string(f"{name}[{i}]", item, UnknownClassError)
         elif not isinstance(item, kind):
             raise error(f"{name}[{i}] must be a {what}, got {type(item).__name__}: {_short(item)}")
     return out

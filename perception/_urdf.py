@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import check_transform, file_path, guard, name_str
+from ._checks import check_transform, file_path, guard, name_string
 from .errors import MissingExtraError, URDFError
 from .tolerances import AXIS_TOL
 
@@ -134,8 +134,8 @@ def urdf_joint_specs(
     and the errors.
     """
     file = Path(file_path("path", path, URDFError))
-    base_link = name_str("base_link", base_link, URDFError)
-    camera_link = name_str("camera_link", camera_link, URDFError)
+    base_link = name_string("base_link", base_link, URDFError)
+    camera_link = name_string("camera_link", camera_link, URDFError)
     camera = check_transform("link_from_camera", link_from_camera)
     where = f"the URDF path={str(file)!r}"
     robot = _load(file)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import MAX_TRANSLATION, check_transform, guard, name_str, real_array, real_scalar, vector3
+from ._checks import MAX_TRANSLATION, check_transform, guard, name_string, real_array, real_scalar, vector3
 from ._urdf import urdf_joint_specs
 from .errors import (
     JointLimitError,
@@ -111,7 +111,7 @@ class Joint:
 
     @guard
     def __post_init__(self) -> None:
-        name_str("joint name", self.name, KinematicsError)
+        name_string("joint name", self.name, KinematicsError)
         if not isinstance(self.axis, str) or self.axis not in _AXES:
             raise KinematicsError(f"joint {self.name!r}: axis must be 'x', 'y' or 'z', got {self.axis!r}")
         M = check_transform(f"origin of joint {self.name!r}", self.origin)

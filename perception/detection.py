@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import guard, name_str, real_array, real_scalar, spd
+from ._checks import guard, name_string, real_array, real_scalar, spd
 from .errors import NonFiniteError, ShapeError, UnknownClassError
 
 __all__ = ["MAX_PIXEL_COORDINATE", "Detection"]
@@ -141,7 +141,7 @@ class Detection:
 
     @guard
     def __post_init__(self) -> None:
-        name_str("type", self.type, UnknownClassError)
+        name_string("type", self.type, UnknownClassError)
         mask = None if self.mask is None else _mask(self.mask)
         box = None if self.box is None else _box(self.box)
         if mask is None and box is None and self.centroid_uv is None:

@@ -43,11 +43,11 @@ from ._checks import (
     file_path,
     guard,
     integer,
-    name_str,
+    name_string,
     real_array,
     real_scalar,
 )
-from ._checks import rng as check_rng
+from ._checks import generator as check_rng
 from .chain import KinematicChain, default_head
 from .detection import Detection
 from .errors import (
@@ -591,7 +591,7 @@ class MujocoScene:
             raise TypeRuleError(f"type_of({name!r}) raised {type(exc).__name__}: {exc}") from exc
         if typ is None:
             return None
-        return name_str(f"type_of({name!r})", typ, TypeRuleError)
+        return name_string(f"type_of({name!r})", typ, TypeRuleError)
 
     def _build_objects(self) -> tuple[tuple[SceneObject, ...], NDArray[np.intp]]:
         model, data = self._model, self._data
@@ -1182,7 +1182,7 @@ class MujocoScene:
         if not isinstance(centre_offset, Mapping):
             raise ShapeError("centre_offset must be a mapping type -> CentreOffset or metres, or None, got "
                              f"{_short(centre_offset)}")
-        return {name_str("centre_offset key", k): _offset_of(f"centre_offset[{k!r}]", v)
+        return {name_string("centre_offset key", k): _offset_of(f"centre_offset[{k!r}]", v)
                 for k, v in centre_offset.items()}
 
     def _percepts(self, view: ScanView, sensor: str, size: tuple[int, int], centres: dict[str, CentreOffset],

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import guard, integer, name_str, real_array, real_scalar, spd, vector3
+from ._checks import guard, integer, name_string, real_array, real_scalar, spd, vector3
 from .errors import NonFiniteError, NonPositiveSigmaError, ShapeError, UnknownClassError
 from .tolerances import SHARED_RTOL, SIGMA_COVARIANCE_FACTOR
 
@@ -96,7 +96,7 @@ class Percept:
 
     @guard
     def __post_init__(self) -> None:
-        name_str("type", self.type, UnknownClassError)
+        name_string("type", self.type, UnknownClassError)
         pos = vector3("position", self.position)
         big = np.flatnonzero(np.abs(pos) > MAX_COORDINATE)
         if big.size:

@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
 from ._checks import boolean, guard, integer, real_scalar, sequence
-from ._checks import rng as check_rng
+from ._checks import generator as check_rng
 from .chain import check_transform
 from .classifier import GaussianClassifier
 from .detection import Detection

@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import guard, integer, name_str, real_array, real_scalar, sequence
-from ._checks import rng as check_rng
+from ._checks import generator as check_rng
+from ._checks import guard, integer, name_string, real_array, real_scalar, sequence
 from .chain import check_transform
 from .errors import (
     CalibrationError,
@@ -132,7 +132,7 @@ class Box:
         color = _as_float_array("color", self.color, (3,))
         if np.any(color < 0) or np.any(color > 255):
             raise ShapeError(f"color must be BGR values in [0, 255], got {color.tolist()}")
-        name_str("type", self.type, UnknownClassError)
+        name_string("type", self.type, UnknownClassError)
         for name, arr in (("center", center), ("size", size), ("rotation", rot), ("color", color)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)

@@ -11,8 +11,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import boolean, guard, integer, name_str, real_array, real_scalar, sequence
-from ._checks import rng as check_rng
+from ._checks import boolean, guard, integer, name_string, real_array, real_scalar, sequence
+from ._checks import generator as check_rng
 from .chain import KinematicChain, check_transform, default_head
 from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
 from .percept import Percept
@@ -38,7 +38,7 @@ def _types(types: Sequence[str], n: int) -> list[str]:
     if len(out) != n:
         raise ShapeError(f"types must have one entry per row of world_positions ({n} rows), got {len(out)}")
     for i, t in enumerate(out):
-        name_str(f"types[{i}]", t, UnknownClassError)
+        name_string(f"types[{i}]", t, UnknownClassError)
     return out
 
 

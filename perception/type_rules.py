@@ -19,7 +19,7 @@ import re
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from ._checks import _short, name_str
+from ._checks import _short, name_string
 from .errors import TypeRuleError
 
 __all__ = ["KNOWN_TYPES", "default_type_of", "type_rule"]
@@ -99,7 +99,7 @@ def type_rule(type_of: Any) -> Callable[[str], str | None]:
             else:
                 raise TypeRuleError(f"type_of keys must be regex patterns (str or re.Pattern), got "
                                     f"{_short(pattern)}")
-            name_str(f"type_of[{pattern!r}]", typ, TypeRuleError)
+            name_string(f"type_of[{pattern!r}]", typ, TypeRuleError)
             rules.append((compiled, typ))
 
         def by_pattern(name: str) -> str | None:

@@ -5,10 +5,10 @@ subclass whose message names the argument, the index of a bad element (where the
 the offending value.  They return the validated value in a canonical form (``float``, ``int``,
 a float64 array, a :class:`numpy.random.Generator`).
 
-* :func:`float_array` -- real, finite float64 array of a given shape (``None`` = any length),
+* :func:`real_array` -- real, finite float64 array of a given shape (``None`` = any length),
   optionally bounded by ``max_abs``; complex, bool, str, None, ragged input rejected.
 * :func:`finite_float`, :func:`positive_float` -- a real scalar (int or float, not bool).
-* :func:`strict_int` -- an integer (Python or numpy int, not bool/float/NaN/None/str), in range.
+* :func:`integer` -- an integer (Python or numpy int, not bool/float/NaN/None/str), in range.
 * ``worldgraph._rigid.rigid_transform`` -- a (4, 4) rigid transform: finite, last row
   ``0 0 0 1``, rotation orthonormal with determinant +1 (no scale, shear or reflection); apart,
   because its default tolerance lives in :mod:`worldgraph.tolerances`, which uses these checks.
@@ -36,14 +36,14 @@ from .errors import (
 
 __all__ = [
     "finite_float",
-    "float_array",
+    "real_array",
     "generator",
     "int_array",
     "real_float",
     "name_string",
     "positive_float",
     "rng_from_seed",
-    "strict_int",
+    "integer",
 ]
 
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
@@ -66,7 +66,7 @@ def _shape_text(want: tuple[int | None, ...]) -> str:
     return "(" + ", ".join("k" if w is None else str(w) for w in want) + ("," if len(want) == 1 else "") + ")"
 
 
-def float_array(name: str, value: Any, shape: tuple[int | None, ...] | None = None, *,
+def real_array(name: str, value: Any, shape: tuple[int | None, ...] | None = None, *,
                 max_abs: float | None = None, min_size: int = 0) -> NDArray[np.float64]:
     """``value`` as a new finite float64 array of ``shape`` (``None`` entries: any length).
 
@@ -185,7 +185,7 @@ def positive_float(name: str, value: Any, *, allow_zero: bool = False, maximum: 
     return x
 
 
-def strict_int(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
+def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
     """An integer (``int`` or numpy integer; not bool, float, NaN, None, str) in ``[minimum, maximum]``."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
         raise ArgumentTypeError(f"{name} must be an integer, got {_short(value)}")
@@ -213,7 +213,7 @@ def rng_from_seed(name: str, value: Any) -> np.random.Generator:
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
         raise ArgumentTypeError(f"{name} must be None, a non-negative integer seed or a "
                                 f"numpy.random.Generator, got {_short(value)}")
-    return np.random.default_rng(strict_int(name, value, minimum=0))
+    return np.random.default_rng(integer(name, value, minimum=0))
 
 
 def name_string(name: str, value: Any, error: type[WorldGraphError] = WorldGraphError) -> str:

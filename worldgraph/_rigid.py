@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import _LAST_ROW, float_array
+from ._checks import _LAST_ROW, real_array
 from .errors import NonRigidError, OutOfRangeError, ShapeError
 from .tolerances import RIGID_TOLERANCE
 
@@ -25,7 +25,7 @@ def rigid_transform(name: str, value: Any, *, tol: float | None = None,
     """
     if tol is None:
         tol = RIGID_TOLERANCE
-    m = float_array(name, value, (4, 4))
+    m = real_array(name, value, (4, 4))
     if np.abs(m[3] - _LAST_ROW).max() > tol:
         raise ShapeError(f"{name} last row must be [0, 0, 0, 1], got {m[3].tolist()}")
     rot = m[:3, :3]

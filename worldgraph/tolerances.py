@@ -17,7 +17,7 @@ from typing import Protocol, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import float_array, positive_float, strict_int
+from ._checks import integer, positive_float, real_array
 from .errors import (
     ArgumentTypeError,
     NonPositiveError,
@@ -282,9 +282,9 @@ class AssociationTolerances:
                 raise ArgumentTypeError(f"AssociationTolerances.gravity_aligned must be a bool or None, "
                                         f"got {self.gravity_aligned!r}")
             put("gravity_aligned", bool(self.gravity_aligned))
-        put("min_clique_size", strict_int("AssociationTolerances.min_clique_size", self.min_clique_size,
+        put("min_clique_size", integer("AssociationTolerances.min_clique_size", self.min_clique_size,
                                           minimum=2, maximum=64))
-        put("max_search_percepts", strict_int("AssociationTolerances.max_search_percepts",
+        put("max_search_percepts", integer("AssociationTolerances.max_search_percepts",
                                               self.max_search_percepts, minimum=2, maximum=100_000))
         if self.min_clique_size > self.max_search_percepts:
             raise OutOfRangeError(f"AssociationTolerances.min_clique_size = {self.min_clique_size} exceeds "
@@ -292,14 +292,14 @@ class AssociationTolerances:
                                   "looks at that many percepts at most): raise max_search_percepts too")
         for name, lo in (("near_maximum", 0), ("max_nodes", 1), ("max_cliques", 1), ("dense_pair_limit", 0),
                          ("max_hypotheses", 1)):
-            put(name, strict_int(f"AssociationTolerances.{name}", getattr(self, name), minimum=lo,
+            put(name, integer(f"AssociationTolerances.{name}", getattr(self, name), minimum=lo,
                                  maximum=10**9))
 
     def pair_tolerance(self, sigma_p: float | NDArray, sigma_q: float | NDArray) -> float | NDArray:
         """``tau_pq = n_sigma * pair_factor * sqrt(s_p^2 + s_q^2) + min_tolerance`` (metres);
         sigmas are non-negative finite reals (scalars or arrays that broadcast)."""
-        sp = float_array("sigma_p", sigma_p, None, max_abs=1e150)
-        sq = float_array("sigma_q", sigma_q, None, max_abs=1e150)
+        sp = real_array("sigma_p", sigma_p, None, max_abs=1e150)
+        sq = real_array("sigma_q", sigma_q, None, max_abs=1e150)
         for name, arr in (("sigma_p", sp), ("sigma_q", sq)):
             if np.any(arr < 0):
                 i = int(np.flatnonzero(np.ravel(arr) < 0)[0])

@@ -12,7 +12,7 @@ from scipy.optimize import least_squares
 
 from perception import KinematicChain
 
-from .._checks import float_array
+from .._checks import real_array
 from ..errors import ArgumentTypeError, OutOfRangeError, UnknownTypeError
 from ..tolerances import (
     AIM_LSQ_TOL,
@@ -60,7 +60,7 @@ def _check_limits(head: KinematicChain, joint_limits: object) -> tuple[NDArray, 
     hi = np.full(len(names), np.inf)
     for i, name in enumerate(names):
         if name in joint_limits:
-            pair = float_array(f"joint_limits[{name!r}]", joint_limits[name], (2,))
+            pair = real_array(f"joint_limits[{name!r}]", joint_limits[name], (2,))
             if not pair[0] < pair[1]:
                 raise OutOfRangeError(f"joint_limits[{name!r}] must be (lower, upper) with lower < upper, "
                                       f"got {pair.tolist()}")
@@ -102,7 +102,7 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
     """
     if not isinstance(head, KinematicChain):
         raise ArgumentTypeError(f"head must be a perception.KinematicChain, got {type(head).__name__}")
-    tgt = float_array("target", target, (3,), max_abs=1e6)
+    tgt = real_array("target", target, (3,), max_abs=1e6)
     bounds = _check_limits(head, joint_limits)
     n = len(head.joints)
     lo, hi = bounds if bounds is not None else (np.full(n, -np.inf), np.full(n, np.inf))

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from perception import KinematicChain, Percept
 
-from .._checks import as_list, float_array, positive_float, strict_int
+from .._checks import as_list, integer, positive_float, real_array
 from ..association.consistency import check_world_and_percepts
 from ..errors import ArgumentTypeError, OutOfRangeError
 from ..localization.pipeline import localize
@@ -182,7 +182,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     if planner is not None and not callable(planner):
         raise ArgumentTypeError(f"planner must be None or a callable result -> ViewPlan or direction, got "
                                 f"{type(planner).__name__}")
-    max_looks = strict_int("max_looks", max_looks, minimum=0, maximum=1000)
+    max_looks = integer("max_looks", max_looks, minimum=0, maximum=1000)
     statuses = as_list("look_while", look_while, "status names")
     if goal_rotation_3sigma is not None:
         goal_rotation_3sigma = positive_float("goal_rotation_3sigma", goal_rotation_3sigma)
@@ -200,7 +200,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     check_gravity(gravity, tol)  # a bad gravity (or up_sigma) fails before the first look
     check_up_sigma(up_sigma, tol)
     learn_cap = max_sights is None
-    cap = None if max_sights is None else strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
+    cap = None if max_sights is None else integer("max_sights", max_sights, minimum=1, maximum=10**9)
     detection = positive_float("detection", detection, maximum=1.0)
     if depth_factor is None:
         depth_factor = depth_factor_of(current)
@@ -222,7 +222,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
             plans.append(plan)
             d = plan.direction
         else:
-            d = float_array("planner(result)", plan, (3,))
+            d = real_array("planner(result)", plan, (3,))
             if not np.linalg.norm(d) > 0:
                 raise OutOfRangeError(f"planner(result) returned a zero direction {d.tolist()}")
             d = d / np.linalg.norm(d)

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from perception import KinematicChain, Percept
 
-from .._checks import as_list, float_array, generator, positive_float, strict_int
+from .._checks import as_list, generator, integer, positive_float, real_array
 from ..errors import ArgumentTypeError, OutOfRangeError
 from ..localization.result import LocalizationResult
 from ..model import WorldModel
@@ -175,7 +175,7 @@ def _check_common(world: object, result: object, fov_deg: object, max_range: obj
 
 
 def _directions(name: str, value: object) -> NDArray[np.float64]:
-    arr = float_array(name, value, (None, 3), max_abs=1e12)
+    arr = real_array(name, value, (None, 3), max_abs=1e12)
     zero = np.flatnonzero(np.linalg.norm(arr, axis=1) == 0)
     if zero.size:
         raise OutOfRangeError(f"{name}[{int(zero[0])}] = {arr[zero[0]].tolist()} is no direction "
@@ -190,7 +190,7 @@ def _view_values(world: object, result: object, directions: object, fov_deg: obj
     fov, max_r, det, df, floor, ns, mg = _check_common(world, result, fov_deg, max_range, detection,
                                                        depth_factor, min_sigma, n_sigma, margin)
     D = _directions("directions", directions)
-    cap = None if max_sights is None else strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
+    cap = None if max_sights is None else integer("max_sights", max_sights, minimum=1, maximum=10**9)
     pred = _predict(cast(WorldModel, world), cast(LocalizationResult, result), types, fov, max_r, df, floor,
                     ns, mg, _percepts_in_hand(percepts))
     score, information, _ = _look_values(pred, D, det, cap)
@@ -306,7 +306,7 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
     if head is not None and joint_limits is not None:
         _check_limits(head, joint_limits)
     if max_sights is not None:
-        max_sights = strict_int("max_sights", max_sights, minimum=1, maximum=10**9)
+        max_sights = integer("max_sights", max_sights, minimum=1, maximum=10**9)
     in_hand = _percepts_in_hand(percepts)
     pred = _predict(world, result, types, fov, max_range, depth_factor, min_sigma, n_sigma, margin, in_hand)
     if not _aimable(pred):

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._checks import strict_int
+from .._checks import integer
 from ..errors import (
     ArgumentTypeError,
     OutOfRangeError,
@@ -473,7 +473,7 @@ def maximum_cliques(
     """
     if sizes is None or isinstance(sizes, str | bytes):
         raise ArgumentTypeError(f"sizes must be a sequence of non-negative integers, got {sizes!r}")
-    sizes = [strict_int(f"sizes[{i}]", s, minimum=0, maximum=10**7) for i, s in enumerate(sizes)]
+    sizes = [integer(f"sizes[{i}]", s, minimum=0, maximum=10**7) for i, s in enumerate(sizes)]
     if not isinstance(adjacency, dict):
         raise ArgumentTypeError(f"adjacency must be a dict (p, q) -> bool array or None, got "
                                 f"{type(adjacency).__name__}")
@@ -483,13 +483,13 @@ def maximum_cliques(
                 and 0 <= key[0] < key[1] < len(sizes)):
             raise WorldGraphError(f"adjacency keys must be (p, q) with 0 <= p < q < {len(sizes)}, "
                                   f"got {key!r}")
-    min_size = strict_int("min_size", min_size, minimum=0)
-    near_maximum = strict_int("near_maximum", near_maximum, minimum=0)
-    max_nodes = strict_int("max_nodes", max_nodes, minimum=1)
+    min_size = integer("min_size", min_size, minimum=0)
+    near_maximum = integer("near_maximum", near_maximum, minimum=0)
+    max_nodes = integer("max_nodes", max_nodes, minimum=1)
     if max_cliques is not None:
-        max_cliques = strict_int("max_cliques", max_cliques, minimum=1)
+        max_cliques = integer("max_cliques", max_cliques, minimum=1)
     if stop_at is not None:
-        stop_at = strict_int("stop_at", stop_at, minimum=1)
+        stop_at = integer("stop_at", stop_at, minimum=1)
     if allowed is not None:
         allowed = [np.asarray(a) for a in allowed]
         if len(allowed) != len(sizes) or any(a.dtype != np.bool_ or a.shape != (s,)

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from perception import Percept
 
-from .._checks import positive_float, strict_int
+from .._checks import integer, positive_float
 from .._rigid import rigid_transform
 from ..errors import (
     ArgumentTypeError,
@@ -149,7 +149,7 @@ def consistency_graph(world: WorldModel, percepts: Sequence[Percept],
     """
     percepts = _check_inputs(world, percepts)
     tol = _resolved_tol("consistency_graph", tol, tolerances, world=world)
-    need = tol.min_clique_size if min_size is None else strict_int("min_size", min_size, minimum=1)
+    need = tol.min_clique_size if min_size is None else integer("min_size", min_size, minimum=1)
     graph = _consistency_graph(world, percepts, tol)
     alive = _prune(graph, need)
     g: nx.Graph[tuple[int, int]] = nx.Graph()

@@ -47,7 +47,7 @@ from numpy.typing import NDArray
 
 from perception import Percept
 
-from .._checks import strict_int
+from .._checks import integer
 from ..errors import (
     TooFewPerceptsError,
     WorldGraphError,
@@ -208,7 +208,7 @@ def _associate(world: WorldModel, percepts: list[Percept], tol: AssociationToler
     k = len(percepts)
     if k < tol.min_clique_size:
         raise TooFewPerceptsError(f"association needs at least {tol.min_clique_size} percepts, got {k}")
-    limit = tol.max_hypotheses if max_hypotheses is None else strict_int("max_hypotheses", max_hypotheses,
+    limit = tol.max_hypotheses if max_hypotheses is None else integer("max_hypotheses", max_hypotheses,
                                                                           minimum=1)
     searched = _search_subset(percepts, int(tol.max_search_percepts))
     sub = [percepts[i] for i in searched]

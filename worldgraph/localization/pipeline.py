@@ -52,7 +52,7 @@ import numpy as np
 import radialopt as ro
 from perception import Percept
 
-from .._checks import float_array, generator, positive_float
+from .._checks import generator, positive_float, real_array
 from ..association.consistency import MAX_COORDINATE, check_world_and_percepts
 from ..association.hypotheses import AssociationHypothesis
 from ..association.matching import associate_searched
@@ -352,8 +352,8 @@ def _check_region(region: object) -> ro.Region | None:
     if region is None or isinstance(region, ro.Region):
         return region
     if isinstance(region, tuple | list) and len(region) == 2:
-        lo = float_array("region[0]", region[0], (3,))
-        hi = float_array("region[1]", region[1], (3,))
+        lo = real_array("region[0]", region[0], (3,))
+        hi = real_array("region[1]", region[1], (3,))
         try:
             return ro.Region(lo, hi)
         except ro.RadialError as exc:

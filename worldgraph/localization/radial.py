@@ -16,7 +16,7 @@ import radialopt as ro
 from perception import Percept
 from radialopt.projection import project_radii_unchecked
 
-from .._checks import strict_int
+from .._checks import integer
 from ..association.consistency import check_world_and_percepts
 from ..errors import ArgumentTypeError
 from ..model import WorldModel
@@ -97,8 +97,8 @@ def _check_pairs(pairs: object, n_percepts: int, n_objects: int) -> list[tuple[i
         except (TypeError, ValueError) as exc:
             raise ArgumentTypeError(f"pairs[{i}] must be a (percept, object) index pair, "
                                     f"got {pair!r}") from exc
-        p = strict_int(f"pairs[{i}][0]", p, minimum=0, maximum=n_percepts - 1)
-        o = strict_int(f"pairs[{i}][1]", o, minimum=0, maximum=n_objects - 1)
+        p = integer(f"pairs[{i}][0]", p, minimum=0, maximum=n_percepts - 1)
+        o = integer(f"pairs[{i}][1]", o, minimum=0, maximum=n_objects - 1)
         out.append((p, o))
     return out
 

@@ -52,7 +52,7 @@ class LinkTable:
     def __post_init__(self) -> None:
         i = _checks.int_array("LinkTable i", self.i, (None,), minimum=0)
         j = _checks.int_array("LinkTable j", self.j, (None,), minimum=0)
-        length = _checks.float_array("LinkTable length", self.length, (None,))
+        length = _checks.real_array("LinkTable length", self.length, (None,))
         if not (i.shape == j.shape == length.shape):
             raise ShapeError(f"LinkTable i, j, length must have one shape (k,), got {i.shape}, {j.shape}, "
                              f"{length.shape}")

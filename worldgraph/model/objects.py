@@ -41,7 +41,7 @@ def box_vertices(size: ArrayLike) -> NDArray[np.float64]:
 
 def _check_size(name: str, value: Any) -> NDArray[np.float64]:
     """A box size ``(3,)`` in metres: finite, ``>= 0``, at most :data:`MAX_COORDINATE`."""
-    size = _checks.float_array(name, value, (3,), max_abs=MAX_COORDINATE)
+    size = _checks.real_array(name, value, (3,), max_abs=MAX_COORDINATE)
     if (size < 0).any():
         k = int(np.argmax(size < 0))
         raise NonPositiveError(f"{name}[{k}] must be >= 0, got {float(size[k])!r}")
@@ -253,8 +253,8 @@ class ObjectTable(Sequence[ObjectModel]):
         if n and int(c.max()) >= len(names):
             k = int(np.argmax(c >= len(names)))
             raise OutOfRangeError(f"codes[{k}] = {int(c[k])} must be < len(type_names) = {len(names)}")
-        pos = _checks.float_array("positions", positions, (n, 3), max_abs=MAX_COORDINATE)
-        sz = _checks.float_array("sizes", sizes, (n, 3), max_abs=MAX_COORDINATE)
+        pos = _checks.real_array("positions", positions, (n, 3), max_abs=MAX_COORDINATE)
+        sz = _checks.real_array("sizes", sizes, (n, 3), max_abs=MAX_COORDINATE)
         if np.any(sz < 0):
             bad = np.argwhere(sz < 0)[0]
             raise NonPositiveError(f"sizes[{bad[0]}, {bad[1]}] must be >= 0, got {float(sz[tuple(bad)])!r}")
@@ -271,7 +271,7 @@ class ObjectTable(Sequence[ObjectModel]):
                 raise WorldGraphError(f"numbers[{k}] = {int(num[k])} repeats an earlier number")
         rot = None
         if rotations is not None:
-            rot = _checks.float_array("rotations", rotations, (n, 3, 3))
+            rot = _checks.real_array("rotations", rotations, (n, 3, 3))
             _check_rotations("rotations", rot)
         geometry_names, geometry_codes = None, None
         if geometries is not None:

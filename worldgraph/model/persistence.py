@@ -133,7 +133,7 @@ def _world_from_dict(cls: Any, data: Any, bad: Callable[[str], MalformedFileErro
 
     def array(value: Any, shape: tuple[int | None, ...], what: str) -> NDArray[np.float64]:
         try:
-            return _checks.float_array(what, value, shape)
+            return _checks.real_array(what, value, shape)
         except WorldGraphError as exc:
             raise bad(str(exc)) from exc
 

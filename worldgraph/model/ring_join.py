@@ -303,7 +303,7 @@ def _kernels() -> dict[str, Callable[..., Any]]:
 
 
 def _points(name: str, value: Any) -> NDArray[np.float64]:
-    return _checks.float_array(name, value, (None, 3), max_abs=MAX_ABS_COORDINATE)
+    return _checks.real_array(name, value, (None, 3), max_abs=MAX_ABS_COORDINATE)
 
 
 def _band(lo_name: str, lo: Any, hi_name: str, hi: Any, *, nonnegative: bool) -> tuple[float, float]:

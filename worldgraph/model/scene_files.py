@@ -316,7 +316,7 @@ def turn_scene(scene: trimesh.Scene, transform: ArrayLike) -> trimesh.Scene:
     :meth:`trimesh.Scene.apply_transform` does the same but drops each moved node's ``metadata``
     and ``geometry`` edge attributes (trimesh 5.2), and so the types written in glTF extras.
     """
-    m = _checks.float_array("transform", transform, (4, 4))
+    m = _checks.real_array("transform", transform, (4, 4))
     graph = scene.graph
     base = graph.base_frame
     for child in list(graph.transforms.children.get(base, [])):

@@ -49,8 +49,8 @@ def _check_room(room: Any, what: str = "room") -> radialopt.Region | None:
     else:
         raise ArgumentTypeError(f"{what} must be a radialopt.Region, a (lower, upper) pair or None, "
                                 f"got {_checks._short(room)}")
-    lower = _checks.float_array(f"{what} lower", lower, (3,), max_abs=MAX_COORDINATE)
-    upper = _checks.float_array(f"{what} upper", upper, (3,), max_abs=MAX_COORDINATE)
+    lower = _checks.real_array(f"{what} lower", lower, (3,), max_abs=MAX_COORDINATE)
+    upper = _checks.real_array(f"{what} upper", upper, (3,), max_abs=MAX_COORDINATE)
     if isinstance(room, Region):
         return room
     try:
@@ -118,7 +118,7 @@ def _geometry_nodes(scene: trimesh.Scene) -> Iterable[tuple[str, NDArray[np.floa
     transform checked finite with ``|x| <=`` :data:`MAX_COORDINATE`."""
     for node in scene.graph.nodes_geometry:
         matrix, geom_name, geometry = _node_geometry(scene, node)
-        m = _checks.float_array(f"transform of scene node {node!r}", matrix, (4, 4), max_abs=MAX_COORDINATE)
+        m = _checks.real_array(f"transform of scene node {node!r}", matrix, (4, 4), max_abs=MAX_COORDINATE)
         yield node, m, geom_name, geometry
 
 
@@ -135,7 +135,7 @@ def _vertices(name: str, geometry: Any) -> NDArray[np.float64] | None:
     raw = getattr(geometry, "vertices", None)
     if raw is None or np.size(raw) == 0:
         return None
-    return _checks.float_array(name, raw, (None, 3), max_abs=MAX_COORDINATE, min_size=1)
+    return _checks.real_array(name, raw, (None, 3), max_abs=MAX_COORDINATE, min_size=1)
 
 
 def _scene_nodes(scene: trimesh.Scene) -> tuple[list[Any], NDArray[np.float64], list[str], list[Any]]:
@@ -159,7 +159,7 @@ def _scene_nodes(scene: trimesh.Scene) -> tuple[list[Any], NDArray[np.float64], 
         ok = False
     if not ok:  # the first bad transform raises as in _geometry_nodes
         for node, matrix in zip(nodes, matrices, strict=True):
-            _checks.float_array(f"transform of scene node {node!r}", matrix, (4, 4), max_abs=MAX_COORDINATE)
+            _checks.real_array(f"transform of scene node {node!r}", matrix, (4, 4), max_abs=MAX_COORDINATE)
         raise WorldGraphError("scene node transforms must be finite (4, 4) arrays")  # pragma: no cover
     return nodes, stack, geom_names, geometries
 

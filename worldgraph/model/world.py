@@ -171,7 +171,7 @@ class WorldModel:
         cv: dict[str, NDArray[np.float64]] = {}
         for key, verts in self.class_vertices.items():
             _checks.name_string(f"class_vertices key {key!r}", key, UnknownGeometryError)
-            v = _checks.float_array(f"class_vertices[{key!r}]", verts, (None, 3), max_abs=MAX_COORDINATE,
+            v = _checks.real_array(f"class_vertices[{key!r}]", verts, (None, 3), max_abs=MAX_COORDINATE,
                                     min_size=1)
             v.setflags(write=False)
             cv[key] = v
@@ -278,7 +278,7 @@ class WorldModel:
         Each type gets the class geometry of its own name: the corners of a box of the type's
         median size.
         """
-        pos = _checks.float_array("positions", positions, (None, 3), max_abs=MAX_COORDINATE)
+        pos = _checks.real_array("positions", positions, (None, 3), max_abs=MAX_COORDINATE)
         n = pos.shape[0]
         if n == 0:
             raise EmptyWorldError("positions must hold at least one object, got shape (0, 3)")
@@ -286,7 +286,7 @@ class WorldModel:
         if sizes is None:
             sz = np.full((n, 3), DEFAULT_SIZE)
         else:
-            sz = _checks.float_array("sizes", sizes, None, max_abs=MAX_COORDINATE)
+            sz = _checks.real_array("sizes", sizes, None, max_abs=MAX_COORDINATE)
             if sz.shape == (3,):
                 sz = np.broadcast_to(sz, (n, 3))
             if sz.shape != (n, 3):

@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from .._checks import float_array, positive_float, strict_int
+from .._checks import integer, positive_float, real_array
 from .._rigid import rigid_transform
 from ..errors import PoseError, ShapeError
 from ..tolerances import COLLINEAR_TOL as COLLINEAR_TOL  # re-exported: worldgraph.pose.COLLINEAR_TOL
@@ -58,7 +58,7 @@ MAX_POSE_COORDINATE = 1e12
 
 def _points(name: str, x: ArrayLike, n: int | None = None, like: str = "") -> NDArray[np.float64]:
     """(n, 3) points; ``like`` names the argument whose length ``n`` is (for the mismatch message)."""
-    out = float_array(name, x, (None, 3), max_abs=MAX_POSE_COORDINATE)
+    out = real_array(name, x, (None, 3), max_abs=MAX_POSE_COORDINATE)
     if n is not None and len(out) != n:
         raise ShapeError(f"{name} must have shape ({n}, 3){f' like {like}' if like else ''}, "
                          f"got shape {out.shape}")
@@ -66,12 +66,12 @@ def _points(name: str, x: ArrayLike, n: int | None = None, like: str = "") -> ND
 
 
 def _point(name: str, x: ArrayLike) -> NDArray[np.float64]:
-    return float_array(name, x, (3,), max_abs=MAX_POSE_COORDINATE)
+    return real_array(name, x, (3,), max_abs=MAX_POSE_COORDINATE)
 
 
 def transformation(rotation: ArrayLike, translation: ArrayLike) -> NDArray[np.float64]:
     """4x4 homogeneous matrix from ``rotation (3, 3)`` and ``translation (3,)``."""
-    rot = float_array("rotation", rotation, (3, 3))
+    rot = real_array("rotation", rotation, (3, 3))
     out = np.eye(4)
     out[:3, :3] = rot
     out[:3, 3] = _point("translation", translation)
@@ -89,7 +89,7 @@ def invert_transformation(a_from_b: ArrayLike) -> NDArray[np.float64]:
 
 def _rotation_block(name: str, value: ArrayLike) -> NDArray[np.float64]:
     """The rotation of a (3, 3) rotation or a (4, 4) rigid transform."""
-    arr = float_array(name, value)
+    arr = real_array(name, value)
     if arr.shape == (4, 4):
         return rigid_transform(name, arr)[:3, :3]
     if arr.shape != (3, 3):
@@ -166,7 +166,7 @@ def pose_from_frames(model_frame: ArrayLike, percept_frame_: ArrayLike) -> NDArr
 
 
 def _weights(weights: ArrayLike, k: int) -> NDArray[np.float64]:
-    w = float_array("weights", weights, (k,))
+    w = real_array("weights", weights, (k,))
     neg = w < 0
     if neg.any():
         i = int(np.argmax(neg))
@@ -259,9 +259,9 @@ def weighted_kabsch_batch(ego_points: ArrayLike, world_points: ArrayLike, weight
         Proper rotations.
     t : (h, 3) float
     """
-    x = float_array("ego_points", ego_points, (None, None, 3), max_abs=MAX_POSE_COORDINATE)
-    y = float_array("world_points", world_points, x.shape, max_abs=MAX_POSE_COORDINATE)
-    w = float_array("weights", weights, x.shape[:2])
+    x = real_array("ego_points", ego_points, (None, None, 3), max_abs=MAX_POSE_COORDINATE)
+    y = real_array("world_points", world_points, x.shape, max_abs=MAX_POSE_COORDINATE)
+    w = real_array("weights", weights, x.shape[:2])
     neg = np.argwhere(w < 0)
     if len(neg):
         i, j = neg[0]
@@ -294,7 +294,7 @@ def _covariances(covariances: ArrayLike, k: int, name: str = "covariances", like
     """(k, 3, 3) symmetric positive-definite covariances (m^2), named by index when one is not.
 
     ``name`` is the caller's argument name, used in the messages."""
-    C = float_array(name, covariances, (None, 3, 3))
+    C = real_array(name, covariances, (None, 3, 3))
     if len(C) != k:
         raise ShapeError(f"{name} must have shape ({k}, 3, 3){f' like {like}' if like else ''}, "
                          f"got shape {C.shape}")
@@ -530,7 +530,7 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
         raise PoseError(f"ego_points must hold at least 3 correspondences for a pose, got {len(x)}")
     C = _covariances(covariances, len(x), like="ego_points")
     T0 = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
-    max_iter = strict_int("max_iter", max_iter, minimum=1)
+    max_iter = integer("max_iter", max_iter, minimum=1)
     tol = positive_float("tol", tol, maximum=0.5)
     tilt_prior = _check_tilt_prior(tilt_prior)
     return _refine_pose(x, y, C, T0, max_iter, tol, tilt_prior)

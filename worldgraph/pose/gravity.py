@@ -47,7 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from perception import Percept
 
-from .._checks import float_array
+from .._checks import real_array
 from ..errors import ArgumentTypeError, GravityDirectionError, OutOfRangeError
 from ..tolerances import LEVEL_TOLERANCE, MAX_EGO_TILT, MIN_UP_NORM, TINY, AssociationTolerances
 
@@ -219,7 +219,7 @@ def level_rotation(up: ArrayLike) -> NDArray[np.float64]:
 
 
 def _unit_up(up: object, name: str = "gravity") -> NDArray[np.float64]:
-    u = float_array(name, up, (3,), max_abs=1e12)
+    u = real_array(name, up, (3,), max_abs=1e12)
     n = float(np.linalg.norm(u))
     if not n > MIN_UP_NORM:
         raise OutOfRangeError(f"{name} = {u.tolist()} must be a non-zero up vector in the ego frame")
@@ -276,7 +276,7 @@ def check_gravity(gravity: object, tol: AssociationTolerances) -> SearchPlan:
                                 f"got {gravity!r} (True: use 'auto' or (0, 0, 1); False: None)")
     u = _unit_up(gravity)
     if u[2] < 0.0:
-        given = float_array("gravity", gravity, (3,))
+        given = real_array("gravity", gravity, (3,))
         angle = math.degrees(math.acos(max(-1.0, min(1.0, float(u[2])))))
         raise GravityDirectionError(
             f"gravity = {given.tolist()} points {angle:.0f} deg from the ego +z axis (more than 90): "

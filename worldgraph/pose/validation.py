@@ -44,7 +44,7 @@ from scipy.stats import chi2
 
 from perception import OBJECT_VIEW, Percept
 
-from .._checks import as_list, float_array, positive_float, strict_int
+from .._checks import as_list, integer, positive_float, real_array
 from .._rigid import rigid_transform
 from ..errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
 from ..model import WorldModel
@@ -169,7 +169,7 @@ def constrained_directions(covs: NDArray[np.float64]) -> NDArray[np.intp]:
     with any pose that puts its object anywhere along its long axis, so it checks a pose in two
     directions only.
     """
-    C = float_array("covs", covs, (None, 3, 3))
+    C = real_array("covs", covs, (None, 3, 3))
     C = _covariances(C, len(C), "covs")
     if not len(C):
         return np.zeros(0, dtype=np.intp)
@@ -185,7 +185,7 @@ def ros_pose_covariance(information: NDArray[np.float64]) -> NDArray[np.float64]
     PoseError
         The information is singular (the landmarks do not fix a 6D pose).
     """
-    J = float_array("information", information, (6, 6))
+    J = real_array("information", information, (6, 6))
     if np.abs(J - J.T).max() > INFORMATION_SYMMETRY_RTOL * max(np.abs(J).max(), TINY):
         raise PoseError(f"information must be symmetric, got {J.tolist()}")
     w, V = np.linalg.eigh(0.5 * (J + J.T))
@@ -309,7 +309,7 @@ class NearestObjects:
         for i, t in enumerate(types):
             if not isinstance(t, str) or t not in world.type_index:
                 raise UnknownTypeError(f"types[{i}] = {t!r} is not a type of the world model")
-        k = strict_int("k", k, minimum=1, maximum=1000)
+        k = integer("k", k, minimum=1, maximum=1000)
         self.world = world
         self.k = k
         self.groups = {t: np.array([i for i, s in enumerate(types) if s == t]) for t in sorted(set(types))}
@@ -413,7 +413,7 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
     if not isinstance(nearest, NearestObjects):
         raise ArgumentTypeError(f"nearest must be a NearestObjects, got {type(nearest).__name__}")
     T, ego, covs, _ = _inputs(start, ego, covs, pose_name="start")
-    max_rounds = strict_int("max_rounds", max_rounds, minimum=1, maximum=1000)
+    max_rounds = integer("max_rounds", max_rounds, minimum=1, maximum=1000)
     gate = positive_float("gate", gate)
     try:
         pairs = tuple((int(p), int(o)) for p, o in pairs)
@@ -461,7 +461,7 @@ def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_
     """
     world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
     n_sigma = positive_float("n_sigma", n_sigma, maximum=1e3)
-    rounds = strict_int("rounds", rounds, minimum=0, maximum=1000)
+    rounds = integer("rounds", rounds, minimum=0, maximum=1000)
     cov = _covariance_or_unknown("pose_covariance", pose_covariance, 6).copy()
     return _laplace_inflate(world_from_ego, ego, covs, world_points, cov, n_sigma, rounds,
                             _check_tilt_prior(tilt_prior))
@@ -670,7 +670,7 @@ def _shared_sandwich(L: NDArray[np.float64], shared: Sequence[Sequence[tuple[int
         for j, (view, S) in enumerate(pairs):
             if int(view) == OBJECT_VIEW:  # shared by one object's views only: never across percepts
                 continue
-            S = float_array(f"shared[{i}][{j}] loading", S, (3, None))
+            S = real_array(f"shared[{i}][{j}] loading", S, (3, None))
             g = L[i] @ S
             G[int(view)] = G[int(view)] + g if int(view) in G else g
             own += g @ g.T
@@ -704,9 +704,9 @@ def shared_range_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray
     """
     world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
     k = len(ego)
-    centers = float_array("centers", centers, (k, 3))
-    sig = float_array("sigmas", sigmas, (k,))
-    w = float_array("weights", weights, (k,))
+    centers = real_array("centers", centers, (k, 3))
+    sig = real_array("sigmas", sigmas, (k,))
+    w = real_array("weights", weights, (k,))
     for name, arr in (("sigmas", sig), ("weights", w)):
         if np.any(arr <= 0):
             i = int(np.argmax(arr <= 0))
@@ -748,7 +748,7 @@ def rotation_only_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArra
     M^-1 + M^-1 S^T Sigma_t S M^-1``, ``Cov(e_t, e_r) = Sigma_t S M^-1`` with ``S = sum w_i A_i``.
     """
     world_from_ego, ego, covs, _ = _inputs(world_from_ego, ego, covs)
-    w = float_array("weights", weights, (len(ego),))
+    w = real_array("weights", weights, (len(ego),))
     if np.any(w < 0):
         i = int(np.argmax(w < 0))
         raise PoseError(f"weights[{i}] must be >= 0, got {w[i]!r}")

@@ -22,7 +22,7 @@ __all__ = ["scene_statistics"]
 
 def _seed(seed: object) -> int:
     """A scene seed: a non-negative integer (not bool, float, None, str or a Generator)."""
-    return _checks.strict_int("seed", seed, minimum=0)
+    return _checks.integer("seed", seed, minimum=0)
 
 
 def _link_args(max_link_length: object, link_margin: object) -> None:

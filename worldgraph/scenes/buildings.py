@@ -72,7 +72,7 @@ def corridor_scene(n_doors: int = 40, length: float | None = None, seed: int = 0
     width, height : float
         Corridor width and height (m), ``> 0`` and at most 100.
     """
-    n_doors = _checks.strict_int("n_doors", n_doors, minimum=1, maximum=MAX_CORRIDOR_DOORS)
+    n_doors = _checks.integer("n_doors", n_doors, minimum=1, maximum=MAX_CORRIDOR_DOORS)
     per_side = [(n_doors + 1) // 2, n_doors // 2]
     if length is None:
         length = 1.8 * per_side[0] + 2.0
@@ -153,7 +153,7 @@ def floor(n_objects: int = 20000, seed: int = 0, max_link_length: float = 5.0,
     Returns a :class:`WorldModel` with exactly ``n_objects`` objects (``1 <= n_objects <=``
     :data:`MAX_FLOOR_OBJECTS`); ``seed`` is a non-negative integer.
     """
-    n_objects = _checks.strict_int("n_objects", n_objects, minimum=1, maximum=MAX_FLOOR_OBJECTS)
+    n_objects = _checks.integer("n_objects", n_objects, minimum=1, maximum=MAX_FLOOR_OBJECTS)
     _link_args(max_link_length, link_margin)
     seed = _seed(seed)
     rng = np.random.default_rng(seed)
@@ -270,8 +270,8 @@ class Site:
 
 def _site_args(storeys: object, n_objects: object, storey_height: object, max_link_length: object,
                link_margin: object) -> tuple[int, int, float]:
-    storeys = _checks.strict_int("storeys", storeys, minimum=1, maximum=MAX_STOREYS)
-    n_objects = _checks.strict_int("n_objects", n_objects, minimum=1, maximum=MAX_SITE_OBJECTS)
+    storeys = _checks.integer("storeys", storeys, minimum=1, maximum=MAX_STOREYS)
+    n_objects = _checks.integer("n_objects", n_objects, minimum=1, maximum=MAX_SITE_OBJECTS)
     height = _checks.positive_float("storey_height", storey_height, maximum=100.0)
     if height < MIN_STOREY_HEIGHT:
         from ..errors import OutOfRangeError
@@ -450,7 +450,7 @@ def campus_site(buildings: int = 10, storeys: int = 5, n_objects: int = 1_000_00
     :data:`MAX_BUILDINGS` and ``buildings <= n_objects``; ``gap`` in metres, ``> 0`` and at most
     10,000; the other arguments as for :func:`building_site`.
     """
-    buildings = _checks.strict_int("buildings", buildings, minimum=1, maximum=MAX_BUILDINGS)
+    buildings = _checks.integer("buildings", buildings, minimum=1, maximum=MAX_BUILDINGS)
     storeys, n_objects, height = _site_args(storeys, n_objects, storey_height, max_link_length, link_margin)
     if buildings > n_objects:
         from ..errors import OutOfRangeError

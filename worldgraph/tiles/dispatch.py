@@ -127,7 +127,7 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     if not isinstance(tol, AssociationTolerances):
         raise ArgumentTypeError(f"tol must be AssociationTolerances, got {_checks._short(tol)}")
     if workers is not None:
-        workers = _checks.strict_int("workers", workers, minimum=1, maximum=1024)
+        workers = _checks.integer("workers", workers, minimum=1, maximum=1024)
     if pool is not None:
         if not isinstance(pool, TilePool):
             raise ArgumentTypeError(f"pool must be None or a TilePool, got {_checks._short(pool)}")

@@ -51,7 +51,7 @@ class TilePool:
     def __init__(self, tiles: Sequence[Tile], workers: int | None = None) -> None:
         self.tiles = _check_tiles(tiles)
         if workers is not None:
-            workers = _checks.strict_int("workers", workers, minimum=1, maximum=1024)
+            workers = _checks.integer("workers", workers, minimum=1, maximum=1024)
         if "fork" not in multiprocessing.get_all_start_methods():  # pragma: no cover - spawn-only
             raise WorldGraphError("TilePool needs the 'fork' start method (Linux, macOS): use "
                                   "localize_tiled without pool on this platform")

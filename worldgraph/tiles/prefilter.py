@@ -183,7 +183,7 @@ def tiles_to_visit(summaries: Sequence[TileSummary], percepts: Sequence[Percept]
     if near is not None or radius is not None:
         if near is None or radius is None:
             raise ArgumentTypeError("near and radius go together: pass both (a position prior) or neither")
-        prior = (_checks.float_array("near", near, (3,)), _checks.positive_float("radius", radius))
+        prior = (_checks.real_array("near", near, (3,)), _checks.positive_float("radius", radius))
     need = max(3, int(tol.min_clique_size))
     x_all = np.array([p.position for p in plist], dtype=np.float64).reshape(-1, 3)
     sig_all = np.array([p.sigma for p in plist], dtype=np.float64)
