@@ -14,10 +14,10 @@ import time
 import distributed
 import numpy as np
 import pytest
-from problems import robot_at_a_table
 
 import worldgraph as wg
 from perception import Percept
+from tests.problems import robot_at_a_table
 from worldgraph import scenes
 from worldgraph.errors import ArgumentTypeError, MalformedFileError, WorldGraphError
 from worldgraph.tiles import (

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 NOTES = ROOT / "docs" / "design.md"
 PACKAGES = ("perception", "worldgraph", "radialopt")
 SCANNED = (*PACKAGES, "tests", "examples", "benchmarks")

@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 from perception import Percept
 from worldgraph.model import WorldModel
 
-BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 _spec = importlib.util.spec_from_file_location("_gallery", ROOT / "docs" / "_gallery.py")
 assert _spec is not None and _spec.loader is not None
 gallery = importlib.util.module_from_spec(_spec)

@@ -14,7 +14,7 @@ import radialopt
 import radialopt.tolerances as rtol
 import worldgraph.tolerances as wtol
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SMALL = re.compile(r"^[0-9.]+e-[0-9]+$", re.IGNORECASE)
 
 #: Literals that stay in the code, with the reason (the tolerances modules say the same).

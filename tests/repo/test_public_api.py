@@ -7,7 +7,8 @@ import importlib
 import json
 
 import pytest
-from public_api import SNAPSHOT, api
+
+from tests.public_api import SNAPSHOT, api
 
 RECORDED: dict[str, list[str]] = json.loads(SNAPSHOT.read_text())
 

@@ -244,7 +244,7 @@ def test_a_too_old_rerun_names_the_version(monkeypatch):
 
 def test_example_03_writes_a_recording(tmp_path, kitchen_log):
     world = kitchen_log[0]  # the example's kitchen too (seed 0)
-    script = Path(__file__).resolve().parents[1] / "examples" / "03_localize_kitchen.py"
+    script = Path(__file__).resolve().parents[2] / "examples" / "03_localize_kitchen.py"
     rrd = tmp_path / "rec" / "kitchen.rrd"
     args = [sys.executable, str(script), "--smoke", "--out", str(tmp_path), "--rerun", str(rrd)]
     done = subprocess.run(args, capture_output=True, text=True, timeout=300, cwd=tmp_path)

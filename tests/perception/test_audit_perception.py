@@ -29,7 +29,7 @@ from perception.errors import (
     UnknownClassError,
 )
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _run(code: str, cwd: Path) -> subprocess.CompletedProcess[str]:

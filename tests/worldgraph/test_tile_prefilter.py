@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from problems import robot_at_a_table
 from scipy.spatial.transform import Rotation
 
 import worldgraph as wg
 from perception import Percept
 from perception.simulate import simulate_percepts
+from tests.problems import robot_at_a_table
 from worldgraph import scenes
 from worldgraph.errors import ArgumentTypeError, UnknownTypeError
 from worldgraph.localization.result import POSE_STATUSES

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = {
     "01_gaussian_circles.py": ["01_gaussian_circles.png"],
     "02_radial_polytope.py": ["02_radial_polytope.png"],

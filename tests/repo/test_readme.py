@@ -14,7 +14,7 @@ from pathlib import Path
 import matplotlib
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
 TOUR = ROOT / "docs" / "tour.md"
 OWN_DATA = ROOT / "docs" / "your_own_data.md"
