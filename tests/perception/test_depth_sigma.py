@@ -18,6 +18,7 @@ from perception import (
     simulate_scan,
 )
 from perception.simulate import scan_angles
+from tests.worlds import yaw_pose
 
 
 def test_depth_sigma_arrays_and_floor_hand_computed() -> None:
@@ -51,21 +52,13 @@ def test_depth_sigma_overflow_names_the_depth() -> None:
         depth_sigma([1.0, 1e160], 1.0, min_sigma=1e-3)
 
 
-def _pose(yaw: float, t: tuple[float, float, float]) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    M = np.eye(4)
-    M[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
-    M[:3, 3] = t
-    return M
-
-
 @pytest.mark.parametrize("depth_factor, min_sigma", [(1000.0, 1e-4), (20.0, 0.05), (5.0, 1e-6)])
 def test_simulate_percepts_sigmas_follow_eq6(depth_factor: float, min_sigma: float) -> None:
     rng = np.random.default_rng(3)
     n = 30
     X = np.column_stack([rng.uniform(-6, 6, n), rng.uniform(-6, 6, n), rng.uniform(0, 2, n)])
     types = [["door", "handle", "knob"][i % 3] for i in range(n)]
-    M = _pose(0.4, (0.5, -1.0, 1.1))
+    M = yaw_pose(0.4, (0.5, -1.0, 1.1))
     percepts, truth = simulate_percepts(types, X, M, np.random.default_rng(4), depth_factor=depth_factor,
                                         min_sigma=min_sigma, n_false=5)
     ego_from_world = np.linalg.inv(M)
@@ -87,7 +80,7 @@ def test_simulate_scan_sigmas_follow_eq6() -> None:
     n = 40
     X = np.column_stack([rng.uniform(-5, 5, n), rng.uniform(-5, 5, n), rng.uniform(0, 2, n)])
     types = ["handle"] * n
-    M = _pose(0.2, (0.0, 0.0, 1.0))
+    M = yaw_pose(0.2, (0.0, 0.0, 1.0))
     chain = default_head()
     df, floor = 300.0, 2e-3
     percepts, truth = simulate_scan(types, X, M, np.random.default_rng(9), chain=chain, n_views=1,

@@ -18,21 +18,14 @@ from perception import (
     simulate_scan,
 )
 from perception.simulate import scan_angles
-
-
-def pose(yaw: float, t: tuple[float, float, float]) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    M = np.eye(4)
-    M[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
-    M[:3, 3] = t
-    return M
+from tests.worlds import yaw_pose
 
 
 def scene(seed: int, n: int = 15) -> tuple[list[str], np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     types = [["door", "handle", "knob"][i % 3] for i in range(n)]
     X = np.column_stack([rng.uniform(-8, 8, n), rng.uniform(-8, 8, n), rng.uniform(0, 2, n)])
-    return types, X, pose(0.7, (1.0, -0.5, 1.2))
+    return types, X, yaw_pose(0.7, (1.0, -0.5, 1.2))
 
 
 def ego_coords(world_from_ego: np.ndarray, X: np.ndarray) -> np.ndarray:
@@ -169,7 +162,7 @@ def test_scan_noise_false_and_misses() -> None:
     rng = np.random.default_rng(12)
     types = [["door", "handle"][i % 2] for i in range(80)]
     X = np.column_stack([rng.uniform(-5, 5, 80), rng.uniform(-5, 5, 80), rng.uniform(0, 2, 80)])
-    M = pose(0.3, (0.2, 0.1, 1.2))
+    M = yaw_pose(0.3, (0.2, 0.1, 1.2))
     kwargs = {"depth_factor": 500.0, "miss_rate": 0.2, "false_rate": 0.3}
     percepts, truth = simulate_scan(types, X, M, np.random.default_rng(13), return_truth=True, **kwargs)
     P = ego_coords(M, X)

@@ -10,11 +10,7 @@ import pytest
 
 import radialopt as ro
 from radialopt import errors
-
-
-def _spheres() -> list[ro.GaussianSphere]:
-    return ro.make_spheres([[0, 0, 0], [4, 0, 0], [0, 3, 0.5], [1, 1, 3]], [1.9, 3.4, 2.1, 2.3],
-                           [0.1, 0.2, 0.05, 0.3])
+from tests.problems import four_spheres
 
 
 def test_fix_radius_rejects_a_negative_index() -> None:
@@ -37,7 +33,7 @@ def test_fix_radius_rejects_a_huge_value() -> None:
 
 
 def test_infeasible_added_constraints_are_named() -> None:
-    spheres = _spheres()  # centres 0 and 1 are 4 m apart: radii 0.1 and 0.1 cannot reach
+    spheres = four_spheres()  # centres 0 and 1 are 4 m apart: radii 0.1 and 0.1 cannot reach
     with pytest.raises(errors.SolverError,
                        match=r"fix_radius\(i=0, value=0\.1\).*fix_radius\(i=1, value=0\.1\)"):
         ro.RadialProblem(4).fix_radius(0, 0.1).fix_radius(1, 0.1).solve(spheres)
@@ -46,7 +42,7 @@ def test_infeasible_added_constraints_are_named() -> None:
 
 
 def test_bound_radii_keeps_open_sides_and_arrays() -> None:
-    spheres = _spheres()
+    spheres = four_spheres()
     sol = ro.RadialProblem(4).bound_radii(-np.inf, [10.0, 10.0, 10.0, np.inf]).solve(spheres)
     # the measured radii already satisfy the polytope (feasible), so the projection keeps them
     np.testing.assert_allclose(sol.radii, [1.9, 3.4, 2.1, 2.3], atol=1e-6)

@@ -9,17 +9,13 @@ import numpy as np
 import pytest
 
 import radialopt as ro
-
-
-def _spheres() -> list[ro.GaussianSphere]:
-    return ro.make_spheres([[0, 0, 0], [4, 0, 0], [0, 3, 0.5], [1, 1, 3]], [1.9, 3.4, 2.1, 2.3],
-                           [0.1, 0.2, 0.05, 0.3])
+from tests.problems import four_spheres
 
 
 # ---------------------------------------------------------------- 1. iterables of spheres
 @pytest.mark.parametrize("method", ro.POSITION_METHODS)
 def test_estimate_position_accepts_a_generator(method: str) -> None:
-    spheres = _spheres()
+    spheres = four_spheres()
     ref = ro.estimate_position(spheres, method=method)
     got = ro.estimate_position((s for s in spheres), method=method)
     assert got.status == ref.status
@@ -29,7 +25,7 @@ def test_estimate_position_accepts_a_generator(method: str) -> None:
 # ---------------------------------------------------------------- 4. outside_region is no success
 def test_outside_region_is_not_a_success_status() -> None:
     region = ro.Region([5.0, 5, 5], [6.0, 6, 6])
-    est = ro.estimate_position(_spheres(), region=region)
+    est = ro.estimate_position(four_spheres(), region=region)
     assert est.status == "outside_region"
     assert not region.contains(est.position)
     assert est.status not in ro.POSITION_SUCCESS

@@ -11,17 +11,12 @@ from hypothesis import strategies as st
 
 import radialopt as ro
 from radialopt.spheres import checked_arrays
-from tests.problems import sphere_sets
-
-
-def arrays(spheres):
-    return (np.array([s.center for s in spheres]), np.array([s.radius for s in spheres]),
-            np.array([s.sigma for s in spheres]))
+from tests.problems import sphere_arrays, sphere_sets
 
 
 @given(sphere_sets(min_n=2, max_n=8))
 def test_array_form_gives_the_spheres_answer(spheres):
-    c, r, s = arrays(spheres)
+    c, r, s = sphere_arrays(spheres)
     a = ro.project_radii(centers=c, radii=r, sigmas=s)
     b = ro.project_radii(spheres)
     np.testing.assert_array_equal(a.radii, b.radii)

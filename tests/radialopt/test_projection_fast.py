@@ -10,12 +10,7 @@ import radialopt as ro
 import radialopt.projection as proj
 from radialopt._ldp import _least_distance_dense
 from radialopt.projection import _Problem, _project_radii_trusted
-from tests.problems import sphere_sets
-
-
-def arrays(spheres):
-    return (np.array([s.center for s in spheres]), np.array([s.radius for s in spheres]),
-            np.array([s.sigma for s in spheres]))
+from tests.problems import sphere_arrays, sphere_sets
 
 
 @st.composite
@@ -33,7 +28,7 @@ def grid_spheres(draw, min_n: int = 2, max_n: int = 6):
 def test_checked_and_unchecked_routes_give_the_same_answer(spheres):
     for method in ("active_set", "paper") if len(spheres) <= 5 else ("active_set",):
         checked = ro.project_radii(spheres, method=method)
-        trusted = _project_radii_trusted(*arrays(spheres), method=method)
+        trusted = _project_radii_trusted(*sphere_arrays(spheres), method=method)
         np.testing.assert_allclose(trusted.radii, checked.radii, rtol=0, atol=1e-12)
         assert trusted.status == checked.status
         assert trusted.active_rows == checked.active_rows

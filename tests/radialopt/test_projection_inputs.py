@@ -10,15 +10,11 @@ import pytest
 
 import radialopt as ro
 from radialopt import errors
-
-
-def _spheres() -> list[ro.GaussianSphere]:
-    return ro.make_spheres([[0, 0, 0], [4, 0, 0], [0, 3, 0.5], [1, 1, 3]], [1.9, 3.4, 2.1, 2.3],
-                           [0.1, 0.2, 0.05, 0.3])
+from tests.problems import four_spheres
 
 
 def test_project_radii_check_accepts_a_generator() -> None:
-    spheres = _spheres()
+    spheres = four_spheres()
     ref = ro.project_radii(spheres, check=True)
     got = ro.project_radii((s for s in spheres), check=True)
     np.testing.assert_allclose(got.radii, ref.radii)
@@ -45,9 +41,9 @@ def test_project_radii_with_enumeration_refuses_too_many_spheres(kwargs: dict) -
 @pytest.mark.parametrize("solver", ["", " ", "NO_SUCH_SOLVER"])
 def test_project_radii_rejects_an_empty_or_unknown_solver(solver: str) -> None:
     with pytest.raises(errors.UnknownMethodError, match=rf"solver = {solver!r}"):
-        ro.project_radii(_spheres(), method="cvxpy", solver=solver)
+        ro.project_radii(four_spheres(), method="cvxpy", solver=solver)
 
 
 def test_project_radii_default_solver_is_still_clarabel() -> None:
-    assert ro.project_radii(_spheres(), method="cvxpy").solver == "CLARABEL"
-    assert ro.project_radii(_spheres(), method="cvxpy", solver="clarabel").solver == "CLARABEL"
+    assert ro.project_radii(four_spheres(), method="cvxpy").solver == "CLARABEL"
+    assert ro.project_radii(four_spheres(), method="cvxpy", solver="clarabel").solver == "CLARABEL"

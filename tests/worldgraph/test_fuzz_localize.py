@@ -21,6 +21,7 @@ from scipy.spatial.transform import Rotation
 
 import worldgraph as wg
 from perception import Percept, PerceptionError
+from tests.worlds import four_type_world
 from worldgraph import validation as val
 from worldgraph.cliques import maximum_cliques
 from worldgraph.filters import consistency_graph
@@ -45,13 +46,7 @@ nasty_scalar = st.sampled_from(NASTY_SCALARS)
 nasty_float = st.one_of(st.floats(allow_nan=True, allow_infinity=True), nasty_scalar)
 
 
-def _world() -> wg.WorldModel:
-    rng = np.random.default_rng(0)
-    types = [f"t{i % 4}" for i in range(20)]
-    return wg.WorldModel.from_arrays(types, rng.uniform([0, 0, 0], [6, 6, 2], (20, 3)))
-
-
-WORLD = _world()
+WORLD = four_type_world()
 POSE = transformation(Rotation.from_euler("z", 0.3).as_matrix(), np.array([2.0, 3.0, 0.5]))
 
 

@@ -18,6 +18,7 @@ from scipy.stats import chi2
 import radialopt as ro
 import worldgraph.localization as wl
 from perception import Percept
+from tests.worlds import skew
 from worldgraph import scenes
 from worldgraph.errors import WorldGraphError
 from worldgraph.localization import LOCALIZE_STATUSES, default_region, localize
@@ -368,10 +369,6 @@ def test_paper_ok_answers_agree_with_their_own_matches(seed: int) -> None:
             H = np.hstack([-np.eye(3), skew(R @ x)])  # d residual / d (t_err, rot_err)
             S = percepts[p].sigma ** 2 * np.eye(3) + H @ C @ H.T
             assert r @ np.linalg.solve(S, r) <= limit
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
 
 
 # ----------------------------------------------------------------------------------------------

@@ -9,6 +9,7 @@ from scipy.spatial.transform import Rotation
 
 import perception as pc
 import radialopt as ro
+from tests.worlds import skew
 from worldgraph import scenes
 from worldgraph.localization import localize
 from worldgraph.pose import pose_information, refine_pose, transformation, weighted_rotation
@@ -25,10 +26,6 @@ def ros_error(true: np.ndarray, est: np.ndarray) -> np.ndarray:
     """(t_true - t_est, rotvec(R_true R_est^T)): the ROS-order pose error."""
     rot = Rotation.from_matrix(true[:3, :3] @ est[:3, :3].T).as_rotvec()
     return np.concatenate([true[:3, 3] - est[:3, 3], rot])
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
 
 
 def test_sandwich_matches_monte_carlo_of_the_ml_pose() -> None:

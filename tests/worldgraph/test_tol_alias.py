@@ -9,18 +9,12 @@ from scipy.spatial.transform import Rotation
 
 import worldgraph as wg
 from perception import Percept
+from tests.worlds import four_type_world
 from worldgraph.filters import consistency_graph
 from worldgraph.hypotheses import is_ambiguous
 from worldgraph.tiles import localize_tiled, split
 
-
-def _world() -> wg.WorldModel:
-    rng = np.random.default_rng(0)
-    types = [f"t{i % 4}" for i in range(20)]
-    return wg.WorldModel.from_arrays(types, rng.uniform([0, 0, 0], [6, 6, 2], (20, 3)))
-
-
-WORLD = _world()
+WORLD = four_type_world()
 R = Rotation.from_euler("z", 0.3).as_matrix()
 T = np.array([2.0, 3.0, 0.5])
 

@@ -9,18 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import perception as pc
 import worldgraph as wg
-
-
-def _world() -> tuple[wg.WorldModel, list[pc.Percept]]:
-    pos = np.random.default_rng(0).uniform([0, 0, 0], [6, 6, 2], (20, 3))
-    world = wg.WorldModel.from_arrays([f"t{i % 4}" for i in range(20)], pos)
-    return world, [pc.Percept(f"t{i % 4}", pos[i] - [2, 3, 0.5], 0.02) for i in range(10)]
+from tests.worlds import four_type_world_and_percepts
 
 
 def test_world_model_of_a_scalar_and_bad_scene_or_source() -> None:
-    world, _ = _world()
+    world, _ = four_type_world_and_percepts()
     with pytest.raises(wg.ArgumentTypeError, match="objects must be a sequence of ObjectModel"):
         wg.WorldModel(np.array(1.0))
     with pytest.raises(wg.ArgumentTypeError, match="scene must be a trimesh.Scene"):
