@@ -40,3 +40,14 @@ def yaw_pose(yaw: float, t: tuple[float, float, float]) -> np.ndarray:
 def skew(v: np.ndarray) -> np.ndarray:
     """The cross-product matrix of ``v``: ``skew(v) @ w == np.cross(v, w)``."""
     return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+
+
+def two_copied_rooms() -> tuple[wg.WorldModel, list[pc.Percept]]:
+    """A room of 30 doors, knobs and handles (seed 2) and its copy 20 m along x; 6 exact percepts
+    of the first room seen from (2.5, 2, 1), sigma 1 cm."""
+    rng = np.random.default_rng(2)
+    room = rng.uniform([0, 0, 0], [5, 4, 2], (30, 3))
+    types = [("door", "knob", "handle")[i % 3] for i in range(30)]
+    world = wg.WorldModel.from_arrays(types * 2, np.vstack([room, room + [20.0, 0.0, 0.0]]))
+    percepts = [pc.Percept(types[i], room[i] - [2.5, 2.0, 1.0], 0.01) for i in range(6)]
+    return world, percepts

@@ -15,8 +15,6 @@ import radialopt as ro
 from tests.problems import infeasible_spheres
 
 D2_CENTERS = np.array([[4.0, 3, 0], [2, 1, 0], [2, 3, 2]])
-
-
 D2_RADII = np.array([2.0, 5, 5])
 
 
