@@ -1,6 +1,6 @@
 """Benchmark: certificates of global optimality of the range-only ML position (issue 11).
 
-Random scenes like tests/test_certificates.py: ``n`` landmarks uniform in a 10 m room, the robot
+Random scenes like tests/radialopt/test_certificates.py: ``n`` landmarks uniform in a 10 m room, the robot
 uniform inside, ``sigma = rho^2 / depth_factor`` with ``depth_factor`` log-uniform in [100, 1000].
 For every scene the position certified is the one ``estimate_position(method="ml")`` returns;
 an independent brute force (batched Levenberg-Marquardt from a 6^3 grid of starts, the one of
@@ -13,7 +13,7 @@ Run:  python benchmarks/certificates.py [--trials 300] [--seed 0] [--minima-scen
 Prints Markdown tables.  Targets: >= 99 % certified, median <= 20 ms, zero false certificates.
 
 ``--pose [--pose-trials 200]`` adds the ML 6D pose table (worldgraph.pose.certificate, SDP over
-the rotation): scenes of tests/test_pose_certificate.py (4-10 landmarks, anisotropic SPD
+the rotation): scenes of tests/worldgraph/test_pose_certificate.py (4-10 landmarks, anisotropic SPD
 covariances, standard deviations ``noise * U(0.3, 1)``) at noise 3 cm, 10 cm, 30 cm and 1 m; the
 pose certified is the best of a 50-start refine_pose brute force.  A false certificate is
 ``certified=True`` with a cost above the brute-force minimum plus the gap tolerance, or a
@@ -31,7 +31,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "radialopt"))
 
 from test_certificates import local_minima, scene_batch  # noqa: E402
 

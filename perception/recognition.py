@@ -403,7 +403,7 @@ def recognize(
     occlusion), which moves the point across the viewing ray but hardly along it. On the
     :func:`random_scene` renders the defaults give a mean NEES ``e^T C^-1 e`` of the box
     centre of 2.3-2.6 with 96-99 % of percepts within 3 sigma (chi^2_3: 3 and 99.7 %);
-    without the offset term it is 140-470 (tests/test_recognition.py).
+    without the offset term it is 140-470 (tests/perception/test_recognition.py).
 
     Parameters
     ----------

@@ -42,6 +42,18 @@ def infeasible_spheres(rng: np.random.Generator, n: int) -> list[ro.GaussianSphe
             return ro.make_spheres(centers, radii, sigmas)
 
 
+def four_spheres() -> list[ro.GaussianSphere]:
+    """Four spheres of a valid problem (centres, radii, sigmas written out)."""
+    return ro.make_spheres([[0, 0, 0], [4, 0, 0], [0, 3, 0.5], [1, 1, 3]], [1.9, 3.4, 2.1, 2.3],
+                           [0.1, 0.2, 0.05, 0.3])
+
+
+def sphere_arrays(spheres):
+    """The centres, radii and sigmas of ``spheres`` as three arrays."""
+    return (np.array([s.center for s in spheres]), np.array([s.radius for s in spheres]),
+            np.array([s.sigma for s in spheres]))
+
+
 @st.composite
 def sphere_sets(draw, min_n: int = 2, max_n: int = 6, scale: float = 5.0):
     """Hypothesis strategy: n spheres with distinct centres, radii >= 0 and sigmas > 0."""

@@ -1,6 +1,6 @@
 """The public API of the three packages: every module and the names it exports.
 
-``python tests/public_api.py`` writes ``tests/data/public_api.json``; ``tests/test_public_api.py``
+``python tests/public_api.py`` writes ``tests/data/public_api.json``; ``tests/repo/test_public_api.py``
 checks that every name listed there is still importable from the module that listed it.  Rewrite
 the file only when a name is meant to go (with a deprecation first), never to make the test pass
 after a move: a restructuring keeps every old import path working.

@@ -324,7 +324,7 @@ def _trimesh_table(nodes: list[Any], matrices: NDArray[np.float64], geom_names: 
     there is none), its class vertices and the names of the mirrored nodes.
 
     Batched, with the numbers of the per-node construction (``ObjectModel`` per node: see
-    ``tests/test_importers.py``); a value out of range makes that node's ``ObjectModel`` to
+    ``tests/worldgraph/test_importers.py``); a value out of range makes that node's ``ObjectModel`` to
     raise its error.
     """
     if not keep:
