@@ -19,7 +19,7 @@ from .tolerances import FARKAS_LAST_ZERO, FARKAS_ZERO, RANK_RTOL, ROUNDING_RTOL
 
 
 def least_distance(G: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[NDArray[np.float64], str]:
-    """Solve ``min |z|^2 s.t. G z <= h`` exactly (Lawson-Hanson LDP via NNLS, then polish).
+    """Solve ``min |z|^2 subject to G z <= h`` exactly (Lawson-Hanson LDP via NNLS, then polish).
 
     Returns ``(z, status)`` with status ``"optimal"`` or ``"infeasible"``.
 
