@@ -120,5 +120,6 @@ def class_aliases() -> dict[str, str]:
             if inspect.isclass(getattr(pkg, n, None)):
                 found.setdefault(n, set()).add(f"{package}.{n}")
     aliases = {n: next(iter(paths)) for n, paths in found.items() if len(paths) == 1}
-    aliases.update({path: path for paths in found.values() for path in paths})  # written in full
+    # written in full: a role (numpydoc takes an alias to the same text for no alias at all)
+    aliases.update({path: f":class:`{path}`" for paths in found.values() for path in paths})
     return aliases

@@ -59,6 +59,7 @@ def write_inventories(source: Path, out: Path) -> dict[str, tuple[str, str]]:
 
 
 def class_names(source: Path) -> dict[str, str]:
-    """Every class of the text inventories under its own name (numpydoc's parameter-type aliases)."""
-    return {name: name for path in sorted(source.glob("*.txt"))
+    """Every class of the text inventories under its own name, as a role (numpydoc's
+    parameter-type aliases; an alias to the same text would count as none)."""
+    return {name: f":class:`{name}`" for path in sorted(source.glob("*.txt"))
             for name, role, _, _ in read_inventory(path)[1] if role == "py:class"}
