@@ -66,3 +66,15 @@ class SingularFisherError(RadialError):
 class OutOfRangeError(RadialError):
     """A finite number outside the range radialopt can compute with (e.g. ``sigma = 1e-300``
     with centres metres apart, a coordinate of 1e300 m, a negative tolerance)."""
+
+
+class NotPointedError(RadialError):
+    """The polyhedron contains a line (``rank(A) < n``), so it has no vertices."""
+
+
+class TooLargeError(RadialError):
+    """The requested method would need too many subsets; use ``"double_description"``."""
+
+
+class EmptyPolyhedronError(RadialError):
+    """An operation needs at least one vertex, but the polyhedron is empty."""

@@ -36,9 +36,11 @@ from scipy.spatial import cKDTree
 from ._checks import MAX_SIGMA, instance, integer, real_array, real_scalar, sigma_range
 from ._dd_adjacency import _adjacent_combinations, _unpack_bits
 from .errors import (
-    RadialError,
+    EmptyPolyhedronError,
+    NotPointedError,
     ShapeError,
     SolverError,
+    TooLargeError,
     TooManySpheresError,
     UnknownMethodError,
 )
@@ -89,18 +91,6 @@ BRUTEFORCE_MAX_SUBSETS = 1_000_000
 
 #: Brute force caches its A-only work (subset inverses, rays) for at most this many subsets.
 _CACHE_MAX_SUBSETS = 200_000
-
-
-class NotPointedError(RadialError):
-    """The polyhedron contains a line (``rank(A) < n``), so it has no vertices."""
-
-
-class TooLargeError(RadialError):
-    """The requested method would need too many subsets; use ``"double_description"``."""
-
-
-class EmptyPolyhedronError(RadialError):
-    """An operation needs at least one vertex, but the polyhedron is empty."""
 
 
 @dataclass(frozen=True)
