@@ -67,7 +67,7 @@ def _shape_text(want: tuple[int | None, ...]) -> str:
 
 
 def real_array(name: str, value: Any, shape: tuple[int | None, ...] | None = None, *,
-                max_abs: float | None = None, min_size: int = 0) -> NDArray[np.float64]:
+               max_abs: float | None = None, min_size: int = 0) -> NDArray[np.float64]:
     """``value`` as a new finite float64 array of ``shape`` (``None`` entries: any length).
 
     Raises :class:`ArgumentTypeError` (None, str, bool, complex or non-numeric elements),

@@ -283,9 +283,9 @@ class AssociationTolerances:
                                         f"got {self.gravity_aligned!r}")
             put("gravity_aligned", bool(self.gravity_aligned))
         put("min_clique_size", integer("AssociationTolerances.min_clique_size", self.min_clique_size,
-                                          minimum=2, maximum=64))
+                                       minimum=2, maximum=64))
         put("max_search_percepts", integer("AssociationTolerances.max_search_percepts",
-                                              self.max_search_percepts, minimum=2, maximum=100_000))
+                                           self.max_search_percepts, minimum=2, maximum=100_000))
         if self.min_clique_size > self.max_search_percepts:
             raise OutOfRangeError(f"AssociationTolerances.min_clique_size = {self.min_clique_size} exceeds "
                                   f"max_search_percepts = {self.max_search_percepts} (the clique search "
@@ -293,7 +293,7 @@ class AssociationTolerances:
         for name, lo in (("near_maximum", 0), ("max_nodes", 1), ("max_cliques", 1), ("dense_pair_limit", 0),
                          ("max_hypotheses", 1)):
             put(name, integer(f"AssociationTolerances.{name}", getattr(self, name), minimum=lo,
-                                 maximum=10**9))
+                              maximum=10**9))
 
     def pair_tolerance(self, sigma_p: float | NDArray, sigma_q: float | NDArray) -> float | NDArray:
         """``tau_pq = n_sigma * pair_factor * sqrt(s_p^2 + s_q^2) + min_tolerance`` (metres);

@@ -189,7 +189,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
 
 
 def associate_searched(world: WorldModel, percepts: list[Percept], tol: AssociationTolerances, method: str,
-                        max_hypotheses: int | None, plan: SearchPlan) -> list[AssociationHypothesis]:
+                       max_hypotheses: int | None, plan: SearchPlan) -> list[AssociationHypothesis]:
     """``_associate`` with the plan's search: the percepts levelled for the gravity search,
     the hypotheses' poses of the ego frame as given, each marked with its search.  The paper's
     filters use no gravity: the free search."""

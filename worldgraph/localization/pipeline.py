@@ -264,7 +264,7 @@ def tilt_checked(result: LocalizationResult, plan: SearchPlan,
 
 
 def gravity_unsupported(result: LocalizationResult, plan: SearchPlan, tol: AssociationTolerances, method: str,
-                         n_used: int) -> str:
+                        n_used: int) -> str:
     """Why ``gravity="auto"`` falls back from the gravity pass's ``result`` (of ``n_used``
     percepts of known types) to the free search, "" when it keeps it
     (``unsupported_reason``, with the pass's status)."""
@@ -282,7 +282,7 @@ def gravity_unsupported(result: LocalizationResult, plan: SearchPlan, tol: Assoc
 
 
 def answered_by_free_search(free: LocalizationResult, gravity_pass: LocalizationResult, why: str
-                             ) -> LocalizationResult:
+                            ) -> LocalizationResult:
     """The free search's answer, its message saying why the gravity pass was not kept and its
     timings holding the gravity pass's total as ``"gravity_pass"``."""
     note = f"gravity search: {why}; answered by the free 3D search"
@@ -436,7 +436,7 @@ def _associate_step(call: _Call) -> list[AssociationHypothesis]:
     tol = call.settings.tol
     how = "paper" if call.settings.method == "paper" else "clique"
     hyps = associate_searched(call.world, call.used, tol, how,
-                               max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES), call.settings.plan)
+                              max(int(tol.max_hypotheses), ASSOCIATION_CANDIDATES), call.settings.plan)
     call.timings["association"] = time.perf_counter() - t0
     return hyps
 

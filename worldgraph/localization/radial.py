@@ -132,7 +132,7 @@ def _radial(ctx: _Context, pairs: Sequence[tuple[int, int]], check: bool | None 
     if ctx.settings.solver == "active_set":
         return project_radii_unchecked(centers, radii, sigmas, method="active_set", check=check)
     return project_radii_unchecked(centers, radii, sigmas, method="cvxpy", solver=ctx.settings.solver,
-                                  check=check)
+                                   check=check)
 
 
 def _radial_score(sol: ro.RadialSolution | None) -> float:

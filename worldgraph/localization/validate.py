@@ -266,7 +266,7 @@ def _tilted(ctx: _Context, pose: NDArray, information: NDArray, p_i: NDArray, ce
     # validated fit or the SDP's): the fit itself, without refine_pose's checks and global search
     try:
         tilted, info, tilt_chi2 = ml_refine(ctx.ego[p_i], centers, ctx.covs[p_i], pose, REFINE_MAX_ITER,
-                                          REFINE_TOL, prior, search=False)
+                                            REFINE_TOL, prior, search=False)
     except (PoseError, np.linalg.LinAlgError):
         return pose, information, None
     if tilt_chi2 > TILT_GATE:

@@ -172,7 +172,7 @@ class WorldModel:
         for key, verts in self.class_vertices.items():
             _checks.name_string(f"class_vertices key {key!r}", key, UnknownGeometryError)
             v = _checks.real_array(f"class_vertices[{key!r}]", verts, (None, 3), max_abs=MAX_COORDINATE,
-                                    min_size=1)
+                                   min_size=1)
             v.setflags(write=False)
             cv[key] = v
         if table is not None and table.geometry_names is None:  # a table's geometry keys are its types

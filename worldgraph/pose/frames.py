@@ -570,8 +570,8 @@ def _data_cost(x: NDArray, y: NDArray, Cinv: NDArray, R: NDArray, t: NDArray) ->
 
 
 def ml_refine(x: NDArray, y: NDArray, C: NDArray, T0: NDArray, max_iter: int, tol: float,
-            tilt_prior: TiltPrior | None = None, search: bool = True
-            ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+              tilt_prior: TiltPrior | None = None, search: bool = True
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """``(world_from_ego, information, tilt_chi2)``: the ML pose of the data (then, with
     ``tilt_prior``, of the data and the prior, polished from there), its information (with the
     prior's) and the cost the prior adds to the data's optimum (0 without a prior; the squared

@@ -354,7 +354,7 @@ def unlevelled_pose(pose: NDArray[np.float64], level: NDArray[np.float64] | None
 
 
 def unsupported_reason(pose: NDArray[np.float64], n_inliers: int, n_used: int, up: NDArray[np.float64],
-                 tol: AssociationTolerances) -> str:
+                       tol: AssociationTolerances) -> str:
     """Why ``gravity="auto"`` does not keep a gravity-pass answer (its pose and the number of
     percepts it explains, of ``n_used``), "" when it does: no pose, fewer explained than
     :data:`MIN_GRAVITY_SUPPORT` of the percepts (and than ``min_clique_size``), or a pose that

@@ -204,7 +204,7 @@ class ClusterTiles:
                 few = all(v.reason == "no_types" for v in visit)
                 status: LocalizeStatus = "too_few_percepts" if few else "no_association"
                 res = poseless_result(status, f"no tile can answer these percepts: {note}", len(plist), (),
-                              {"total": time.perf_counter() - t_start}, False)
+                                      {"total": time.perf_counter() - t_start}, False)
                 out.append(res)
                 continue
             answers = self._gather(futures, timeout)
