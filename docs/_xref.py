@@ -16,9 +16,9 @@ import importlib
 import inspect
 from typing import Any
 
+from _api import PACKAGES  # docs/_api.py: the three packages the API reference documents
 from docutils import nodes
 
-PACKAGES = ("perception", "worldgraph", "radialopt")
 _MISSING = object()
 
 
@@ -60,10 +60,11 @@ class _Field:
         self.owner, self.name = owner, name
 
 
-def _documented(env) -> dict[tuple[str, int], str]:
+def _documented(app, env) -> dict[tuple[str, int], str]:
     """(last name, id of the object) -> the documented full name, for every object the Python
-    domain holds from the three packages (built once per build)."""
-    cache = getattr(env, "_own_objects_cache", None)
+    domain holds from the three packages (built once per build, and kept on the application:
+    the environment is pickled for the next build, where these object ids mean nothing)."""
+    cache = getattr(app, "_own_objects_cache", None)
     if cache is not None:
         return cache
     cache = {}
@@ -78,7 +79,7 @@ def _documented(env) -> dict[tuple[str, int], str]:
         # the shortest documented path wins (the package's name over a module's)
         if key not in cache or len(fullname) < len(cache[key]):
             cache[key] = fullname
-    env._own_objects_cache = cache
+    app._own_objects_cache = cache
     return cache
 
 
@@ -119,7 +120,7 @@ def resolve_own_name(app, env, node, contnode):
     if node.get("refdomain") != "py":
         return None
     target = node.get("reftarget", "")
-    documented = _documented(env)
+    documented = _documented(app, env)
     for path in _candidates(target, node.get("py:module"), node.get("py:class"), node.get("refdoc", "")):
         obj = _lookup(path)
         if obj is _MISSING:
