@@ -31,6 +31,15 @@ def _modules() -> dict[str, Path]:
     return out
 
 
+def _source(package: str, node: ast.ImportFrom) -> str:
+    """The module a ``from ... import`` statement of a module in ``package`` imports from."""
+    if not node.level:
+        return node.module or ""
+    base = package.split(".")
+    base = base[:len(base) - (node.level - 1)] if node.level > 1 else base
+    return ".".join(base + ([node.module] if node.module else []))
+
+
 def _imports(name: str, path: Path, known: set[str]) -> set[str]:
     """The known modules that module ``name`` imports (a ``from X import y`` of a submodule ``y``
     counts as importing ``X.y``)."""
@@ -41,12 +50,7 @@ def _imports(name: str, path: Path, known: set[str]) -> set[str]:
         if isinstance(node, ast.Import):
             targets = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")
-                base = base[:len(base) - (node.level - 1)] if node.level > 1 else base
-                stem = ".".join(base + ([node.module] if node.module else []))
-            else:
-                stem = node.module or ""
+            stem = _source(package, node)
             subs = [f"{stem}.{a.name}" for a in node.names]
             # ``from pkg import mod`` imports the submodule; the package itself only for the
             # names that are not submodules
@@ -172,11 +176,7 @@ def _private_imports(name: str, path: Path) -> list[tuple[str, str]]:
     for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
         if not isinstance(node, ast.ImportFrom):
             continue
-        if node.level:
-            base = here.split(".")[: len(here.split(".")) - (node.level - 1)]
-            source = ".".join(base + ([node.module] if node.module else []))
-        else:
-            source = node.module or ""
+        source = _source(here, node)
         if source.split(".")[0] not in PACKAGES:
             continue
         parts = source.split(".")
