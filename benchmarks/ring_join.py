@@ -1,4 +1,4 @@
-"""Benchmark: the compiled ring join (worldgraph.ring_join.ring_pairs) against the k-d tree query.
+"""Benchmark: the compiled ring join (worldgraph.model.ring_join.ring_pairs) against the k-d tree query.
 
 Campus: buildings of 5 storeys 3.5 m apart, each storey 60 x 40 m holding about 2 objects per
 m^2 (x, y uniform; z uniform in the storey's lowest ``--z-spread`` m, default 0.6), buildings

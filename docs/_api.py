@@ -2,9 +2,8 @@
 
 Each public object is documented once, under the shortest import path users have for it: the
 package's own ``__all__`` first, then the public modules from the shallowest down (a module's
-``__all__``, or the public names it defines itself). Private modules (``_name``) and the modules
-that only keep an old import path (they hand over to their new home in ``sys.modules``) are left
-out; every object they hold is documented at its home.
+``__all__``, or the public names it defines itself). Private modules (``_name``) are left out;
+every object they hold that users reach is documented where the public modules expose it.
 """
 
 from __future__ import annotations
@@ -51,9 +50,7 @@ def _modules(package: str) -> list[str]:
     for info in pkgutil.walk_packages(pkg.__path__, package + "."):
         if any(part.startswith("_") for part in info.name.split(".")):
             continue
-        module = importlib.import_module(info.name)
-        if module.__name__ != info.name:  # an old path handing over to the new home
-            continue
+        importlib.import_module(info.name)  # fails loudly on a module that cannot be imported
         found.append(info.name)
     return sorted(found, key=lambda n: (n.count("."), n))
 

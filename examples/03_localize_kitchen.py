@@ -147,7 +147,7 @@ def main() -> None:
 def save_recording(path: Path, world: wg.WorldModel, fused: list, est: wg.LocalizationResult,
                    truth: np.ndarray) -> None:
     """The world, the fused percepts placed by the ML estimate, the estimate with its 3-sigma
-    ellipsoid and the true pose as a rerun recording file (worldgraph.rerun_log)."""
+    ellipsoid and the true pose as a rerun recording file (worldgraph.figures.rerun_log)."""
     try:
         import rerun as rr
     except ImportError:
@@ -155,7 +155,7 @@ def save_recording(path: Path, world: wg.WorldModel, fused: list, est: wg.Locali
     path.parent.mkdir(parents=True, exist_ok=True)
     rec = rr.RecordingStream("gaussian_spheres_kitchen")
     rec.save(str(path))
-    entities = wg.rerun_log.log_rerun(world, fused, est, recording=rec, truth=truth)
+    entities = wg.figures.rerun_log.log_rerun(world, fused, est, recording=rec, truth=truth)
     rec.flush()
     rec.disconnect()
     print(f"saved {path} ({len(entities)} entities; view it with: rerun {path})")
@@ -164,7 +164,7 @@ def save_recording(path: Path, world: wg.WorldModel, fused: list, est: wg.Locali
 def save_figure(args, world: wg.WorldModel, seen: np.ndarray, fused: list, results: dict,
                 truth: np.ndarray) -> None:
     """Top view of the kitchen with the fused percepts placed by the ML estimate, its 3-sigma
-    ellipse and near-best alternatives (worldgraph.plots), the paper method's estimate and the
+    ellipse and near-best alternatives (worldgraph.figures.plots), the paper method's estimate and the
     true pose."""
     plt = pyplot()
     fig, (ax, zoom) = plt.subplots(1, 2, figsize=(15, 7.5), width_ratios=[2.2, 1],
@@ -172,7 +172,7 @@ def save_figure(args, world: wg.WorldModel, seen: np.ndarray, fused: list, resul
     est = results["ml"]
     paper = results["paper"]
     for a in (ax, zoom):
-        wg.plots.top_view(world, percepts=fused, result=est, ax=a, types=RECOGNISED, truth=truth,
+        wg.figures.plots.top_view(world, percepts=fused, result=est, ax=a, types=RECOGNISED, truth=truth,
                           legend=False)
         if np.all(np.isfinite(paper.position)):
             a.plot(*paper.position[:2], "s", mfc="none", mec="tab:blue", mew=1.5, ms=12, ls="none",
@@ -181,7 +181,7 @@ def save_figure(args, world: wg.WorldModel, seen: np.ndarray, fused: list, resul
     zoom.set_xlim(truth[0, 3] - 0.25, truth[0, 3] + 0.25)
     zoom.set_ylim(truth[1, 3] - 0.25, truth[1, 3] + 0.25)
     zoom.set_title("0.5 m around the true pose")
-    wg.plots.legend_outside(zoom)
+    wg.figures.plots.legend_outside(zoom)
     path = args.out / "03_localize_kitchen.png"
     fig.savefig(path, dpi=90, bbox_inches="tight")
     print(f"saved {path}")

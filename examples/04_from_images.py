@@ -118,20 +118,20 @@ def main() -> None:
 
 def save_figure(args, world, truth, fused, res, shown, classifier) -> None:
     """The stereo pair with the most percepts, its detections marked by type, above a top view
-    of the hall (worldgraph.plots) with the fused percepts placed by the estimate."""
+    of the hall (worldgraph.figures.plots) with the fused percepts placed by the estimate."""
     plt = pyplot()
     fig = plt.figure(figsize=(13, 9), constrained_layout=True)
     grid = fig.add_gridspec(2, 2, height_ratios=[1.0, 1.0])
     left, right, found, k = shown
-    colours = wg.plots.type_colours(RECOGNISED)
+    colours = wg.figures.plots.type_colours(RECOGNISED)
     for col, (img, title) in enumerate(((left, "left"), (right, "right"))):
         ax = fig.add_subplot(grid[0, col])
         # the detections recognize() matched and triangulated into this view's percepts
-        wg.plots.image_view(img, pc.detect(img, classifier), ax=ax, colours=colours,
+        wg.figures.plots.image_view(img, pc.detect(img, classifier), ax=ax, colours=colours,
                             title=f"view {k}, {title} image ({len(found)} percepts from the pair)")
     ax = fig.add_subplot(grid[1, :])
     have_pose = bool(np.all(np.isfinite(res.transformation)))
-    wg.plots.top_view(world, percepts=fused, result=res, pose=None if have_pose else truth, ax=ax,
+    wg.figures.plots.top_view(world, percepts=fused, result=res, pose=None if have_pose else truth, ax=ax,
                       types=RECOGNISED, truth=truth,
                       title="hall, top view: fused percepts placed by the "
                             + (f"estimate ({res.status})" if have_pose else "true pose (no estimate)"))

@@ -134,7 +134,7 @@ def main() -> None:
     plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(14, 6.6), sharex=True, sharey=True)
     ax = axes[0]
-    wg.plots.top_view(world, ax=ax, types=RECOGNISED, legend=False)
+    wg.figures.plots.top_view(world, ax=ax, types=RECOGNISED, legend=False)
     for h, T in enumerate(plan.hypotheses):
         c = HYP_COLOURS[h % len(HYP_COLOURS)]
         heading = math.atan2(*(T[:3, :3] @ d)[1::-1])
@@ -160,8 +160,8 @@ def main() -> None:
     ax = axes[1]
     final = out.result
     # every percept placed by the final pose in its type's colour, the estimate with its 3-sigma
-    # ellipse, the truth (worldgraph.plots); the first 5 percepts get a black square around them
-    wg.plots.top_view(world, percepts=out.percepts, result=final, ax=ax, types=RECOGNISED, truth=pose,
+    # ellipse, the truth (worldgraph.figures.plots); the first 5 percepts get a black square around them
+    wg.figures.plots.top_view(world, percepts=out.percepts, result=final, ax=ax, types=RECOGNISED, truth=pose,
                       n_hypotheses=0, legend=False)
     if np.all(np.isfinite(final.transformation)):
         T = final.transformation

@@ -118,7 +118,7 @@ def main() -> None:
         ax_img.text(u0, v0 - 3, det.type, color=colours.get(det.type, "k"), fontsize=8)
     ax_img.set_title(f"one of {len(scan.views)} rendered views with its detections")
     ax_img.axis("off")
-    wg.plots.top_view(world, percepts=fused, result=ml, truth=truth, ax=ax_top,
+    wg.figures.plots.top_view(world, percepts=fused, result=ml, truth=truth, ax=ax_top,
                       title=f"top view: ML estimate ({ml.status}) and the truth")
     fig.tight_layout()
     out = args.out / "08_from_pixels.png"

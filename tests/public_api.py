@@ -1,52 +1,36 @@
-"""The public API of the three packages: every module and the names it exports.
+"""The public API of the three packages: the documented modules and the names the API reference
+documents for each (``__all__``, or the classes and functions a module defines, plus the constants
+it documents with ``#:``), as ``docs/_api.py`` finds them for the site.
 
-``python tests/public_api.py`` writes ``tests/data/public_api.json``; ``tests/repo/test_public_api.py``
+``python -m tests.public_api`` writes ``tests/data/public_api.json``; ``tests/repo/test_public_api.py``
 checks that every name listed there is still importable from the module that listed it.  Rewrite
-the file only when a name is meant to go (with a deprecation first), never to make the test pass
-after a move: a restructuring keeps every old import path working.
+the file only when a name is meant to go, and list the removed names in ``CHANGELOG.md``.
 """
 
 from __future__ import annotations
 
 import importlib
-import inspect
 import json
-import pkgutil
 import sys
-import types
 from pathlib import Path
 
-PACKAGES = ("perception", "worldgraph", "radialopt")
+ROOT = Path(__file__).resolve().parents[1]
 SNAPSHOT = Path(__file__).parent / "data" / "public_api.json"
+if str(ROOT / "docs") not in sys.path:
+    sys.path.insert(0, str(ROOT / "docs"))  # docs/_api.py: the same rule as the API reference
 
+import _api  # noqa: E402
 
-def public_names(module: object) -> list[str]:
-    """``__all__`` when the module has one, else its names without a leading underscore, less
-    modules, ``__future__`` features, ``typing.TYPE_CHECKING`` and the functions and classes it
-    imports from elsewhere."""
-    names = getattr(module, "__all__", None)
-    if names is None:
-        own = getattr(module, "__name__", "")
-        names = [n for n, v in vars(module).items()
-                 if not n.startswith("_") and not isinstance(v, types.ModuleType)
-                 and type(v).__name__ != "_Feature" and n != "TYPE_CHECKING"
-                 and not ((inspect.isfunction(v) or inspect.isclass(v)) and v.__module__ != own)]
-    return sorted(str(n) for n in names)
+PACKAGES = tuple(_api.PACKAGES)
 
 
 def modules() -> list[str]:
-    out = []
-    for name in PACKAGES:
-        pkg = importlib.import_module(name)
-        out.append(name)
-        for info in pkgutil.walk_packages(pkg.__path__, prefix=name + "."):
-            if not info.name.rsplit(".", 1)[-1].startswith("_"):
-                out.append(info.name)
-    return sorted(out)
+    """The packages and their documented modules (no private module, no old path)."""
+    return sorted([*PACKAGES, *(m for p in PACKAGES for m in _api._modules(p))])
 
 
 def api() -> dict[str, list[str]]:
-    return {m: public_names(importlib.import_module(m)) for m in modules()}
+    return {m: sorted(_api._public_names(importlib.import_module(m))) for m in modules()}
 
 
 if __name__ == "__main__":

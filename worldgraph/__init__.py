@@ -8,7 +8,7 @@ try:
 except _PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "0.1.0"  # keep equal to pyproject.toml's [project] version (a test checks)
 
-from . import scenes, tiles
+from . import figures, scenes, tiles
 from .active import ActiveLocalization, ViewPlan, active_localize, plan_view
 from .association import associate
 from .association.filters import discriminator, orientation_filter, proximity_filter
@@ -32,11 +32,9 @@ from .errors import (
     UpAxisError,
     WorldGraphError,
 )
-from .figures import plots, rerun_log
 from .importers.franka import franka_kitchen_path, load_franka_kitchen
 from .localization import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
 from .model import LinkTable, ObjectModel, ObjectTable, WorldModel, box_vertices
-from .pose import gravity
 from .pose.frames import percept_frame, pose_from_frames, weighted_kabsch
 from .tiles import Tile, TilePool, localize_tiled
 from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
@@ -69,9 +67,7 @@ __all__ = [
     "box_vertices",
     "franka_kitchen_path",
     "load_franka_kitchen",
-    "gravity",
-    "plots",
-    "rerun_log",
+    "figures",
     "scenes",
     "tiles",
 ]

@@ -10,9 +10,8 @@ guards.  They are named here so that they are found, not so that they are tuned.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, replace
-from typing import Protocol, cast
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -326,24 +325,7 @@ def _check_tolerances(tolerances: object, name: str = "tolerances", world: _Grav
     return tolerances
 
 
-def _tol_argument(function: str, tol: AssociationTolerances | None, tolerances: object,
-                  stacklevel: int = 3) -> AssociationTolerances | None:
-    """The ``tol`` argument of a public function, given as ``tol=`` or as the deprecated
-    keyword ``tolerances=`` (a :class:`DeprecationWarning` naming ``tol``); both at once raise
-    :class:`~worldgraph.errors.ArgumentTypeError`.  ``None`` when neither was given."""
-    if tolerances is None:
-        return tol
-    if tol is not None:
-        raise ArgumentTypeError(f"{function}() got both tol and tolerances (the deprecated name of tol): "
-                                "pass tol only")
-    warnings.warn(f"{function}(tolerances=...) is deprecated: pass tol=... instead", DeprecationWarning,
-                  stacklevel=stacklevel)
-    return cast(AssociationTolerances, tolerances)
-
-
-def _resolved_tol(function: str, tol: AssociationTolerances | None, tolerances: object,
-                  world: _GravityNoted | None = None) -> AssociationTolerances:
-    """``_tol_argument``, ``None`` as :data:`ASSOCIATION_TOLERANCES`, then checked (and
-    ``gravity_aligned`` resolved against ``world``) by ``_check_tolerances``."""
-    tol = _tol_argument(function, tol, tolerances, stacklevel=4)
+def _resolved_tol(tol: object, world: _GravityNoted | None = None) -> AssociationTolerances:
+    """The ``tol`` argument of a public function: ``None`` as :data:`ASSOCIATION_TOLERANCES`, then
+    checked (and ``gravity_aligned`` resolved against ``world``) by ``_check_tolerances``."""
     return _check_tolerances(ASSOCIATION_TOLERANCES if tol is None else tol, "tol", world=world)

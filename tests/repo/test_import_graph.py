@@ -135,35 +135,43 @@ def test_every_module_is_read(package):
     assert any(name.startswith(package + ".") for name in _modules())
 
 
-# ---- the old module paths kept after the restructuring -------------------------------------------
-def _shims() -> dict[str, Path]:
-    """Modules that only keep an old import path: they replace themselves in ``sys.modules`` by the
-    module that now holds their code."""
-    return {name: path for name, path in _modules().items()
-            if "sys.modules[__name__] = " in path.read_text()}
+# ---- the old module paths were removed (issue 35) -------------------------------------------------
+#: The 12 forwarding modules removed in issue 35, with the module that holds their code.
+REMOVED_PATHS = {
+    "worldgraph.cliques": "worldgraph.association.cliques",
+    "worldgraph.consistency": "worldgraph.association.consistency",
+    "worldgraph.filters": "worldgraph.association.filters",
+    "worldgraph.franka": "worldgraph.importers.franka",
+    "worldgraph.gravity": "worldgraph.pose.gravity",
+    "worldgraph.hypotheses": "worldgraph.association.hypotheses",
+    "worldgraph.plots": "worldgraph.figures.plots",
+    "worldgraph.pose_certificate": "worldgraph.pose.certificate",
+    "worldgraph.rerun_log": "worldgraph.figures.rerun_log",
+    "worldgraph.ring_join": "worldgraph.model.ring_join",
+    "worldgraph.units": "worldgraph.model.units",
+    "worldgraph.validation": "worldgraph.pose.validation",
+}
 
 
-def test_the_shims_are_their_new_homes():
+def test_no_module_forwards_to_another():
+    """No module only keeps an old path alive by replacing itself in ``sys.modules``."""
+    forwarding = sorted(name for name, path in _modules().items()
+                        if "sys.modules[__name__]" in path.read_text())
+    assert forwarding == []
+
+
+@pytest.mark.parametrize("old", sorted(REMOVED_PATHS))
+def test_a_removed_path_does_not_import_and_the_changelog_names_its_home(old):
     import importlib
-    import sys
 
-    shims = _shims()
-    assert len(shims) >= 10  # worldgraph.consistency, .franka, .units, ... (issue 26)
-    for name, path in shims.items():
-        module = importlib.import_module(name)
-        assert module is sys.modules[name]
-        assert module.__name__ != name, f"{name} did not hand over to its new home"
-        assert Path(module.__file__).resolve() != path.resolve()
-        # the new home is a module of the same package, and its name says where it lives
-        assert module.__name__.split(".")[0] == name.split(".")[0]
-
-
-def test_nothing_inside_the_packages_imports_a_shim():
-    shims = set(_shims())
-    graph = _graph()
-    offenders = sorted(f"{m} imports {s}" for m, deps in graph.items() if m not in shims
-                       for s in deps & shims)
-    assert offenders == []
+    with pytest.raises(ModuleNotFoundError):
+        importlib.import_module(old)
+    package, _, leaf = old.rpartition(".")
+    assert not hasattr(importlib.import_module(package), leaf), f"{package}.{leaf} is still an attribute"
+    home = importlib.import_module(REMOVED_PATHS[old])
+    assert home.__name__ == REMOVED_PATHS[old]
+    changelog = (ROOT / "CHANGELOG.md").read_text()
+    assert f"| `{old}` | `{REMOVED_PATHS[old]}` |" in changelog
 
 
 def _private_imports(name: str, path: Path) -> list[tuple[str, str]]:

@@ -1,5 +1,5 @@
 """Every public name of the packages stays importable where it was (tests/data/public_api.json,
-written by ``python tests/public_api.py`` before a restructuring)."""
+written by ``python -m tests.public_api``; names leave it only with an entry in CHANGELOG.md)."""
 
 from __future__ import annotations
 

@@ -84,7 +84,7 @@ def test_old_import_paths_are_the_moved_objects() -> None:
     from radialopt.spheres import TOLERANCES, Tolerances
     from radialopt.vertices import VERTEX_TOLERANCES, VertexTolerances
     from worldgraph.pose import COLLINEAR_TOL
-    from worldgraph.pose_certificate import CLARABEL_OPTIONS
+    from worldgraph.pose.certificate import CLARABEL_OPTIONS
 
     assert Tolerances is rtol.Tolerances is radialopt.Tolerances
     assert TOLERANCES is rtol.TOLERANCES is radialopt.TOLERANCES

@@ -27,6 +27,8 @@ from worldgraph.active import (
     view_information,
     view_scores,
 )
+from worldgraph.association.filters import discriminator
+from worldgraph.association.hypotheses import AssociationHypothesis
 from worldgraph.errors import (
     ArgumentTypeError,
     NonFiniteError,
@@ -35,8 +37,6 @@ from worldgraph.errors import (
     ShapeError,
     UnknownTypeError,
 )
-from worldgraph.filters import discriminator
-from worldgraph.hypotheses import AssociationHypothesis
 from worldgraph.localization import LocalizationResult
 
 HANDLES = np.array([[3.0, -1.0, 0.0], [3.0, 0.0, 0.5], [3.0, 1.0, 0.0], [3.0, 0.5, -0.5]])

@@ -16,11 +16,11 @@ from scipy.spatial.transform import Rotation
 from perception import Percept
 from perception.simulate import simulate_percepts
 from worldgraph.association import associate
+from worldgraph.association.cliques import maximum_cliques
 from worldgraph.association.consistency import _Graph, _prune_by_pairs, _prune_vectorised
-from worldgraph.cliques import maximum_cliques
+from worldgraph.association.filters import discriminator, orientation_filter, proximity_filter
+from worldgraph.association.hypotheses import is_ambiguous
 from worldgraph.errors import TooFewPerceptsError, UnknownTypeError, WorldGraphError
-from worldgraph.filters import discriminator, orientation_filter, proximity_filter
-from worldgraph.hypotheses import is_ambiguous
 from worldgraph.model import WorldModel
 from worldgraph.tolerances import AssociationTolerances
 

@@ -1,4 +1,4 @@
-"""Tests of worldgraph.cliques: the compiled clique search against the Python search (the slow
+"""Tests of worldgraph.association.cliques: the compiled clique search against the Python search (the slow
 obvious reference) and against brute force; numba stays unimported for small graphs."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import worldgraph.association.cliques as cliques
-from worldgraph.cliques import CliqueSearch, maximum_cliques
+from worldgraph.association.cliques import CliqueSearch, maximum_cliques
 
 seeds = st.integers(0, 2**32 - 1)
 
@@ -215,7 +215,7 @@ def test_intersect_equals_numpy() -> None:
 def test_small_graphs_do_not_import_numba() -> None:
     """A kitchen-sized search (below COMPILED_MIN_VERTICES) leaves numba unimported."""
     code = ("import sys, numpy as np\n"
-            "from worldgraph.cliques import COMPILED_MIN_VERTICES, maximum_cliques\n"
+            "from worldgraph.association.cliques import COMPILED_MIN_VERTICES, maximum_cliques\n"
             "n = COMPILED_MIN_VERTICES // 4 - 1\n"
             "same = np.eye(n, dtype=bool)\n"
             "res = maximum_cliques([n] * 4, {(0, 1): None, (0, 2): same, (1, 2): same})\n"

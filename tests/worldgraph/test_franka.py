@@ -1,4 +1,4 @@
-"""Tests of worldgraph.franka: the gymnasium-robotics Franka kitchen as a world model."""
+"""Tests of worldgraph.importers.franka: the gymnasium-robotics Franka kitchen as a world model."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import worldgraph as wg
-from worldgraph import franka
+from worldgraph.importers import franka
 
 HAVE_GYMNASIUM_ROBOTICS = importlib.util.find_spec("gymnasium_robotics") is not None
 SKIP_REASON = "gymnasium-robotics not installed (pip install --no-deps gymnasium-robotics)"

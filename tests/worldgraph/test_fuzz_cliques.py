@@ -10,7 +10,7 @@ from hypothesis import given, settings
 
 from tests.fuzz import named_error as _named
 from tests.fuzz import nasty
-from worldgraph.cliques import maximum_cliques
+from worldgraph.association.cliques import maximum_cliques
 
 
 @settings(max_examples=40)

@@ -22,10 +22,9 @@ from scipy.spatial.transform import Rotation
 import worldgraph as wg
 from perception import Percept, PerceptionError
 from tests.worlds import four_type_world
-from worldgraph import validation as val
-from worldgraph.cliques import maximum_cliques
-from worldgraph.filters import consistency_graph
-from worldgraph.hypotheses import AssociationHypothesis, is_ambiguous, same_pose
+from worldgraph.association.cliques import maximum_cliques
+from worldgraph.association.filters import consistency_graph
+from worldgraph.association.hypotheses import AssociationHypothesis, is_ambiguous, same_pose
 from worldgraph.pose import (
     percept_frame,
     pose_from_frames,
@@ -37,6 +36,7 @@ from worldgraph.pose import (
     weighted_kabsch_batch,
     weighted_rotation,
 )
+from worldgraph.pose import validation as val
 
 SUCCESS = ("ok", "weak", "ambiguous")
 
@@ -399,7 +399,7 @@ def test_percept_covariances_of_percepts() -> None:
        links=st.sampled_from([{}, {(0, 1): np.array([[0, 1]])}, {(0, 1): np.array([[0, 100]])},
                               {(0, 1): np.array([1, 2, 3])}, None, {(0, 1): "x"}]))
 def test_filtered_graph_view(candidates, links) -> None:
-    from worldgraph.filters import filtered_graph_view
+    from worldgraph.association.filters import filtered_graph_view
 
     g = _call(filtered_graph_view, ("candidates", "links"), WORLD, candidates, links)
     if g is not None:

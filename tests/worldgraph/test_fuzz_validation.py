@@ -1,4 +1,4 @@
-"""Fuzz tests of ``shared_range_covariance`` (worldgraph.validation).
+"""Fuzz tests of ``shared_range_covariance`` (worldgraph.pose.validation).
 
 As in the other fuzz files: a call either raises the package's error with a message naming the
 argument, or returns a finite answer that satisfies its status.
@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from tests.fuzz import named_error as _named
 from tests.fuzz import nasty
-from worldgraph.validation import shared_range_covariance
+from worldgraph.pose.validation import shared_range_covariance
 
 
 @settings(max_examples=40)

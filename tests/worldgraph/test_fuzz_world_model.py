@@ -861,7 +861,7 @@ def test_bad_arguments_named(call, match):
 
 
 def test_franka_bad_paths(tmp_path):
-    from worldgraph import franka
+    from worldgraph.importers import franka
 
     with pytest.raises(ArgumentTypeError, match="path must be None, a str or an os.PathLike, got 3"):
         franka.franka_kitchen_scene(3)

@@ -1,4 +1,4 @@
-"""Gravity as a per-call fact (worldgraph.gravity): ``gravity="auto" | up vector | None`` in
+"""Gravity as a per-call fact (worldgraph.pose.gravity): ``gravity="auto" | up vector | None`` in
 associate and localize, the tilt allowance folded into the gates, the fallback to the free search,
 and the levelling of percepts by an IMU's up vector."""
 
@@ -16,10 +16,10 @@ import perception as pc
 import worldgraph as wg
 from perception import Percept
 from perception.simulate import simulate_percepts
-from worldgraph import gravity as gr
 from worldgraph import scenes
 from worldgraph.errors import ArgumentTypeError, OutOfRangeError, WorldGraphError
-from worldgraph.validation import CHI2_3_GATE
+from worldgraph.pose import gravity as gr
+from worldgraph.pose.validation import CHI2_3_GATE
 
 EZ = np.array([0.0, 0.0, 1.0])
 

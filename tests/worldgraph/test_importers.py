@@ -17,7 +17,7 @@ import trimesh
 
 import perception as pc
 import worldgraph as wg
-import worldgraph.franka  # noqa: F401  (wg.franka below; the test ran only after test_franka imported it)
+import worldgraph.importers.franka  # noqa: F401  (wg.franka below; the test ran only after test_franka imported it)
 from worldgraph import importers
 
 HAVE_GYMNASIUM_ROBOTICS = importlib.util.find_spec("gymnasium_robotics") is not None
@@ -299,9 +299,9 @@ def test_mjcf_without_mujoco_names_the_extra(mjcf_file, monkeypatch):
 
 @needs_kitchen
 def test_franka_kitchen_matches_the_hand_importer():
-    """MuJoCo's compiler and worldgraph.franka's own MJCF reader agree on every typed geom."""
+    """MuJoCo's compiler and worldgraph.importers.franka's own MJCF reader agree on every typed geom."""
     path = wg.franka_kitchen_path() / "kitchen_env_model.xml"
-    _, types = wg.franka.franka_kitchen_scene()
+    _, types = wg.importers.franka.franka_kitchen_scene()
     hand = wg.load_franka_kitchen()
     world = wg.WorldModel.from_file(path, type_of=types.get, mjcf_objects="geoms")
     assert len(world) == len(hand) == 32

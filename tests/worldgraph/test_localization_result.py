@@ -17,8 +17,8 @@ from scipy.spatial.transform import Rotation
 
 from perception import Percept
 from worldgraph import LocalizationResult, localize
+from worldgraph.association.hypotheses import AssociationHypothesis
 from worldgraph.errors import PoseError, WorldGraphError
-from worldgraph.hypotheses import AssociationHypothesis
 from worldgraph.model import WorldModel
 
 YAW = math.radians(30.0)

@@ -67,8 +67,8 @@ def test_localize_certificate_agrees_with_brute_force_multistart() -> None:
     from worldgraph.model import WorldModel
     from worldgraph.pose import refine_pose
     from worldgraph.pose.gravity import TiltPrior
+    from worldgraph.pose.validation import percept_covariances, pose_cost
     from worldgraph.tolerances import ASSOCIATION_TOLERANCES
-    from worldgraph.validation import percept_covariances, pose_cost
 
     rng = np.random.default_rng(12)
     for trial in range(4):

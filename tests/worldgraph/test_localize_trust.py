@@ -23,7 +23,7 @@ from worldgraph import scenes
 from worldgraph.errors import WorldGraphError
 from worldgraph.localization import LOCALIZE_STATUSES, default_region, localize
 from worldgraph.model import WorldModel
-from worldgraph.validation import self_check
+from worldgraph.pose.validation import self_check
 
 
 def facing(position: np.ndarray, yaw: float) -> np.ndarray:

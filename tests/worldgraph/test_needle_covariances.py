@@ -19,7 +19,7 @@ from scipy.stats import chi2
 import worldgraph as wg
 from perception import Percept
 from worldgraph.localization import UNIQUE_STATUSES
-from worldgraph.validation import constrained_directions
+from worldgraph.pose.validation import constrained_directions
 
 NEEDLE = (1e-8, 1e-6, 1e4)
 
@@ -123,7 +123,7 @@ def test_nearest_objects_of_a_needle_lie_along_it(seed: int, tree: bool, monkeyp
     equally likely second object along the needle too, which made the percept look unique).
     Both paths: the k-d tree's, and the comparison with every object of a small type."""
     import worldgraph.pose.validation as validation
-    from worldgraph.validation import NearestObjects
+    from worldgraph.pose.validation import NearestObjects
 
     monkeypatch.setattr(validation, "BRUTE_FORCE_OBJECTS", 0 if tree else 8)
 
@@ -178,7 +178,7 @@ def test_nearest_objects_are_exact_for_any_covariance(seed, n, shape, scale, k, 
 
 
 def _nearest_objects_are_exact(seed, n, shape, scale, k) -> None:
-    from worldgraph.validation import NearestObjects
+    from worldgraph.pose.validation import NearestObjects
 
     rng = np.random.default_rng(seed)
     world = wg.WorldModel.from_arrays(["h"] * n + ["a", "b"], rng.uniform(-20, 20, (n + 2, 3)))

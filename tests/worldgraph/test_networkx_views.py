@@ -11,9 +11,9 @@ import pytest
 
 from perception import Percept
 from worldgraph.association import associate
+from worldgraph.association.cliques import maximum_cliques
 from worldgraph.association.consistency import _consistency_graph, _prune
-from worldgraph.cliques import maximum_cliques
-from worldgraph.filters import consistency_graph, orientation_filter, proximity_filter
+from worldgraph.association.filters import consistency_graph, orientation_filter, proximity_filter
 from worldgraph.model import WorldModel
 from worldgraph.tolerances import ASSOCIATION_TOLERANCES
 

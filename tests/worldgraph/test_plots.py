@@ -1,4 +1,4 @@
-"""worldgraph.plots: the top view's ellipse, colours, percept placement and legend, checked
+"""worldgraph.figures.plots: the top view's ellipse, colours, percept placement and legend, checked
 against hand-computed values; the image view; bad input; matplotlib missing."""
 
 import sys
@@ -13,7 +13,7 @@ from matplotlib.colors import to_rgba  # noqa: E402
 
 import perception as pc  # noqa: E402
 import worldgraph as wg  # noqa: E402
-from worldgraph import plots  # noqa: E402
+from worldgraph.figures import plots  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -265,6 +265,6 @@ def test_missing_matplotlib_names_the_extra(monkeypatch):
 def test_import_worldgraph_does_not_load_matplotlib():
     import subprocess
 
-    code = "import sys, worldgraph, worldgraph.plots; assert 'matplotlib' not in sys.modules"
+    code = "import sys, worldgraph, worldgraph.figures.plots; assert 'matplotlib' not in sys.modules"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr[-1000:]

@@ -1,4 +1,4 @@
-"""Tests of worldgraph.pose_certificate: the SDP certificate of the ML 6D pose vs brute force.
+"""Tests of worldgraph.pose.certificate: the SDP certificate of the ML 6D pose vs brute force.
 
 Random scenes: 4-10 landmarks uniform in a 10 m cube, the robot at a uniform position and a
 uniformly random orientation, every ego point with its own random SPD covariance (random axes,
@@ -24,7 +24,7 @@ from worldgraph.errors import (
     WorldGraphError,
 )
 from worldgraph.pose import refine_pose, transformation
-from worldgraph.pose_certificate import (
+from worldgraph.pose.certificate import (
     certify_pose,
     pose_cost,
     reduced_cost_matrix,

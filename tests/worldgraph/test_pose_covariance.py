@@ -47,7 +47,7 @@ from perception import Percept
 from worldgraph import localize
 from worldgraph.model import WorldModel
 from worldgraph.pose import refine_pose, weighted_kabsch
-from worldgraph.validation import (
+from worldgraph.pose.validation import (
     calibrated_pose_covariance,
     laplace_inflate,
     percept_covariances,

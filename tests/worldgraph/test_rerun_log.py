@@ -1,4 +1,4 @@
-"""worldgraph.rerun_log.log_rerun: a real kitchen localisation logged to an .rrd file and read
+"""worldgraph.figures.rerun_log.log_rerun: a real kitchen localisation logged to an .rrd file and read
 back with rerun's own reader (rerun.chunk.RrdReader), compared with the world, the percepts and
 the result; bad input; rerun-sdk missing."""
 
@@ -21,7 +21,7 @@ from worldgraph.errors import (
     ShapeError,
     WorldGraphError,
 )
-from worldgraph.rerun_log import log_rerun
+from worldgraph.figures.rerun_log import log_rerun
 
 if sys.version_info < (3, 11):  # rerun-sdk >= 0.41 has no Python 3.10 wheel; the test extra skips it there
     pytest.skip("rerun-sdk >= 0.41 needs Python >= 3.11", allow_module_level=True)
@@ -102,7 +102,7 @@ def test_world_points_per_type_count_positions_ids_and_colours(kitchen_log):
         mine = [o for o in world.objects if o.type == t]
         np.testing.assert_allclose(pos, [o.pose[:3, 3] for o in mine], rtol=0, atol=2e-6)
         assert entry["Points3D:labels"] == [o.id for o in mine]
-    # the colours of worldgraph.plots.TYPE_COLOURS, written out by hand
+    # the colours of worldgraph.figures.plots.TYPE_COLOURS, written out by hand
     for t, hex_colour in {"door": "#8c564b", "handle": "#1f77b4", "drawer": "#2ca02c",
                           "knob": "#9467bd"}.items():
         assert set(logged[f"/world/objects/{t}"]["Points3D:colors"]) == {_packed_rgba(hex_colour)}
@@ -120,7 +120,7 @@ def test_percepts_are_placed_in_the_world_next_to_their_objects(kitchen_log):
         assert pos.shape == (len(idx), 3)
         for i, x in zip(idx, pos, strict=True):
             placed[i] = x
-        assert set(entry["Points3D:colors"]) == {_packed_rgba(wg.plots.type_colours([typ])[typ])}
+        assert set(entry["Points3D:colors"]) == {_packed_rgba(wg.figures.plots.type_colours([typ])[typ])}
     assert len(placed) == len(percepts)
     for i, p in enumerate(percepts):
         np.testing.assert_allclose(placed[i], R @ p.position + t, atol=1e-5)
@@ -257,6 +257,7 @@ def test_example_03_writes_a_recording(tmp_path, kitchen_log):
 
 
 def test_import_worldgraph_does_not_import_rerun():
-    code = "import sys, worldgraph, worldgraph.rerun_log; assert 'rerun' not in sys.modules, 'rerun loaded'"
+    code = ("import sys, worldgraph, worldgraph.figures.rerun_log; "
+            "assert 'rerun' not in sys.modules, 'rerun loaded'")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr[-2000:]

@@ -1,4 +1,4 @@
-"""worldgraph.ring_join: the compiled ring and shell joins against a brute-force numpy reference.
+"""worldgraph.model.ring_join: the compiled ring and shell joins against a brute-force numpy reference.
 
 The reference computes every pair with the documented expressions (``np.hypot(dx, dy)``,
 ``bz - az``, ``np.sqrt(dx*dx + dy*dy + dz*dz)``), so the sets must be identical, including
@@ -15,7 +15,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from worldgraph import ring_join
 from worldgraph.errors import (
     ArgumentTypeError,
     ImporterError,
@@ -25,7 +24,8 @@ from worldgraph.errors import (
     ShapeError,
     WorldGraphError,
 )
-from worldgraph.ring_join import ring_pairs, shell_pairs
+from worldgraph.model import ring_join
+from worldgraph.model.ring_join import ring_pairs, shell_pairs
 
 
 def ring_reference(a, b, h_lo, h_hi, z_lo, z_hi):
@@ -243,7 +243,7 @@ def test_have_numba_true_where_the_test_extra_is_installed():
 
 
 def test_importing_worldgraph_does_not_import_numba():
-    code = "import sys, worldgraph, worldgraph.ring_join; print('numba' in sys.modules)"
+    code = "import sys, worldgraph, worldgraph.model.ring_join; print('numba' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 

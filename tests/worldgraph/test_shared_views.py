@@ -13,7 +13,7 @@ from tests.worlds import skew
 from worldgraph import scenes
 from worldgraph.localization import localize
 from worldgraph.pose import pose_information, refine_pose, transformation, weighted_rotation
-from worldgraph.validation import (
+from worldgraph.pose.validation import (
     CHI2_6_GATE,
     ros_pose_covariance,
     rotation_only_covariance,

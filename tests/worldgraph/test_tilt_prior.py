@@ -151,7 +151,7 @@ def test_an_imu_up_vector_on_a_tilted_robot_carries_the_prior(world) -> None:
     assert res.search == "gravity"
     tilt_sd = np.sqrt(np.linalg.eigvalsh(res.pose_covariance[3:5, 3:5]))
     assert tilt_sd.max() <= math.radians(0.5) + 1e-12
-    assert wg.gravity.tilt_angle(res.transformation, up) < math.radians(0.5)
+    assert wg.pose.gravity.tilt_angle(res.transformation, up) < math.radians(0.5)
 
 
 def test_an_up_vector_the_percepts_contradict_keeps_the_6d_fit(world) -> None:

@@ -9,7 +9,7 @@ import pytest
 
 import worldgraph as wg
 from perception import Percept, simulate_percepts
-from worldgraph.units import UnitsWarning, check_world_units, percept_units_hint, world_units_hint
+from worldgraph.model.units import UnitsWarning, check_world_units, percept_units_hint, world_units_hint
 
 
 @pytest.fixture(scope="module")

@@ -22,7 +22,6 @@ from ..pose.gravity import Gravity, check_gravity, check_up_sigma
 from ..tolerances import (
     ASSOCIATION_TOLERANCES,
     AssociationTolerances,
-    _tol_argument,
 )
 from .plan import ViewPlan, _depth_factor, plan_view
 from .predict import DEFAULT_DEPTH_FACTOR, MERGE_FLOOR, MERGE_SIGMAS, _repeats
@@ -121,8 +120,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                     head: KinematicChain | None = None, look_while: Sequence[str] = ("ambiguous", "weak"),
                     goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA, gravity: Gravity = "auto",
                     up_sigma: float | None = None, depth_factor: float | None = None, detection: float = 0.9,
-                    max_sights: int | None = None,
-                    tolerances: AssociationTolerances | None = None) -> ActiveLocalization:
+                    max_sights: int | None = None) -> ActiveLocalization:
     """Localise; while the status is in ``look_while`` (default ``"ambiguous"`` and ``"weak"``) and
     looks remain:
     plan a view, look, and localise again with the old and new percepts (:func:`merge_percepts`
@@ -166,9 +164,6 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         view is recognised, and at most how many percepts a look returns.  Default: no cap until
         a look returns fewer than half the detections its plan expected; from then on the most
         any look returned (a recogniser that reports a few objects per view).
-    tolerances : AssociationTolerances, optional
-        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
-        :class:`~worldgraph.errors.ArgumentTypeError`).
 
     Returns
     -------
@@ -194,7 +189,6 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         if st not in _LOOK_STATUSES:
             raise OutOfRangeError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
                                   f"choose among {_LOOK_STATUSES}")
-    tol = _tol_argument("active_localize", tol, tolerances)
     tol = ASSOCIATION_TOLERANCES if tol is None else tol
     current = check_world_and_percepts(world, percepts)
     check_gravity(gravity, tol)  # a bad gravity (or up_sigma) fails before the first look

@@ -32,8 +32,8 @@ from .hypotheses import AssociationHypothesis, _check_hypotheses
 # ----------------------------------------------------------------------------------------------
 # the paper's filters
 # ----------------------------------------------------------------------------------------------
-def proximity_filter(world: WorldModel, percepts: Sequence[Percept], tol: AssociationTolerances | None = None,
-                     *, tolerances: AssociationTolerances | None = None) -> dict:
+def proximity_filter(world: WorldModel, percepts: Sequence[Percept],
+                     tol: AssociationTolerances | None = None) -> dict:
     """Proximity filtering (paper eq. 1 and the intersection ``psi_act``).
 
     For every percept pair (p, q) the model links of the same type pair whose length lies
@@ -52,7 +52,7 @@ def proximity_filter(world: WorldModel, percepts: Sequence[Percept], tol: Associ
         (:func:`filtered_graph_view`).
     """
     percepts = _check_inputs(world, percepts)
-    tol = _resolved_tol("proximity_filter", tol, tolerances, world=world)
+    tol = _resolved_tol(tol, world=world)
     objects = [world.type_index[p.type] for p in percepts]
     k = len(percepts)
     sig = np.array([p.sigma for p in percepts])
@@ -136,8 +136,7 @@ def filtered_graph_view(world: WorldModel, candidates: Sequence[NDArray[np.intp]
 
 
 def consistency_graph(world: WorldModel, percepts: Sequence[Percept],
-                      tol: AssociationTolerances | None = None, min_size: int | None = None, *,
-                      tolerances: AssociationTolerances | None = None) -> nx.Graph:
+                      tol: AssociationTolerances | None = None, min_size: int | None = None) -> nx.Graph:
     """The typed consistency graph of :func:`associate` ("clique") as a networkx graph.
 
     A node ``(p, o)`` pairs percept ``p`` with an object ``o`` of its type (attributes
@@ -148,7 +147,7 @@ def consistency_graph(world: WorldModel, percepts: Sequence[Percept],
     search in :func:`maximum_cliques` finds the largest of them without building this graph).
     """
     percepts = _check_inputs(world, percepts)
-    tol = _resolved_tol("consistency_graph", tol, tolerances, world=world)
+    tol = _resolved_tol(tol, world=world)
     need = tol.min_clique_size if min_size is None else integer("min_size", min_size, minimum=1)
     graph = _consistency_graph(world, percepts, tol)
     alive = _prune(graph, need)
@@ -216,8 +215,7 @@ def _check_proximity(world: WorldModel, percepts: list[Percept], proximity: obje
 
 
 def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity: dict,
-                       tol: AssociationTolerances | None = None, *,
-                       tolerances: AssociationTolerances | None = None) -> dict:
+                       tol: AssociationTolerances | None = None) -> dict:
     """Orientation filtering (paper eqs. 2-3) of the output of :func:`proximity_filter`.
 
     For every non-collinear percept triple (i, j, k) the signature ``V = R_ijk^T (x_j - x_k)``
@@ -232,7 +230,7 @@ def orientation_filter(world: WorldModel, percepts: Sequence[Percept], proximity
         Same layout as :func:`proximity_filter`.
     """
     percepts = _check_inputs(world, percepts)
-    tol = _resolved_tol("orientation_filter", tol, tolerances, world=world)
+    tol = _resolved_tol(tol, world=world)
     k = len(percepts)
     objects, adj = _check_proximity(world, percepts, proximity)
     x = np.array([p.position for p in percepts])

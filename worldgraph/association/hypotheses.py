@@ -368,11 +368,11 @@ def _rank(hyps: list[AssociationHypothesis], tol: AssociationTolerances, limit: 
     return kept
 
 
-def is_ambiguous(hypotheses: Sequence[AssociationHypothesis], tol: AssociationTolerances | None = None, *,
-                 tolerances: AssociationTolerances | None = None) -> bool:
+def is_ambiguous(hypotheses: Sequence[AssociationHypothesis],
+                 tol: AssociationTolerances | None = None) -> bool:
     """The best two hypotheses have costs within ``ambiguity_margin`` and poses that differ."""
     hypotheses = _check_hypotheses(hypotheses)
-    tol = _resolved_tol("is_ambiguous", tol, tolerances)
+    tol = _resolved_tol(tol)
     if len(hypotheses) < 2:
         return False
     poses = [rigid_transform(f"hypotheses[{i}].world_from_ego", h.world_from_ego)

@@ -128,8 +128,7 @@ def _search_subset(percepts: list[Percept], limit: int) -> NDArray[np.intp]:
 
 def associate(world: WorldModel, percepts: Sequence[Percept],
               tol: AssociationTolerances | None = None, method: str = "clique",
-              max_hypotheses: int | None = None, *, gravity: Gravity = "auto",
-              tolerances: AssociationTolerances | None = None) -> list[AssociationHypothesis]:
+              max_hypotheses: int | None = None, *, gravity: Gravity = "auto") -> list[AssociationHypothesis]:
     """Ranked association hypotheses of ``percepts`` (ego frame) to the objects of ``world``.
 
     Parameters
@@ -151,9 +150,6 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
         vector (an IMU's) levels the percepts for the gravity search; ``None`` the free 3D
         search.  Each hypothesis' ``search`` says which search made it.  The paper's filters
         use no gravity (``"free"``).
-    tolerances : AssociationTolerances, optional
-        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
-        :class:`~worldgraph.errors.ArgumentTypeError`).
 
     Returns
     -------
@@ -174,7 +170,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
     if not isinstance(method, str) or method not in ASSOCIATION_METHODS:
         raise WorldGraphError(f"method must be one of {ASSOCIATION_METHODS}, got {method!r}")
     percepts = _check_inputs(world, percepts)
-    tol = _resolved_tol("associate", tol, tolerances)
+    tol = _resolved_tol(tol)
     plan = check_gravity(gravity, tol)
     hyps = associate_searched(world, percepts, tol, method, max_hypotheses, plan)
     if plan.fallback and plan.up is not None and method != "paper" and (

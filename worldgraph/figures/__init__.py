@@ -1,9 +1,9 @@
 """Figures and rerun logging of a localisation.
 
 * :mod:`worldgraph.figures.plots`: matplotlib top views of the world, the percepts and the
-  estimate, and camera images with their detections (also importable as ``worldgraph.plots``).
+  estimate, and camera images with their detections.
 * :mod:`worldgraph.figures.rerun_log`: :func:`~worldgraph.figures.rerun_log.log_rerun`, the same
-  as 3D entities of a rerun recording (also importable as ``worldgraph.rerun_log``).
+  as 3D entities of a rerun recording.
 
 Neither imports its optional dependency (matplotlib, rerun-sdk) before it is called.
 """

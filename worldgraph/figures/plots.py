@@ -2,7 +2,7 @@
 estimate with its 3-sigma ellipse; camera images with their detections.
 
 matplotlib is an optional dependency (``pip install gaussian-spheres[plots]``, also in the
-``examples`` extra); it is imported inside the functions, so ``import worldgraph.plots`` costs
+``examples`` extra); it is imported inside the functions, so ``import worldgraph.figures.plots`` costs
 nothing without it, and a call raises :class:`~worldgraph.errors.ImporterError` naming the
 extra when it is missing.  Nothing here picks a backend: scripts that write files call
 ``matplotlib.use("Agg")`` first.
@@ -66,7 +66,7 @@ def _pyplot() -> Any:
         import matplotlib.pyplot as plt
     except ImportError as exc:
         raise ImporterError(
-            "worldgraph.plots needs matplotlib: pip install gaussian-spheres[plots] "
+            "worldgraph.figures.plots needs matplotlib: pip install gaussian-spheres[plots] "
             "(the examples extra brings it too)") from exc
     return plt
 

@@ -55,7 +55,7 @@ OBJECT_RADIUS = 0.03
 PERCEPT_RADIUS = 0.05
 #: Length (metres) of the axes drawn at the estimated pose.
 AXIS_LENGTH = 0.5
-_ESTIMATE_RGB = (214, 39, 40)  # the red of worldgraph.plots' estimate and ellipse
+_ESTIMATE_RGB = (214, 39, 40)  # the red of worldgraph.figures.plots' estimate and ellipse
 
 
 #: Oldest rerun-sdk release :func:`log_rerun` is known to work with (pyproject's ``rerun`` extra).
@@ -68,13 +68,13 @@ def _rerun() -> Any:
         import rerun
     except ImportError as exc:
         raise ImporterError(
-            "worldgraph.rerun_log.log_rerun needs rerun-sdk: pip install gaussian-spheres[rerun] "
+            "worldgraph.figures.rerun_log.log_rerun needs rerun-sdk: pip install gaussian-spheres[rerun] "
             f"(rerun-sdk >= {need}, which needs Python >= 3.11)") from exc
     version = str(getattr(rerun, "__version__", "0"))
     numbers = tuple(int(x) if x.isdigit() else 0 for x in version.split(".")[:2])
     if numbers < MIN_RERUN_VERSION:
-        raise ImporterError(f"worldgraph.rerun_log.log_rerun needs rerun-sdk >= {need}, found {version}: "
-                            "pip install -U gaussian-spheres[rerun]")
+        raise ImporterError(f"worldgraph.figures.rerun_log.log_rerun needs rerun-sdk >= {need}, "
+                            f"found {version}: pip install -U gaussian-spheres[rerun]")
     return rerun
 
 

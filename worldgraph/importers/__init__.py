@@ -97,7 +97,7 @@ Where things live: :mod:`worldgraph.model.scene_files` reads the files into type
 :data:`KNOWN_TYPES`, :func:`default_type_of` and :func:`type_rule` are defined in
 :mod:`perception.type_rules`, shared with :mod:`perception.mujoco`, and re-exported here),
 below the world model, whose :meth:`~worldgraph.WorldModel.from_file` calls it;
-:mod:`worldgraph.importers.franka` builds the Franka kitchen (also ``worldgraph.franka``);
+:mod:`worldgraph.importers.franka` builds the Franka kitchen;
 :func:`world_from_file` is defined here.
 """
 

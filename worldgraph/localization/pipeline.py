@@ -70,7 +70,7 @@ from ..pose.gravity import (
     unsupported_reason,
 )
 from ..pose.validation import CHI2_3_GATE, NearestObjects, percept_covariances
-from ..tolerances import ASSOCIATION_TOLERANCES, RIGID_TOLERANCE, AssociationTolerances, _tol_argument
+from ..tolerances import ASSOCIATION_TOLERANCES, RIGID_TOLERANCE, AssociationTolerances
 from .context import _Call, _Context, _Settings
 from .paper import _paper
 from .result import _POSELESS_STATUSES, LOCALIZE_STATUSES, POSE_STATUSES, LocalizationResult, _without_pose
@@ -129,8 +129,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
              rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
              max_rotation_3sigma: float = MAX_ROTATION_3SIGMA, solver: str = "active_set",
              check: bool = False, certify: bool = False, gravity: Gravity = "auto",
-             up_sigma: float | None = None, tolerances: AssociationTolerances | None = None
-             ) -> LocalizationResult:
+             up_sigma: float | None = None) -> LocalizationResult:
     """Pose of the robot (``world_from_ego``) from percepts of known world objects.
 
     Parameters
@@ -210,9 +209,6 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         6D fit of the percepts alone.  When the percepts' own tilt contradicts the prior (squared
         Mahalanobis distance above :data:`~worldgraph.pose.gravity.TILT_GATE`, 2 degrees of
         freedom) the 6D fit stands and the gravity checks above judge its tilt.
-    tolerances : AssociationTolerances, optional
-        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
-        :class:`~worldgraph.errors.ArgumentTypeError`).
 
     Returns
     -------
@@ -235,7 +231,6 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         Unknown method, something other than Percepts, a bad region or bound.
     """
     t_start = time.perf_counter()
-    tol = _tol_argument("localize", tol, tolerances)
     percepts, settings = _check_arguments(world, percepts, method, tol, region, rng,
                                           max_position_3sigma, max_rotation_3sigma, solver, check, certify,
                                           gravity, up_sigma)

@@ -92,9 +92,8 @@ Where things live (the names are importable from here, as before):
   them on that module: the far-pair code reads them there);
 * :mod:`worldgraph.model.persistence`: the file format (:data:`FILE_FORMAT`, :data:`FILE_VERSION`);
 * :mod:`worldgraph.model.binary_files`: the binary file format (``BINARY_FORMAT``, ``BINARY_VERSION``);
-* :mod:`worldgraph.model.ring_join`: the compiled ring and shell joins (also
-  ``worldgraph.ring_join``);
-* :mod:`worldgraph.model.units`: the millimetre hints (also ``worldgraph.units``).
+* :mod:`worldgraph.model.ring_join`: the compiled ring and shell joins;
+* :mod:`worldgraph.model.units`: the millimetre hints.
 """
 
 from ..tolerances import COINCIDENT_TOLERANCE, FAR_PAIR_SLACK, QUERY_WIDEN, RIGID_TOLERANCE  # noqa: F401 - re-exported

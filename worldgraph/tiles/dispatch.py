@@ -25,7 +25,7 @@ from ..localization.pipeline import (
 )
 from ..localization.result import LocalizationResult
 from ..pose.gravity import Gravity, check_gravity, check_up_sigma
-from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances, _tol_argument
+from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 from .pool import TilePool
 from .ranking import _combine, _globalised_answer, _run_tile
 from .tiling import Tile, _check_tiles
@@ -51,8 +51,8 @@ def _client(scheduler: object, name: str = "scheduler", what: str = "None, ") ->
 def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: str = "ml", *,
                    scheduler: Any = None, workers: int | None = None, pool: TilePool | None = None,
                    tol: AssociationTolerances | None = None, rng: np.random.Generator | None = None,
-                   region: Any = None, gravity: Gravity = "auto", up_sigma: float | None = None,
-                   tolerances: AssociationTolerances | None = None) -> LocalizationResult:
+                   region: Any = None, gravity: Gravity = "auto", up_sigma: float | None = None
+                   ) -> LocalizationResult:
     """:func:`~worldgraph.localize` on every tile in parallel, the answers ranked together.
 
     Parameters
@@ -93,9 +93,6 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         pose, too few inliers or a tilted pose do all tiles run the free search.
     up_sigma : float, optional
         Gravity's tilt prior of the pose (radians), as in :func:`~worldgraph.localize`.
-    tolerances : AssociationTolerances, optional
-        Deprecated alias of ``tol`` (a :class:`DeprecationWarning`; both at once raise
-        :class:`~worldgraph.errors.ArgumentTypeError`).
 
     Returns
     -------
@@ -122,7 +119,6 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     for k, p in enumerate(percepts):
         if not isinstance(p, Percept):
             raise ArgumentTypeError(f"percepts[{k}] must be a perception.Percept, got {_checks._short(p)}")
-    tol = _tol_argument("localize_tiled", tol, tolerances)
     tol = ASSOCIATION_TOLERANCES if tol is None else tol
     if not isinstance(tol, AssociationTolerances):
         raise ArgumentTypeError(f"tol must be AssociationTolerances, got {_checks._short(tol)}")
