@@ -389,7 +389,13 @@ def _trimesh_scene(path: str, file_format: str | None) -> trimesh.Scene:
 
 # -- OBJ ---------------------------------------------------------------------------------------
 def _obj_scene(path: str) -> trimesh.Scene:
-    """One node per ``o``/``g`` part of an OBJ file, identity transforms."""
+    """One node per ``o``/``g`` part of an OBJ file, identity transforms.
+
+    Not ``trimesh.exchange.obj.load_obj``: in trimesh 5.2 no option set gives these parts (names
+    ``<o>_<g>``, parts of a repeated name merged, negative indices counted from the end of the
+    file, malformed lines unnamed or read silently); tests/worldgraph/test_obj_trimesh_parity.py
+    pins the differences.
+    """
     import trimesh
 
     try:
