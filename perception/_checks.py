@@ -7,7 +7,6 @@ the argument, the index of a bad element (where there is one) and the offending 
 from __future__ import annotations
 
 import numbers
-import sys
 from typing import Any
 
 import numpy as np
@@ -222,51 +221,6 @@ def sequence(name: str, value: Any, kind: type | None = None, error: type[Percep
         elif not isinstance(item, kind):
             raise error(f"{name}[{i}] must be a {what}, got {type(item).__name__}: {_short(item)}")
     return out
-
-
-_UNEXPECTED: tuple[type[BaseException], ...] = (
-    TypeError,
-    ValueError,
-    IndexError,
-    KeyError,
-    AttributeError,
-    np.linalg.LinAlgError,
-    OverflowError,
-    ZeroDivisionError,
-    FloatingPointError,
-    RecursionError,
-    MemoryError,
-)
-
-
-def _is_opencv_error(exc: BaseException) -> bool:
-    """``exc`` is a ``cv2.error``.  Looked up in ``sys.modules`` rather than imported: OpenCV is
-    imported lazily by the functions that call it, and when it was never imported no call can
-    have raised its error (``import perception`` stays free of OpenCV's import time)."""
-    cv2 = sys.modules.get("cv2")
-    return cv2 is not None and isinstance(exc, cv2.error)
-
-
-def guard(func: Any) -> Any:
-    """Boundary safety net of a public entry point: a failure that validation did not prevent
-    (numpy, OpenCV, Python built-ins) leaves as a :class:`PerceptionError` naming the call,
-    chained to the original (``from exc``)."""
-    import functools
-
-    @functools.wraps(func)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        try:
-            return func(*args, **kwargs)
-        except PerceptionError:
-            raise
-        except Exception as exc:
-            if not (isinstance(exc, _UNEXPECTED) or _is_opencv_error(exc)):
-                raise
-            raise PerceptionError(
-                f"{func.__qualname__}: invalid arguments ({type(exc).__name__}: {str(exc)[:300]})"
-            ) from exc
-
-    return wrapper
 
 
 MAX_TRANSLATION = 1e150

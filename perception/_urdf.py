@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import check_transform, file_path, guard, name_string
+from ._checks import check_transform, file_path, name_string
 from .errors import MissingExtraError, URDFError
 from .tolerances import AXIS_TOL
 
@@ -120,7 +120,6 @@ def _limits(joint: Any, index: int) -> tuple[float | None, float | None]:
 JointSpec = tuple[str, str, NDArray[np.float64], "float | None", "float | None", int]
 
 
-@guard
 def urdf_joint_specs(
     path: str | os.PathLike[str],
     base_link: str,

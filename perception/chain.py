@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import MAX_TRANSLATION, check_transform, guard, name_string, real_array, real_scalar, vector3
+from ._checks import MAX_TRANSLATION, check_transform, name_string, real_array, real_scalar, vector3
 from ._urdf import urdf_joint_specs
 from .errors import (
     JointLimitError,
@@ -65,7 +65,6 @@ TIP_FROM_OPENCV = np.array(
 )
 
 
-@guard
 def rotation(axis: str, angle: float) -> NDArray[np.float64]:
     """4x4 rotation by ``angle`` (radians) about the ``axis`` ('x', 'y' or 'z') of the frame."""
     c, s = np.cos(angle), np.sin(angle)
@@ -109,7 +108,6 @@ class Joint:
     lower: float | None = None
     upper: float | None = None
 
-    @guard
     def __post_init__(self) -> None:
         name_string("joint name", self.name, KinematicsError)
         if not isinstance(self.axis, str) or self.axis not in _AXES:
@@ -130,7 +128,6 @@ class Joint:
                 f"joint {self.name!r}: lower limit {self.lower!r} exceeds upper limit {self.upper!r}"
             )
 
-    @guard
     def transform(self, angle: float) -> NDArray[np.float64]:
         """``parent_from_joint`` at ``angle`` (radians, within the joint limits)."""
         q = _check_angle(self.name, None, real_scalar(f"angle of joint {self.name!r}", angle))
@@ -160,7 +157,6 @@ class KinematicChain:
     tip_from_camera: NDArray[np.float64]
     right_eye: Joint | None = None
 
-    @guard
     def __post_init__(self) -> None:
         if self.joints is None or isinstance(self.joints, (str, bytes, Joint)):
             raise KinematicsError(f"joints must be a non-empty sequence of Joint, got {self.joints!r}")
@@ -262,7 +258,6 @@ class KinematicChain:
         return np.array([[-np.inf if j.lower is None else j.lower, np.inf if j.upper is None else j.upper]
                          for j in joints])
 
-    @guard
     def angle_vector(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
         """Angles as a vector in the order of :attr:`names` (the right eye defaults to the left).
 
@@ -300,7 +295,6 @@ class KinematicChain:
             _check_limits(joint, i, float(vec[i]))
         return vec
 
-    @guard
     def joint_frames(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
         """``ego_from_joint_i`` (after the joint rotation) for every serial joint, shape (n, 4, 4)."""
         q = self.angle_vector(angles)
@@ -311,7 +305,6 @@ class KinematicChain:
             out[i] = M
         return out
 
-    @guard
     def ego_from_camera(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
         """Pose of the left camera in the ego frame: ``ego_from_base @ prod(joint_i(q_i)) @ tip_from_camera``.
 
@@ -321,7 +314,6 @@ class KinematicChain:
         """
         return self.joint_frames(angles)[-1] @ self.tip_from_camera
 
-    @guard
     def ego_from_right_camera(
         self, angles: Mapping[str, float] | ArrayLike, baseline: float | None = None
     ) -> NDArray[np.float64]:
@@ -339,7 +331,6 @@ class KinematicChain:
         parent = frames[-2] if len(self.joints) > 1 else self.ego_from_base
         return parent @ self.right_eye.transform(q[-1]) @ self.tip_from_camera
 
-    @guard
     def point_jacobian(
         self, angles: Mapping[str, float] | ArrayLike, point_camera: ArrayLike
     ) -> NDArray[np.float64]:
@@ -366,7 +357,6 @@ def _vector3(name: str, value: ArrayLike) -> NDArray[np.float64]:
     return vector3(name, value)
 
 
-@guard
 def default_head(baseline: float = 0.093) -> KinematicChain:
     """A Karlsruhe-like 7-DoF humanoid head (ARMAR-III-like geometry, made-up offsets).
 
@@ -395,7 +385,6 @@ def default_head(baseline: float = 0.093) -> KinematicChain:
     return KinematicChain(joints, np.eye(4), TIP_FROM_OPENCV.copy(), right_eye=right)
 
 
-@guard
 def percept_covariance(
     chain: KinematicChain,
     angles: Mapping[str, float] | ArrayLike,

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import guard, real_array, real_scalar, sequence, spd
+from ._checks import real_array, real_scalar, sequence, spd
 from .errors import (
     NonFiniteError,
     NonPositiveSigmaError,
@@ -72,7 +72,6 @@ class GaussianClassifier:
     _chol: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     _log_norm: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
-    @guard
     def __post_init__(self) -> None:
         classes = tuple(sequence("classes", self.classes))
         k = len(classes)
@@ -120,7 +119,6 @@ class GaussianClassifier:
         return int(self.means.shape[1])
 
     @classmethod
-    @guard
     def fit(
         cls,
         features: ArrayLike,
@@ -200,7 +198,6 @@ class GaussianClassifier:
             thresholds[i] = np.quantile(own, reject_quantile) - threshold_margin
         return cls(classes, prov.means, prov.covariances, prov.log_priors, thresholds)
 
-    @guard
     def log_likelihood(self, features: ArrayLike) -> NDArray[np.float64]:
         """Class-conditional log densities ``log N(x; mu_c, Sigma_c)``, shape (n, k)."""
         x = real_array("features", features)
@@ -217,7 +214,6 @@ class GaussianClassifier:
         maha = np.einsum("kdn,kdn->kn", z, z)
         return (self._log_norm[:, None] - 0.5 * maha).T
 
-    @guard
     def predict(self, features: ArrayLike) -> tuple[list[str | None], NDArray[np.float64]]:
         """Maximum a-posteriori class of each sample, ``None`` where rejected.
 

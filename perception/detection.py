@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import guard, name_string, real_array, real_scalar, spd
+from ._checks import name_string, real_array, real_scalar, spd
 from .errors import NonFiniteError, ShapeError, UnknownClassError
 
 __all__ = ["MAX_PIXEL_COORDINATE", "Detection"]
@@ -139,7 +139,6 @@ class Detection:
     mask: NDArray[np.bool_] | None = None
     score: float = 1.0
 
-    @guard
     def __post_init__(self) -> None:
         name_string("type", self.type, UnknownClassError)
         mask = None if self.mask is None else _mask(self.mask)

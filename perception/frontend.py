@@ -50,7 +50,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import boolean, guard, integer, real_array, real_scalar, sequence
+from ._checks import boolean, integer, real_array, real_scalar, sequence
 from .chain import check_transform
 from .detection import Detection
 from .errors import ImageFormatError, NonFiniteError, PerceptionError, ShapeError
@@ -241,7 +241,6 @@ class CentreOffset:
     depth_sd: float | None = None
     lateral_sd: float | None = None
 
-    @guard
     def __post_init__(self) -> None:
         d = real_scalar("depth", self.depth, low=-MAX_CENTRE_DEPTH, high=MAX_CENTRE_DEPTH)
         sd = (CENTRE_DEPTH_RTOL * abs(d) + CENTRE_DEPTH_FLOOR if self.depth_sd is None
@@ -497,7 +496,6 @@ def _occluded_fraction(mask: NDArray[np.bool_], box: NDArray[np.float64], depth:
     return float(np.mean(zr[keep] < zo[keep] - margin))
 
 
-@guard
 def rgbd_percepts(
     detections: Sequence[Detection],
     depth: ArrayLike,
@@ -674,7 +672,6 @@ def _extents_differ(a: Detection, b: Detection) -> str:
     return ""
 
 
-@guard
 def stereo_percepts(
     left: Sequence[Detection],
     right: Sequence[Detection],

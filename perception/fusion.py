@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from ._checks import guard, integer, real_array, real_scalar, spd
+from ._checks import integer, real_array, real_scalar, spd
 from .errors import (
     NonFiniteError,
     NonPositiveSigmaError,
@@ -224,7 +224,6 @@ def _first_rep_labels(Y: NDArray[np.float64], radius: float) -> NDArray[np.int64
     return labels
 
 
-@guard
 def mean_shift_modes(
     points: ArrayLike,
     bandwidth: float | ArrayLike,
@@ -436,7 +435,6 @@ def _check_percepts(percepts: Any) -> list[Percept]:
     return ps
 
 
-@guard
 def fuse_percepts(
     percepts: Sequence[Percept],
     *,
@@ -540,7 +538,6 @@ BANDWIDTH_SIGMAS = 3.0
 MIN_BANDWIDTH = 0.02
 
 
-@guard
 def percept_bandwidths(percepts: Sequence[Percept], *, n_sigma: float = BANDWIDTH_SIGMAS,
                        minimum: float = MIN_BANDWIDTH) -> dict[str, float]:
     """A mean-shift radius per type from the raw percepts' own uncertainty.

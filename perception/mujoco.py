@@ -41,7 +41,6 @@ from ._checks import (
     boolean,
     check_transform,
     file_path,
-    guard,
     integer,
     name_string,
     real_array,
@@ -552,7 +551,6 @@ class MujocoScene:
     (MuJoCo cameras look along their -z with y up).  One renderer per image size is kept.
     """
 
-    @guard
     def __init__(self, path_or_model: Any, type_of: Any = None) -> None:
         mujoco = import_mujoco()
         self._mj = mujoco
@@ -679,7 +677,6 @@ class MujocoScene:
             out[typ] = float(np.median(half))
         return out
 
-    @guard
     def _obstacle_boxes(self) -> NDArray[np.float64]:
         """World axis-aligned boxes ``(k, 2, 3)`` of every geom but planes and the robot-free
         floor: what a robot standing in the scene must keep clear of."""
@@ -714,7 +711,6 @@ class MujocoScene:
                 lo, hi = np.maximum(lo, centre - size), np.minimum(hi, centre + size)
         return z, lo, hi
 
-    @guard
     def robot_poses(self, n: int, rng: np.random.Generator, *, clearance: float = 0.4,
                     head_height: tuple[float, float] = (1.2, 1.7), max_distance: float = 2.5,
                     yaw_spread_deg: float = 30.0) -> NDArray[np.float64]:
@@ -952,7 +948,6 @@ class MujocoScene:
             renderer.close()
         self._renderers.clear()
 
-    @guard
     def render(self, world_from_camera: ArrayLike, image_size: Any = (640, 480), *, rgb: bool = True,
                depth: bool = True, segmentation: bool = True) -> RenderedView:
         """Render one view from a camera pose.
@@ -1028,7 +1023,6 @@ class MujocoScene:
         return RenderedView(rgb, depth, objects, geoms)
 
     # -- scans -----------------------------------------------------------------------------------
-    @guard
     def scan(self, world_from_ego: ArrayLike, sensor: str = "rgbd", n_views: int = 20, *,
              rng: np.random.Generator, image_size: Any = (640, 480), chain: KinematicChain | None = None,
              miss_rate: float = 0.0, false_rate: float = 0.0, mask_jitter_px: int = 0, min_pixels: int = 1,

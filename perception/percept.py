@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import guard, integer, name_string, real_array, real_scalar, spd, vector3
+from ._checks import integer, name_string, real_array, real_scalar, spd, vector3
 from .errors import NonFiniteError, NonPositiveSigmaError, ShapeError, UnknownClassError
 from .tolerances import SHARED_RTOL, SIGMA_COVARIANCE_FACTOR
 
@@ -94,7 +94,6 @@ class Percept:
     views: int = 1
     shared: tuple[tuple[int, NDArray[np.float64]], ...] = ()
 
-    @guard
     def __post_init__(self) -> None:
         name_string("type", self.type, UnknownClassError)
         pos = vector3("position", self.position)

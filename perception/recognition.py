@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from ._checks import boolean, guard, integer, real_scalar, sequence
+from ._checks import boolean, integer, real_scalar, sequence
 from ._checks import generator as check_rng
 from .chain import check_transform
 from .classifier import GaussianClassifier
@@ -110,7 +110,6 @@ __all__ = [
 # --------------------------------------------------------------------------------------------
 
 
-@guard
 def detect(
     image: NDArray[np.uint8],
     classifier: GaussianClassifier,
@@ -174,7 +173,6 @@ def _training_samples(
     return np.array(feats_all).reshape(-1, len(FEATURE_NAMES)), labels_all
 
 
-@guard
 def train_classifier(
     rig: Any, rng: np.random.Generator, n_scenes: int = 30, *, min_area: int = 12, **fit_kwargs: Any
 ) -> GaussianClassifier:
@@ -222,7 +220,6 @@ class StereoMatch:
     right: int
     epipolar_px: float
 
-    @guard
     def __post_init__(self) -> None:
         object.__setattr__(self, "left", integer("left", self.left, minimum=0))
         object.__setattr__(self, "right", integer("right", self.right, minimum=0))
@@ -244,7 +241,6 @@ def _undistort(
     return cast(NDArray[np.float64], cv2.undistortPoints(uv.reshape(-1, 1, 2), K, D, P=K).reshape(-1, 2))
 
 
-@guard
 def match_stereo(
     rig: Any,
     left_dets: Sequence[Detection],
@@ -377,7 +373,6 @@ def _default_depth_factor(rig: Any, disparity_std_px: float) -> float:
     return focal * baseline / disparity_std_px
 
 
-@guard
 def recognize(
     rig: Any,
     left: NDArray[np.uint8],

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._checks import generator as check_rng
-from ._checks import guard, integer, name_string, real_array, real_scalar, sequence
+from ._checks import integer, name_string, real_array, real_scalar, sequence
 from .chain import check_transform
 from .errors import (
     CalibrationError,
@@ -117,7 +117,6 @@ class Box:
     color: NDArray[np.float64]
     type: str
 
-    @guard
     def __post_init__(self) -> None:
         center = _as_float_array("center", self.center, (3,))
         size = _as_float_array("size", self.size, (3,))
@@ -171,7 +170,6 @@ def _rig(rig: Any) -> Any:
     return rig
 
 
-@guard
 def scene_boxes(
     types: Sequence[str],
     positions: ArrayLike,
@@ -251,7 +249,6 @@ _CLUTTER_PALETTE = np.array(
 )
 
 
-@guard
 def random_scene(
     rng: np.random.Generator,
     *,
@@ -475,7 +472,6 @@ def _draw_view(
     return canvas
 
 
-@guard
 def render_stereo(
     rig: Any,
     camera_from_world: ArrayLike,
@@ -567,7 +563,6 @@ def render_stereo(
     return images[0], images[1]
 
 
-@guard
 def render_labels(
     rig: Any, camera_from_world: ArrayLike, boxes: Sequence[Box]
 ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
@@ -590,7 +585,6 @@ def render_labels(
     return out[0], out[1]
 
 
-@guard
 def visible_mask(
     rig: Any,
     camera_from_world: ArrayLike,

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import guard, integer, real_array
+from ._checks import integer, real_array
 from .errors import ImageFormatError, ShapeError
 from .render import MAX_RENDER_PIXELS
 from .tolerances import EIGENVALUE_FLOOR
@@ -32,7 +32,6 @@ class ColorRange:
     lower: tuple[int, int, int]
     upper: tuple[int, int, int]
 
-    @guard
     def __post_init__(self) -> None:
         lo = real_array("lower", self.lower, (3,))
         hi = real_array("upper", self.upper, (3,))
@@ -78,7 +77,6 @@ def _check_image(name: str, image: Any) -> NDArray[np.uint8]:
     return image
 
 
-@guard
 def region_features(
     image: NDArray[np.uint8], *, color_ranges: Mapping[str, ColorRange] = COLOR_RANGES, min_area: int = 12
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:

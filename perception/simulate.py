@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import boolean, guard, integer, name_string, real_array, real_scalar, sequence
+from ._checks import boolean, integer, name_string, real_array, real_scalar, sequence
 from ._checks import generator as check_rng
 from .chain import KinematicChain, check_transform, default_head
 from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
@@ -111,7 +111,6 @@ def _false_type_pool(false_types: Sequence[str] | None, present: Sequence[str]) 
     return sequence("false_types", false_types)
 
 
-@guard
 def simulate_percepts(
     types: Sequence[str],
     world_positions: ArrayLike,
@@ -235,7 +234,6 @@ def _range_pair(name: str, value: tuple[float, float]) -> tuple[float, float]:
     return float(arr[0]), float(arr[1])
 
 
-@guard
 def scan_angles(
     chain: KinematicChain,
     n_views: int,
@@ -269,7 +267,6 @@ def scan_angles(
     return Q
 
 
-@guard
 def simulate_scan(
     types: Sequence[str],
     world_positions: ArrayLike,

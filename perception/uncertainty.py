@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import guard, integer, real_array, real_scalar
+from ._checks import integer, real_array, real_scalar
 from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError
 
 if TYPE_CHECKING:
@@ -70,7 +70,6 @@ def _out(x: NDArray[np.float64]) -> NDArray[np.float64] | float:
     return float(x) if x.ndim == 0 else x
 
 
-@guard
 def perception_depth(
     points: ArrayLike, camera_center: ArrayLike, viewing_direction: ArrayLike
 ) -> NDArray[np.float64] | float:
@@ -104,7 +103,6 @@ def perception_depth(
     return _out(_result("the perception depth", rho, "points", X))
 
 
-@guard
 def depth_sigma(
     rho: ArrayLike, depth_factor: float, *, min_sigma: float = 0.0
 ) -> NDArray[np.float64] | float:
@@ -148,7 +146,6 @@ def depth_sigma(
     return _out(_result("rho**2 / depth_factor", out, "rho", r))
 
 
-@guard
 def disparity(rho: ArrayLike, focal_px: float, baseline: float) -> NDArray[np.float64] | float:
     """Disparity ``d = f b / rho`` in pixels of a point at depth ``rho`` (eq. 8).
 
@@ -171,7 +168,6 @@ def disparity(rho: ArrayLike, focal_px: float, baseline: float) -> NDArray[np.fl
     return _out(_result("focal_px * baseline / rho", out, "rho", r))
 
 
-@guard
 def pixel_footprint(
     rho: ArrayLike, hfov: float, vfov: float, width: int, height: int
 ) -> NDArray[np.float64] | float:
@@ -193,7 +189,6 @@ def pixel_footprint(
     return _out(_result("the pixel footprint", out, "rho", r))
 
 
-@guard
 def triangulation_jacobian(
     rig: StereoRig, uv_left: ArrayLike, uv_right: ArrayLike, step: float = 1e-3
 ) -> NDArray[np.float64]:
@@ -234,7 +229,6 @@ def _matched_pixels(rig: object, uv_left: ArrayLike, uv_right: ArrayLike
     return u1, u2
 
 
-@guard
 def triangulation_covariance(
     rig: StereoRig, uv_left: ArrayLike, uv_right: ArrayLike, pixel_sigma: float | ArrayLike = 0.5
 ) -> NDArray[np.float64]:
@@ -293,7 +287,6 @@ def triangulation_covariance(
 COVARIANCE_CHUNK = 65_536
 
 
-@guard
 def class_bandwidth(vertices: ArrayLike) -> NDArray[np.float64]:
     """Fusion bandwidth of a class: the covariance of its model's vertices (section 2.2).
 

@@ -35,25 +35,31 @@ def test_opencv_is_loaded_when_a_function_needs_it():
     assert proc.stdout.split() == ["True", "True"]
 
 
-def test_guard_wraps_opencv_errors_without_importing_opencv():
-    import cv2
+def test_a_fault_inside_a_public_function_surfaces_as_itself(monkeypatch):
+    """Validation happens at the public boundary; an IndexError or TypeError raised inside (a bug)
+    is not converted into the package's own error, so it is not mistaken for bad input."""
+    import numpy as np
 
-    from perception._checks import guard
+    import perception
+    import worldgraph as wg
+    from perception import fusion
     from perception.errors import PerceptionError
+    from tests.worlds import four_type_world
+    from worldgraph.errors import WorldGraphError
+    from worldgraph.localization import pipeline
 
-    @guard
-    def bad():
-        raise cv2.error("synthetic OpenCV failure")
+    def broken(*args, **kwargs):
+        raise IndexError("an internal fault")
 
-    @guard
-    def other():
-        raise RuntimeError("not an argument error")
+    percepts = [perception.Percept("door", np.array([1.0, 0.0, 0.0]), 0.01)] * 3
+    monkeypatch.setattr(pipeline, "_localize", broken)
+    with pytest.raises(IndexError, match="an internal fault") as info:
+        wg.localize(four_type_world(), percepts)
+    assert not isinstance(info.value, WorldGraphError)
 
-    with pytest.raises(PerceptionError, match="bad: invalid arguments") as info:
-        bad()
-    assert isinstance(info.value.__cause__, cv2.error)
-    with pytest.raises(RuntimeError, match="not an argument error") as info:
-        other()
+    monkeypatch.setattr(fusion, "_melt", broken)
+    with pytest.raises(IndexError, match="an internal fault") as info:
+        perception.fuse_percepts([perception.Percept("door", np.array([1.0, 0.0, 2.0]), 0.01)] * 2)
     assert not isinstance(info.value, PerceptionError)
 
 

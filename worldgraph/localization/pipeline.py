@@ -43,8 +43,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from dataclasses import fields, replace
 
 import numpy as np
@@ -229,18 +228,20 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         An up vector ``gravity`` more than 90 degrees from the ego +z axis (a gravity vector).
     WorldGraphError
         Unknown method, something other than Percepts, a bad region or bound.
+    radialopt.VerificationError
+        ``check=True`` and a radial solution disagrees with the vertex-enumeration reference (a
+        solver fault, not bad input: it is not converted into a :class:`WorldGraphError`).
     """
     t_start = time.perf_counter()
     percepts, settings = _check_arguments(world, percepts, method, tol, region, rng,
                                           max_position_3sigma, max_rotation_3sigma, solver, check, certify,
                                           gravity, up_sigma)
-    with _raised_as_worldgraph_errors(settings.method):
-        result = _localize(world, percepts, settings, t_start)
-        n_used = sum(1 for p in percepts if p.type in world.type_index)
-        why = gravity_unsupported(result, settings.plan, settings.tol, settings.method, n_used)
-        if why:
-            free = _localize(world, percepts, replace(settings, plan=FREE_SEARCH), t_start)
-            result = answered_by_free_search(free, result, why)
+    result = _localize(world, percepts, settings, t_start)
+    n_used = sum(1 for p in percepts if p.type in world.type_index)
+    why = gravity_unsupported(result, settings.plan, settings.tol, settings.method, n_used)
+    if why:
+        free = _localize(world, percepts, replace(settings, plan=FREE_SEARCH), t_start)
+        result = answered_by_free_search(free, result, why)
     return tilt_checked(_sane(result, len(percepts)), settings.plan, settings.tol)
 
 
@@ -323,23 +324,6 @@ def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str
     plan = check_gravity(gravity, tol)
     return checked, _Settings(method, tol, box, gen, pos_tol, rot_tol, solver_name, bool(check),
                               bool(certify), plan, check_up_sigma(up_sigma, tol))
-
-
-@contextmanager
-def _raised_as_worldgraph_errors(method: str) -> Iterator[None]:
-    """Failures of the numerical steps (radialopt's, numpy's) raised as WorldGraphError."""
-    try:
-        yield
-    except WorldGraphError:
-        raise
-    except ro.VerificationError as exc:
-        raise WorldGraphError(f"check=True: a radial solution failed its verification: {exc}") from exc
-    except ro.RadialError as exc:
-        raise WorldGraphError(f"localize: radialopt rejected the Gaussian spheres built from the percepts "
-                              f"(method={method!r}): {exc}") from exc
-    except (ArithmeticError, ValueError, TypeError, IndexError, np.linalg.LinAlgError) as exc:
-        raise WorldGraphError(f"localize failed numerically on these percepts (method={method!r}): "
-                              f"{type(exc).__name__}: {exc}") from exc
 
 
 def _check_region(region: object) -> ro.Region | None:
