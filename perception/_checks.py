@@ -7,7 +7,7 @@ the argument, the index of a bad element (where there is one) and the offending 
 from __future__ import annotations
 
 import numbers
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -227,6 +227,58 @@ MAX_TRANSLATION = 1e150
 """Largest translation (metres) of a rigid transform accepted."""
 
 
+def rotation_errors(rot: NDArray[np.float64], tol: float
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """``(max |R^T R - I|, det R, improper)`` of each rotation of a stack ``(..., 3, 3)``.
+
+    The one rotation rule of the three packages: ``improper`` where ``max |R^T R - I| > tol`` or
+    ``|det R - 1| > tol`` (scaled, sheared or reflected).  Entries above 2 in magnitude, which no
+    rotation has, give an infinite orthogonality error instead of an overflow; NaN entries are
+    improper.
+    """
+    rot = np.asarray(rot, dtype=np.float64)
+    if rot.size == 0:
+        shape = rot.shape[:-2]
+        return np.zeros(shape), np.ones(shape), np.zeros(shape, dtype=bool)
+    huge = np.abs(rot).max(axis=(-2, -1)) > 2.0
+    safe = np.where(huge[..., None, None], 0.0, rot)
+    gram = np.einsum("...ji,...jk->...ik", safe, safe)
+    orth = np.where(huge, np.inf, np.abs(gram - np.eye(3)).max(axis=(-2, -1)))
+    with np.errstate(invalid="ignore"):  # NaN entries give a NaN determinant: improper
+        det = np.where(huge, np.nan, np.linalg.det(safe))
+    improper = ~((orth <= tol) & (np.abs(det - 1.0) <= tol))
+    return orth, det, improper
+
+
+def rotation_defect(rot: NDArray[np.float64], tol: float) -> str | None:
+    """Why a finite (3, 3) array is not a proper rotation within ``tol`` (:func:`rotation_errors`),
+    or ``None``; the text is a predicate (``"is a reflection: det R = ..."``) with the measured
+    numbers, for a sentence that names the argument."""
+    orth, det, improper = rotation_errors(rot, tol)
+    if not improper:
+        return None
+    if not np.isfinite(orth):
+        return f"has entries up to {float(np.abs(rot).max()):.3g}, which no rotation has"
+    kind = "a reflection" if det < 0 else "scaled or sheared"
+    return f"is {kind}: det R = {float(det):.6g}, max |R^T R - I| = {float(orth):.3g} (tolerance {tol:g})"
+
+
+def rigid_defect(value: NDArray[np.float64], tol: float
+                 ) -> tuple[Literal["last row", "rotation"], str] | None:
+    """Why a finite (4, 4) float array is not a rigid transform within ``tol``, or ``None``.
+
+    The one rigidity rule of the three packages (:func:`check_transform` raises perception's
+    errors with it, worldgraph's transform checks raise worldgraph's): the last row is
+    ``[0, 0, 0, 1]`` within ``tol`` (else ``"last row"``), and the rotation block is proper by
+    :func:`rotation_errors` (else ``"rotation"``).  The text gives the measured numbers, without
+    the argument name.
+    """
+    if not np.abs(value[3] - (0.0, 0.0, 0.0, 1.0)).max() <= tol:
+        return "last row", f"its last row must be [0, 0, 0, 1], got {value[3].tolist()}"
+    why = rotation_defect(value[:3, :3], tol)
+    return None if why is None else ("rotation", f"its rotation block {why}")
+
+
 def check_transform(name: str, value: ArrayLike, atol: float = RIGID_TOLERANCE) -> NDArray[np.float64]:
     """Validate a 4x4 rigid transform and return it as float64.
 
@@ -243,11 +295,7 @@ def check_transform(name: str, value: ArrayLike, atol: float = RIGID_TOLERANCE) 
         raise InvalidPoseError(
             f"{name}: translation must be at most {MAX_TRANSLATION:g} m, got {M[:3, 3].tolist()}"
         )
-    if not np.allclose(M[3], [0.0, 0.0, 0.0, 1.0], atol=atol):
-        raise InvalidPoseError(f"{name} must be a rigid transform with last row (0, 0, 0, 1), "
-                               f"got {M[3].tolist()}")
-    R = M[:3, :3]
-    if np.max(np.abs(R)) > 2.0 or not np.allclose(R @ R.T, np.eye(3), atol=atol) or np.linalg.det(R) <= 0:
-        raise InvalidPoseError(f"{name} must be a rigid transform: its rotation block must be a proper "
-                               f"rotation (R R^T = I, det R = +1), got {R.tolist()}")
+    defect = rigid_defect(M, atol)
+    if defect is not None:
+        raise InvalidPoseError(f"{name} must be a rigid transform: {defect[1]}")
     return M

@@ -15,7 +15,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import MAX_TRANSLATION, check_transform, name_string, real_array, real_scalar, vector3
+from ._checks import (
+    MAX_TRANSLATION,
+    check_transform,
+    name_string,
+    real_array,
+    real_scalar,
+    rigid_defect,
+    rotation_defect,
+    rotation_errors,
+    vector3,
+)
 from ._urdf import urdf_joint_specs
 from .errors import (
     JointLimitError,
@@ -460,6 +470,9 @@ __all__: Sequence[str] = [
     "KinematicChain",
     "TIP_FROM_OPENCV",
     "check_transform",
+    "rigid_defect",
+    "rotation_defect",
+    "rotation_errors",
     "default_head",
     "percept_covariance",
     "rotation",

@@ -775,7 +775,7 @@ def stereo_percepts(
         if differ:
             dropped.append(Dropped(i, dl.type, "occluded", differ))
             continue
-        uv_l, uv_r = dl.centroid_uv[None, :], dr.centroid_uv[None, :]
+        uv_l, uv_r = np.asarray(dl.centroid_uv)[None, :], np.asarray(dr.centroid_uv)[None, :]
         try:
             X = np.asarray(rig.triangulate(uv_l, uv_r), dtype=np.float64)[0]
             J = triangulation_jacobian(rig, uv_l, uv_r)[0]  # (3, 4)
@@ -784,7 +784,7 @@ def stereo_percepts(
             continue
         own = px * px * (J @ J.T)
         common = J[:, :2] + J[:, 2:]  # the same shift in both images
-        shape = 0.5 * (dl.shape_covariance + dr.shape_covariance)
+        shape = 0.5 * (np.asarray(dl.shape_covariance) + np.asarray(dr.shape_covariance))
         cut = (dl.box is not None and _touches_border(dl.box, w, h)) or (
             dr.box is not None and _touches_border(dr.box, w, h))
         ray = X / np.linalg.norm(X)

@@ -881,6 +881,7 @@ class MujocoScene:
                 for i, (det, k) in enumerate(zip(view.detections, view.truth, strict=True)):
                     if i not in kept or k < 0:
                         continue
+                    assert det.mask is not None  # the renderer's detections carry masks
                     v, u = np.nonzero(det.mask)
                     z = view.depth[v, u]
                     ok = np.isfinite(z)

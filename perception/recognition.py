@@ -491,7 +491,8 @@ def recognize(
     uv_r = np.array([dets_r[m.right].centroid_uv for m in matches])
     points = np.asarray(rig.triangulate(uv_l, uv_r), dtype=np.float64).reshape(-1, 3)
     shape = 0.5 * np.array(
-        [dets_l[m.left].shape_covariance + dets_r[m.right].shape_covariance for m in matches]
+        [np.asarray(dets_l[m.left].shape_covariance) + np.asarray(dets_r[m.right].shape_covariance)
+         for m in matches]  # never None after Detection.__post_init__
     )
     covs = _percept_covariances(rig, uv_l, uv_r, shape, pixel_sigma, centroid_offset_scale)
     rot = transform[:3, :3]

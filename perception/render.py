@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._checks import generator as check_rng
-from ._checks import integer, name_string, real_array, real_scalar, sequence
+from ._checks import integer, name_string, real_array, real_scalar, rotation_defect, sequence
 from .chain import check_transform
 from .errors import (
     CalibrationError,
@@ -83,14 +83,9 @@ _FACE_NORMALS = np.array(
 
 
 def _check_rotation(name: str, rot: NDArray[np.float64], atol: float = RIGID_TOLERANCE) -> None:
-    if (
-        np.max(np.abs(rot)) > 2.0
-        or not np.allclose(rot @ rot.T, np.eye(3), atol=atol)
-        or np.linalg.det(rot) <= 0
-    ):
-        raise InvalidPoseError(
-            f"{name} must be a proper rotation (R R^T = I, det R = +1), got {rot.tolist()}"
-        )
+    why = rotation_defect(rot, atol)
+    if why is not None:
+        raise InvalidPoseError(f"{name} must be a proper rotation (R^T R = I, det R = +1), but it {why}")
 
 
 @dataclass(frozen=True)

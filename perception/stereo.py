@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import file_path, integer, real_array, real_scalar
+from ._checks import file_path, integer, real_array, real_scalar, rotation_defect
 from .errors import (
     BehindCameraError,
     CalibrationError,
@@ -239,8 +239,9 @@ class StereoRig:
         D2 = _distortion("D2", self.D2)
         R = _matrix("R", self.R, (3, 3))
         T = _matrix("T", self.T, (3,))
-        if not np.allclose(R @ R.T, np.eye(3), atol=RIGID_TOLERANCE) or np.linalg.det(R) <= 0:
-            raise CalibrationError(f"R must be a rotation matrix, got {R.tolist()}")
+        why = rotation_defect(R, RIGID_TOLERANCE)
+        if why is not None:
+            raise CalibrationError(f"R must be a rotation matrix, but it {why}: {R.tolist()}")
         if np.linalg.norm(T) <= 0:
             raise CalibrationError(f"T must be a non-zero baseline, got {T.tolist()}")
         size = _image_size(self.image_size)

@@ -46,7 +46,6 @@ __all__ = [
     "integer",
 ]
 
-_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 def _short(value: Any, limit: int = 200) -> str:

@@ -8,7 +8,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import _LAST_ROW, real_array
+from perception.chain import rigid_defect
+
+from ._checks import real_array
 from .errors import NonRigidError, OutOfRangeError, ShapeError
 from .tolerances import RIGID_TOLERANCE
 
@@ -26,15 +28,12 @@ def rigid_transform(name: str, value: Any, *, tol: float | None = None,
     if tol is None:
         tol = RIGID_TOLERANCE
     m = real_array(name, value, (4, 4))
-    if np.abs(m[3] - _LAST_ROW).max() > tol:
-        raise ShapeError(f"{name} last row must be [0, 0, 0, 1], got {m[3].tolist()}")
-    rot = m[:3, :3]
-    orth = float(np.abs(rot.T @ rot - np.eye(3)).max())
-    det = float(np.linalg.det(rot))
-    if not (orth <= tol and abs(det - 1.0) <= tol):
-        kind = "a reflection" if det < 0 else "scaled or sheared"
-        raise NonRigidError(f"{name} must be rigid (rotation with R^T R = I, det R = +1), but it is {kind}: "
-                            f"det R = {det:.6g}, max |R^T R - I| = {orth:.3g} (tolerance {tol:g})")
+    defect = rigid_defect(m, tol)  # perception's rule, the one rigidity check of the packages
+    if defect is not None:
+        where, why = defect
+        if where == "last row":
+            raise ShapeError(f"{name}: {why}")
+        raise NonRigidError(f"{name} must be rigid (rotation with R^T R = I, det R = +1), but {why}")
     if max_translation is not None:
         over = np.abs(m[:3, 3]) > max_translation
         if over.any():

@@ -132,7 +132,7 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
         q = sol.x
         M = head.ego_from_camera(q)
         ray = tgt - M[:3, 3]
-        cosang = float(M[:3, 2] @ ray / max(np.linalg.norm(ray), NORM_FLOOR))
+        cosang = float(M[:3, 2] @ ray / max(float(np.linalg.norm(ray)), NORM_FLOOR))
         err = math.acos(min(1.0, max(-1.0, cosang)))
         if err < best_err:
             best_q, best_err = q, err

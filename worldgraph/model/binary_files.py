@@ -34,9 +34,12 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
+from perception.chain import rotation_errors
+
 from .. import _checks
 from ..errors import MalformedFileError, WorldGraphError
-from .objects import MAX_COORDINATE, ObjectModel, ObjectTable, _rotation_errors
+from ..tolerances import RIGID_TOLERANCE
+from .objects import MAX_COORDINATE, ObjectModel, ObjectTable
 
 #: ``format`` entry of a binary world file.
 BINARY_FORMAT = "worldgraph.WorldModel.npz"
@@ -306,7 +309,7 @@ def load_binary(cls: Any, path: str, data: Mapping[str, NDArray[Any]] | None = N
     rotations = None
     if "rotations" in data:
         rotations = _array(data, "rotations", "f", (n, 3, 3), bad)
-        orth, det, improper = _rotation_errors(rotations)
+        orth, det, improper = rotation_errors(rotations, RIGID_TOLERANCE)
         if improper.any():
             k = int(np.argmax(improper))
             raise bad(f"entry 'rotations'[{k}] is not a rotation: det R = {float(det[k]):.6g}, "

@@ -11,6 +11,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from perception.chain import rotation_errors
+
 from .. import _checks, _rigid
 from ..errors import (
     ArgumentTypeError,
@@ -48,21 +50,10 @@ def _check_size(name: str, value: Any) -> NDArray[np.float64]:
     return size
 
 
-def _rotation_errors(rot: NDArray[np.float64]
-                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """``(max |R^T R - I|, det R, improper)`` of each rotation of a stack ``(n, 3, 3)``;
-    ``improper`` where either is off by more than :data:`~worldgraph.tolerances.RIGID_TOLERANCE`."""
-    if not len(rot):
-        return np.zeros(0), np.ones(0), np.zeros(0, dtype=bool)
-    orth = np.abs(np.einsum("nji,njk->nik", rot, rot) - np.eye(3)).max(axis=(1, 2))
-    det = np.linalg.det(rot)
-    return orth, det, ~((orth <= RIGID_TOLERANCE) & (np.abs(det - 1.0) <= RIGID_TOLERANCE))
-
-
 def _check_rotations(name: str, rot: NDArray[np.float64]) -> None:
     """Raise :class:`~worldgraph.errors.NonRigidError` naming the first rotation of a finite stack
     ``(n, 3, 3)`` that is not proper within :data:`~worldgraph.tolerances.RIGID_TOLERANCE`."""
-    orth, det, bad = _rotation_errors(rot)
+    orth, det, bad = rotation_errors(rot, RIGID_TOLERANCE)
     if bad.any():
         from ..errors import NonRigidError
 

@@ -11,13 +11,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from perception.chain import rotation_errors
+
 from .. import _checks
 from ..errors import (
     ArgumentTypeError,
     UnknownGeometryError,
     WorldGraphError,
 )
-from .objects import MAX_COORDINATE, ObjectModel, ObjectTable, _check_unique_ids, _rotation_errors
+from ..tolerances import RIGID_TOLERANCE
+from .objects import MAX_COORDINATE, ObjectModel, ObjectTable, _check_unique_ids
 
 __all__ = [
     "DEFAULT_ROOM_HEIGHT",
@@ -342,7 +345,8 @@ def _trimesh_table(nodes: list[Any], matrices: NDArray[np.float64], geom_names: 
     ids = [str(nodes[k]) for k in keep]
     keys = [str(geom_names[k]) for k in keep]
     bad = ((np.abs(positions) > MAX_COORDINATE).any(axis=1) | ~np.isfinite(sizes).all(axis=1)
-           | (sizes < 0).any(axis=1) | (sizes > MAX_COORDINATE).any(axis=1) | _rotation_errors(rot)[2])
+           | (sizes < 0).any(axis=1) | (sizes > MAX_COORDINATE).any(axis=1)
+           | rotation_errors(rot, RIGID_TOLERANCE)[2])
     for i in np.flatnonzero(bad).tolist():  # the per-node construction raises its error
         pose = np.eye(4)
         pose[:3, :3], pose[:3, 3] = rot[i], positions[i]
