@@ -462,6 +462,7 @@ def recognize(
                 f"{name} must have shape ({height}, {width}, 3) to match rig.image_size, "
                 f"got shape {img.shape}"
             )
+    derived = [n for n, v in (("depth_factor", depth_factor), ("pixel_sigma", pixel_sigma)) if v is None]
     if depth_factor is None:
         if not np.isfinite(disparity_std_px) or disparity_std_px <= 0:
             raise NonPositiveSigmaError(f"disparity_std_px must be finite and > 0, got {disparity_std_px!r}")
@@ -517,9 +518,13 @@ def recognize(
                 f"of its triangulation covariance (pixel_sigma = {pixel_sigma!r} px, centroid_offset_scale = "
                 f"{centroid_offset_scale!r}), outside [1/{SIGMA_COVARIANCE_FACTOR:g}, "
                 f"{SIGMA_COVARIANCE_FACTOR:g}] (perception.tolerances.SIGMA_COVARIANCE_FACTOR): depth_factor "
-                f"= {depth_factor!r} and pixel_sigma disagree about the depth error; make them describe the "
-                "same disparity error (leave both at their defaults, or set depth_factor = f b / (sqrt(2) "
-                "pixel_sigma))"
+                f"= {depth_factor!r} and pixel_sigma disagree about the depth error; "
+                + (f"both come from disparity_std_px = {disparity_std_px!r}, a disparity error the centroid "
+                   "term swamps: give a larger disparity_std_px, or depth_factor and pixel_sigma"
+                   if len(derived) == 2 else
+                   "make them describe the same disparity error (leave both at their defaults, or set "
+                   "depth_factor = f b / (sqrt(2) pixel_sigma))"
+                   + (f"; {derived[0]} came from disparity_std_px = {disparity_std_px!r}" if derived else ""))
             )
         percepts.append(Percept(type=plain.type, position=plain.position, sigma=sigma, covariance=c))
     return percepts
