@@ -1,7 +1,15 @@
 """Input validation shared by the public entry points of :mod:`perception` (private).
 
-Every helper raises a :class:`~perception.errors.PerceptionError` subclass whose message names
-the argument, the index of a bad element (where there is one) and the offending value.
+Every helper takes the argument name first and raises a :class:`~perception.errors.PerceptionError`
+subclass whose message names the argument, the index of a bad element (where there is one) and
+the offending value.
+
+* :func:`real_array`, :func:`vector3`, :func:`spd` -- finite float64 arrays (any, (3,), SPD).
+* :func:`real_scalar` -- a finite real scalar as ``float``: ``minimum`` / ``maximum``
+  (inclusive), ``positive`` (``> 0``), ``max_abs``, and perception's ``nonnegative`` (``>= 0``).
+* :func:`integer` -- an int (not bool or float) in ``[minimum, maximum]``.
+* :func:`boolean`, :func:`generator`, :func:`name_string`, :func:`file_path`, :func:`sequence`.
+* :func:`check_transform` and the rotation rule (:func:`rotation_errors`, :func:`rigid_defect`).
 """
 
 from __future__ import annotations
@@ -72,12 +80,19 @@ def real_scalar(
     name: str,
     value: Any,
     *,
+    minimum: float | None = None,
+    maximum: float | None = None,
     positive: bool = False,
+    max_abs: float | None = None,
     nonnegative: bool = False,
-    low: float | None = None,
-    high: float | None = None,
 ) -> float:
-    """``value`` as a finite Python float (not bool/str/None/complex), optionally range-checked."""
+    """``value`` as a finite Python float (not bool/str/None/complex), optionally range-checked.
+
+    ``positive`` (``> 0``) and ``nonnegative`` (``>= 0``) raise :class:`NonPositiveSigmaError`;
+    ``minimum`` / ``maximum`` (inclusive) and ``max_abs`` (``|value| <=``) raise
+    :class:`PerceptionError`.  ``nonnegative`` is perception's own addition to the signature the
+    three packages share: it is not ``minimum=0.0``, whose violation is a range error.
+    """
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         if not (isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "fiu"):
             raise ShapeError(f"{name} must be a real number, got {type(value).__name__} {_short(value)}")
@@ -91,8 +106,10 @@ def real_scalar(
         raise NonPositiveSigmaError(f"{name} must be > 0, got {v!r}")
     if nonnegative and v < 0:
         raise NonPositiveSigmaError(f"{name} must be >= 0, got {v!r}")
-    if (low is not None and v < low) or (high is not None and v > high):
-        raise PerceptionError(f"{name} must lie in [{low}, {high}], got {v!r}")
+    if (minimum is not None and v < minimum) or (maximum is not None and v > maximum):
+        raise PerceptionError(f"{name} must lie in [{minimum}, {maximum}], got {v!r}")
+    if max_abs is not None and abs(v) > max_abs:
+        raise PerceptionError(f"{name} must satisfy |{name}| <= {max_abs:g}, got {v!r}")
     return v
 
 

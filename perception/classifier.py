@@ -161,9 +161,9 @@ class GaussianClassifier:
             )
         if x.shape[0] == 0:
             raise NotFittedError("features must hold at least one sample per class, got none")
-        regularization = real_scalar("regularization", regularization, nonnegative=True, high=1e100)
-        reject_quantile = real_scalar("reject_quantile", reject_quantile, low=0.0, high=1.0)
-        threshold_margin = real_scalar("threshold_margin", threshold_margin, nonnegative=True, high=1e100)
+        regularization = real_scalar("regularization", regularization, nonnegative=True, maximum=1e100)
+        reject_quantile = real_scalar("reject_quantile", reject_quantile, minimum=0.0, maximum=1.0)
+        threshold_margin = real_scalar("threshold_margin", threshold_margin, nonnegative=True, maximum=1e100)
         classes = tuple(sorted({str(v) for v in y}))
         d = x.shape[1]
         means, covs, counts = [], [], []

@@ -160,7 +160,7 @@ class Detection:
             raise NonFiniteError(f"centroid_uv must be at most {MAX_PIXEL_COORDINATE:g} px, "
                                  f"got {uv.tolist()}")
         if self.area is not None:
-            area = real_scalar("area", self.area, positive=True, high=1e12)
+            area = real_scalar("area", self.area, positive=True, maximum=1e12)
         elif m_area is not None:
             area = m_area
         elif box is not None:
@@ -180,7 +180,7 @@ class Detection:
         ll = self.log_likelihood
         if not (isinstance(ll, float) and np.isnan(ll)):
             ll = real_scalar("log_likelihood", ll)
-        score = real_scalar("score", self.score, low=0.0, high=1.0)
+        score = real_scalar("score", self.score, minimum=0.0, maximum=1.0)
         object.__setattr__(self, "log_likelihood", float(ll))
         object.__setattr__(self, "score", score)
         object.__setattr__(self, "area", area)

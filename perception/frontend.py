@@ -242,11 +242,11 @@ class CentreOffset:
     lateral_sd: float | None = None
 
     def __post_init__(self) -> None:
-        d = real_scalar("depth", self.depth, low=-MAX_CENTRE_DEPTH, high=MAX_CENTRE_DEPTH)
+        d = real_scalar("depth", self.depth, minimum=-MAX_CENTRE_DEPTH, maximum=MAX_CENTRE_DEPTH)
         sd = (CENTRE_DEPTH_RTOL * abs(d) + CENTRE_DEPTH_FLOOR if self.depth_sd is None
-              else real_scalar("depth_sd", self.depth_sd, positive=True, high=MAX_CENTRE_DEPTH))
+              else real_scalar("depth_sd", self.depth_sd, positive=True, maximum=MAX_CENTRE_DEPTH))
         lat = None if self.lateral_sd is None else real_scalar("lateral_sd", self.lateral_sd, positive=True,
-                                                                 high=MAX_CENTRE_DEPTH)
+                                                                 maximum=MAX_CENTRE_DEPTH)
         object.__setattr__(self, "depth", d)
         object.__setattr__(self, "depth_sd", sd)
         object.__setattr__(self, "lateral_sd", lat)
@@ -256,7 +256,7 @@ def _offset_of(name: str, value: object) -> CentreOffset:
     if isinstance(value, CentreOffset):
         return value
     try:
-        return CentreOffset(real_scalar(name, value, low=-MAX_CENTRE_DEPTH, high=MAX_CENTRE_DEPTH))
+        return CentreOffset(real_scalar(name, value, minimum=-MAX_CENTRE_DEPTH, maximum=MAX_CENTRE_DEPTH))
     except PerceptionError as exc:
         raise type(exc)(f"{name} must be a CentreOffset or a depth in metres: {exc}") from exc
 
@@ -567,8 +567,8 @@ def rgbd_percepts(
     Z = _depth_image(depth)
     Kc = _camera_matrix(K)
     T = check_transform("ego_from_camera", ego_from_camera)
-    c = real_scalar("depth_noise", depth_noise, positive=True, high=1.0)
-    corr = real_scalar("depth_correlation_px", depth_correlation_px, low=1.0, high=1e4)
+    c = real_scalar("depth_noise", depth_noise, positive=True, maximum=1.0)
+    corr = real_scalar("depth_correlation_px", depth_correlation_px, minimum=1.0, maximum=1e4)
     min_pixels = integer("min_pixels", min_pixels, minimum=1)
     keep_cut_off = boolean("keep_cut_off", keep_cut_off)
     offsets = _centre_offsets(centre_offset, {d.type for d in dets})
@@ -737,12 +737,12 @@ def stereo_percepts(
     rights = _detections("right", right)
     T = check_transform("ego_from_camera", ego_from_camera)
     keep_cut_off = boolean("keep_cut_off", keep_cut_off)
-    max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True, high=1e6)
-    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, high=1e6)
+    max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True, maximum=1e6)
+    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, maximum=1e6)
     if depth_factor is not None:
-        depth_factor = real_scalar("depth_factor", depth_factor, positive=True, high=1e150)
+        depth_factor = real_scalar("depth_factor", depth_factor, positive=True, maximum=1e150)
     px = DISPARITY_STD_PX / np.sqrt(2.0) if pixel_sigma is None else real_scalar(
-        "pixel_sigma", pixel_sigma, positive=True, high=1e3)
+        "pixel_sigma", pixel_sigma, positive=True, maximum=1e3)
     offsets = _centre_offsets(centre_offset, {d.type for d in lefts})
     w, h = rig.image_size
     dropped: list[Dropped] = []

@@ -563,8 +563,8 @@ def percept_bandwidths(percepts: Sequence[Percept], *, n_sigma: float = BANDWIDT
         For :func:`fuse_percepts`' ``bandwidth``; every type present.
     """
     ps = _check_percepts(percepts)
-    n_sigma = real_scalar("n_sigma", n_sigma, positive=True, high=1e6)
-    minimum = real_scalar("minimum", minimum, positive=True, high=1e6)
+    n_sigma = real_scalar("n_sigma", n_sigma, positive=True, maximum=1e6)
+    minimum = real_scalar("minimum", minimum, positive=True, maximum=1e6)
     spreads: dict[str, list[float]] = {}
     for p in ps:
         sd = p.sigma if p.covariance is None else float(np.sqrt(np.linalg.eigvalsh(p.covariance)[-1]))

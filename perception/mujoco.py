@@ -747,9 +747,9 @@ class MujocoScene:
         """
         n = integer("n", n, minimum=1, maximum=100_000)
         gen = check_rng("rng", rng)
-        clearance = real_scalar("clearance", clearance, positive=True, high=100.0)
-        max_distance = real_scalar("max_distance", max_distance, positive=True, high=1e3)
-        spread = np.radians(real_scalar("yaw_spread_deg", yaw_spread_deg, nonnegative=True, high=180.0))
+        clearance = real_scalar("clearance", clearance, positive=True, maximum=100.0)
+        max_distance = real_scalar("max_distance", max_distance, positive=True, maximum=1e3)
+        spread = np.radians(real_scalar("yaw_spread_deg", yaw_spread_deg, nonnegative=True, maximum=180.0))
         heights = real_array("head_height", head_height, (2,))
         if not 0 < heights[0] <= heights[1] <= 100.0:
             raise OptionError(f"head_height must be (low, high) with 0 < low <= high <= 100 m, got "
@@ -1114,8 +1114,8 @@ class MujocoScene:
         head = default_head() if chain is None else chain
         if not isinstance(head, KinematicChain):
             raise ShapeError(f"chain must be a KinematicChain or None, got {type(chain).__name__}")
-        miss = real_scalar("miss_rate", miss_rate, low=0.0, high=1.0)
-        false = real_scalar("false_rate", false_rate, low=0.0, high=1.0)
+        miss = real_scalar("miss_rate", miss_rate, minimum=0.0, maximum=1.0)
+        false = real_scalar("false_rate", false_rate, minimum=0.0, maximum=1.0)
         jitter = integer("mask_jitter_px", mask_jitter_px, minimum=0, maximum=1000)
         min_px = integer("min_pixels", min_pixels, minimum=1)
         noise = real_scalar("depth_noise", depth_noise, nonnegative=True)

@@ -269,7 +269,7 @@ def match_stereo(
     _rig(rig)
     max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True)
     max_log_area_ratio = real_scalar("max_log_area_ratio", max_log_area_ratio, nonnegative=True)
-    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, high=1e6)
+    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, maximum=1e6)
     left_dets = sequence("left_dets", left_dets, Detection)
     right_dets = sequence("right_dets", right_dets, Detection)
     if not left_dets or not right_dets:
@@ -447,13 +447,13 @@ def recognize(
         raise ShapeError(f"classifier must be a GaussianClassifier, got {type(classifier).__name__}")
     min_area = integer("min_area", min_area, minimum=1)
     max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True)
-    disparity_std_px = real_scalar("disparity_std_px", disparity_std_px, positive=True, high=1e6)
+    disparity_std_px = real_scalar("disparity_std_px", disparity_std_px, positive=True, maximum=1e6)
     if depth_factor is not None:
-        depth_factor = real_scalar("depth_factor", depth_factor, positive=True, high=1e150)
+        depth_factor = real_scalar("depth_factor", depth_factor, positive=True, maximum=1e150)
     if pixel_sigma is not None:
-        pixel_sigma = real_scalar("pixel_sigma", pixel_sigma, positive=True, high=1e6)
+        pixel_sigma = real_scalar("pixel_sigma", pixel_sigma, positive=True, maximum=1e6)
     centroid_offset_scale = real_scalar(
-        "centroid_offset_scale", centroid_offset_scale, nonnegative=True, high=1e6
+        "centroid_offset_scale", centroid_offset_scale, nonnegative=True, maximum=1e6
     )
     for name, img in (("left", left), ("right", right)):
         _check_image(name, img)

@@ -285,7 +285,8 @@ def random_scene(
             f"distance must satisfy 0 < distance[0] <= distance[1] <= 1e4 m, got {dist.tolist()}"
         )
     distance = (float(dist[0]), float(dist[1]))
-    max_door_yaw_deg = real_scalar("max_door_yaw_deg", max_door_yaw_deg, low=0.0, high=90.0) + 0.0  # not -0.0
+    max_door_yaw_deg = real_scalar("max_door_yaw_deg", max_door_yaw_deg, minimum=0.0,
+                                   maximum=90.0) + 0.0  # not -0.0
     cam_pos = np.array([0.0, rng.uniform(-0.2, 0.2), rng.uniform(1.2, 1.6)])
     camera_from_world = _camera_from_world_look(
         cam_pos, np.deg2rad(rng.uniform(-8.0, 8.0)), np.deg2rad(rng.uniform(-4.0, 8.0))
@@ -517,9 +518,9 @@ def render_stereo(
     boxes = sequence("boxes", boxes, Box)
     width, height = _image_size(rig)
     rng = check_rng("rng", rng)
-    light_noise = real_scalar("light_noise", light_noise, nonnegative=True, high=1e6)
-    pixel_noise = real_scalar("pixel_noise", pixel_noise, nonnegative=True, high=1e6)
-    ambient = real_scalar("ambient", ambient, low=0.0, high=1.0)
+    light_noise = real_scalar("light_noise", light_noise, nonnegative=True, maximum=1e6)
+    pixel_noise = real_scalar("pixel_noise", pixel_noise, nonnegative=True, maximum=1e6)
+    ambient = real_scalar("ambient", ambient, minimum=0.0, maximum=1.0)
     light = _as_float_array("light_direction", light_direction, (3,))
     norm = np.linalg.norm(light)
     if norm == 0:

@@ -60,7 +60,7 @@ def _positive(name: str, value: float) -> float:
 
 
 def _rate(name: str, value: float) -> float:
-    return real_scalar(name, value, low=0.0, high=1.0)
+    return real_scalar(name, value, minimum=0.0, maximum=1.0)
 
 
 def _rng(rng: np.random.Generator) -> np.random.Generator:
@@ -174,7 +174,7 @@ def simulate_percepts(
     n_false = integer("n_false", n_false, minimum=0, maximum=MAX_COUNT)
     half_fov = None
     if hfov_deg is not None:
-        h = real_scalar("hfov_deg", hfov_deg, positive=True, high=360.0)
+        h = real_scalar("hfov_deg", hfov_deg, positive=True, maximum=360.0)
         half_fov = np.radians(h) / 2.0
 
     R, t = M[:3, :3], M[:3, 3]

@@ -3,6 +3,12 @@
 Each helper converts a value, checks type, shape, finiteness and range, and raises a
 :class:`~radialopt.errors.RadialError` subclass whose message names the argument, the index of
 the first bad element and its value, e.g. ``"sigmas[2] = 1e-300 is below ..."``.
+
+* :func:`real_array`, :func:`point3` -- finite float64 arrays, bounded by :data:`MAX_LENGTH`.
+* :func:`real_scalar` -- a finite real scalar as ``float``: ``minimum`` / ``maximum``
+  (inclusive), ``positive`` (``> 0``), ``max_abs``.
+* :func:`integer` -- an int (not bool or float) in ``[minimum, maximum]``.
+* :func:`sigma_range`, :func:`instance`, :func:`dataclass_fields` (options dataclasses).
 """
 
 from __future__ import annotations
@@ -90,9 +96,10 @@ def real_array(name: str, value: Any, shape: tuple[int | str | None, ...] | None
     return arr
 
 
-def real_scalar(name: str, value: Any, lo: float | None = None, hi: float | None = None,
-                lo_open: bool = False, max_abs: float | None = None) -> float:
-    """``value`` as a finite Python float in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
+def real_scalar(name: str, value: Any, *, minimum: float | None = None, maximum: float | None = None,
+                positive: bool = False, max_abs: float | None = None) -> float:
+    """``value`` as a finite Python float: ``> 0`` with ``positive``, in ``[minimum, maximum]``
+    (either bound may be None) and at most ``max_abs`` in magnitude."""
     if isinstance(value, (bool, np.bool_)) or value is None or isinstance(value, (str, bytes, complex)) \
             or not isinstance(value, (numbers.Real, np.ndarray)):
         raise ShapeError(f"{name} must be a real number, got {value!r:.100}")
@@ -106,24 +113,26 @@ def real_scalar(name: str, value: Any, lo: float | None = None, hi: float | None
                               f"{value!r:.100}") from exc
     if not np.isfinite(out):
         raise NonFiniteError(f"{name} = {out!r} must be finite")
-    if lo is not None and (out < lo or (lo_open and out == lo)):
-        raise OutOfRangeError(f"{name} = {out!r} must be {'>' if lo_open else '>='} {lo:g}")
-    if hi is not None and out > hi:
-        raise OutOfRangeError(f"{name} = {out!r} must be <= {hi:g}")
+    if positive and out <= 0:
+        raise OutOfRangeError(f"{name} = {out!r} must be > 0")
+    if minimum is not None and out < minimum:
+        raise OutOfRangeError(f"{name} = {out!r} must be >= {minimum:g}")
+    if maximum is not None and out > maximum:
+        raise OutOfRangeError(f"{name} = {out!r} must be <= {maximum:g}")
     if max_abs is not None and abs(out) > max_abs:
         raise OutOfRangeError(f"{name} = {out:.6g} exceeds the usable magnitude {max_abs:g}")
     return out
 
 
-def integer(name: str, value: Any, lo: int | None = None, hi: int | None = None) -> int:
-    """``value`` as a Python int in ``[lo, hi]``; bools, floats (even 3.0), None, str rejected."""
+def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
+    """``value`` as a Python int in ``[minimum, maximum]``; bools, floats (even 3.0), None, str rejected."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
         raise ShapeError(f"{name} must be an integer, got {value!r:.100} ({type(value).__name__})")
     out = operator.index(value)
-    if lo is not None and out < lo:
-        raise OutOfRangeError(f"{name} = {out!r} must be >= {lo}")
-    if hi is not None and out > hi:
-        raise OutOfRangeError(f"{name} = {out!r} must be <= {hi}")
+    if minimum is not None and out < minimum:
+        raise OutOfRangeError(f"{name} = {out!r} must be >= {minimum}")
+    if maximum is not None and out > maximum:
+        raise OutOfRangeError(f"{name} = {out!r} must be <= {maximum}")
     return out
 
 
@@ -171,12 +180,14 @@ def dataclass_fields(obj: Any, ints: dict[str, tuple[int | None, int | None]],
                      floats: dict[str, tuple[float | None, float | None, bool]]) -> None:
     """Validate (and normalise to int / float) the fields of a frozen options dataclass.
 
-    ``ints`` maps a field to ``(lo, hi)``; ``floats`` maps a field to ``(lo, hi, lo_open)``.
-    Messages name the class and field, e.g. ``"EstimatorOptions.lm_max_iter must be an
-    integer, got 2.5 (float)"``.
+    ``ints`` maps a field to ``(minimum, maximum)`` for :func:`integer`; ``floats`` maps a field
+    to ``(minimum, maximum, positive)`` for :func:`real_scalar` (``positive``: ``> 0``, checked
+    before ``minimum``).  Messages name the class and field, e.g. ``"EstimatorOptions.lm_max_iter
+    must be an integer, got 2.5 (float)"``.
     """
     cls = type(obj).__name__
     for name, (lo, hi) in ints.items():
-        object.__setattr__(obj, name, integer(f"{cls}.{name}", getattr(obj, name), lo, hi))
-    for name, (flo, fhi, lo_open) in floats.items():
-        object.__setattr__(obj, name, real_scalar(f"{cls}.{name}", getattr(obj, name), flo, fhi, lo_open))
+        object.__setattr__(obj, name, integer(f"{cls}.{name}", getattr(obj, name), minimum=lo, maximum=hi))
+    for name, (flo, fhi, positive) in floats.items():
+        object.__setattr__(obj, name, real_scalar(f"{cls}.{name}", getattr(obj, name), minimum=flo,
+                                                  maximum=fhi, positive=positive))

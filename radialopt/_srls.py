@@ -118,7 +118,7 @@ def srls(centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike,
     c = real_array("centers", centers, shape=(None, 3))
     r = real_array("radii", radii, shape=(len(c),), like="centers")
     s = real_array("sigmas", sigmas, shape=(len(c),), max_abs=MAX_SIGMA, like="centers")
-    rank_tol = real_scalar("rank_tol", rank_tol, 0.0, 1.0)
+    rank_tol = real_scalar("rank_tol", rank_tol, minimum=0.0, maximum=1.0)
     bad = np.flatnonzero(r < 0)
     if bad.size:
         raise NegativeRadiusError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")

@@ -279,9 +279,11 @@ def _branch_and_bound(c: NDArray, r: NDArray, s: NDArray, w: NDArray, x: NDArray
 
 def _check_params(budget_s: float, max_nodes: int, rel_gap: float, abs_gap: float, batch: int
                   ) -> tuple[float, int, float, float, int]:
-    return (real_scalar("budget_s", budget_s, 0.0, 3600.0), integer("max_nodes", max_nodes, 1, 10**8),
-            real_scalar("rel_gap", rel_gap, 0.0, 1.0), real_scalar("abs_gap", abs_gap, 0.0, 1e300),
-            integer("batch", batch, 1, 10**6))
+    return (real_scalar("budget_s", budget_s, minimum=0.0, maximum=3600.0),
+            integer("max_nodes", max_nodes, minimum=1, maximum=10**8),
+            real_scalar("rel_gap", rel_gap, minimum=0.0, maximum=1.0),
+            real_scalar("abs_gap", abs_gap, minimum=0.0, maximum=1e300),
+            integer("batch", batch, minimum=1, maximum=10**6))
 
 
 def certify_arrays(centers: NDArray, radii: NDArray, sigmas: NDArray, position: NDArray, *,

@@ -92,7 +92,7 @@ def crlb(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike,
         ``u_i`` in a plane (the position on the plane of coplanar centres) or on a line.
     """
     c, s, x = _check_crlb_input(centers, sigmas, position)
-    rcond = real_scalar("rcond", rcond, 0.0, 1.0)
+    rcond = real_scalar("rcond", rcond, minimum=0.0, maximum=1.0)
     u = _unit_directions(c, x)
     J = np.einsum("ni,nj->ij", u / s[:, None] ** 2, u)
     geometric = np.linalg.eigvalsh(u.T @ u / len(u))

@@ -96,7 +96,7 @@ class RadialProblem:
         if not isinstance(objective, str) or objective not in OBJECTIVES:
             raise UnknownMethodError(
                 f"unknown objective={objective!r:.100}; choose one of {', '.join(OBJECTIVES)}")
-        delta = real_scalar("huber_delta", huber_delta, 0.0, MAX_LENGTH, lo_open=True)
+        delta = real_scalar("huber_delta", huber_delta, positive=True, maximum=MAX_LENGTH)
         self.n = int(n)
         self.objective = objective
         self.huber_delta = delta
@@ -202,7 +202,7 @@ class RadialProblem:
         i = integer("i", i)
         if not 0 <= i < self.n:  # no wrap-around: i = -1 is a caller's bug, not the last sphere
             raise ShapeError(f"i = {i!r} must be a sphere index in [0, {self.n})")
-        v = real_scalar("value", value, 0.0, max_abs=MAX_LENGTH)  # a radius, metres
+        v = real_scalar("value", value, minimum=0.0, max_abs=MAX_LENGTH)  # a radius, metres
         return self._add(lambda x: [x[i] == v], f"fix_radius(i={i}, value={v!r})")
 
     def _vector(self, v: ArrayLike, name: str) -> np.ndarray:

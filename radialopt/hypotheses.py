@@ -72,7 +72,7 @@ class Region:
     def contains(self, x: ArrayLike, tol: float = REGION_SLACK) -> bool | NDArray[np.bool_]:
         """Whether points ``(3,)`` or ``(k, 3)`` lie in the box (``tol`` metres of slack)."""
         pts, single = as_points(x)
-        tol = real_scalar("tol", tol, 0.0, MAX_LENGTH)
+        tol = real_scalar("tol", tol, minimum=0.0, maximum=MAX_LENGTH)
         inside = np.all((pts >= self.lower - tol) & (pts <= self.upper + tol), axis=1)
         return bool(inside[0]) if single else inside
 

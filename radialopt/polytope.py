@@ -167,19 +167,19 @@ class RestrictionPolytope:
         ``r / sigma`` for ``space == "Sd"``.
         """
         s = self.slack(x)
-        tol = real_scalar("tol", tol, 0.0)
+        tol = real_scalar("tol", tol, minimum=0.0)
         ok = np.all(s >= -tol, axis=-1)
         return bool(ok) if np.ndim(ok) == 0 else ok
 
     def violated_rows(self, x: ArrayLike, tol: float = TOLERANCES.feasibility) -> list[str]:
         """Human-readable names of the rows that ``x`` violates, e.g. ``"chi(0,2)"``."""
         s = self.slack(x)
-        tol = real_scalar("tol", tol, 0.0)
+        tol = real_scalar("tol", tol, minimum=0.0)
         return [self.row_name(int(k)) for k in np.flatnonzero(s < -tol)]
 
     def row_name(self, k: int) -> str:
         """Name of row ``k``: kind and sphere pair, e.g. ``"beta(1,3)"``."""
-        k = integer("k", k, 0, len(self.kinds) - 1)  # no wrap-around: k = -1 is a caller's bug
+        k = integer("k", k, minimum=0, maximum=len(self.kinds) - 1)  # no wrap-around: k = -1 is a bug
         i, j = self.pairs[k]
         return f"{self.kinds[k]}({i},{j})"
 
@@ -240,7 +240,7 @@ def common_point_exists(
     ``tol`` is relative to the squared scale of the configuration.
     """
     centers, radii, _ = sphere_arrays(spheres, min_count=2)
-    tol = real_scalar("tol", tol, 0.0, 1.0)
+    tol = real_scalar("tol", tol, minimum=0.0, maximum=1.0)
     n = len(centers)
     scale = max(float(np.max(radii)), float(np.ptp(centers, axis=0).max()), TINY)
     atol = tol * scale**2

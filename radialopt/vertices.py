@@ -570,8 +570,8 @@ def project_vform(
         No convergence within ``max_iter`` cycles.
     """
     t, s = _check_target(enumeration, target, sigmas)
-    tol = real_scalar("tol", tol, 0.0, 1.0)
-    max_iter = integer("max_iter", max_iter, 1, 10**7)
+    tol = real_scalar("tol", tol, minimum=0.0, maximum=1.0)
+    max_iter = integer("max_iter", max_iter, minimum=1, maximum=10**7)
     V, R = enumeration.vertices, enumeration.rays
     k, n = V.shape
     W = (V - t) / s
@@ -702,7 +702,7 @@ def certify_projection(
     if A.shape[1] != n:
         raise ShapeError(f"polytope has dimension {A.shape[1]}, enumeration has {n}")
     x = real_array("point", point, shape=(n,))
-    tol = real_scalar("tol", tol, 0.0, 1.0)
+    tol = real_scalar("tol", tol, minimum=0.0, maximum=1.0)
     row_norm = np.linalg.norm(A, axis=1)
     viol = (A @ x - b) / np.where(row_norm > 0, row_norm, 1.0)
     feas = float(max(0.0, viol.max()))

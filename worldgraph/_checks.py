@@ -7,8 +7,11 @@ a float64 array, a :class:`numpy.random.Generator`).
 
 * :func:`real_array` -- real, finite float64 array of a given shape (``None`` = any length),
   optionally bounded by ``max_abs``; complex, bool, str, None, ragged input rejected.
-* :func:`finite_float`, :func:`positive_float` -- a real scalar (int or float, not bool).
-* :func:`integer` -- an integer (Python or numpy int, not bool/float/NaN/None/str), in range.
+* :func:`real_scalar` -- a finite real scalar (int or float, not bool) as ``float``, with
+  ``minimum`` / ``maximum`` (inclusive), ``positive`` (``> 0``) and ``max_abs`` bounds;
+  :func:`real_float` -- a real scalar that may be infinite (not NaN), without bounds.
+* :func:`integer` -- an integer (Python or numpy int, not bool/float/NaN/None/str) in
+  ``[minimum, maximum]``.
 * ``worldgraph._rigid.rigid_transform`` -- a (4, 4) rigid transform: finite, last row
   ``0 0 0 1``, rotation orthonormal with determinant +1 (no scale, shear or reflection); apart,
   because its default tolerance lives in :mod:`worldgraph.tolerances`, which uses these checks.
@@ -35,13 +38,12 @@ from .errors import (
 )
 
 __all__ = [
-    "finite_float",
     "real_array",
     "generator",
     "int_array",
     "real_float",
     "name_string",
-    "positive_float",
+    "real_scalar",
     "rng_from_seed",
     "integer",
 ]
@@ -164,23 +166,26 @@ def real_float(name: str, value: Any) -> float:
     return x
 
 
-def finite_float(name: str, value: Any, *, max_abs: float | None = None) -> float:
-    """A finite real scalar as ``float`` (bool, complex, str, None rejected)."""
+def real_scalar(name: str, value: Any, *, minimum: float | None = None, maximum: float | None = None,
+                positive: bool = False, max_abs: float | None = None) -> float:
+    """A finite real scalar as ``float`` (bool, complex, str, None rejected), range-checked.
+
+    ``positive``: ``> 0``; ``minimum`` / ``maximum``: inclusive bounds; ``max_abs``: ``|value| <=
+    max_abs``.  Below zero is :class:`NonPositiveError`, any other bound :class:`OutOfRangeError`.
+    """
     x = _real_scalar(name, value)
     if not math.isfinite(x):
         raise NonFiniteError(f"{name} must be finite, got {x!r}")
-    if max_abs is not None and abs(x) > max_abs:
-        raise OutOfRangeError(f"{name} = {x!r} is out of range: |value| must be <= {max_abs:g}")
-    return x
-
-
-def positive_float(name: str, value: Any, *, allow_zero: bool = False, maximum: float | None = None) -> float:
-    """A finite real scalar ``> 0`` (``>= 0`` with ``allow_zero``), at most ``maximum``."""
-    x = finite_float(name, value)
-    if x < 0 or (x == 0 and not allow_zero):
-        raise NonPositiveError(f"{name} must be {'>= 0' if allow_zero else '> 0'}, got {x!r}")
+    if positive and x <= 0:
+        raise NonPositiveError(f"{name} must be > 0, got {x!r}")
+    if minimum is not None and x < minimum:
+        if minimum == 0:
+            raise NonPositiveError(f"{name} must be >= 0, got {x!r}")
+        raise OutOfRangeError(f"{name} = {x!r} is out of range: must be >= {minimum:g}")
     if maximum is not None and x > maximum:
         raise OutOfRangeError(f"{name} = {x!r} is out of range: must be <= {maximum:g}")
+    if max_abs is not None and abs(x) > max_abs:
+        raise OutOfRangeError(f"{name} = {x!r} is out of range: |value| must be <= {max_abs:g}")
     return x
 
 

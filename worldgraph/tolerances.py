@@ -16,7 +16,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import integer, positive_float, real_array
+from ._checks import integer, real_array, real_scalar
 from .errors import (
     ArgumentTypeError,
     NonPositiveError,
@@ -261,13 +261,14 @@ class AssociationTolerances:
             object.__setattr__(self, name, value)
 
         for name in ("n_sigma", "pair_factor", "cost_cap", "residual_factor", "distinct_translation"):
-            put(name, positive_float(f"AssociationTolerances.{name}", getattr(self, name), maximum=1e12))
+            put(name, real_scalar(f"AssociationTolerances.{name}", getattr(self, name), positive=True,
+                                  maximum=1e12))
         for name in ("min_tolerance", "ambiguity_margin", "chirality_sigmas"):
-            put(name, positive_float(f"AssociationTolerances.{name}", getattr(self, name), allow_zero=True,
-                                     maximum=1e12))
+            put(name, real_scalar(f"AssociationTolerances.{name}", getattr(self, name), minimum=0.0,
+                                  maximum=1e12))
         for name in ("kappa_max", "distinct_angle", "tilt_allowance"):
-            v = positive_float(f"AssociationTolerances.{name}", getattr(self, name),
-                               allow_zero=name == "tilt_allowance")
+            v = real_scalar(f"AssociationTolerances.{name}", getattr(self, name), minimum=0.0,
+                            positive=name != "tilt_allowance")
             if v > math.pi:
                 raise OutOfRangeError(f"AssociationTolerances.{name} = {v!r} is an angle in radians and must "
                                       f"be <= pi; degrees? use np.radians({v!r}) = {math.radians(v):.6g}")
@@ -275,7 +276,7 @@ class AssociationTolerances:
         for name in ("mu_max", "height_tolerance"):
             v = getattr(self, name)
             if v is not None:
-                put(name, positive_float(f"AssociationTolerances.{name}", v, maximum=1e12))
+                put(name, real_scalar(f"AssociationTolerances.{name}", v, positive=True, maximum=1e12))
         if self.gravity_aligned is not None:
             if not isinstance(self.gravity_aligned, bool | np.bool_):
                 raise ArgumentTypeError(f"AssociationTolerances.gravity_aligned must be a bool or None, "

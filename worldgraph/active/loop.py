@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from perception import KinematicChain, Percept
 
-from .._checks import as_list, integer, positive_float, real_array
+from .._checks import as_list, integer, real_array, real_scalar
 from ..association.consistency import check_world_and_percepts
 from ..errors import ArgumentTypeError, OutOfRangeError
 from ..localization.pipeline import localize
@@ -180,7 +180,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     max_looks = integer("max_looks", max_looks, minimum=0, maximum=1000)
     statuses = as_list("look_while", look_while, "status names")
     if goal_rotation_3sigma is not None:
-        goal_rotation_3sigma = positive_float("goal_rotation_3sigma", goal_rotation_3sigma)
+        goal_rotation_3sigma = real_scalar("goal_rotation_3sigma", goal_rotation_3sigma, positive=True)
         g = goal_rotation_3sigma
         if g > math.pi:
             raise OutOfRangeError(f"goal_rotation_3sigma = {g!r} is an angle in radians and must be <= pi; "
@@ -195,7 +195,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     check_up_sigma(up_sigma, tol)
     learn_cap = max_sights is None
     cap = None if max_sights is None else integer("max_sights", max_sights, minimum=1, maximum=10**9)
-    detection = positive_float("detection", detection, maximum=1.0)
+    detection = real_scalar("detection", detection, positive=True, maximum=1.0)
     if depth_factor is None:
         depth_factor = depth_factor_of(current)
     else:

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from perception import KinematicChain, Percept
 
-from .._checks import as_list, generator, integer, positive_float, real_array
+from .._checks import as_list, generator, integer, real_array, real_scalar
 from ..errors import ArgumentTypeError, OutOfRangeError
 from ..localization.result import LocalizationResult
 from ..model import WorldModel
@@ -152,7 +152,7 @@ def _distinct_directions(D: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _depth_factor(value: object) -> float:
     """The eq. 6 factor (1/m), in [0.001, 1e12]."""
-    depth_factor = positive_float("depth_factor", value, maximum=1e12)
+    depth_factor = real_scalar("depth_factor", value, positive=True, maximum=1e12)
     if depth_factor < 1e-3:
         raise OutOfRangeError(f"depth_factor = {depth_factor!r} is out of range: must be >= 0.001 (1/m)")
     return depth_factor
@@ -166,12 +166,12 @@ def _check_common(world: object, result: object, fov_deg: object, max_range: obj
     if not isinstance(result, LocalizationResult):
         raise ArgumentTypeError(f"result must be a LocalizationResult, got {type(result).__name__}")
     depth_factor = _depth_factor(depth_factor)
-    return (positive_float("fov_deg", fov_deg, maximum=360.0),
-            positive_float("max_range", max_range, maximum=1e6),
-            positive_float("detection", detection, maximum=1.0), depth_factor,
-            positive_float("min_sigma", min_sigma, maximum=1e3),
-            positive_float("n_sigma", n_sigma, maximum=1e3),
-            positive_float("margin", margin, allow_zero=True, maximum=1e3))
+    return (real_scalar("fov_deg", fov_deg, positive=True, maximum=360.0),
+            real_scalar("max_range", max_range, positive=True, maximum=1e6),
+            real_scalar("detection", detection, positive=True, maximum=1.0), depth_factor,
+            real_scalar("min_sigma", min_sigma, positive=True, maximum=1e3),
+            real_scalar("n_sigma", n_sigma, positive=True, maximum=1e3),
+            real_scalar("margin", margin, minimum=0.0, maximum=1e3))
 
 
 def _directions(name: str, value: object) -> NDArray[np.float64]:

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from perception import Percept
 
-from .._checks import integer, positive_float
+from .._checks import integer, real_scalar
 from .._rigid import rigid_transform
 from ..errors import (
     ArgumentTypeError,
@@ -303,7 +303,7 @@ def discriminator(world: WorldModel, hypotheses: Sequence[AssociationHypothesis]
     if len(hyps) < 2:
         raise TooFewPerceptsError(f"the discriminator needs two hypotheses, got {len(hyps)}")
     if max_range is not None:
-        max_range = positive_float("max_range", max_range)
+        max_range = real_scalar("max_range", max_range, positive=True)
     poses = [rigid_transform(f"hypotheses[{i}].world_from_ego", h.world_from_ego)
              for i, h in enumerate(hyps[:2])]
     X = world.positions

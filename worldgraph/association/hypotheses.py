@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from perception import Percept
 
-from .._checks import finite_float
+from .._checks import real_scalar
 from .._rigid import rigid_transform
 from ..errors import (
     ArgumentTypeError,
@@ -377,7 +377,7 @@ def is_ambiguous(hypotheses: Sequence[AssociationHypothesis],
         return False
     poses = [rigid_transform(f"hypotheses[{i}].world_from_ego", h.world_from_ego)
              for i, h in enumerate(hypotheses[:2])]
-    costs = [finite_float(f"hypotheses[{i}].cost", h.cost) for i, h in enumerate(hypotheses[:2])]
+    costs = [real_scalar(f"hypotheses[{i}].cost", h.cost) for i, h in enumerate(hypotheses[:2])]
     return (costs[1] - costs[0] < tol.ambiguity_margin
             and not _same_pose(poses[0], poses[1], tol))
 

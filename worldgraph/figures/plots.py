@@ -21,7 +21,7 @@ from typing import Any, TypeGuard
 import numpy as np
 from numpy.typing import NDArray
 
-from .._checks import _short, as_list, integer, positive_float, real_array
+from .._checks import _short, as_list, integer, real_array, real_scalar
 from .._rigid import rigid_transform
 from ..errors import ArgumentTypeError, ImporterError, ShapeError
 from ..localization import LocalizationResult
@@ -135,7 +135,7 @@ def covariance_ellipse(center: Any, covariance: Any, *, n_sigma: float = 3.0, **
 
     c = real_array("center", center, (2,))
     cov = real_array("covariance", covariance, (2, 2))
-    n_sigma = positive_float("n_sigma", n_sigma)
+    n_sigma = real_scalar("n_sigma", n_sigma, positive=True)
     scale = max(float(np.abs(cov).max()), TINY)
     if abs(cov[0, 1] - cov[1, 0]) > SYMMETRY_RTOL * scale:
         raise ArgumentTypeError(f"covariance must be symmetric, got {cov.tolist()}")
@@ -272,7 +272,7 @@ def top_view(
         raise ArgumentTypeError(f"result must be a LocalizationResult or None, got {_short(result)}")
     plist = [] if percepts is None else _percept_list(percepts)
     n_hypotheses = integer("n_hypotheses", n_hypotheses, minimum=0)
-    n_sigma = positive_float("n_sigma", n_sigma)
+    n_sigma = real_scalar("n_sigma", n_sigma, positive=True)
     if not isinstance(legend, bool):
         raise ArgumentTypeError(f"legend must be a bool, got {_short(legend)}")
     truth_t = None if truth is None else rigid_transform("truth", truth)

@@ -41,7 +41,7 @@ from scipy.spatial.transform import Rotation
 
 from perception import Percept
 
-from .._checks import _short, as_list, name_string, positive_float
+from .._checks import _short, as_list, name_string, real_scalar
 from .._rigid import rigid_transform
 from ..errors import ArgumentTypeError, ImporterError
 from ..localization import LocalizationResult
@@ -189,7 +189,7 @@ def log_rerun(
     if recording is not None and not isinstance(recording, rr.RecordingStream):
         raise ArgumentTypeError(f"recording must be a rerun.RecordingStream or None, got {_short(recording)}")
     root = _prefix_path(prefix)
-    n_sigma = positive_float("n_sigma", n_sigma)
+    n_sigma = real_scalar("n_sigma", n_sigma, positive=True)
     truth_t = None if truth is None else rigid_transform("truth", truth)
     rec = rr.get_data_recording(recording)
     if rec is None:

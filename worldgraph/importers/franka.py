@@ -495,8 +495,8 @@ def load_franka_kitchen(path: str | pathlib.Path | None = None, max_link_length:
     The model's :attr:`~WorldModel.room` is the box over the MJCF floor plane (see
     :func:`franka_kitchen_scene`), ``None`` if the file has none.
     """
-    _checks.positive_float("max_link_length", max_link_length)
-    _checks.positive_float("link_margin", link_margin, allow_zero=True)
+    _checks.real_scalar("max_link_length", max_link_length, positive=True)
+    _checks.real_scalar("link_margin", link_margin, minimum=0.0)
     scene, types = franka_kitchen_scene(path)
     return WorldModel.from_trimesh(scene, type_of=lambda node, _geom: types.get(node),
                                    max_link_length=max_link_length, link_margin=link_margin)

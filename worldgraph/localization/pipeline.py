@@ -51,7 +51,7 @@ import numpy as np
 import radialopt as ro
 from perception import Percept
 
-from .._checks import generator, positive_float, real_array
+from .._checks import generator, real_array, real_scalar
 from ..association.consistency import MAX_COORDINATE, check_world_and_percepts
 from ..association.hypotheses import AssociationHypothesis
 from ..association.matching import associate_searched
@@ -312,8 +312,8 @@ def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str
         raise ArgumentTypeError(f"check must be a bool, got {check!r}")
     if not isinstance(certify, bool | np.bool_):
         raise ArgumentTypeError(f"certify must be a bool, got {certify!r}")
-    pos_tol = positive_float("max_position_3sigma", max_position_3sigma)
-    rot_tol = positive_float("max_rotation_3sigma", max_rotation_3sigma)
+    pos_tol = real_scalar("max_position_3sigma", max_position_3sigma, positive=True)
+    rot_tol = real_scalar("max_rotation_3sigma", max_rotation_3sigma, positive=True)
     if rot_tol > math.pi:
         raise OutOfRangeError(f"max_rotation_3sigma = {rot_tol!r} is an angle in radians and must be <= pi; "
                               f"did you mean degrees? np.radians({rot_tol:g}) = {math.radians(rot_tol):.4g}")

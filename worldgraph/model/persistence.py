@@ -127,7 +127,7 @@ def _world_from_dict(cls: Any, data: Any, bad: Callable[[str], MalformedFileErro
 
     def number(value: Any, what: str) -> float:
         try:
-            return _checks.finite_float(what, value)
+            return _checks.real_scalar(what, value)
         except WorldGraphError as exc:
             raise bad(f"{exc} (a finite number is needed)") from exc
 

@@ -308,10 +308,10 @@ def _points(name: str, value: Any) -> NDArray[np.float64]:
 
 def _band(lo_name: str, lo: Any, hi_name: str, hi: Any, *, nonnegative: bool) -> tuple[float, float]:
     if nonnegative:
-        low = _checks.positive_float(lo_name, lo, allow_zero=True, maximum=MAX_ABS_COORDINATE)
+        low = _checks.real_scalar(lo_name, lo, minimum=0.0, maximum=MAX_ABS_COORDINATE)
     else:
-        low = _checks.finite_float(lo_name, lo, max_abs=MAX_ABS_COORDINATE)
-    high = _checks.finite_float(hi_name, hi, max_abs=MAX_ABS_COORDINATE)
+        low = _checks.real_scalar(lo_name, lo, max_abs=MAX_ABS_COORDINATE)
+    high = _checks.real_scalar(hi_name, hi, max_abs=MAX_ABS_COORDINATE)
     if low > high:
         raise OutOfRangeError(f"{lo_name} = {low!r} must be <= {hi_name} = {high!r}")
     return low, high
@@ -495,8 +495,8 @@ def ring_grid(points: Any, *, cell: float = KEPT_GRID_CELL, zcell: float = KEPT_
     """A :class:`RingGrid` of ``points`` ((m, 3) finite floats) with columns of ``cell`` and
     bands of ``zcell`` metres (both > 0)."""
     pb = _points("points", points)
-    cell = _checks.positive_float("cell", cell, maximum=MAX_ABS_COORDINATE)
-    zcell = _checks.positive_float("zcell", zcell, maximum=MAX_ABS_COORDINATE)
+    cell = _checks.real_scalar("cell", cell, positive=True, maximum=MAX_ABS_COORDINATE)
+    zcell = _checks.real_scalar("zcell", zcell, positive=True, maximum=MAX_ABS_COORDINATE)
     if len(pb) == 0:
         empty = np.zeros(0, np.int64)
         return RingGrid(np.zeros(3), cell, zcell, 1, 1, 1, np.zeros((0, 3)), empty, empty,

@@ -159,9 +159,9 @@ class WorldModel:
                 if not isinstance(obj, ObjectModel):
                     raise ArgumentTypeError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
             _check_unique_ids([o.id for o in objects], "objects")
-        mll = _checks.positive_float("max_link_length", self.max_link_length, maximum=MAX_LINK_LENGTH)
-        margin = _checks.positive_float("link_margin", self.link_margin, allow_zero=True,
-                                        maximum=MAX_LINK_LENGTH)
+        mll = _checks.real_scalar("max_link_length", self.max_link_length, positive=True,
+                                  maximum=MAX_LINK_LENGTH)
+        margin = _checks.real_scalar("link_margin", self.link_margin, minimum=0.0, maximum=MAX_LINK_LENGTH)
         if mll + margin > MAX_LINK_LENGTH:
             raise OutOfRangeError(f"max_link_length + link_margin = {mll + margin!r} must be "
                                   f"<= {MAX_LINK_LENGTH:g}")
@@ -565,7 +565,7 @@ class WorldModel:
         keeps the storeys of a gravity-aligned world apart in distance queries).  Built on first
         use, then kept with the world."""
         self._check_known_type(type_name, "type_name")
-        z_scale = _checks.positive_float("z_scale", z_scale)
+        z_scale = _checks.real_scalar("z_scale", z_scale, positive=True)
         trees = self._type_trees
         key = (type_name, z_scale)
         if key not in trees:
@@ -731,7 +731,7 @@ class WorldModel:
         from radialopt import Region
         from radialopt import errors as ro_errors
 
-        margin = _checks.finite_float("margin", margin, max_abs=MAX_LINK_LENGTH)
+        margin = _checks.real_scalar("margin", margin, max_abs=MAX_LINK_LENGTH)
         lo, hi = self.bounds
         lower = np.array([lo[0] - margin, lo[1] - margin, lo[2]])
         upper = np.array([hi[0] + margin, hi[1] + margin, hi[2] + margin])

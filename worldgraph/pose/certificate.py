@@ -64,7 +64,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from radialopt.certificates import Certificate
 
-from .._checks import positive_float
+from .._checks import real_scalar
 from .._rigid import rigid_transform
 from ..errors import ArgumentTypeError, PoseError, TooFewPerceptsError, WorldGraphError
 from ..tolerances import (
@@ -161,7 +161,7 @@ def _check_solver(solver: object) -> str:
 
 
 def _gap_tol(name: str, v: float) -> float:
-    return positive_float(name, v, allow_zero=True)
+    return real_scalar(name, v, minimum=0.0)
 
 
 def pose_cost(ego_points: ArrayLike, world_points: ArrayLike, covariances: ArrayLike,

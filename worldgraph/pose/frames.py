@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from .._checks import integer, positive_float, real_array
+from .._checks import integer, real_array, real_scalar
 from .._rigid import rigid_transform
 from ..errors import PoseError, ShapeError
 from ..tolerances import COLLINEAR_TOL as COLLINEAR_TOL  # re-exported: worldgraph.pose.COLLINEAR_TOL
@@ -531,7 +531,7 @@ def refine_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Arr
     C = _covariances(covariances, len(x), like="ego_points")
     T0 = rigid_transform("world_from_ego", world_from_ego, max_translation=MAX_POSE_COORDINATE)
     max_iter = integer("max_iter", max_iter, minimum=1)
-    tol = positive_float("tol", tol, maximum=0.5)
+    tol = real_scalar("tol", tol, positive=True, maximum=0.5)
     tilt_prior = _check_tilt_prior(tilt_prior)
     return _refine_pose(x, y, C, T0, max_iter, tol, tilt_prior)
 

@@ -44,7 +44,7 @@ from scipy.stats import chi2
 
 from perception import OBJECT_VIEW, Percept
 
-from .._checks import as_list, integer, positive_float, real_array
+from .._checks import as_list, integer, real_array, real_scalar
 from .._rigid import rigid_transform
 from ..errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
 from ..model import WorldModel
@@ -414,7 +414,7 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
         raise ArgumentTypeError(f"nearest must be a NearestObjects, got {type(nearest).__name__}")
     T, ego, covs, _ = _inputs(start, ego, covs, pose_name="start")
     max_rounds = integer("max_rounds", max_rounds, minimum=1, maximum=1000)
-    gate = positive_float("gate", gate)
+    gate = real_scalar("gate", gate, positive=True)
     try:
         pairs = tuple((int(p), int(o)) for p, o in pairs)
     except (TypeError, ValueError) as exc:
@@ -460,7 +460,7 @@ def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_
     the data and the prior (the covariance of a fit with the prior).
     """
     world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
-    n_sigma = positive_float("n_sigma", n_sigma, maximum=1e3)
+    n_sigma = real_scalar("n_sigma", n_sigma, positive=True, maximum=1e3)
     rounds = integer("rounds", rounds, minimum=0, maximum=1000)
     cov = _covariance_or_unknown("pose_covariance", pose_covariance, 6).copy()
     return _laplace_inflate(world_from_ego, ego, covs, world_points, cov, n_sigma, rounds,
@@ -789,7 +789,7 @@ def self_check(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_point
     message : str
         Empty when passed.
     """
-    alpha = positive_float("alpha", alpha, maximum=0.5)
+    alpha = real_scalar("alpha", alpha, positive=True, maximum=0.5)
     world_from_ego, ego, covs, world_points = _inputs(world_from_ego, ego, covs, world_points)
     k = len(ego)
     d2 = placed_mahalanobis(world_from_ego, ego, covs, world_points, pose_covariance)

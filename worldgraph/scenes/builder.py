@@ -27,8 +27,8 @@ def _seed(seed: object) -> int:
 
 def _link_args(max_link_length: object, link_margin: object) -> None:
     """Check the link settings before a scene is built (:class:`WorldModel` checks them again)."""
-    _checks.positive_float("max_link_length", max_link_length)
-    _checks.positive_float("link_margin", link_margin, allow_zero=True)
+    _checks.real_scalar("max_link_length", max_link_length, positive=True)
+    _checks.real_scalar("link_margin", link_margin, minimum=0.0)
 
 
 _CYLINDER_SECTIONS = 32  # 2 * 32 + 2 = 66 vertices per cylinder

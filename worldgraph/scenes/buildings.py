@@ -76,11 +76,11 @@ def corridor_scene(n_doors: int = 40, length: float | None = None, seed: int = 0
     per_side = [(n_doors + 1) // 2, n_doors // 2]
     if length is None:
         length = 1.8 * per_side[0] + 2.0
-    length = _checks.positive_float("length", length, maximum=MAX_COORDINATE / 2)
+    length = _checks.real_scalar("length", length, positive=True, maximum=MAX_COORDINATE / 2)
     if length < 1.5 * per_side[0] + 0.5:
         raise WorldGraphError(f"length {length!r} is too short for {per_side[0]} doors per side")
-    width = _checks.positive_float("width", width, maximum=100.0)
-    height = _checks.positive_float("height", height, maximum=100.0)
+    width = _checks.real_scalar("width", width, positive=True, maximum=100.0)
+    height = _checks.real_scalar("height", height, positive=True, maximum=100.0)
     seed = _seed(seed)
     rng = np.random.default_rng(seed)
     b = _Builder()
@@ -272,7 +272,7 @@ def _site_args(storeys: object, n_objects: object, storey_height: object, max_li
                link_margin: object) -> tuple[int, int, float]:
     storeys = _checks.integer("storeys", storeys, minimum=1, maximum=MAX_STOREYS)
     n_objects = _checks.integer("n_objects", n_objects, minimum=1, maximum=MAX_SITE_OBJECTS)
-    height = _checks.positive_float("storey_height", storey_height, maximum=100.0)
+    height = _checks.real_scalar("storey_height", storey_height, positive=True, maximum=100.0)
     if height < MIN_STOREY_HEIGHT:
         from ..errors import OutOfRangeError
         raise OutOfRangeError(f"storey_height must be >= {MIN_STOREY_HEIGHT:g} m (lamps hang at 2.75 m), "
@@ -455,7 +455,7 @@ def campus_site(buildings: int = 10, storeys: int = 5, n_objects: int = 1_000_00
     if buildings > n_objects:
         from ..errors import OutOfRangeError
         raise OutOfRangeError(f"n_objects = {n_objects} must be >= buildings = {buildings}")
-    gap = _checks.positive_float("gap", gap, maximum=10_000.0)
+    gap = _checks.real_scalar("gap", gap, positive=True, maximum=10_000.0)
     seed = _seed(seed)
     per = np.full(buildings, n_objects // buildings)
     per[: n_objects % buildings] += 1

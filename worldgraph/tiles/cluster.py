@@ -109,7 +109,7 @@ class ClusterTiles:
         from distributed import wait
 
         if timeout is not None:
-            timeout = _checks.positive_float("timeout", timeout)
+            timeout = _checks.real_scalar("timeout", timeout, positive=True)
         try:
             wait(self._futures, timeout=timeout)
         except TimeoutError as exc:
@@ -157,7 +157,7 @@ class ClusterTiles:
         plan = check_gravity(gravity, tol)
         sigma = check_up_sigma(up_sigma, tol)
         if timeout is not None:
-            timeout = _checks.positive_float("timeout", timeout)
+            timeout = _checks.real_scalar("timeout", timeout, positive=True)
         items = _checks.as_list("queries", queries, "sequences of perception.Percept")
         t_start = time.perf_counter()
         lists = []

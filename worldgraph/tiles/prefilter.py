@@ -90,7 +90,7 @@ def summarize(tile: Tile, bin_width: float = LINK_BIN) -> TileSummary:
     if not isinstance(tile, Tile):
         raise ArgumentTypeError(f"tile must be a Tile (from worldgraph.tiles.tiling), "
                                 f"got {_checks._short(tile)}")
-    bin_width = _checks.positive_float("bin_width", bin_width)
+    bin_width = _checks.real_scalar("bin_width", bin_width, positive=True)
     world = tile.world
     bins = {}
     for key, table in world.links.items():
@@ -183,7 +183,7 @@ def tiles_to_visit(summaries: Sequence[TileSummary], percepts: Sequence[Percept]
     if near is not None or radius is not None:
         if near is None or radius is None:
             raise ArgumentTypeError("near and radius go together: pass both (a position prior) or neither")
-        prior = (_checks.real_array("near", near, (3,)), _checks.positive_float("radius", radius))
+        prior = (_checks.real_array("near", near, (3,)), _checks.real_scalar("radius", radius, positive=True))
     need = max(3, int(tol.min_clique_size))
     x_all = np.array([p.position for p in plist], dtype=np.float64).reshape(-1, 3)
     sig_all = np.array([p.sigma for p in plist], dtype=np.float64)

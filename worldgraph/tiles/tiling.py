@@ -82,7 +82,7 @@ def split(world: WorldModel, labels: ArrayLike, halo: float = 0.0) -> tuple[Tile
         raise ArgumentTypeError(f"world must be a WorldModel, got {_checks._short(world)}")
     n = len(world)
     lab = _checks.int_array("labels", labels, (n,), minimum=0)
-    halo = _checks.positive_float("halo", halo, allow_zero=True)
+    halo = _checks.real_scalar("halo", halo, minimum=0.0)
     names, codes = np.unique(lab, return_inverse=True)
     if len(names) > MAX_TILES:
         raise ShapeError(f"labels must hold at most {MAX_TILES} distinct values, got {len(names)}")
