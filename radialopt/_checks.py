@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import NonFiniteError, OutOfRangeError, RadialError, ShapeError
+from .errors import NonFiniteError, OutOfRangeError, ShapeError
 
 #: Largest magnitude (metres) of a coordinate, radius or sigma radialopt accepts: beyond it
 #: squared distances lose every significant digit of the ranges (and overflow near 1e154).
@@ -167,13 +167,6 @@ def instance(name: str, value: Any, cls: type | tuple[type, ...]) -> Any:
         names = cls.__name__ if isinstance(cls, type) else " or ".join(c.__name__ for c in cls)
         raise ShapeError(f"{name} must be a {names}, got {type(value).__name__} ({value!r:.100})")
     return value
-
-
-def boundary(exc: BaseException, where: str) -> RadialError:
-    """Wrap a numerical failure that validation cannot prevent (caller raises ``from exc``)."""
-    from .errors import SolverError
-
-    return SolverError(f"{where}: numerical failure ({type(exc).__name__}: {exc})")
 
 
 def dataclass_fields(obj: Any, ints: dict[str, tuple[int | None, int | None]],
