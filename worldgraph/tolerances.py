@@ -16,7 +16,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import integer, real_array, real_scalar
+from ._checks import _short, integer, real_array, real_scalar
 from .errors import (
     ArgumentTypeError,
     NonPositiveError,
@@ -320,7 +320,7 @@ def _check_tolerances(tolerances: object, name: str = "tolerances", world: _Grav
     """The tolerances, with ``gravity_aligned=None`` resolved to the world's flag when a world is
     given."""
     if not isinstance(tolerances, AssociationTolerances):
-        raise ArgumentTypeError(f"{name} must be an AssociationTolerances, got {type(tolerances).__name__}")
+        raise ArgumentTypeError(f"{name} must be an AssociationTolerances, got {_short(tolerances)}")
     if world is not None and tolerances.gravity_aligned is None:
         return replace(tolerances, gravity_aligned=bool(world.gravity_aligned))
     return tolerances

@@ -20,8 +20,8 @@ from ..localization.result import LocalizationResult, PoseStatus
 from ..model import WorldModel
 from ..pose.gravity import Gravity, check_gravity, check_up_sigma
 from ..tolerances import (
-    ASSOCIATION_TOLERANCES,
     AssociationTolerances,
+    _resolved_tol,
 )
 from .plan import ViewPlan, _depth_factor, plan_view
 from .predict import DEFAULT_DEPTH_FACTOR, MERGE_FLOOR, MERGE_SIGMAS, _repeats
@@ -189,7 +189,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         if st not in _LOOK_STATUSES:
             raise OutOfRangeError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
                                   f"choose among {_LOOK_STATUSES}")
-    tol = ASSOCIATION_TOLERANCES if tol is None else tol
+    tol = _resolved_tol(tol)
     current = check_world_and_percepts(world, percepts)
     check_gravity(gravity, tol)  # a bad gravity (or up_sigma) fails before the first look
     check_up_sigma(up_sigma, tol)

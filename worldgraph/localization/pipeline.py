@@ -69,7 +69,7 @@ from ..pose.gravity import (
     unsupported_reason,
 )
 from ..pose.validation import CHI2_3_GATE, NearestObjects, percept_covariances
-from ..tolerances import ASSOCIATION_TOLERANCES, RIGID_TOLERANCE, AssociationTolerances
+from ..tolerances import RIGID_TOLERANCE, AssociationTolerances, _resolved_tol
 from .context import _Call, _Context, _Settings
 from .paper import _paper
 from .result import _POSELESS_STATUSES, LOCALIZE_STATUSES, POSE_STATUSES, LocalizationResult, _without_pose
@@ -297,9 +297,7 @@ def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str
     if not isinstance(method, str) or method not in LOCALIZE_METHODS:
         raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
     checked = check_world_and_percepts(world, percepts)
-    tol = ASSOCIATION_TOLERANCES if tol is None else tol
-    if not isinstance(tol, AssociationTolerances):
-        raise ArgumentTypeError(f"tol must be AssociationTolerances, got {type(tol).__name__}")
+    tol = _resolved_tol(tol)
     box = _check_region(region)
     gen = None if rng is None else generator("rng", rng)
     if not isinstance(solver, str):

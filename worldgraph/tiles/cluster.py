@@ -33,7 +33,7 @@ from ..localization.pipeline import (
 )
 from ..localization.result import LocalizationResult, LocalizeStatus, poseless_result
 from ..pose.gravity import Gravity, check_gravity, check_up_sigma
-from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
+from ..tolerances import AssociationTolerances, _resolved_tol
 from .dispatch import _client
 from .files import TileIndex, load_tile, read_index
 from .prefilter import TileVisit, tiles_to_visit
@@ -151,9 +151,7 @@ class ClusterTiles:
             raise WorldGraphError("ClusterTiles is closed (close was called): make a new ClusterTiles")
         if not isinstance(method, str) or method not in LOCALIZE_METHODS:
             raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
-        tol = ASSOCIATION_TOLERANCES if tol is None else tol
-        if not isinstance(tol, AssociationTolerances):
-            raise ArgumentTypeError(f"tol must be AssociationTolerances, got {_checks._short(tol)}")
+        tol = _resolved_tol(tol)
         plan = check_gravity(gravity, tol)
         sigma = check_up_sigma(up_sigma, tol)
         if timeout is not None:

@@ -25,7 +25,7 @@ from ..localization.pipeline import (
 )
 from ..localization.result import LocalizationResult
 from ..pose.gravity import Gravity, check_gravity, check_up_sigma
-from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
+from ..tolerances import AssociationTolerances, _resolved_tol
 from .pool import TilePool
 from .ranking import _combine, _globalised_answer, _run_tile
 from .tiling import Tile, _check_tiles
@@ -119,9 +119,7 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     for k, p in enumerate(percepts):
         if not isinstance(p, Percept):
             raise ArgumentTypeError(f"percepts[{k}] must be a perception.Percept, got {_checks._short(p)}")
-    tol = ASSOCIATION_TOLERANCES if tol is None else tol
-    if not isinstance(tol, AssociationTolerances):
-        raise ArgumentTypeError(f"tol must be AssociationTolerances, got {_checks._short(tol)}")
+    tol = _resolved_tol(tol)
     if workers is not None:
         workers = _checks.integer("workers", workers, minimum=1, maximum=1024)
     if pool is not None:

@@ -36,7 +36,7 @@ from perception import Percept
 
 from .. import _checks
 from ..errors import ArgumentTypeError
-from ..tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
+from ..tolerances import AssociationTolerances, _resolved_tol
 from .tiling import Tile
 
 __all__ = ["LINK_BIN", "SKIP_REASONS", "TOLERANCE_SLACK", "SkipReason", "TileSummary", "TileVisit",
@@ -176,9 +176,7 @@ def tiles_to_visit(summaries: Sequence[TileSummary], percepts: Sequence[Percept]
     for k, p in enumerate(plist):
         if not isinstance(p, Percept):
             raise ArgumentTypeError(f"percepts[{k}] must be a perception.Percept, got {_checks._short(p)}")
-    tol = ASSOCIATION_TOLERANCES if tol is None else tol
-    if not isinstance(tol, AssociationTolerances):
-        raise ArgumentTypeError(f"tol must be AssociationTolerances, got {_checks._short(tol)}")
+    tol = _resolved_tol(tol)
     prior = None
     if near is not None or radius is not None:
         if near is None or radius is None:
