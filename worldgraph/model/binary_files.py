@@ -34,7 +34,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from perception.chain import rotation_errors
+from perception.chain import rotation_defect, rotation_errors
 
 from .. import _checks
 from ..errors import MalformedFileError, WorldGraphError
@@ -309,11 +309,11 @@ def load_binary(cls: Any, path: str, data: Mapping[str, NDArray[Any]] | None = N
     rotations = None
     if "rotations" in data:
         rotations = _array(data, "rotations", "f", (n, 3, 3), bad)
-        orth, det, improper = rotation_errors(rotations, RIGID_TOLERANCE)
+        improper = rotation_errors(rotations, RIGID_TOLERANCE)[2]
         if improper.any():
             k = int(np.argmax(improper))
-            raise bad(f"entry 'rotations'[{k}] is not a rotation: det R = {float(det[k]):.6g}, "
-                      f"max |R^T R - I| = {float(orth[k]):.3g}")
+            raise bad(f"entry 'rotations'[{k}] is not a rotation: it "
+                      f"{rotation_defect(rotations[k], RIGID_TOLERANCE)}")
     gnames, gcodes = None, None
     if ("geometry_names" in data) != ("geometry_codes" in data):
         raise bad("entries 'geometry_names' and 'geometry_codes' must be given together")

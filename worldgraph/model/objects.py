@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from perception.chain import rotation_errors
+from perception.chain import rotation_defect, rotation_errors
 
 from .. import _checks, _rigid
 from ..errors import (
@@ -53,15 +53,13 @@ def _check_size(name: str, value: Any) -> NDArray[np.float64]:
 def _check_rotations(name: str, rot: NDArray[np.float64]) -> None:
     """Raise :class:`~worldgraph.errors.NonRigidError` naming the first rotation of a finite stack
     ``(n, 3, 3)`` that is not proper within :data:`~worldgraph.tolerances.RIGID_TOLERANCE`."""
-    orth, det, bad = rotation_errors(rot, RIGID_TOLERANCE)
+    bad = rotation_errors(rot, RIGID_TOLERANCE)[2]
     if bad.any():
         from ..errors import NonRigidError
 
         k = int(np.argmax(bad))
-        kind = "a reflection" if det[k] < 0 else "scaled or sheared"
-        raise NonRigidError(f"{name}[{k}] must be a rotation (R^T R = I, det R = +1), but it is {kind}: "
-                            f"det R = {float(det[k]):.6g}, max |R^T R - I| = {float(orth[k]):.3g} "
-                            f"(tolerance {RIGID_TOLERANCE:g})")
+        raise NonRigidError(f"{name}[{k}] must be a rotation (R^T R = I, det R = +1), but it "
+                            f"{rotation_defect(rot[k], RIGID_TOLERANCE)}")
 
 
 def _check_unique_ids(ids: list[str], what: str) -> None:
