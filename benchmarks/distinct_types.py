@@ -26,10 +26,10 @@ types at one point)::
     |---|---:|---:|---:|---:|---|---:|
     | one point | 1,000 | 499,500 | 0.05 | 0.07 | no_association (no pose) | 0.00 |
     | one point | 5,000 | 12,497,500 | 0.50 | 3.63 | no_association (no pose) | 0.00 |
-    | one point | 10,000 | refused | 0.20 | - | OutOfRangeError: ... 49,995,000 object pairs ... | - |
+    | one point | 10,000 | refused | 0.20 | - | WorldGraphError: ... 49,995,000 object pairs ... | - |
     | packed | 1,000 | 499,500 | 0.04 | 0.08 | weak, 0.014 m off | 0.01 |
     | packed | 5,000 | 12,497,500 | 0.48 | 4.18 | weak, 0.014 m off | 0.01 |
-    | packed | 10,000 | refused | 0.24 | - | OutOfRangeError: ... 49,995,000 object pairs ... | - |
+    | packed | 10,000 | refused | 0.24 | - | WorldGraphError: ... 49,995,000 object pairs ... | - |
     | spread | 1,000 | 8,530 | 0.02 | - | ok, 0.007 m off | 0.01 |
     | spread | 5,000 | 44,938 | 0.11 | - | ok, 0.010 m off | 0.01 |
     | spread | 10,000 | 90,770 | 0.22 | - | ok, 0.018 m off | 0.01 |

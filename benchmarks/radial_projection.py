@@ -191,7 +191,7 @@ def main() -> None:
         t_fresh = median_time(fresh_cvxpy, items[: max(5, args.instances // 3)], 1)
         try:
             paper_s = fmt(median_time(lambda s: ro.project_radii(s, method="paper"), items, 1))
-        except ro.TooManySpheresError:  # an instance beyond PAPER_MAX_FLATS (n = 8 here)
+        except ro.RadialError:  # an instance beyond PAPER_MAX_FLATS (n = 8 here)
             paper_s = "over budget"
         if n <= args.max_vertices_n:
             few = items[: max(3, args.instances // (1 if n <= 5 else 6))]

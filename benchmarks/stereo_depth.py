@@ -23,7 +23,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import perception as pc  # noqa: E402
-from perception.middlebury import BASELINE_M, FOCAL_PX, MissingDataError, depth_error_table  # noqa: E402
+from perception import MissingExtraError  # noqa: E402
+from perception.middlebury import BASELINE_M, FOCAL_PX, depth_error_table  # noqa: E402
 
 
 def median_time(fn: Callable[[], object], repeat: int) -> float:
@@ -169,7 +170,7 @@ def main() -> None:
         t0 = time.perf_counter()
         table = depth_error_table()
         elapsed = time.perf_counter() - t0
-    except MissingDataError as exc:
+    except MissingExtraError as exc:
         print(f"(not available: {exc})")
         return
     print(table.to_markdown())

@@ -18,24 +18,10 @@ from .chain import (
 from .detection import Detection
 from .errors import (
     BehindCameraError,
-    CalibrationError,
-    CalibrationFileError,
-    ImageFormatError,
-    InvalidPoseError,
-    JointLimitError,
-    KinematicsError,
     MissingExtraError,
-    NonFiniteError,
-    NonPositiveSigmaError,
-    NotFittedError,
-    OptionError,
     PerceptionError,
-    SceneError,
-    ShapeError,
+    RobotFileError,
     TooManyNeighboursError,
-    TypeRuleError,
-    UnknownClassError,
-    URDFError,
 )
 from .frontend import CentreOffset, DetectionPercepts, Dropped, rgbd_percepts, stereo_percepts
 from .fusion import fuse_percepts, mean_shift_modes, percept_bandwidths
@@ -62,37 +48,23 @@ from .uncertainty import (
 
 __all__ = [
     "BehindCameraError",
-    "CalibrationError",
-    "CalibrationFileError",
+    "PerceptionError",
+    "RobotFileError",
     "CentreOffset",
     "Box",
     "Detection",
     "DetectionPercepts",
     "Dropped",
     "GaussianClassifier",
-    "ImageFormatError",
-    "InvalidPoseError",
     "Joint",
-    "JointLimitError",
     "KinematicChain",
-    "KinematicsError",
     "MissingExtraError",
-    "NonFiniteError",
-    "NonPositiveSigmaError",
-    "NotFittedError",
-    "OptionError",
-    "SceneError",
     "OBJECT_VIEW",
     "TooManyNeighboursError",
-    "TypeRuleError",
     "Percept",
-    "PerceptionError",
     "Rectification",
-    "ShapeError",
     "StereoMatch",
     "StereoRig",
-    "UnknownClassError",
-    "URDFError",
     "check_transform",
     "class_bandwidth",
     "default_head",
@@ -117,3 +89,11 @@ __all__ = [
     "train_classifier",
     "triangulation_covariance",
 ]
+
+
+def __getattr__(name: str) -> type[PerceptionError]:
+    """0.1's error class names, deprecated: each warns and gives the class that replaced it
+    (``perception.errors.DEPRECATED_NAMES``)."""
+    from . import errors
+
+    return errors._deprecated(__name__, name)

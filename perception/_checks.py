@@ -21,12 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import (
-    InvalidPoseError,
-    NonFiniteError,
-    NonPositiveSigmaError,
     PerceptionError,
-    ShapeError,
-    UnknownClassError,
 )
 from .tolerances import RIGID_TOLERANCE, SPD_RTOL, SYM_RTOL
 
@@ -47,32 +42,32 @@ def real_array(name: str, value: Any, shape: tuple[int, ...] | None = None) -> N
     NaN/inf, naming the index of the first bad element.
     """
     if value is None or isinstance(value, (str, bytes)):
-        raise ShapeError(f"{name} must be a real float array, got {_short(value)}")
+        raise PerceptionError(f"{name} must be a real float array, got {_short(value)}")
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise ShapeError(f"{name} must be a real float array (not ragged), got {_short(value)}") from exc
+        raise PerceptionError(f"{name} must be a real float array (not ragged), got {_short(value)}") from exc
     if raw.dtype.kind in "cbUSVMm" or (
         raw.dtype.kind == "O"
         and any(isinstance(v, (str, bytes, bool, np.bool_, complex, np.complexfloating)) or v is None
                 for v in raw.ravel().tolist())
     ):
-        raise ShapeError(f"{name} must hold real numbers, got dtype {raw.dtype}: {_short(value)}")
+        raise PerceptionError(f"{name} must hold real numbers, got dtype {raw.dtype}: {_short(value)}")
     try:
         arr = np.array(raw, dtype=np.float64)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise ShapeError(f"{name} must hold real numbers, got {_short(value)}") from exc
+        raise PerceptionError(f"{name} must hold real numbers, got {_short(value)}") from exc
     if shape is not None:
         ok = arr.ndim == len(shape) and all(s < 0 or s == a for s, a in zip(shape, arr.shape, strict=False))
         if not ok:
             dims = ", ".join("N" if s < 0 else str(s) for s in shape)
             want = f"({dims},)" if len(shape) == 1 else f"({dims})"
-            raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
+            raise PerceptionError(f"{name} must have shape {want}, got shape {arr.shape}")
     finite = np.isfinite(arr)
     if not np.all(finite):
         idx = np.argwhere(~finite)[0]
         where = _index(tuple(idx)) if arr.ndim else ""
-        raise NonFiniteError(f"{name}{where} must be finite, got {arr[tuple(idx)]!r}")
+        raise PerceptionError(f"{name}{where} must be finite, got {arr[tuple(idx)]!r}")
     return arr
 
 
@@ -88,24 +83,24 @@ def real_scalar(
 ) -> float:
     """``value`` as a finite Python float (not bool/str/None/complex), optionally range-checked.
 
-    ``positive`` (``> 0``) and ``nonnegative`` (``>= 0``) raise :class:`NonPositiveSigmaError`;
+    ``positive`` (``> 0``) and ``nonnegative`` (``>= 0``) raise :class:`PerceptionError`;
     ``minimum`` / ``maximum`` (inclusive) and ``max_abs`` (``|value| <=``) raise
     :class:`PerceptionError`.  ``nonnegative`` is perception's own addition to the signature the
     three packages share: it is not ``minimum=0.0``, whose violation is a range error.
     """
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         if not (isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "fiu"):
-            raise ShapeError(f"{name} must be a real number, got {type(value).__name__} {_short(value)}")
+            raise PerceptionError(f"{name} must be a real number, got {type(value).__name__} {_short(value)}")
     try:
         v = float(value)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise NonFiniteError(f"{name} must be a finite real number, got {_short(value)}") from exc
+        raise PerceptionError(f"{name} must be a finite real number, got {_short(value)}") from exc
     if not np.isfinite(v):
-        raise NonFiniteError(f"{name} must be finite, got {v!r}")
+        raise PerceptionError(f"{name} must be finite, got {v!r}")
     if positive and v <= 0:
-        raise NonPositiveSigmaError(f"{name} must be > 0, got {v!r}")
+        raise PerceptionError(f"{name} must be > 0, got {v!r}")
     if nonnegative and v < 0:
-        raise NonPositiveSigmaError(f"{name} must be >= 0, got {v!r}")
+        raise PerceptionError(f"{name} must be >= 0, got {v!r}")
     if (minimum is not None and v < minimum) or (maximum is not None and v > maximum):
         raise PerceptionError(f"{name} must lie in [{minimum}, {maximum}], got {v!r}")
     if max_abs is not None and abs(v) > max_abs:
@@ -116,7 +111,7 @@ def real_scalar(
 def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
     """``value`` as a Python int: rejects bool, float (even 2.0), NaN, None, str and out-of-range."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise ShapeError(f"{name} must be an integer, got {type(value).__name__} {_short(value)}")
+        raise PerceptionError(f"{name} must be an integer, got {type(value).__name__} {_short(value)}")
     v = int(value)
     if minimum is not None and v < minimum:
         raise PerceptionError(f"{name} must be >= {minimum}, got {v!r}")
@@ -128,7 +123,7 @@ def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int |
 def boolean(name: str, value: Any) -> bool:
     """A real bool (Python or numpy)."""
     if not isinstance(value, (bool, np.bool_)):
-        raise ShapeError(f"{name} must be a bool, got {type(value).__name__} {_short(value)}")
+        raise PerceptionError(f"{name} must be a bool, got {type(value).__name__} {_short(value)}")
     return bool(value)
 
 
@@ -146,17 +141,17 @@ def spd(name: str, value: Any, size: int = 3) -> NDArray[np.float64]:
     C = real_array(name, value, (size, size))
     scale = float(np.max(np.abs(C))) if C.size else 0.0
     if scale == 0.0:
-        raise NonPositiveSigmaError(f"{name} must be symmetric positive definite, got the zero matrix")
+        raise PerceptionError(f"{name} must be symmetric positive definite, got the zero matrix")
     A = C / scale
     asym = float(np.max(np.abs(A - A.T)))
     if asym > SYM_RTOL:
-        raise NonPositiveSigmaError(
+        raise PerceptionError(
             f"{name} must be symmetric (max |C - C^T| / max|C| = {asym:.3g} > {SYM_RTOL:g}), got {C.tolist()}"
         )
     S = 0.5 * C + 0.5 * C.T
     eig = np.linalg.eigvalsh(S / scale) * scale
     if not eig[0] > SPD_RTOL * eig[-1] or eig[-1] <= 0:
-        raise NonPositiveSigmaError(
+        raise PerceptionError(
             f"{name} must be symmetric positive definite (smallest eigenvalue {eig[0]:.3g}, largest "
             f"{eig[-1]:.3g}), got {S.tolist()}"
         )
@@ -220,7 +215,7 @@ def file_path(name: str, value: Any, error: type[PerceptionError] = PerceptionEr
     return text
 
 
-def sequence(name: str, value: Any, kind: type | None = None, error: type[PerceptionError] = ShapeError
+def sequence(name: str, value: Any, kind: type | None = None, error: type[PerceptionError] = PerceptionError
              ) -> list[Any]:
     """A sequence (not a string or a lone ``kind``) as a list; every element an instance of
     ``kind``, or, when ``kind`` is None, a non-empty string without NUL characters."""
@@ -234,7 +229,7 @@ def sequence(name: str, value: Any, kind: type | None = None, error: type[Percep
         raise error(f"{name} must be a sequence of {what}, got {type(value).__name__}") from exc
     for i, item in enumerate(out):
         if kind is None:
-            name_string(f"{name}[{i}]", item, UnknownClassError)
+            name_string(f"{name}[{i}]", item)
         elif not isinstance(item, kind):
             raise error(f"{name}[{i}] must be a {what}, got {type(item).__name__}: {_short(item)}")
     return out
@@ -301,18 +296,18 @@ def check_transform(name: str, value: ArrayLike, atol: float = RIGID_TOLERANCE) 
 
     Raises
     ------
-    ShapeError, NonFiniteError, InvalidPoseError
+    PerceptionError
         Wrong shape, non-finite entries, or not a rigid motion (rotation block, last row).
     """
     if not isinstance(name, str):
-        raise ShapeError(f"name must be a str, got {type(name).__name__}")
+        raise PerceptionError(f"name must be a str, got {type(name).__name__}")
     atol = real_scalar("atol", atol, positive=True)
     M = real_array(name, value, (4, 4))
     if np.any(np.abs(M[:3, 3]) > MAX_TRANSLATION):
-        raise InvalidPoseError(
+        raise PerceptionError(
             f"{name}: translation must be at most {MAX_TRANSLATION:g} m, got {M[:3, 3].tolist()}"
         )
     defect = rigid_defect(M, atol)
     if defect is not None:
-        raise InvalidPoseError(f"{name} must be a rigid transform: {defect[1]}")
+        raise PerceptionError(f"{name} must be a rigid transform: {defect[1]}")
     return M

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._checks import check_transform, file_path, name_string
-from .errors import MissingExtraError, URDFError
+from .errors import MissingExtraError, RobotFileError
 from .tolerances import AXIS_TOL
 
 _REVOLUTE = ("revolute", "continuous")
@@ -32,7 +32,7 @@ def _load(path: Path) -> Any:
             "KinematicChain.from_urdf needs yourdfpy: pip install gaussian-spheres[urdf]"
         ) from exc
     if not path.is_file():
-        raise URDFError(f"URDF file path={str(path)!r} does not exist")
+        raise RobotFileError(f"URDF file path={str(path)!r} does not exist")
     try:
         urdf = yourdfpy.URDF.load(
             str(path),
@@ -42,8 +42,8 @@ def _load(path: Path) -> Any:
             load_collision_meshes=False,
         )
     except Exception as exc:  # lxml, yourdfpy and OS errors alike: the file is not a usable URDF
-        raise URDFError(f"URDF file path={str(path)!r} cannot be read: {type(exc).__name__}: "
-                        f"{str(exc)[:300]}") from exc
+        raise RobotFileError(f"URDF file path={str(path)!r} cannot be read: {type(exc).__name__}: "
+                             f"{str(exc)[:300]}") from exc
     return urdf.robot
 
 
@@ -54,7 +54,7 @@ def _path_joints(robot: Any, base_link: str, camera_link: str, where: str) -> li
         if name not in links:
             shown = ", ".join(repr(n) for n in sorted(links)[:40])
             more = f", ... ({len(links)} links)" if len(links) > 40 else ""
-            raise URDFError(f"{arg} {name!r} is not a link of {where}; its links: {shown}{more}")
+            raise RobotFileError(f"{arg} {name!r} is not a link of {where}; its links: {shown}{more}")
     parent_joint = {joint.child: joint for joint in robot.joints}
     path: list[Any] = []
     ancestors = [camera_link]
@@ -62,7 +62,7 @@ def _path_joints(robot: Any, base_link: str, camera_link: str, where: str) -> li
     while link != base_link:
         joint = parent_joint.get(link)
         if joint is None or joint.parent in ancestors:
-            raise URDFError(
+            raise RobotFileError(
                 f"no path from base_link {base_link!r} down to camera_link {camera_link!r} in {where}: "
                 f"camera_link's ancestors are {ancestors[1:]} (base_link must be one of them)"
             )
@@ -78,8 +78,8 @@ def _axis_frame(joint_name: str, index: int, axis: Any) -> tuple[str, NDArray[np
     a = np.asarray([1.0, 0.0, 0.0] if axis is None else axis, dtype=np.float64).reshape(-1)
     norm = float(np.linalg.norm(a)) if a.shape == (3,) and np.all(np.isfinite(a)) else 0.0
     if norm == 0.0:
-        raise URDFError(f"joint {joint_name!r} (index {index} on the path): axis must be a finite "
-                        f"non-zero 3-vector, got {a.tolist()}")
+        raise RobotFileError(f"joint {joint_name!r} (index {index} on the path): axis must be a finite "
+                             f"non-zero 3-vector, got {a.tolist()}")
     a = a / norm
     i = int(np.argmax(np.abs(a)))
     e = np.zeros(3)
@@ -109,8 +109,8 @@ def _limits(joint: Any, index: int) -> tuple[float | None, float | None]:
     upper = None if joint.limit.upper is None else float(joint.limit.upper)
     for side, value in (("lower", lower), ("upper", upper)):
         if value is not None and not np.isfinite(value):
-            raise URDFError(f"joint {joint.name!r} (index {index} on the path): {side} limit must be "
-                            f"finite, got {value!r}")
+            raise RobotFileError(f"joint {joint.name!r} (index {index} on the path): {side} limit must be "
+                                 f"finite, got {value!r}")
     return lower, upper
 
 
@@ -132,9 +132,9 @@ def urdf_joint_specs(
     See :meth:`perception.KinematicChain.from_urdf` (the public entry point) for the parameters
     and the errors.
     """
-    file = Path(file_path("path", path, URDFError))
-    base_link = name_string("base_link", base_link, URDFError)
-    camera_link = name_string("camera_link", camera_link, URDFError)
+    file = Path(file_path("path", path, RobotFileError))
+    base_link = name_string("base_link", base_link, RobotFileError)
+    camera_link = name_string("camera_link", camera_link, RobotFileError)
     camera = check_transform("link_from_camera", link_from_camera)
     where = f"the URDF path={str(file)!r}"
     robot = _load(file)
@@ -149,13 +149,13 @@ def urdf_joint_specs(
             pending = pending @ origin
             continue
         if urdf_joint.type not in _REVOLUTE:
-            raise URDFError(
+            raise RobotFileError(
                 f"joint {urdf_joint.name!r} (index {index} on the path from {base_link!r} to "
                 f"{camera_link!r}) is {urdf_joint.type!r}: a KinematicChain holds revolute, continuous "
                 "and fixed joints only"
             )
         if urdf_joint.mimic is not None:
-            raise URDFError(
+            raise RobotFileError(
                 f"joint {urdf_joint.name!r} (index {index} on the path) mimics joint "
                 f"{urdf_joint.mimic.joint!r}: mimic joints are not supported; give it its own angle "
                 "(remove the <mimic> element)"
@@ -165,7 +165,7 @@ def urdf_joint_specs(
         specs.append((urdf_joint.name, letter, pending @ origin @ A, lower, upper, index))
         pending = A.T
     if not specs:
-        raise URDFError(
+        raise RobotFileError(
             f"no revolute joint between base_link {base_link!r} and camera_link {camera_link!r} in "
             f"{where} (joints on the path: {[j.name for j in path_joints]})"
         )

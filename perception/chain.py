@@ -28,13 +28,8 @@ from ._checks import (
 )
 from ._urdf import urdf_joint_specs
 from .errors import (
-    JointLimitError,
-    KinematicsError,
-    NonFiniteError,
-    NonPositiveSigmaError,
     PerceptionError,
-    ShapeError,
-    URDFError,
+    RobotFileError,
 )
 from .tolerances import PSD_ATOL, SYM_RTOL, TINY
 
@@ -48,7 +43,7 @@ MAX_ENCODER_SIGMA = 0.5
 def _check_angle(joint: str, index: int | None, value: float) -> float:
     if abs(value) > MAX_ANGLE:
         where = "" if index is None else f" (index {index})"
-        raise KinematicsError(
+        raise PerceptionError(
             f"angle of joint {joint!r}{where} = {value!r} exceeds 2*pi in magnitude: angles are "
             "radians; did you pass degrees? use np.radians"
         )
@@ -56,12 +51,12 @@ def _check_angle(joint: str, index: int | None, value: float) -> float:
 
 
 def _check_limits(joint: Joint, index: int | None, value: float) -> float:
-    """``value`` if it lies within the joint's limits, else a :class:`JointLimitError`."""
+    """``value`` if it lies within the joint's limits, else a :class:`PerceptionError`."""
     lower = -np.inf if joint.lower is None else joint.lower
     upper = np.inf if joint.upper is None else joint.upper
     if not lower <= value <= upper:
         where = "" if index is None else f" (index {index})"
-        raise JointLimitError(
+        raise PerceptionError(
             f"angle of joint {joint.name!r}{where} = {value!r} lies outside the joint limits "
             f"[{joint.lower!r}, {joint.upper!r}] rad"
         )
@@ -109,7 +104,7 @@ class Joint:
         ``parent_from_joint`` at zero angle; the joint transform is ``origin @ Rot(axis, q)``.
     lower, upper : float or None, optional
         Joint limits, radians (None: no limit on that side). An angle outside them raises
-        :class:`~perception.JointLimitError`.
+        :class:`~perception.PerceptionError`.
     """
 
     name: str
@@ -119,9 +114,9 @@ class Joint:
     upper: float | None = None
 
     def __post_init__(self) -> None:
-        name_string("joint name", self.name, KinematicsError)
+        name_string("joint name", self.name)
         if not isinstance(self.axis, str) or self.axis not in _AXES:
-            raise KinematicsError(f"joint {self.name!r}: axis must be 'x', 'y' or 'z', got {self.axis!r}")
+            raise PerceptionError(f"joint {self.name!r}: axis must be 'x', 'y' or 'z', got {self.axis!r}")
         M = check_transform(f"origin of joint {self.name!r}", self.origin)
         M.setflags(write=False)
         object.__setattr__(self, "origin", M)
@@ -131,10 +126,10 @@ class Joint:
                 try:
                     value = real_scalar(f"{side} limit of joint {self.name!r}", value)
                 except PerceptionError as exc:
-                    raise JointLimitError(str(exc)) from exc
+                    raise PerceptionError(str(exc)) from exc
                 object.__setattr__(self, side, value)
         if self.lower is not None and self.upper is not None and self.lower > self.upper:
-            raise JointLimitError(
+            raise PerceptionError(
                 f"joint {self.name!r}: lower limit {self.lower!r} exceeds upper limit {self.upper!r}"
             )
 
@@ -169,20 +164,20 @@ class KinematicChain:
 
     def __post_init__(self) -> None:
         if self.joints is None or isinstance(self.joints, (str, bytes, Joint)):
-            raise KinematicsError(f"joints must be a non-empty sequence of Joint, got {self.joints!r}")
+            raise PerceptionError(f"joints must be a non-empty sequence of Joint, got {self.joints!r}")
         try:
             joints = tuple(self.joints)
         except TypeError as exc:
-            raise KinematicsError(
+            raise PerceptionError(
                 f"joints must be a non-empty sequence of Joint, got {self.joints!r}"
             ) from exc
         if self.right_eye is not None and not isinstance(self.right_eye, Joint):
-            raise KinematicsError(f"right_eye must be a Joint or None, got {type(self.right_eye).__name__}")
+            raise PerceptionError(f"right_eye must be a Joint or None, got {type(self.right_eye).__name__}")
         if not joints or not all(isinstance(j, Joint) for j in joints):
-            raise KinematicsError(f"joints must be a non-empty sequence of Joint, got {self.joints!r}")
+            raise PerceptionError(f"joints must be a non-empty sequence of Joint, got {self.joints!r}")
         names = [j.name for j in joints] + ([self.right_eye.name] if self.right_eye is not None else [])
         if len(set(names)) != len(names):
-            raise KinematicsError(f"joints (and right_eye): joint names must be unique, got {names}")
+            raise PerceptionError(f"joints (and right_eye): joint names must be unique, got {names}")
         E = check_transform("ego_from_base", self.ego_from_base)
         C = check_transform("tip_from_camera", self.tip_from_camera)
         E.setflags(write=False)
@@ -233,7 +228,7 @@ class KinematicChain:
         ------
         MissingExtraError
             yourdfpy is not installed.
-        URDFError
+        RobotFileError
             The file is missing or unreadable, a link is not in it, ``camera_link`` is not below
             ``base_link``, no revolute joint lies between them, or a joint on the way is
             prismatic, planar, floating or a mimic joint.
@@ -243,10 +238,8 @@ class KinematicChain:
         for name, letter, origin, lower, upper, index in specs:
             try:
                 joints.append(Joint(name, letter, origin, lower, upper))
-            except JointLimitError as exc:
-                raise URDFError(f"joint {name!r} (index {index} on the path): {exc}") from exc
             except PerceptionError as exc:
-                raise URDFError(f"joint {name!r} (index {index} on the path) of {where}: {exc}") from exc
+                raise RobotFileError(f"joint {name!r} (index {index} on the path) of {where}: {exc}") from exc
         return cls(tuple(joints), np.eye(4), tip_from_camera)
 
     @property
@@ -273,16 +266,16 @@ class KinematicChain:
 
         ``angles`` is a dict ``name -> radians`` (every serial joint required) or an array of
         length ``len(joints)`` or ``n_joints``. An angle outside its joint's limits raises
-        :class:`~perception.JointLimitError` naming the joint, its index and the angle.
+        :class:`~perception.PerceptionError` naming the joint, its index and the angle.
         """
         n = len(self.joints)
         if isinstance(angles, Mapping):
             unknown = sorted(set(angles) - set(self.names))
             if unknown:
-                raise KinematicsError(f"unknown joint names {unknown}; known: {list(self.names)}")
+                raise PerceptionError(f"unknown joint names {unknown}; known: {list(self.names)}")
             missing = [j.name for j in self.joints if j.name not in angles]
             if missing:
-                raise KinematicsError(f"angles lack joints {missing}")
+                raise PerceptionError(f"angles lack joints {missing}")
             q = [real_scalar(f"angles[{j.name!r}]", angles[j.name]) for j in self.joints]
             if self.right_eye is not None:
                 eye = self.right_eye.name
@@ -291,7 +284,7 @@ class KinematicChain:
         else:
             vec = real_array("angles", angles)
             if vec.ndim != 1 or vec.size not in (n, self.n_joints):
-                raise ShapeError(
+                raise PerceptionError(
                     f"angles must have shape ({n},) or ({self.n_joints},), got shape {vec.shape}"
                 )
             if vec.size < self.n_joints:
@@ -379,9 +372,9 @@ def default_head(baseline: float = 0.093) -> KinematicChain:
     try:
         baseline = real_scalar("baseline", baseline, positive=True)
     except PerceptionError as exc:
-        raise KinematicsError(str(exc)) from exc
+        raise PerceptionError(str(exc)) from exc
     if baseline > MAX_TRANSLATION:
-        raise KinematicsError(f"baseline must be at most {MAX_TRANSLATION:g} m, got {baseline!r}")
+        raise PerceptionError(f"baseline must be at most {MAX_TRANSLATION:g} m, got {baseline!r}")
     half = baseline / 2.0
     joints = (
         Joint("neck_pitch", "y", np.eye(4)),
@@ -424,15 +417,15 @@ def percept_covariance(
     (3, 3) float
     """
     if not isinstance(chain, KinematicChain):
-        raise KinematicsError(f"chain must be a KinematicChain, got {type(chain).__name__}")
+        raise PerceptionError(f"chain must be a KinematicChain, got {type(chain).__name__}")
     C = real_array("point_cov_camera", point_cov_camera, (3, 3))
     scale = float(np.max(np.abs(C)))
     if float(np.max(np.abs(C / max(scale, TINY) - C.T / max(scale, TINY)))) > SYM_RTOL:
-        raise NonPositiveSigmaError(f"point_cov_camera must be symmetric, got {C.tolist()}")
+        raise PerceptionError(f"point_cov_camera must be symmetric, got {C.tolist()}")
     if scale > 0:
         low = float(np.linalg.eigvalsh(0.5 * (C / scale) + 0.5 * (C.T / scale))[0])
         if low < -PSD_ATOL:
-            raise NonPositiveSigmaError(
+            raise PerceptionError(
                 f"point_cov_camera must be positive semidefinite (smallest eigenvalue {low * scale:.3g}), "
                 f"got {C.tolist()}"
             )
@@ -440,15 +433,16 @@ def percept_covariance(
     if s.ndim == 0:
         s = np.full(chain.n_joints, float(s))
     if s.shape != (chain.n_joints,):
-        raise ShapeError(f"encoder_sigma must be a scalar or shape ({chain.n_joints},), got shape {s.shape}")
+        raise PerceptionError(f"encoder_sigma must be a scalar or shape ({chain.n_joints},), got shape "
+                              f"{s.shape}")
     if not np.all(np.isfinite(s)):
-        raise NonFiniteError(f"encoder_sigma must be finite, got {s.tolist()}")
+        raise PerceptionError(f"encoder_sigma must be finite, got {s.tolist()}")
     if np.any(s < 0):
-        raise NonPositiveSigmaError(f"encoder_sigma must be >= 0, got {s.tolist()}")
+        raise PerceptionError(f"encoder_sigma must be >= 0, got {s.tolist()}")
     big = np.flatnonzero(s > MAX_ENCODER_SIGMA)
     if big.size:
         i = int(big[0])
-        raise NonPositiveSigmaError(
+        raise PerceptionError(
             f"encoder_sigma[{i}] = {float(s[i])!r} must lie in [0, {MAX_ENCODER_SIGMA:g}] rad: encoder "
             "noise is in radians; did you pass degrees? use np.radians"
         )
@@ -458,7 +452,7 @@ def percept_covariance(
         out = R @ C @ R.T + (J * s**2) @ J.T
         out = 0.5 * out + 0.5 * out.T
     if not np.all(np.isfinite(out)):
-        raise NonFiniteError(
+        raise PerceptionError(
             f"the covariance overflows for point_camera {np.asarray(point_camera).tolist()!r}, "
             f"encoder_sigma {s.tolist()} and point_cov_camera scale {scale!r}"
         )

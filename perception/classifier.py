@@ -17,12 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._checks import real_array, real_scalar, sequence, spd
 from .errors import (
-    NonFiniteError,
-    NonPositiveSigmaError,
-    NotFittedError,
     PerceptionError,
-    ShapeError,
-    UnknownClassError,
 )
 from .stereo import _matrix as _as_float_array
 
@@ -34,15 +29,15 @@ def _thresholds(value: Any, k: int) -> NDArray[np.float64]:
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError) as exc:
-        raise ShapeError(f"thresholds must have shape ({k},), got {value!r}") from exc
+        raise PerceptionError(f"thresholds must have shape ({k},), got {value!r}") from exc
     if value is None or raw.dtype.kind not in "fiu":
-        raise ShapeError(f"thresholds must be real numbers of shape ({k},), got {value!r}")
+        raise PerceptionError(f"thresholds must be real numbers of shape ({k},), got {value!r}")
     thr = np.array(raw, dtype=np.float64)
     if thr.shape != (k,):
-        raise ShapeError(f"thresholds must have shape ({k},), got shape {thr.shape}")
+        raise PerceptionError(f"thresholds must have shape ({k},), got shape {thr.shape}")
     bad = np.flatnonzero(np.isnan(thr) | (thr == np.inf))
     if bad.size:
-        raise NonFiniteError(f"thresholds[{bad[0]}] must be a number or -inf, got {thr[bad[0]]!r}")
+        raise PerceptionError(f"thresholds[{bad[0]}] must be a number or -inf, got {thr[bad[0]]!r}")
     return thr
 
 
@@ -76,34 +71,34 @@ class GaussianClassifier:
         classes = tuple(sequence("classes", self.classes))
         k = len(classes)
         if k == 0:
-            raise UnknownClassError(f"classes must be non-empty strings, got {classes!r}")
+            raise PerceptionError(f"classes must be non-empty strings, got {classes!r}")
         if len(set(classes)) != k:
-            raise UnknownClassError(f"classes must be unique, got {classes!r}")
+            raise PerceptionError(f"classes must be unique, got {classes!r}")
         means = real_array("means", self.means)
         if means.ndim != 2 or means.shape[0] != k:
-            raise ShapeError(
+            raise PerceptionError(
                 f"means must have shape (k, d) with k = len(classes) = {k}, got shape {means.shape}"
             )
         d = means.shape[1]
         if d < 1:
-            raise ShapeError(f"means must have shape ({k}, d) with d >= 1, got shape {means.shape}")
+            raise PerceptionError(f"means must have shape ({k}, d) with d >= 1, got shape {means.shape}")
         if np.any(np.abs(means) > 1e150):
-            raise NonFiniteError("means must be at most 1e150 in magnitude")
+            raise PerceptionError("means must be at most 1e150 in magnitude")
         covs_in = real_array("covariances", self.covariances)
         if covs_in.shape != (k, d, d):
-            raise ShapeError(
+            raise PerceptionError(
                 f"covariances must have shape ({k}, {d}, {d}) (k = len(classes), d = means.shape[1]), "
                 f"got shape {covs_in.shape}"
             )
         covs = np.stack([spd(f"covariances[{i}]", covs_in[i], d) for i in range(k)])
         if np.any(np.abs(covs) > 1e150) or np.any(np.abs(covs) < 1e-150 * (covs != 0)):
-            raise NonPositiveSigmaError("covariances entries must lie within [1e-150, 1e150] in magnitude")
+            raise PerceptionError("covariances entries must lie within [1e-150, 1e150] in magnitude")
         log_priors = _as_float_array("log_priors", self.log_priors, (k,))
         thresholds = _thresholds(self.thresholds, k)
         try:
             chol = np.linalg.cholesky(covs)
         except np.linalg.LinAlgError as exc:
-            raise NonPositiveSigmaError("covariances must be positive definite") from exc
+            raise PerceptionError("covariances must be positive definite") from exc
         log_norm = -0.5 * d * np.log(2 * np.pi) - np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1)
         for name, arr in (
             ("means", means), ("covariances", covs), ("log_priors", log_priors), ("thresholds", thresholds),
@@ -149,18 +144,18 @@ class GaussianClassifier:
         """
         x = real_array("features", features, (-1, -1))
         if x.shape[1] < 1:
-            raise ShapeError(f"features must have shape (n, d) with d >= 1, got shape {x.shape}")
+            raise PerceptionError(f"features must have shape (n, d) with d >= 1, got shape {x.shape}")
         big = np.argwhere(np.abs(x) > 1e100)
         if big.size:
             i, j = big[0]
-            raise NonFiniteError(f"features[{i}, {j}] = {x[i, j]!r} exceeds 1e100 in magnitude")
+            raise PerceptionError(f"features[{i}, {j}] = {x[i, j]!r} exceeds 1e100 in magnitude")
         y = np.asarray(sequence("labels", labels) or [], dtype=object).reshape(-1)
         if y.shape != (x.shape[0],):
-            raise ShapeError(
+            raise PerceptionError(
                 f"labels must have one entry per row of features (shape ({x.shape[0]},)), got shape {y.shape}"
             )
         if x.shape[0] == 0:
-            raise NotFittedError("features must hold at least one sample per class, got none")
+            raise PerceptionError("features must hold at least one sample per class, got none")
         regularization = real_scalar("regularization", regularization, nonnegative=True, maximum=1e100)
         reject_quantile = real_scalar("reject_quantile", reject_quantile, minimum=0.0, maximum=1.0)
         threshold_margin = real_scalar("threshold_margin", threshold_margin, nonnegative=True, maximum=1e100)
@@ -170,7 +165,7 @@ class GaussianClassifier:
         for c in classes:
             xc = x[y == c]
             if len(xc) < 2:
-                raise NotFittedError(f"class {c!r} needs at least 2 samples, got {len(xc)}")
+                raise PerceptionError(f"class {c!r} needs at least 2 samples, got {len(xc)}")
             mu = xc.mean(axis=0)
             diff = xc - mu
             means.append(mu)
@@ -178,7 +173,7 @@ class GaussianClassifier:
             try:
                 spd(f"covariance of class {c!r}", cov, d)
             except PerceptionError as exc:
-                raise NotFittedError(
+                raise PerceptionError(
                     f"class {c!r}: its features are degenerate (use regularization > 0): {exc}"
                 ) from exc
             covs.append(cov)
@@ -204,11 +199,11 @@ class GaussianClassifier:
         if x.ndim == 1:
             x = x[None, :]
         if x.ndim != 2 or x.shape[1] != self.n_features:
-            raise ShapeError(f"features must have shape (n, {self.n_features}), got shape {x.shape}")
+            raise PerceptionError(f"features must have shape (n, {self.n_features}), got shape {x.shape}")
         big = np.argwhere(np.abs(x) > 1e100)
         if big.size:
             i, j = big[0]
-            raise NonFiniteError(f"features[{i}, {j}] = {x[i, j]!r} exceeds 1e100 in magnitude")
+            raise PerceptionError(f"features[{i}, {j}] = {x[i, j]!r} exceeds 1e100 in magnitude")
         diff = x[None, :, :] - self.means[:, None, :]  # (k, n, d)
         z = np.linalg.solve(self._chol, np.swapaxes(diff, 1, 2))  # (k, d, n)
         maha = np.einsum("kdn,kdn->kn", z, z)

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._checks import name_string, real_array, real_scalar, spd
-from .errors import NonFiniteError, ShapeError, UnknownClassError
+from .errors import PerceptionError
 
 __all__ = ["MAX_PIXEL_COORDINATE", "Detection"]
 
@@ -31,25 +31,25 @@ MAX_PIXEL_COORDINATE = 1e9
 def _mask(value: object) -> NDArray[np.bool_]:
     """A 2D boolean mask (bool, or integers 0/1) with at least one pixel set."""
     if value is None or isinstance(value, (str, bytes)):
-        raise ShapeError(f"mask must be a 2D boolean array, got {value!r:.80}")
+        raise PerceptionError(f"mask must be a 2D boolean array, got {value!r:.80}")
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError) as exc:
-        raise ShapeError(f"mask must be a 2D boolean array, got {type(value).__name__}") from exc
+        raise PerceptionError(f"mask must be a 2D boolean array, got {type(value).__name__}") from exc
     if raw.ndim != 2 or raw.shape[0] < 1 or raw.shape[1] < 1:
-        raise ShapeError(f"mask must be a 2D boolean array (height, width), got shape {raw.shape}")
+        raise PerceptionError(f"mask must be a 2D boolean array (height, width), got shape {raw.shape}")
     if raw.dtype.kind == "b":
         mask = raw.astype(bool, copy=True)
     elif raw.dtype.kind in "iu":
         bad = np.flatnonzero((raw != 0) & (raw != 1))
         if bad.size:
             r, c = np.unravel_index(int(bad[0]), raw.shape)
-            raise ShapeError(f"mask[{r}, {c}] = {raw[r, c]!r}: an integer mask must hold 0 and 1 only")
+            raise PerceptionError(f"mask[{r}, {c}] = {raw[r, c]!r}: an integer mask must hold 0 and 1 only")
         mask = raw.astype(bool)
     else:
-        raise ShapeError(f"mask must be a boolean (or 0/1 integer) array, got dtype {raw.dtype}")
+        raise PerceptionError(f"mask must be a boolean (or 0/1 integer) array, got dtype {raw.dtype}")
     if not mask.any():
-        raise ShapeError(f"mask is empty: no pixel of the {mask.shape[0]} x {mask.shape[1]} mask is set")
+        raise PerceptionError(f"mask is empty: no pixel of the {mask.shape[0]} x {mask.shape[1]} mask is set")
     return mask
 
 
@@ -57,9 +57,10 @@ def _box(value: object) -> NDArray[np.float64]:
     box = real_array("box", value, (4,))
     if np.any(np.abs(box) > MAX_PIXEL_COORDINATE):
         i = int(np.argmax(np.abs(box)))
-        raise NonFiniteError(f"box[{i}] = {float(box[i])!r} must be at most {MAX_PIXEL_COORDINATE:g} px")
+        raise PerceptionError(f"box[{i}] = {float(box[i])!r} must be at most {MAX_PIXEL_COORDINATE:g} px")
     if box[2] < box[0] or box[3] < box[1]:
-        raise ShapeError(f"box must be (u_min, v_min, u_max, v_max) with u_min <= u_max and v_min <= v_max, "
+        raise PerceptionError(f"box must be (u_min, v_min, u_max, v_max) with u_min <= u_max and v_min <= "
+                              f"v_max, "
                          f"got {box.tolist()}")
     return box
 
@@ -140,11 +141,11 @@ class Detection:
     score: float = 1.0
 
     def __post_init__(self) -> None:
-        name_string("type", self.type, UnknownClassError)
+        name_string("type", self.type)
         mask = None if self.mask is None else _mask(self.mask)
         box = None if self.box is None else _box(self.box)
         if mask is None and box is None and self.centroid_uv is None:
-            raise ShapeError("a Detection needs a mask, a box or a centroid_uv; got none of them")
+            raise PerceptionError("a Detection needs a mask, a box or a centroid_uv; got none of them")
         m_centroid = m_area = m_cov = None
         if mask is not None:
             m_centroid, m_area, m_cov, m_box = _mask_moments(mask)
@@ -157,8 +158,8 @@ class Detection:
             assert box is not None
             uv = 0.5 * (box[:2] + box[2:])
         if np.any(np.abs(uv) > MAX_PIXEL_COORDINATE):
-            raise NonFiniteError(f"centroid_uv must be at most {MAX_PIXEL_COORDINATE:g} px, "
-                                 f"got {uv.tolist()}")
+            raise PerceptionError(f"centroid_uv must be at most {MAX_PIXEL_COORDINATE:g} px, "
+                                  f"got {uv.tolist()}")
         if self.area is not None:
             area = real_scalar("area", self.area, positive=True, maximum=1e12)
         elif m_area is not None:
@@ -166,7 +167,7 @@ class Detection:
         elif box is not None:
             area = float((box[2] - box[0] + 1.0) * (box[3] - box[1] + 1.0))
         else:
-            raise ShapeError("area must be given with a centroid_uv alone (no mask or box to count)")
+            raise PerceptionError("area must be given with a centroid_uv alone (no mask or box to count)")
         if self.shape_covariance is not None:
             shape = spd("shape_covariance", self.shape_covariance, 2)
         elif m_cov is not None:

@@ -1,82 +1,82 @@
-"""Exceptions of :mod:`perception`: one base, specific subclasses."""
+"""Exceptions of :mod:`perception`: a base and the few subclasses a caller acts on.
+
+Every error :mod:`perception` raises is a :class:`PerceptionError`, which is a
+:class:`ValueError`. A bad argument (a wrong shape, NaN, a non-positive sigma, an unknown class,
+a transform that is not rigid, a joint outside its limits, ...) raises the base itself, with a
+message that names the argument, the index and the value. A subclass exists only where a
+caller does something different:
+
+- :class:`MissingExtraError` (also an :class:`ImportError`): install the named extra;
+- :class:`RobotFileError`: fix the calibration, URDF or MJCF file the message names;
+- :class:`BehindCameraError`: drop the point (it cannot be measured from this view);
+- :class:`TooManyNeighboursError`: lower the bandwidth or fuse in batches.
+
+The classes that 0.1 had for each kind of bad argument (``ShapeError``, ``NonFiniteError``,
+...) are deprecated names of the class that replaced them; see :data:`DEPRECATED_NAMES`.
+"""
 
 from __future__ import annotations
 
+import warnings
+
+__all__ = [
+    "BehindCameraError",
+    "MissingExtraError",
+    "PerceptionError",
+    "RobotFileError",
+    "TooManyNeighboursError",
+]
+
 
 class PerceptionError(ValueError):
-    """Base of every error raised by :mod:`perception`."""
-
-
-class ShapeError(PerceptionError):
-    """An array does not have the expected shape."""
-
-
-class NonFiniteError(PerceptionError):
-    """A value is NaN or infinite."""
-
-
-class NonPositiveSigmaError(PerceptionError):
-    """A standard deviation (or a depth factor) is zero or negative."""
-
-
-class UnknownClassError(PerceptionError):
-    """A percept type or object class that is not known."""
-
-
-class BehindCameraError(PerceptionError):
-    """A point lies behind the camera, or its depth is not positive."""
-
-
-class CalibrationError(PerceptionError):
-    """A camera calibration is invalid (e.g. R is not a rotation, a focal length is not positive)."""
-
-
-class CalibrationFileError(CalibrationError):
-    """A calibration file is missing, unreadable or lacks a required key."""
-
-
-class KinematicsError(PerceptionError):
-    """A kinematic chain or its joint angles are invalid (unknown joint, bad axis)."""
-
-
-class InvalidPoseError(KinematicsError):
-    """A 4x4 transform that is not a rigid motion (bad rotation block or last row)."""
-
-
-class JointLimitError(KinematicsError):
-    """A joint angle outside the joint's limits (or limits with lower > upper)."""
-
-
-class URDFError(KinematicsError):
-    """A URDF file that cannot be read, or whose links do not form a usable chain (a missing link,
-    no path from the base link down to the camera link, a joint type the chain cannot hold)."""
-
-
-class TypeRuleError(PerceptionError):
-    """A ``type_of`` argument that is not a name -> type rule (see :mod:`perception.type_rules`)."""
-
-
-class SceneError(PerceptionError):
-    """A simulated scene that cannot be built: an MJCF file MuJoCo cannot read, an argument that
-    is neither a path nor a ``mujoco.MjModel``, a model without a typed object, no OpenGL context."""
-
-
-class OptionError(PerceptionError):
-    """An option outside its allowed values (an unknown sensor name, a rate outside [0, 1])."""
+    """Base of every error raised by :mod:`perception`, and the error of a bad argument."""
 
 
 class MissingExtraError(PerceptionError, ImportError):
     """An optional dependency is not installed; the message names the extra to install."""
 
 
-class ImageFormatError(ShapeError):
-    """An image has the wrong shape, number of channels or dtype."""
+class RobotFileError(PerceptionError):
+    """A robot or scene file that cannot be used: a stereo calibration, URDF or MJCF file that is
+    missing, unreadable, lacks a key, or does not describe a usable rig, chain or scene (the
+    message names the file)."""
 
 
-class NotFittedError(PerceptionError):
-    """A classifier cannot be fitted (too few samples of a class) or was given bad labels."""
+class BehindCameraError(PerceptionError):
+    """A point lies behind the camera, or its depth is not positive: it cannot be measured from
+    this view."""
 
 
 class TooManyNeighboursError(PerceptionError):
     """Mean shift would evaluate more kernel pairs than its budget (a bandwidth that is large for
     the density of the points): lower the bandwidth or fuse in batches."""
+
+
+#: Names of 0.1's error classes, deprecated in 0.2 and removed in 0.3, and the class each now
+#: is. An ``except`` clause that names one catches everything it caught before.
+DEPRECATED_NAMES: dict[str, type[PerceptionError]] = {
+    **dict.fromkeys(
+        ["ShapeError", "NonFiniteError", "NonPositiveSigmaError", "UnknownClassError",
+         "CalibrationError", "KinematicsError", "InvalidPoseError", "JointLimitError",
+         "TypeRuleError", "OptionError", "ImageFormatError", "NotFittedError", "SceneError"],
+        PerceptionError,
+    ),
+    "CalibrationFileError": RobotFileError,
+    "MissingDataError": MissingExtraError,  # perception.middlebury's: the motorcycle pair is absent
+    "URDFError": RobotFileError,
+}
+
+
+def _deprecated(module: str, name: str) -> type[PerceptionError]:
+    """The class a deprecated error name stands for, with a :class:`DeprecationWarning`."""
+    if name not in DEPRECATED_NAMES:
+        raise AttributeError(f"module {module!r} has no attribute {name!r}")
+    cls = DEPRECATED_NAMES[name]
+    home = f"{cls.__module__.split('.')[0]}.{cls.__name__}"
+    warnings.warn(f"{module}.{name} is deprecated and will be removed in 0.3: catch {home}, the class "
+                  "its errors are now raised as", DeprecationWarning, stacklevel=3)
+    return cls
+
+
+def __getattr__(name: str) -> type[PerceptionError]:
+    return _deprecated(__name__, name)

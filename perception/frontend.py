@@ -53,7 +53,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._checks import boolean, integer, real_array, real_scalar, sequence
 from .chain import check_transform
 from .detection import Detection
-from .errors import ImageFormatError, NonFiniteError, PerceptionError, ShapeError
+from .errors import PerceptionError
 from .percept import OBJECT_VIEW, Percept
 from .tolerances import DEPTH_COVARIANCE_FLOOR
 
@@ -174,11 +174,13 @@ class DetectionPercepts:
 def _camera_matrix(value: ArrayLike) -> NDArray[np.float64]:
     K = real_array("K", value, (3, 3))
     if not (K[0, 0] > 0 and K[1, 1] > 0) or not np.allclose(K[2], [0.0, 0.0, 1.0]) or K[1, 0] != 0:
-        raise ShapeError(f"K must be a camera matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0, "
+        raise PerceptionError(f"K must be a camera matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, "
+                              f"fy > 0, "
                          f"got {K.tolist()}")
     if not (MIN_FOCAL_PX <= K[0, 0] <= MAX_FOCAL_PX and MIN_FOCAL_PX <= K[1, 1] <= MAX_FOCAL_PX) or \
             np.any(np.abs(K[:2, 1:]) > MAX_FOCAL_PX):
-        raise ShapeError(f"K: focal lengths must lie in [{MIN_FOCAL_PX:g}, {MAX_FOCAL_PX:g}] px and the skew "
+        raise PerceptionError(f"K: focal lengths must lie in [{MIN_FOCAL_PX:g}, {MAX_FOCAL_PX:g}] px and "
+                              f"the skew "
                          f"and principal point within {MAX_FOCAL_PX:g} px, got {K.tolist()}")
     return K
 
@@ -188,31 +190,32 @@ def _depth_image(value: ArrayLike) -> NDArray[np.float64]:
     raw = np.asarray(value) if not isinstance(value, (str, bytes)) else None
     if raw is None or raw.ndim != 2 or raw.shape[0] < 1 or raw.shape[1] < 1:
         shape = None if raw is None else raw.shape
-        raise ImageFormatError(f"depth must be a 2D (height, width) image in metres, got shape {shape}")
+        raise PerceptionError(f"depth must be a 2D (height, width) image in metres, got shape {shape}")
     if raw.dtype.kind in "iu":
-        raise ImageFormatError(
+        raise PerceptionError(
             f"depth has integer dtype {raw.dtype}: depth cameras store millimetres in uint16; pass "
             "depth.astype(float) / 1000.0 (metres, with 0 for no reading)")
     if raw.dtype.kind != "f":
-        raise ImageFormatError(f"depth must be a float image in metres, got dtype {raw.dtype}")
+        raise PerceptionError(f"depth must be a float image in metres, got dtype {raw.dtype}")
     depth = raw.astype(np.float64)
     neg = np.argwhere(depth < 0)
     if len(neg):
         r, c = neg[0]
-        raise NonFiniteError(f"depth[{r}, {c}] = {float(depth[r, c])!r} is negative; a depth image holds "
-                             "distances along the optical axis (0 or NaN for no reading)")
+        raise PerceptionError(f"depth[{r}, {c}] = {float(depth[r, c])!r} is negative; a depth image holds "
+                              "distances along the optical axis (0 or NaN for no reading)")
     valid = np.isfinite(depth) & (depth > 0)
     odd = np.argwhere(valid & ((depth < MIN_DEPTH) | (depth > MAX_DEPTH)))
     if len(odd):
         r, c = odd[0]
-        raise NonFiniteError(f"depth[{r}, {c}] = {float(depth[r, c])!r} m lies outside [{MIN_DEPTH:g}, "
-                             f"{MAX_DEPTH:g}] m, the readings a depth camera gives (0 or NaN for no reading)")
+        raise PerceptionError(f"depth[{r}, {c}] = {float(depth[r, c])!r} m lies outside [{MIN_DEPTH:g}, "
+                              f"{MAX_DEPTH:g}] m, the readings a depth camera gives "
+                              "(0 or NaN for no reading)")
     sample = depth[::4, ::4][valid[::4, ::4]]
     if sample.size:
         med = float(np.median(sample))
         if med > MAX_PLAUSIBLE_DEPTH:
-            raise ImageFormatError(f"depth readings have median {med:.4g}: that looks like millimetres; pass "
-                                   "depth / 1000.0 (metres)")
+            raise PerceptionError(f"depth readings have median {med:.4g}: that looks like millimetres; pass "
+                                  "depth / 1000.0 (metres)")
     return np.where(valid, depth, np.nan)
 
 
@@ -378,15 +381,18 @@ def _region(det: Detection, shape: tuple[int, int], index: int) -> tuple[NDArray
     h, w = shape
     if det.mask is not None:
         if det.mask.shape != (h, w):
-            raise ShapeError(f"detections[{index}].mask has shape {det.mask.shape}; the depth image is "
-                             f"{h} x {w} (the mask must cover the whole image the depth is registered to)")
+            raise PerceptionError(f"detections[{index}].mask has shape {det.mask.shape}; the depth image is "
+                                  f"{h} x {w} (the mask must cover the whole image the depth is "
+                                  "registered to)")
         return det.mask, False
     box = det.box
     if box is None:
-        raise ShapeError(f"detections[{index}] has neither a mask nor a box: the depth front end needs the "
+        raise PerceptionError(f"detections[{index}] has neither a mask nor a box: the depth front end "
+                              f"needs the "
                          "object's pixels (a centroid alone does not say which depths are the object's)")
     if box[2] < 0 or box[3] < 0 or box[0] > w - 1 or box[1] > h - 1:
-        raise ShapeError(f"detections[{index}].box = {box.tolist()} lies outside the {w} x {h} depth image")
+        raise PerceptionError(f"detections[{index}].box = {box.tolist()} lies outside the {w} x {h} depth "
+                              f"image")
     u0, v0 = max(0, int(np.ceil(box[0]))), max(0, int(np.ceil(box[1])))
     u1, v1 = min(w - 1, int(np.floor(box[2]))), min(h - 1, int(np.floor(box[3])))
     mask = np.zeros((h, w), dtype=bool)
@@ -732,7 +738,7 @@ def stereo_percepts(
     from .uncertainty import depth_sigma, triangulation_jacobian
 
     if not isinstance(rig, StereoRig):
-        raise ShapeError(f"rig must be a perception.StereoRig, got {type(rig).__name__}")
+        raise PerceptionError(f"rig must be a perception.StereoRig, got {type(rig).__name__}")
     lefts = _detections("left", left)
     rights = _detections("right", right)
     T = check_transform("ego_from_camera", ego_from_camera)

@@ -23,12 +23,8 @@ from scipy.spatial import cKDTree
 
 from ._checks import integer, real_array, real_scalar, spd
 from .errors import (
-    NonFiniteError,
-    NonPositiveSigmaError,
     PerceptionError,
-    ShapeError,
     TooManyNeighboursError,
-    UnknownClassError,
 )
 from .percept import Percept
 from .tolerances import MEAN_SHIFT_TOL, QUERY_SLACK, TINY
@@ -75,16 +71,16 @@ def _bandwidth_factor(name: str, value: Any, d: int) -> NDArray[np.float64] | fl
     if H.ndim == 0:
         h = real_scalar(name, value, positive=True)
         if not SIGMA_RANGE[0] <= h <= SIGMA_RANGE[1]:
-            raise NonPositiveSigmaError(f"{name} must lie in [{SIGMA_RANGE[0]:g}, {SIGMA_RANGE[1]:g}] "
-                                        f"(length units), got {h!r}")
+            raise PerceptionError(f"{name} must lie in [{SIGMA_RANGE[0]:g}, {SIGMA_RANGE[1]:g}] "
+                                  f"(length units), got {h!r}")
         return h
     if H.shape != (d, d):
-        raise ShapeError(f"{name} must be a scalar or shape ({d}, {d}), got shape {H.shape}")
+        raise PerceptionError(f"{name} must be a scalar or shape ({d}, {d}), got shape {H.shape}")
     H = spd(name, H, d)
     top = float(np.max(np.abs(H)))
     if not VARIANCE_RANGE[0] <= top <= VARIANCE_RANGE[1]:
-        raise NonPositiveSigmaError(f"{name}: largest entry must lie in [{VARIANCE_RANGE[0]:g}, "
-                                    f"{VARIANCE_RANGE[1]:g}], got {top!r}")
+        raise PerceptionError(f"{name}: largest entry must lie in [{VARIANCE_RANGE[0]:g}, "
+                              f"{VARIANCE_RANGE[1]:g}], got {top!r}")
     # numpy's stubs widen the float64 factor to floating[Any]
     return cast(NDArray[np.float64], np.linalg.cholesky(H))
 
@@ -263,19 +259,19 @@ def mean_shift_modes(
     X = real_array("points", points, (-1, -1))
     n, d = X.shape
     if d < 1:
-        raise ShapeError(f"points must have at least one column, got shape {X.shape}")
+        raise PerceptionError(f"points must have at least one column, got shape {X.shape}")
     L = _bandwidth_factor("bandwidth", bandwidth, d)
     if weights is None:
         w = np.ones(n)
     else:
         w = real_array("weights", weights)
         if w.shape != (n,):
-            raise ShapeError(
+            raise PerceptionError(
                 f"weights must have one entry per row of points, shape ({n},), got shape {w.shape}"
             )
         bad = np.flatnonzero(w <= 0)
         if bad.size:
-            raise NonPositiveSigmaError(f"weights[{bad[0]}] must be > 0, got {w[bad[0]]!r}")
+            raise PerceptionError(f"weights[{bad[0]}] must be > 0, got {w[bad[0]]!r}")
     max_iter = integer("max_iter", max_iter, minimum=1, maximum=MAX_ITER_LIMIT)
     tol = real_scalar("tol", tol, positive=True)
     if n == 0:
@@ -285,7 +281,7 @@ def mean_shift_modes(
     bad_rows = ~np.all(np.isfinite(Z) & (np.abs(Z) <= MAX_WHITENED), axis=1)
     if np.any(bad_rows):
         i = int(np.flatnonzero(bad_rows)[0])
-        raise NonFiniteError(
+        raise PerceptionError(
             f"points[{i}] = {X[i].tolist()} is more than {MAX_WHITENED:g} bandwidths from the origin "
             f"(bandwidth {bandwidth!r}); fusion would overflow"
         )
@@ -393,7 +389,7 @@ def _melt(members: Sequence[Percept]) -> Percept:
     else:
         var = float(np.trace(S) / 3.0)
     if not (np.all(np.isfinite(m)) and np.all(np.isfinite(S)) and np.isfinite(var) and var > 0):
-        raise NonFiniteError(
+        raise PerceptionError(
             f"fusing {k} percepts of type {members[0].type!r} near {X[0].tolist()} overflows "
             f"(scatter factor {factor!r}, variance scale {q0!r} m^2); the positions are too far apart "
             "for their covariances"
@@ -411,24 +407,24 @@ def _melt(members: Sequence[Percept]) -> Percept:
 def _check_percepts(percepts: Any) -> list[Percept]:
     what = f"percepts must be a sequence of Percept, got {type(percepts).__name__}"
     if percepts is None or isinstance(percepts, (str, bytes, Percept, Mapping)):
-        raise ShapeError(what)
+        raise PerceptionError(what)
     try:
         ps = list(percepts)
     except TypeError as exc:
-        raise ShapeError(what) from exc
+        raise PerceptionError(what) from exc
     for i, p in enumerate(ps):
         if not isinstance(p, Percept):
-            raise ShapeError(f"percepts[{i}] must be a Percept, got {type(p).__name__}")
+            raise PerceptionError(f"percepts[{i}] must be a Percept, got {type(p).__name__}")
         if p.covariance is None:
             if not SIGMA_RANGE[0] <= p.sigma <= SIGMA_RANGE[1]:
-                raise NonPositiveSigmaError(
+                raise PerceptionError(
                     f"percepts[{i}].sigma must lie in [{SIGMA_RANGE[0]:g}, {SIGMA_RANGE[1]:g}] m for fusion "
                     f"(its square must be a normal float), got {p.sigma!r}"
                 )
         else:
             top = float(np.max(np.abs(p.covariance)))
             if not VARIANCE_RANGE[0] <= top <= VARIANCE_RANGE[1]:
-                raise NonPositiveSigmaError(
+                raise PerceptionError(
                     f"percepts[{i}].covariance: largest entry must lie in [{VARIANCE_RANGE[0]:g}, "
                     f"{VARIANCE_RANGE[1]:g}] m^2 for fusion, got {top!r}"
                 )
@@ -485,11 +481,10 @@ def fuse_percepts(
 
     Raises
     ------
-    UnknownClassError
-        ``bandwidth`` is a dict without an entry for a type present.
     PerceptionError
-        Any invalid argument (named with index and value), or a set that cannot be melted
-        without overflow.
+        - ``bandwidth`` is a dict without an entry for a type present.
+        - Any invalid argument (named with index and value), or a set that cannot be melted
+          without overflow.
     """
     ps = _check_percepts(percepts)
     min_views = integer("min_views", min_views, minimum=1)
@@ -499,7 +494,7 @@ def fuse_percepts(
     if isinstance(bandwidth, Mapping):
         missing = [t for t in types if t not in bandwidth]
         if missing:
-            raise UnknownClassError(
+            raise PerceptionError(
                 f"bandwidth has no entry for types {missing}; it has {sorted(map(repr, bandwidth))}"
             )
         H = {t: bandwidth[t] for t in types}

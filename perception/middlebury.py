@@ -15,17 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import PerceptionError, ShapeError
+from .errors import MissingExtraError, PerceptionError
 from .uncertainty import depth_sigma
 
 FOCAL_PX = 994.978
 BASELINE_M = 0.193001
 DOFFS_PX = 31.086
 MAD_TO_STD = 1.4826
-
-
-class MissingDataError(PerceptionError):
-    """The optional data set (scikit-image's motorcycle pair) is not available."""
 
 
 @dataclass(frozen=True)
@@ -85,17 +81,17 @@ def load_motorcycle() -> tuple[NDArray[np.uint8], NDArray[np.uint8], NDArray[np.
 
     Raises
     ------
-    MissingDataError
+    MissingExtraError
         scikit-image is not installed or cannot provide the data.
     """
     try:
         from skimage import data
     except ImportError as exc:
-        raise MissingDataError("scikit-image is not installed: pip install scikit-image") from exc
+        raise MissingExtraError("scikit-image is not installed: pip install scikit-image") from exc
     try:
         left, right, disp = data.stereo_motorcycle()
     except Exception as exc:  # any failure to fetch the optional data set (e.g. no network)
-        raise MissingDataError(f"skimage.data.stereo_motorcycle() failed: {exc}") from exc
+        raise MissingExtraError(f"skimage.data.stereo_motorcycle() failed: {exc}") from exc
     return left, right, disp
 
 
@@ -127,7 +123,8 @@ def sgbm_disparity(
     """
     import cv2
     if left.shape != right.shape or left.ndim not in (2, 3):
-        raise ShapeError(f"left and right must be images of one shape, got {left.shape} and {right.shape}")
+        raise PerceptionError(f"left and right must be images of one shape, got {left.shape} and "
+                              f"{right.shape}")
     gl = cv2.cvtColor(left, cv2.COLOR_RGB2GRAY) if left.ndim == 3 else left
     gr = cv2.cvtColor(right, cv2.COLOR_RGB2GRAY) if right.ndim == 3 else right
     channels = 1
@@ -181,7 +178,7 @@ def depth_error_table(
 
     Raises
     ------
-    MissingDataError
+    MissingExtraError
         The data set is not available.
     """
     left, right, gt = load_motorcycle()
@@ -217,3 +214,11 @@ def depth_error_table(
         valid_fraction=float(valid.mean()),
         n_pixels=int(d_true.size),
     )
+
+
+def __getattr__(name: str) -> type[PerceptionError]:
+    """``MissingDataError``, 0.1's name of :class:`~perception.errors.MissingExtraError` here,
+    deprecated."""
+    from . import errors
+
+    return errors._deprecated(__name__, name)

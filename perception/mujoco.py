@@ -51,10 +51,8 @@ from .chain import KinematicChain, default_head
 from .detection import Detection
 from .errors import (
     MissingExtraError,
-    OptionError,
-    SceneError,
-    ShapeError,
-    TypeRuleError,
+    PerceptionError,
+    RobotFileError,
 )
 from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE, CentreOffset, _offset_of, rgbd_percepts
 from .simulate import scan_angles
@@ -510,13 +508,13 @@ def _pose(position: ArrayLike, xmat: ArrayLike) -> NDArray[np.float64]:
 
 def _image_size(value: Any) -> tuple[int, int]:
     if value is None or isinstance(value, (str, bytes)):
-        raise ShapeError(f"image_size must be (width, height), got {_short(value)}")
+        raise PerceptionError(f"image_size must be (width, height), got {_short(value)}")
     try:
         items = list(value)
     except TypeError as exc:
-        raise ShapeError(f"image_size must be (width, height), got {_short(value)}") from exc
+        raise PerceptionError(f"image_size must be (width, height), got {_short(value)}") from exc
     if len(items) != 2:
-        raise ShapeError(f"image_size must be two integers (width, height), got {_short(value)}")
+        raise PerceptionError(f"image_size must be two integers (width, height), got {_short(value)}")
     return (integer("image_size[0] (width)", items[0], minimum=1, maximum=MAX_RENDER_SIDE),
             integer("image_size[1] (height)", items[1], minimum=1, maximum=MAX_RENDER_SIDE))
 
@@ -536,9 +534,9 @@ class MujocoScene:
 
     Raises
     ------
-    SceneError
+    RobotFileError
         A file MuJoCo cannot compile, an argument that is neither, or no typed object.
-    TypeRuleError
+    PerceptionError
         A bad ``type_of``, or a rule that raises or gives a type that is not a string.
     MissingExtraError
         ``mujoco`` is not installed.
@@ -558,13 +556,13 @@ class MujocoScene:
             model = copy.deepcopy(path_or_model)
             self.path: str | None = None
         else:
-            text = file_path("path_or_model", path_or_model, SceneError)
+            text = file_path("path_or_model", path_or_model, RobotFileError)
             if not os.path.isfile(text):
-                raise SceneError(f"path_or_model: {text}: no such file")
+                raise RobotFileError(f"path_or_model: {text}: no such file")
             try:
                 model = mujoco.MjModel.from_xml_path(text)
             except ValueError as exc:
-                raise SceneError(f"path_or_model: {text}: MuJoCo cannot compile it: {exc}") from exc
+                raise RobotFileError(f"path_or_model: {text}: MuJoCo cannot compile it: {exc}") from exc
             self.path = text
         model.vis.quality.offsamples = 0
         self._model = model
@@ -574,8 +572,8 @@ class MujocoScene:
         self._objects, self._geom_object = self._build_objects()
         if not self._objects:
             names = [model.body(b).name for b in range(1, model.nbody) if model.body(b).name][:20]
-            raise SceneError(f"path_or_model: no body or world geom gets a type (body names {names}); pass "
-                             "type_of= to type them")
+            raise RobotFileError(f"path_or_model: no body or world geom gets a type (body names {names}); "
+                                 "pass type_of= to type them")
         self._renderers: dict[tuple[int, int], Any] = {}
         self._default_offsets: dict[str, CentreOffset] | None = None
         self._camera = mujoco.MjvCamera()  # a free camera; its pose is overwritten per view
@@ -586,10 +584,10 @@ class MujocoScene:
         try:
             typ = self._rule(name)
         except Exception as exc:
-            raise TypeRuleError(f"type_of({name!r}) raised {type(exc).__name__}: {exc}") from exc
+            raise PerceptionError(f"type_of({name!r}) raised {type(exc).__name__}: {exc}") from exc
         if typ is None:
             return None
-        return name_string(f"type_of({name!r})", typ, TypeRuleError)
+        return name_string(f"type_of({name!r})", typ)
 
     def _build_objects(self) -> tuple[tuple[SceneObject, ...], NDArray[np.intp]]:
         model, data = self._model, self._data
@@ -742,7 +740,7 @@ class MujocoScene:
 
         Raises
         ------
-        SceneError
+        RobotFileError
             No free floor point near the objects after ``1000 n`` tries.
         """
         n = integer("n", n, minimum=1, maximum=100_000)
@@ -752,8 +750,8 @@ class MujocoScene:
         spread = np.radians(real_scalar("yaw_spread_deg", yaw_spread_deg, nonnegative=True, maximum=180.0))
         heights = real_array("head_height", head_height, (2,))
         if not 0 < heights[0] <= heights[1] <= 100.0:
-            raise OptionError(f"head_height must be (low, high) with 0 < low <= high <= 100 m, got "
-                              f"{heights.tolist()}")
+            raise PerceptionError(f"head_height must be (low, high) with 0 < low <= high <= 100 m, got "
+                                  f"{heights.tolist()}")
         floor, lo, hi = self._floor()
         boxes = self._obstacle_boxes()
         pos = self.positions
@@ -762,8 +760,8 @@ class MujocoScene:
         while k < n:
             tries += 1
             if tries > 1000 * n:
-                raise SceneError(f"no free floor point within {max_distance:g} m of the objects keeps "
-                                 f"{clearance:g} m from every geom (found {k} of {n})")
+                raise PerceptionError(f"no free floor point within {max_distance:g} m of the objects keeps "
+                                      f"{clearance:g} m from every geom (found {k} of {n})")
             target = pos[int(gen.integers(len(pos)))]
             r, a = max_distance * np.sqrt(gen.uniform(0.04, 1.0)), gen.uniform(0.0, 2.0 * np.pi)
             xy = target[:2] + r * np.array([np.cos(a), np.sin(a)])
@@ -805,7 +803,7 @@ class MujocoScene:
             fallback = {t: CentreOffset(d) for t, d in self.centre_depths().items()}
             try:
                 poses = self.robot_poses(CALIBRATION_POSES, np.random.default_rng(CALIBRATION_SEED))
-            except SceneError as exc:  # nowhere to stand: the geometry's guess alone, said aloud
+            except PerceptionError as exc:  # nowhere to stand: the geometry's guess alone, said aloud
                 warnings.warn(f"centre offsets not measured ({exc}); using centre_depths()", stacklevel=2)
                 measured = {}
             else:
@@ -852,16 +850,16 @@ class MujocoScene:
 
         Raises
         ------
-        InvalidPoseError
-            A pose that is not a rigid transform.
         PerceptionError
-            (a subclass) a bad ``n_views``, ``image_size``, ``chain`` or ``min_pixels``.
+            - A pose that is not a rigid transform.
+            - (a subclass) a bad ``n_views``, ``image_size``, ``chain`` or ``min_pixels``.
         """
         from .frontend import CENTRE_DEPTH_FLOOR, DEPTH_NOISE, _depth_windows, _visible_anchor
 
         poses = real_array("world_from_egos", world_from_egos)
         if poses.shape[-2:] != (4, 4) or poses.ndim not in (2, 3) or poses.size == 0:
-            raise ShapeError(f"world_from_egos must be a (4, 4) or (m, 4, 4) array, got shape {poses.shape}")
+            raise PerceptionError(f"world_from_egos must be a (4, 4) or (m, 4, 4) array, got shape "
+                                  f"{poses.shape}")
         checked = [check_transform(f"world_from_egos[{i}]", T) for i, T in enumerate(poses.reshape(-1, 4, 4))]
         min_px = integer("min_pixels", min_pixels, minimum=1)
         along: dict[str, list[float]] = {}
@@ -937,9 +935,9 @@ class MujocoScene:
             try:
                 renderer = self._mj.Renderer(self._model, h, w)
             except Exception as exc:  # no OpenGL: the message says which backend failed
-                raise SceneError(f"cannot render {w}x{h} images ({type(exc).__name__}: {exc}); headless "
-                                 "rendering needs MUJOCO_GL=egl (or osmesa) set before mujoco is "
-                                 "imported") from exc
+                raise PerceptionError(f"cannot render {w}x{h} images ({type(exc).__name__}: {exc}); headless "
+                                      "rendering needs MUJOCO_GL=egl (or osmesa) set before mujoco is "
+                                      "imported") from exc
             self._renderers[size] = renderer
         return renderer
 
@@ -970,11 +968,10 @@ class MujocoScene:
 
         Raises
         ------
-        InvalidPoseError
-            ``world_from_camera`` is not a rigid transform.
-        ShapeError
-            A bad ``image_size``.
-        SceneError
+        PerceptionError
+            - ``world_from_camera`` is not a rigid transform.
+            - A bad ``image_size``.
+        RobotFileError
             No OpenGL context (set ``MUJOCO_GL=egl``).
         """
         pose = check_transform("world_from_camera", world_from_camera)
@@ -1095,25 +1092,23 @@ class MujocoScene:
 
         Raises
         ------
-        InvalidPoseError
-            ``world_from_ego`` is not a rigid transform.
-        OptionError
-            An unknown ``sensor``.
         PerceptionError
-            (a subclass) naming the argument: ``n_views`` < 1, a bad ``image_size``, a rate
-            outside [0, 1], a negative ``mask_jitter_px``, ``min_pixels`` < 1, a negative
-            ``depth_noise``, a non-positive ``max_range``, ``rng`` not a Generator.
+            - ``world_from_ego`` is not a rigid transform.
+            - An unknown ``sensor``.
+            - (a subclass) naming the argument: ``n_views`` < 1, a bad ``image_size``, a rate
+              outside [0, 1], a negative ``mask_jitter_px``, ``min_pixels`` < 1, a negative
+              ``depth_noise``, a non-positive ``max_range``, ``rng`` not a Generator.
         """
         pose = check_transform("world_from_ego", world_from_ego)
         if not isinstance(sensor, str) or sensor not in SENSORS:
-            raise OptionError(f"sensor must be one of {SENSORS}, got {_short(sensor)}")
+            raise PerceptionError(f"sensor must be one of {SENSORS}, got {_short(sensor)}")
         kind: Sensor = "rgbd" if sensor == "rgbd" else "stereo"
         n = integer("n_views", n_views, minimum=1, maximum=100_000)
         gen = check_rng("rng", rng)
         size = _image_size(image_size)
         head = default_head() if chain is None else chain
         if not isinstance(head, KinematicChain):
-            raise ShapeError(f"chain must be a KinematicChain or None, got {type(chain).__name__}")
+            raise PerceptionError(f"chain must be a KinematicChain or None, got {type(chain).__name__}")
         miss = real_scalar("miss_rate", miss_rate, minimum=0.0, maximum=1.0)
         false = real_scalar("false_rate", false_rate, minimum=0.0, maximum=1.0)
         jitter = integer("mask_jitter_px", mask_jitter_px, minimum=0, maximum=1000)
@@ -1175,8 +1170,8 @@ class MujocoScene:
         if centre_offset is None:
             return self.default_centre_offsets()
         if not isinstance(centre_offset, Mapping):
-            raise ShapeError("centre_offset must be a mapping type -> CentreOffset or metres, or None, got "
-                             f"{_short(centre_offset)}")
+            raise PerceptionError("centre_offset must be a mapping type -> CentreOffset or metres, or None, "
+                                  f"got {_short(centre_offset)}")
         return {name_string("centre_offset key", k): _offset_of(f"centre_offset[{k!r}]", v)
                 for k, v in centre_offset.items()}
 

@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._checks import integer, name_string, real_array, real_scalar, spd, vector3
-from .errors import NonFiniteError, NonPositiveSigmaError, ShapeError, UnknownClassError
+from .errors import PerceptionError
 from .tolerances import SHARED_RTOL, SIGMA_COVARIANCE_FACTOR
 
 #: Largest magnitude of a position component accepted, metres (as worldgraph/radialopt bound
@@ -68,12 +68,11 @@ class Percept:
 
     Raises
     ------
-    NonPositiveSigmaError
-        Neither ``sigma`` nor ``covariance`` given, or a ``sigma`` that contradicts the
-        covariance (ratio outside ``[1/F, F]``, ``F =``
-        :data:`~perception.tolerances.SIGMA_COVARIANCE_FACTOR`).
     PerceptionError
-        (a subclass) naming the field and the bad value.
+        - Neither ``sigma`` nor ``covariance`` given, or a ``sigma`` that contradicts the
+          covariance (ratio outside ``[1/F, F]``, ``F =``
+          :data:`~perception.tolerances.SIGMA_COVARIANCE_FACTOR`).
+        - (a subclass) naming the field and the bad value.
 
     Notes
     -----
@@ -95,16 +94,16 @@ class Percept:
     shared: tuple[tuple[int, NDArray[np.float64]], ...] = ()
 
     def __post_init__(self) -> None:
-        name_string("type", self.type, UnknownClassError)
+        name_string("type", self.type)
         pos = vector3("position", self.position)
         big = np.flatnonzero(np.abs(pos) > MAX_COORDINATE)
         if big.size:
             i = int(big[0])
-            raise NonFiniteError(
+            raise PerceptionError(
                 f"position[{i}] = {float(pos[i])!r} must be at most {MAX_COORDINATE:g} m in magnitude"
             )
         if self.sigma is None and self.covariance is None:
-            raise NonPositiveSigmaError(
+            raise PerceptionError(
                 "Percept needs sigma (the range standard deviation, m) or covariance (3x3, m^2), got "
                 "sigma = None and covariance = None; pass at least one"
             )
@@ -161,12 +160,12 @@ def _range_sigma(position: NDArray[np.float64], covariance: NDArray[np.float64])
 
 
 def _check_agreement(sigma: float, range_sigma: float) -> None:
-    """:class:`NonPositiveSigmaError` when ``sigma`` and the covariance's range standard
+    """:class:`PerceptionError` when ``sigma`` and the covariance's range standard
     deviation differ by more than :data:`SIGMA_COVARIANCE_FACTOR` either way."""
     f = SIGMA_COVARIANCE_FACTOR
     ratio = sigma / range_sigma if range_sigma > 0 else np.inf
     if not 1.0 / f <= ratio <= f:
-        raise NonPositiveSigmaError(
+        raise PerceptionError(
             f"sigma = {sigma!r} m contradicts the covariance: the standard deviation of the range "
             f"|position| it gives is sqrt(u^T C u) = {range_sigma!r} m (ratio sigma / that = {ratio:.3g}, "
             f"outside [1/{f:g}, {f:g}], perception.tolerances.SIGMA_COVARIANCE_FACTOR); pass sigma=None "
@@ -184,36 +183,36 @@ def _shared(value: object, covariance: NDArray[np.float64] | None, sigma: float
     if value is None or (isinstance(value, tuple | list) and len(value) == 0):
         return ()
     if covariance is None and sigma > MAX_SHARED_SIGMA:
-        raise NonPositiveSigmaError(
+        raise PerceptionError(
             f"sigma = {sigma!r} must be at most {MAX_SHARED_SIGMA:g} m when shared loadings are given "
             "(sigma**2 overflows)"
         )
     if isinstance(value, str | bytes) or not isinstance(value, tuple | list):
-        raise ShapeError(f"shared must be a sequence of (view, (3, k) loading) pairs, got "
-                         f"{type(value).__name__}")
+        raise PerceptionError(f"shared must be a sequence of (view, (3, k) loading) pairs, got "
+                              f"{type(value).__name__}")
     out = []
     seen: set[int] = set()
     for i, item in enumerate(value):
         if not isinstance(item, tuple | list) or len(item) != 2:
-            raise ShapeError(f"shared[{i}] must be a (view, loading) pair, got {item!r:.80}")
+            raise PerceptionError(f"shared[{i}] must be a (view, loading) pair, got {item!r:.80}")
         view = integer(f"shared[{i}] view", item[0], minimum=OBJECT_VIEW)
         if view in seen:
-            raise ShapeError(f"shared[{i}] repeats view {view}")
+            raise PerceptionError(f"shared[{i}] repeats view {view}")
         seen.add(view)
         S = real_array(f"shared[{i}] loading", item[1])
         if S.size and float(np.max(np.abs(S))) > MAX_SHARED_SIGMA:
             j = np.unravel_index(int(np.argmax(np.abs(S))), S.shape)
-            raise NonFiniteError(f"shared[{i}] loading[{j[0]}, {j[1]}] = {float(S[j])!r} must be at most "
-                                 f"{MAX_SHARED_SIGMA:g} in magnitude")
+            raise PerceptionError(f"shared[{i}] loading[{j[0]}, {j[1]}] = {float(S[j])!r} must be at most "
+                                  f"{MAX_SHARED_SIGMA:g} in magnitude")
         if S.ndim != 2 or S.shape[0] != 3 or not 1 <= S.shape[1] <= MAX_SHARED_COLUMNS:
-            raise ShapeError(f"shared[{i}] loading must have shape (3, k) with 1 <= k <= "
-                             f"{MAX_SHARED_COLUMNS}, got shape {S.shape}")
+            raise PerceptionError(f"shared[{i}] loading must have shape (3, k) with 1 <= k <= "
+                                  f"{MAX_SHARED_COLUMNS}, got shape {S.shape}")
         S.setflags(write=False)
         out.append((view, S))
     total = np.eye(3) * sigma**2 if covariance is None else covariance
     part = sum(S @ S.T for _, S in out)
     gap = float(np.linalg.eigvalsh(total - part)[0])
     if gap < -SHARED_RTOL * float(np.linalg.eigvalsh(total)[-1]):
-        raise ShapeError(f"shared loadings exceed the covariance: covariance - sum S S^T has the "
-                         f"eigenvalue {gap:.3g} (the covariance is the total error)")
+        raise PerceptionError(f"shared loadings exceed the covariance: covariance - sum S S^T has the "
+                              f"eigenvalue {gap:.3g} (the covariance is the total error)")
     return tuple(out)

@@ -46,11 +46,7 @@ from .chain import check_transform
 from .classifier import GaussianClassifier
 from .detection import Detection
 from .errors import (
-    ImageFormatError,
-    NonPositiveSigmaError,
-    NotFittedError,
     PerceptionError,
-    ShapeError,
 )
 from .percept import Percept
 from .render import (  # the renderer moved to render.py; its names stay importable from here
@@ -139,7 +135,7 @@ def detect(
         Accepted regions, in segmentation order.
     """
     if not isinstance(classifier, GaussianClassifier):
-        raise ShapeError(f"classifier must be a GaussianClassifier, got {type(classifier).__name__}")
+        raise PerceptionError(f"classifier must be a GaussianClassifier, got {type(classifier).__name__}")
     exclude_border = boolean("exclude_border", exclude_border)
     feats, cents, areas, border, moments = _region_stats(image, color_ranges, min_area)
     if exclude_border:
@@ -201,8 +197,8 @@ def train_classifier(
     feats, labels = _training_samples(rig, rng, n_scenes, min_area)
     try:
         return GaussianClassifier.fit(feats, labels, **fit_kwargs)
-    except NotFittedError as exc:
-        raise NotFittedError(
+    except PerceptionError as exc:
+        raise PerceptionError(
             f"training on n_scenes={n_scenes} scenes with min_area={min_area} px failed: {exc}"
         ) from exc
 
@@ -435,7 +431,7 @@ def recognize(
 
     Raises
     ------
-    NonPositiveSigmaError
+    PerceptionError
         A bad ``depth_factor``, ``pixel_sigma``, ``disparity_std_px`` or
         ``centroid_offset_scale``, or an eq. 6 sigma that contradicts the triangulation
         covariance of its percept (ratio outside ``[1/F, F]``,
@@ -444,7 +440,7 @@ def recognize(
     """
     width, height = _image_size(rig)
     if not isinstance(classifier, GaussianClassifier):
-        raise ShapeError(f"classifier must be a GaussianClassifier, got {type(classifier).__name__}")
+        raise PerceptionError(f"classifier must be a GaussianClassifier, got {type(classifier).__name__}")
     min_area = integer("min_area", min_area, minimum=1)
     max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True)
     disparity_std_px = real_scalar("disparity_std_px", disparity_std_px, positive=True, maximum=1e6)
@@ -458,28 +454,28 @@ def recognize(
     for name, img in (("left", left), ("right", right)):
         _check_image(name, img)
         if img.shape[:2] != (height, width):
-            raise ImageFormatError(
+            raise PerceptionError(
                 f"{name} must have shape ({height}, {width}, 3) to match rig.image_size, "
                 f"got shape {img.shape}"
             )
     derived = [n for n, v in (("depth_factor", depth_factor), ("pixel_sigma", pixel_sigma)) if v is None]
     if depth_factor is None:
         if not np.isfinite(disparity_std_px) or disparity_std_px <= 0:
-            raise NonPositiveSigmaError(f"disparity_std_px must be finite and > 0, got {disparity_std_px!r}")
+            raise PerceptionError(f"disparity_std_px must be finite and > 0, got {disparity_std_px!r}")
         depth_factor = _default_depth_factor(rig, disparity_std_px)
         if not np.isfinite(depth_factor) or depth_factor > 1e150:
-            raise NonPositiveSigmaError(
+            raise PerceptionError(
                 f"the default depth_factor f b / disparity_std_px = {depth_factor!r} is too large; "
                 f"disparity_std_px = {disparity_std_px!r} is too small"
             )
     if not np.isfinite(depth_factor) or depth_factor <= 0:
-        raise NonPositiveSigmaError(f"depth_factor must be finite and > 0, got {depth_factor!r}")
+        raise PerceptionError(f"depth_factor must be finite and > 0, got {depth_factor!r}")
     if pixel_sigma is None:
         pixel_sigma = disparity_std_px / np.sqrt(2.0)
     if not np.isfinite(pixel_sigma) or pixel_sigma <= 0:
-        raise NonPositiveSigmaError(f"pixel_sigma must be finite and > 0, got {pixel_sigma!r}")
+        raise PerceptionError(f"pixel_sigma must be finite and > 0, got {pixel_sigma!r}")
     if not np.isfinite(centroid_offset_scale) or centroid_offset_scale < 0:
-        raise NonPositiveSigmaError(
+        raise PerceptionError(
             f"centroid_offset_scale must be finite and >= 0, got {centroid_offset_scale!r}"
         )
     transform = np.eye(4) if ego_from_camera is None else check_transform("ego_from_camera", ego_from_camera)
@@ -511,7 +507,7 @@ def recognize(
         sigma = float(depth_sigma(float(r), depth_factor))
         ratio = sigma / plain.sigma
         if not 1.0 / SIGMA_COVARIANCE_FACTOR <= ratio <= SIGMA_COVARIANCE_FACTOR:
-            raise NonPositiveSigmaError(
+            raise PerceptionError(
                 f"the eq. 6 sigma rho**2 / depth_factor = {sigma:.3g} m of the {plain.type!r} percept at "
                 f"depth rho = {float(r):.3g} m is {ratio:.3g} times the range standard deviation "
                 f"{plain.sigma:.3g} m "

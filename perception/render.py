@@ -27,14 +27,7 @@ from ._checks import generator as check_rng
 from ._checks import integer, name_string, real_array, real_scalar, rotation_defect, sequence
 from .chain import check_transform
 from .errors import (
-    CalibrationError,
-    ImageFormatError,
-    InvalidPoseError,
-    NonFiniteError,
-    NonPositiveSigmaError,
     PerceptionError,
-    ShapeError,
-    UnknownClassError,
 )
 from .stereo import _matrix as _as_float_array
 from .tolerances import PLANE_EPS, RIGID_TOLERANCE
@@ -85,7 +78,7 @@ _FACE_NORMALS = np.array(
 def _check_rotation(name: str, rot: NDArray[np.float64], atol: float = RIGID_TOLERANCE) -> None:
     why = rotation_defect(rot, atol)
     if why is not None:
-        raise InvalidPoseError(f"{name} must be a proper rotation (R^T R = I, det R = +1), but it {why}")
+        raise PerceptionError(f"{name} must be a proper rotation (R^T R = I, det R = +1), but it {why}")
 
 
 @dataclass(frozen=True)
@@ -116,17 +109,17 @@ class Box:
         center = _as_float_array("center", self.center, (3,))
         size = _as_float_array("size", self.size, (3,))
         if np.any(size <= 0):
-            raise NonPositiveSigmaError(f"size must be > 0 along every axis, got {size.tolist()}")
+            raise PerceptionError(f"size must be > 0 along every axis, got {size.tolist()}")
         if np.any(np.abs(center) > MAX_COORD) or np.any(size > MAX_COORD):
-            raise NonFiniteError(
+            raise PerceptionError(
                 f"center and size must be at most {MAX_COORD:g} m, got {center.tolist()} and {size.tolist()}"
             )
         rot = _as_float_array("rotation", self.rotation, (3, 3))
         _check_rotation("rotation", rot)
         color = _as_float_array("color", self.color, (3,))
         if np.any(color < 0) or np.any(color > 255):
-            raise ShapeError(f"color must be BGR values in [0, 255], got {color.tolist()}")
-        name_string("type", self.type, UnknownClassError)
+            raise PerceptionError(f"color must be BGR values in [0, 255], got {color.tolist()}")
+        name_string("type", self.type)
         for name, arr in (("center", center), ("size", size), ("rotation", rot), ("color", color)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
@@ -146,9 +139,9 @@ def _int_range(name: str, value: Any, low: int, high: int) -> tuple[int, int]:
     try:
         pair = list(value)
     except TypeError as exc:
-        raise ShapeError(f"{name} must be a pair (low, high) of integers, got {value!r}") from exc
+        raise PerceptionError(f"{name} must be a pair (low, high) of integers, got {value!r}") from exc
     if isinstance(value, (str, bytes)) or len(pair) != 2:
-        raise ShapeError(f"{name} must be a pair (low, high) of integers, got {value!r}")
+        raise PerceptionError(f"{name} must be a pair (low, high) of integers, got {value!r}")
     value = pair
     a = integer(f"{name}[0]", value[0], minimum=low, maximum=high)
     b = integer(f"{name}[1]", value[1], minimum=low, maximum=high)
@@ -161,7 +154,7 @@ def _rig(rig: Any) -> Any:
     from .stereo import StereoRig
 
     if not isinstance(rig, StereoRig):
-        raise CalibrationError(f"rig must be a StereoRig, got {type(rig).__name__}")
+        raise PerceptionError(f"rig must be a StereoRig, got {type(rig).__name__}")
     return rig
 
 
@@ -193,7 +186,7 @@ def scene_boxes(
     n = len(types)
     pos = real_array("positions", positions)
     if pos.shape != (n, 3):
-        raise ShapeError(
+        raise PerceptionError(
             f"positions must have one row per entry of types, shape ({n}, 3), got shape {pos.shape}"
         )
     rots = np.broadcast_to(np.eye(3), (n, 3, 3)) if rotations is None else rotations
@@ -205,7 +198,7 @@ def scene_boxes(
     boxes = []
     for i, kind in enumerate(types):
         if (sizes is None or colors is None) and kind not in BOX_DEFAULTS:
-            raise UnknownClassError(
+            raise PerceptionError(
                 f"no default size/colour for box type {kind!r}; known: {sorted(BOX_DEFAULTS)}"
             )
         # Box.__post_init__ validates these and stores them as float arrays.
@@ -356,7 +349,7 @@ def _rig_views(rig: Any, camera_from_world: NDArray[np.float64]) -> list[tuple[A
 def _image_size(rig: Any) -> tuple[int, int]:
     width, height = (int(v) for v in _rig(rig).image_size)
     if width * height > MAX_RENDER_PIXELS:
-        raise ImageFormatError(
+        raise PerceptionError(
             f"rig.image_size {rig.image_size} has more than {MAX_RENDER_PIXELS} pixels; too large to render"
         )
     return width, height
@@ -524,21 +517,21 @@ def render_stereo(
     light = _as_float_array("light_direction", light_direction, (3,))
     norm = np.linalg.norm(light)
     if norm == 0:
-        raise ShapeError(f"light_direction must be non-zero, got {light.tolist()}")
+        raise PerceptionError(f"light_direction must be non-zero, got {light.tolist()}")
     light = light / norm
     if isinstance(background, np.ndarray) and background.dtype == np.uint8:
         bg = background
     else:
         bg = real_array("background", background)
     if bg.shape == (3,) and np.any((bg < 0) | (bg > 255)):
-        raise ImageFormatError(f"background colour must lie in [0, 255], got {bg.tolist()}")
+        raise PerceptionError(f"background colour must lie in [0, 255], got {bg.tolist()}")
     if bg.shape == (3,):
         canvas0 = np.empty((height, width, 3), dtype=np.float32)
         canvas0[:] = _as_float_array("background", bg, (3,))
     elif bg.shape == (height, width, 3) and bg.dtype == np.uint8:
         canvas0 = bg.astype(np.float32)
     else:
-        raise ImageFormatError(
+        raise PerceptionError(
             f"background must be a BGR triple or a ({height}, {width}, 3) uint8 image, "
             f"got shape {bg.shape} dtype {bg.dtype}"
         )

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._checks import integer, real_array
-from .errors import ImageFormatError, ShapeError
+from .errors import PerceptionError
 from .render import MAX_RENDER_PIXELS
 from .tolerances import EIGENVALUE_FLOOR
 
@@ -37,9 +37,9 @@ class ColorRange:
         hi = real_array("upper", self.upper, (3,))
         for name, arr in (("lower", lo), ("upper", hi)):
             if np.any((arr < 0) | (arr > 255) | (arr != np.round(arr))):
-                raise ShapeError(f"{name} must hold integers in [0, 255], got {arr.tolist()}")
+                raise PerceptionError(f"{name} must hold integers in [0, 255], got {arr.tolist()}")
         if np.any(lo > hi):
-            raise ShapeError(f"lower {lo.tolist()} must not exceed upper {hi.tolist()}")
+            raise PerceptionError(f"lower {lo.tolist()} must not exceed upper {hi.tolist()}")
 
 
 #: Segmentation colours: brown wood (doors, drawers) and bright low-saturation metal (handles).
@@ -65,13 +65,13 @@ FEATURE_NAMES: tuple[str, ...] = (
 
 def _check_image(name: str, image: Any) -> NDArray[np.uint8]:
     if not isinstance(image, np.ndarray):
-        raise ImageFormatError(f"{name} must be a numpy array, got {type(image).__name__}")
+        raise PerceptionError(f"{name} must be a numpy array, got {type(image).__name__}")
     if image.ndim != 3 or image.shape[2] != 3:
-        raise ImageFormatError(f"{name} must have shape (height, width, 3) (BGR), got shape {image.shape}")
+        raise PerceptionError(f"{name} must have shape (height, width, 3) (BGR), got shape {image.shape}")
     if image.dtype != np.uint8:
-        raise ImageFormatError(f"{name} must have dtype uint8, got {image.dtype} (shape {image.shape})")
+        raise PerceptionError(f"{name} must have dtype uint8, got {image.dtype} (shape {image.shape})")
     if image.shape[0] * image.shape[1] > MAX_RENDER_PIXELS or 0 in image.shape:
-        raise ImageFormatError(
+        raise PerceptionError(
             f"{name} must have between 1 and {MAX_RENDER_PIXELS} pixels, got shape {image.shape}"
         )
     return image
@@ -113,7 +113,7 @@ def _region_stats(
     if not isinstance(color_ranges, Mapping) or not all(
         isinstance(c, ColorRange) for c in color_ranges.values()
     ):
-        raise ShapeError(f"color_ranges must map names to ColorRange, got {color_ranges!r}")
+        raise PerceptionError(f"color_ranges must map names to ColorRange, got {color_ranges!r}")
     hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
     # per-pixel chroma (S cos H, S sin H) and value, in [0, 1], through hue look-up tables
     sat = hsv[:, :, 1].astype(np.float32) * np.float32(1.0 / 255.0)

@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._checks import boolean, integer, name_string, real_array, real_scalar, sequence
 from ._checks import generator as check_rng
 from .chain import KinematicChain, check_transform, default_head
-from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError, UnknownClassError
+from .errors import PerceptionError
 from .percept import Percept
 from .stereo import StereoRig
 from .tolerances import TINY
@@ -30,15 +30,16 @@ MAX_VIEWS = 100_000
 
 def _types(types: Sequence[str], n: int) -> list[str]:
     if types is None or isinstance(types, (str, bytes)):
-        raise ShapeError(f"types must be a sequence of str, got {types!r}")
+        raise PerceptionError(f"types must be a sequence of str, got {types!r}")
     try:
         out = list(types)
     except TypeError as exc:
-        raise ShapeError(f"types must be a sequence of str, got {type(types).__name__}") from exc
+        raise PerceptionError(f"types must be a sequence of str, got {type(types).__name__}") from exc
     if len(out) != n:
-        raise ShapeError(f"types must have one entry per row of world_positions ({n} rows), got {len(out)}")
+        raise PerceptionError(f"types must have one entry per row of world_positions ({n} rows), got "
+                              f"{len(out)}")
     for i, t in enumerate(out):
-        name_string(f"types[{i}]", t, UnknownClassError)
+        name_string(f"types[{i}]", t)
     return out
 
 
@@ -48,7 +49,7 @@ def _positions(world_positions: ArrayLike) -> NDArray[np.float64]:
     X = real_array("world_positions", world_positions, (-1, 3))
     big = np.flatnonzero(np.any(np.abs(X) > MAX_COORD, axis=1))
     if big.size:
-        raise NonFiniteError(f"world_positions[{big[0]}] = {X[big[0]].tolist()} exceeds {MAX_COORD:g} m")
+        raise PerceptionError(f"world_positions[{big[0]}] = {X[big[0]].tolist()} exceeds {MAX_COORD:g} m")
     return X
 
 
@@ -67,8 +68,8 @@ def _rng(rng: np.random.Generator) -> np.random.Generator:
     return check_rng("rng", rng)
 
 
-def _sigma_range_error(value: float) -> NonPositiveSigmaError:
-    return NonPositiveSigmaError(
+def _sigma_range_error(value: float) -> PerceptionError:
+    return PerceptionError(
         f"simulated sigma {value!r} (from depth_factor, min_sigma and max_range) lies outside "
         "[1e-150, 1e150] m; choose depth_factor, min_sigma and max_range so that it does not"
     )
@@ -84,10 +85,10 @@ def _sigmas(sig: NDArray[np.float64]) -> None:
 def _simulated_sigmas(rho: NDArray[np.float64], depth_factor: float, min_sigma: float) -> NDArray[np.float64]:
     """``max(min_sigma, rho^2 / depth_factor)`` (eq. 6, :func:`depth_sigma`) of the depths ``rho (k,)``,
     checked by ``_sigmas`` (an overflow is reported as a sigma outside the range, as before)."""
-    try:
-        sig = np.asarray(depth_sigma(rho, depth_factor, min_sigma=min_sigma), dtype=np.float64)
-    except NonFiniteError as exc:
-        raise _sigma_range_error(np.inf) from exc
+    with np.errstate(over="ignore", invalid="ignore"):
+        if not np.all(np.isfinite(np.square(rho) / depth_factor)):  # eq. 6 overflows
+            raise _sigma_range_error(np.inf)
+    sig = np.asarray(depth_sigma(rho, depth_factor, min_sigma=min_sigma), dtype=np.float64)
     _sigmas(sig)
     return sig
 
@@ -99,7 +100,7 @@ def _bounded_positions(pos: NDArray[np.float64]) -> None:
     bad = np.flatnonzero(np.any(~(np.abs(pos) <= MAX_COORDINATE), axis=1)) if pos.size else np.zeros(0, int)
     if bad.size:
         i = int(bad[0])
-        raise NonPositiveSigmaError(
+        raise PerceptionError(
             f"simulated position {pos[i].tolist()} (from world_positions, depth_factor, min_sigma and "
             f"max_range) exceeds {MAX_COORDINATE:g} m in magnitude; choose them so that it does not"
         )
@@ -190,7 +191,7 @@ def simulate_percepts(
 
     pool = _false_type_pool(false_types, tps)
     if n_false and not pool:
-        raise UnknownClassError("n_false > 0 needs false_types or at least one object type, got none")
+        raise PerceptionError("n_false > 0 needs false_types or at least one object type, got none")
     fpos = _uniform_visible(rng, n_false, max_range, half_fov)
     ftype = [pool[int(k)] for k in rng.integers(0, len(pool), n_false)] if n_false else []
     fsig = _simulated_sigmas(np.linalg.norm(fpos, axis=1), depth_factor, min_sigma)
@@ -256,7 +257,7 @@ def scan_angles(
     names = chain.names
     for need in ("neck_yaw", "neck_pitch"):
         if need not in names:
-            raise UnknownClassError(f"scan_angles needs a joint named {need!r}; the chain has {list(names)}")
+            raise PerceptionError(f"scan_angles needs a joint named {need!r}; the chain has {list(names)}")
     n_views = integer("n_views", n_views, minimum=1, maximum=MAX_VIEWS)
     yaw = _range_pair("yaw_deg", yaw_deg)
     pitch = _range_pair("pitch_deg", pitch_deg)
@@ -345,11 +346,11 @@ def simulate_scan(
     enc = real_array("encoder_sigma", encoder_sigma)
     enc = np.full(chain.n_joints, float(enc)) if enc.ndim == 0 else enc
     if enc.shape != (chain.n_joints,):
-        raise ShapeError(f"encoder_sigma must be a scalar or shape ({chain.n_joints},), "
-                         f"got shape {enc.shape}")
+        raise PerceptionError(f"encoder_sigma must be a scalar or shape ({chain.n_joints},), "
+                              f"got shape {enc.shape}")
     if np.any(enc < 0) or np.any(enc > 0.5):
         i = int(np.flatnonzero((enc < 0) | (enc > 0.5))[0])
-        raise NonPositiveSigmaError(f"encoder_sigma[{i}] = {float(enc[i])!r} must lie in [0, 0.5] rad")
+        raise PerceptionError(f"encoder_sigma[{i}] = {float(enc[i])!r} must lie in [0, 0.5] rad")
     encoders_err = bool(np.any(enc > 0))  # draw nothing extra when exact: seeded scans stay as they were
     pool = sorted(set(tps))
     Kinv = np.linalg.inv(rig.K1)

@@ -18,11 +18,8 @@ from numpy.typing import ArrayLike, NDArray
 from ._checks import file_path, integer, real_array, real_scalar, rotation_defect
 from .errors import (
     BehindCameraError,
-    CalibrationError,
-    CalibrationFileError,
-    NonFiniteError,
     PerceptionError,
-    ShapeError,
+    RobotFileError,
 )
 from .tolerances import RIG_ROUND_TRIP_RTOL, RIGID_TOLERANCE, UNDISTORT_EPS
 
@@ -83,15 +80,15 @@ def _distortion(name: str, value: ArrayLike | None) -> NDArray[np.float64]:
     if arr.ndim == 2 and 1 in arr.shape:
         arr = arr.ravel()
     if arr.ndim != 1 or arr.size not in _DISTORTION_LENGTHS:
-        raise ShapeError(
+        raise PerceptionError(
             f"{name} must hold {_DISTORTION_LENGTHS} coefficients (OpenCV), got shape {arr.shape}"
         )
     if not np.all(np.isfinite(arr)):
-        raise NonFiniteError(f"{name} must be finite, got {arr.tolist()}")
+        raise PerceptionError(f"{name} must be finite, got {arr.tolist()}")
     big = np.flatnonzero(np.abs(arr) > MAX_DISTORTION)
     if big.size:
         i = int(big[0])
-        raise CalibrationError(
+        raise PerceptionError(
             f"{name}[{i}] = {float(arr[i])!r}: distortion coefficients must be at most {MAX_DISTORTION:g} in "
             "magnitude"
         )
@@ -101,11 +98,11 @@ def _distortion(name: str, value: ArrayLike | None) -> NDArray[np.float64]:
 def _camera_matrix(name: str, value: ArrayLike) -> NDArray[np.float64]:
     K = _matrix(name, value, (3, 3))
     if K[0, 0] <= 0 or K[1, 1] <= 0:
-        raise CalibrationError(f"{name} focal lengths must be > 0, got fx={K[0, 0]!r}, fy={K[1, 1]!r}")
+        raise PerceptionError(f"{name} focal lengths must be > 0, got fx={K[0, 0]!r}, fy={K[1, 1]!r}")
     if max(abs(K[0, 0]), abs(K[1, 1]), abs(K[0, 1]), abs(K[0, 2]), abs(K[1, 2])) > MAX_PIXELS:
-        raise CalibrationError(f"{name} entries must be at most {MAX_PIXELS:g} px, got {K.tolist()}")
+        raise PerceptionError(f"{name} entries must be at most {MAX_PIXELS:g} px, got {K.tolist()}")
     if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
-        raise CalibrationError(f"{name} must be upper triangular with K[2, 2] = 1, got {K.tolist()}")
+        raise PerceptionError(f"{name} must be upper triangular with K[2, 2] = 1, got {K.tolist()}")
     return K
 
 
@@ -114,19 +111,19 @@ def _points(name: str, value: ArrayLike, width: int) -> NDArray[np.float64]:
     big = np.flatnonzero(np.any(np.abs(arr) > MAX_COORD, axis=1))
     if big.size:
         i = int(big[0])
-        raise NonFiniteError(f"{name}[{i}] = {arr[i].tolist()} exceeds {MAX_COORD:g} in magnitude")
+        raise PerceptionError(f"{name}[{i}] = {arr[i].tolist()} exceeds {MAX_COORD:g} in magnitude")
     return arr
 
 
 def _image_size(value: object) -> tuple[int, int]:
     if value is None or isinstance(value, (str, bytes)):
-        raise ShapeError(f"image_size must be (width, height), got {value!r}")
+        raise PerceptionError(f"image_size must be (width, height), got {value!r}")
     try:
         items = list(value)  # type: ignore[call-overload]
     except TypeError as exc:
-        raise ShapeError(f"image_size must be (width, height), got {value!r}") from exc
+        raise PerceptionError(f"image_size must be (width, height), got {value!r}") from exc
     if len(items) != 2:
-        raise ShapeError(f"image_size must be two integers (width, height), got {value!r}")
+        raise PerceptionError(f"image_size must be two integers (width, height), got {value!r}")
     return (
         integer("image_size[0] (width)", items[0], minimum=1, maximum=MAX_IMAGE_SIDE),
         integer("image_size[1] (height)", items[1], minimum=1, maximum=MAX_IMAGE_SIDE),
@@ -134,7 +131,7 @@ def _image_size(value: object) -> tuple[int, int]:
 
 
 def _path(path: object) -> Path:
-    return Path(file_path("path", path, CalibrationFileError))
+    return Path(file_path("path", path, RobotFileError))
 
 
 def _flow_depth(data: bytes) -> int:
@@ -162,23 +159,23 @@ def _check_file(path: Path) -> None:
     """Refuse a calibration file that is missing, too large or too deeply nested for OpenCV's parser."""
     try:
         if not path.is_file():
-            raise CalibrationFileError(f"calibration file path={str(path)!r} does not exist")
+            raise RobotFileError(f"calibration file path={str(path)!r} does not exist")
         size = path.stat().st_size
         if size > MAX_FILE_BYTES:
-            raise CalibrationFileError(
+            raise RobotFileError(
                 f"calibration file path={str(path)!r} has {size:,} bytes, more than {MAX_FILE_BYTES:,}"
             )
         with path.open("rb") as fh:
             data = fh.read(MAX_FILE_BYTES + 1)
     except OSError as exc:
-        raise CalibrationFileError(f"calibration file path={str(path)!r} cannot be read: {exc}") from exc
+        raise RobotFileError(f"calibration file path={str(path)!r} cannot be read: {exc}") from exc
     if len(data) > MAX_FILE_BYTES:
-        raise CalibrationFileError(
+        raise RobotFileError(
             f"calibration file path={str(path)!r} has more than {MAX_FILE_BYTES:,} bytes"
         )
     depth, what = _nesting_depth(data)
     if depth > MAX_FILE_DEPTH:
-        raise CalibrationFileError(
+        raise RobotFileError(
             f"calibration file path={str(path)!r} is nested too deeply: depth {depth} ({what}) exceeds "
             f"{MAX_FILE_DEPTH}"
         )
@@ -186,7 +183,7 @@ def _check_file(path: Path) -> None:
 
 def _file_int(path: Path, value: float) -> int:
     if not np.isfinite(value) or value != int(value):
-        raise CalibrationFileError(
+        raise RobotFileError(
             f"calibration file path={str(path)!r}: image_size must hold integers, got {value!r}"
         )
     return int(value)
@@ -241,12 +238,12 @@ class StereoRig:
         T = _matrix("T", self.T, (3,))
         why = rotation_defect(R, RIGID_TOLERANCE)
         if why is not None:
-            raise CalibrationError(f"R must be a rotation matrix, but it {why}: {R.tolist()}")
+            raise PerceptionError(f"R must be a rotation matrix, but it {why}: {R.tolist()}")
         if np.linalg.norm(T) <= 0:
-            raise CalibrationError(f"T must be a non-zero baseline, got {T.tolist()}")
+            raise PerceptionError(f"T must be a non-zero baseline, got {T.tolist()}")
         size = _image_size(self.image_size)
         if np.linalg.norm(T) > MAX_COORD:
-            raise CalibrationError(f"T must be at most {MAX_COORD:g} m long, got {T.tolist()}")
+            raise PerceptionError(f"T must be at most {MAX_COORD:g} m long, got {T.tolist()}")
         for name, arr in (("K1", K1), ("K2", K2), ("D1", D1), ("D2", D2), ("R", R), ("T", T)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
@@ -279,7 +276,7 @@ class StereoRig:
             except np.linalg.LinAlgError:
                 err = math.inf
         if not err <= RIG_ROUND_TRIP_RTOL * depth:
-            raise CalibrationError(
+            raise PerceptionError(
                 f"the rig cannot triangulate the point {depth:g} m ahead of the left camera (it comes "
                 f"back {err:.3g} m away); check the focal lengths K1[0, 0] = {float(self.K1[0, 0])!r}, "
                 f"K2[0, 0] = {float(self.K2[0, 0])!r} (pixels), R and T = {self.T.tolist()} (metres)")
@@ -321,15 +318,15 @@ class StereoRig:
         w, h = _image_size(image_size)
         baseline = real_scalar("baseline", baseline, positive=True)
         if not MIN_BASELINE <= baseline <= MAX_BASELINE:
-            raise CalibrationError(f"baseline must lie in [{MIN_BASELINE:g}, {MAX_BASELINE:g}] m, "
-                                   f"got {baseline!r}")
+            raise PerceptionError(f"baseline must lie in [{MIN_BASELINE:g}, {MAX_BASELINE:g}] m, "
+                                  f"got {baseline!r}")
         hfov_deg = real_scalar("hfov_deg", hfov_deg)
         if not 1e-6 <= hfov_deg <= 179.0:
-            raise CalibrationError(f"hfov_deg must lie in [1e-6, 179], got {hfov_deg!r}")
+            raise PerceptionError(f"hfov_deg must lie in [1e-6, 179], got {hfov_deg!r}")
         f = (w / 2.0) / np.tan(np.radians(hfov_deg) / 2.0)
         if f > MAX_PIXELS:
-            raise CalibrationError(f"hfov_deg = {hfov_deg!r} gives a focal length of {f:.4g} px for an image "
-                                   f"{w} px wide, more than {MAX_PIXELS:g} px: widen the field of view")
+            raise PerceptionError(f"hfov_deg = {hfov_deg!r} gives a focal length of {f:.4g} px for an image "
+                                  f"{w} px wide, more than {MAX_PIXELS:g} px: widen the field of view")
         K = np.array([[f, 0.0, w / 2.0], [0.0, f, h / 2.0], [0.0, 0.0, 1.0]])
         return cls(
             K1=K,
@@ -348,7 +345,7 @@ class StereoRig:
 
         Raises
         ------
-        CalibrationFileError
+        RobotFileError
             The file is missing, unreadable, or lacks a key or holds a non-matrix under it.
         """
         import cv2
@@ -356,10 +353,10 @@ class StereoRig:
         _check_file(path)
         try:
             return cls._read(path)
-        except CalibrationFileError:
+        except RobotFileError:
             raise
         except (PerceptionError, OSError, cv2.error) as exc:
-            raise CalibrationFileError(f"calibration file path={str(path)!r} is invalid: {exc}") from exc
+            raise RobotFileError(f"calibration file path={str(path)!r} is invalid: {exc}") from exc
 
     @classmethod
     def _read(cls, path: Path) -> StereoRig:
@@ -367,23 +364,23 @@ class StereoRig:
         try:
             fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
         except (cv2.error, SystemError) as exc:  # the binding raises SystemError on parse errors
-            raise CalibrationFileError(f"calibration file path={str(path)!r} is malformed: {exc}") from exc
+            raise RobotFileError(f"calibration file path={str(path)!r} is malformed: {exc}") from exc
         if not fs.isOpened():
-            raise CalibrationFileError(f"calibration file path={str(path)!r} cannot be opened")
+            raise RobotFileError(f"calibration file path={str(path)!r} cannot be opened")
         values: dict[str, NDArray[np.float64]] = {}
         try:
             for key in _FILE_KEYS:
                 node = fs.getNode(key)
                 if node.empty() or node.isNone():
-                    raise CalibrationFileError(f"calibration file path={str(path)!r} lacks key {key!r}")
+                    raise RobotFileError(f"calibration file path={str(path)!r} lacks key {key!r}")
                 try:
                     mat = node.mat()
                 except (cv2.error, SystemError) as exc:
-                    raise CalibrationFileError(
+                    raise RobotFileError(
                         f"calibration file path={str(path)!r}: key {key!r} is not an OpenCV matrix"
                     ) from exc
                 if mat is None:
-                    raise CalibrationFileError(
+                    raise RobotFileError(
                         f"calibration file path={str(path)!r}: key {key!r} is not an OpenCV matrix"
                     )
                 values[key] = np.asarray(mat, dtype=np.float64)
@@ -391,7 +388,7 @@ class StereoRig:
             fs.release()
         size = values.pop("image_size").ravel()
         if size.size != 2:
-            raise CalibrationFileError(
+            raise RobotFileError(
                 f"calibration file path={str(path)!r}: image_size must hold 2 values, got {size.tolist()}"
             )
         try:
@@ -404,10 +401,10 @@ class StereoRig:
                 values["T"],
                 (_file_int(path, size[0]), _file_int(path, size[1])),
             )
-        except CalibrationError:
+        except PerceptionError:
             raise
         except (ValueError, TypeError, OverflowError) as exc:
-            raise CalibrationFileError(f"calibration file path={str(path)!r} is invalid: {exc}") from exc
+            raise RobotFileError(f"calibration file path={str(path)!r} is invalid: {exc}") from exc
 
     def to_file(self, path: str | Path) -> None:
         """Write the rig to an OpenCV FileStorage file (format from the suffix, e.g. ``.yaml``).
@@ -418,7 +415,7 @@ class StereoRig:
         path = _path(path)
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
         if not fs.isOpened():
-            raise CalibrationFileError(f"cannot write calibration file path={str(path)!r}")
+            raise RobotFileError(f"cannot write calibration file path={str(path)!r}")
         try:
             fs.write("K1", self.K1)
             fs.write("D1", self.D1.reshape(1, -1) if self.D1.size else np.zeros((1, 5)))
@@ -519,7 +516,7 @@ class StereoRig:
         bad = ~(np.all(np.isfinite(uv1), axis=1) & np.all(np.isfinite(uv2), axis=1))
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
-            raise NonFiniteError(
+            raise PerceptionError(
                 f"points_left[{i}] = {X[i].tolist()} projects to non-finite pixels "
                 f"(left {uv1[i].tolist()}, right {uv2[i].tolist()}): too far from the optical axis"
             )
@@ -558,7 +555,8 @@ class StereoRig:
         u1 = _points("uv_left", uv_left, 2)
         u2 = _points("uv_right", uv_right, 2)
         if u1.shape != u2.shape:
-            raise ShapeError(f"uv_left and uv_right must have the same shape, got {u1.shape} and {u2.shape}")
+            raise PerceptionError(f"uv_left and uv_right must have the same shape, got {u1.shape} and "
+                                  f"{u2.shape}")
         if u1.shape[0] == 0:
             return np.zeros((0, 2)), np.zeros((0, 2))
         return self._undistort(u1, self.K1, self.D1), self._undistort(u2, self.K2, self.D2)
@@ -595,7 +593,7 @@ class StereoRig:
 
         Raises
         ------
-        NonFiniteError
+        PerceptionError
             A pixel coordinate is NaN or infinite.
         BehindCameraError
             A triangulated point is at infinity or behind the left camera.

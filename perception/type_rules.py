@@ -20,7 +20,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from ._checks import _short, name_string
-from .errors import TypeRuleError
+from .errors import PerceptionError
 
 __all__ = ["KNOWN_TYPES", "default_type_of", "type_rule"]
 
@@ -77,7 +77,7 @@ def type_rule(type_of: Any) -> Callable[[str], str | None]:
 
     Raises
     ------
-    TypeRuleError
+    PerceptionError
         ``type_of`` of another kind, an empty mapping, a pattern that does not compile (naming
         it) or a type that is not a non-empty string.
     """
@@ -85,7 +85,7 @@ def type_rule(type_of: Any) -> Callable[[str], str | None]:
         return default_type_of
     if isinstance(type_of, Mapping):
         if not type_of:
-            raise TypeRuleError("type_of must map at least one regex pattern to a type, got {}")
+            raise PerceptionError("type_of must map at least one regex pattern to a type, got {}")
         rules: list[tuple[re.Pattern[str], str]] = []
         for pattern, typ in type_of.items():
             if isinstance(pattern, re.Pattern):
@@ -94,12 +94,12 @@ def type_rule(type_of: Any) -> Callable[[str], str | None]:
                 try:
                     compiled = re.compile(pattern)
                 except re.error as exc:
-                    raise TypeRuleError(f"type_of pattern {pattern!r} is not a valid regular "
-                                        f"expression: {exc}") from exc
+                    raise PerceptionError(f"type_of pattern {pattern!r} is not a valid regular "
+                                          f"expression: {exc}") from exc
             else:
-                raise TypeRuleError(f"type_of keys must be regex patterns (str or re.Pattern), got "
-                                    f"{_short(pattern)}")
-            name_string(f"type_of[{pattern!r}]", typ, TypeRuleError)
+                raise PerceptionError(f"type_of keys must be regex patterns (str or re.Pattern), got "
+                                      f"{_short(pattern)}")
+            name_string(f"type_of[{pattern!r}]", typ)
             rules.append((compiled, typ))
 
         def by_pattern(name: str) -> str | None:
@@ -111,5 +111,5 @@ def type_rule(type_of: Any) -> Callable[[str], str | None]:
         return by_pattern
     if callable(type_of):
         return type_of
-    raise TypeRuleError("type_of must be None, a callable name -> type or None, or a mapping of regex "
-                        f"patterns to types, got {_short(type_of)}")
+    raise PerceptionError("type_of must be None, a callable name -> type or None, or a mapping of regex "
+                          f"patterns to types, got {_short(type_of)}")

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._checks import integer, real_array, real_scalar
-from .errors import NonFiniteError, NonPositiveSigmaError, PerceptionError, ShapeError
+from .errors import PerceptionError
 
 if TYPE_CHECKING:
     from .stereo import StereoRig
@@ -29,12 +29,12 @@ def _positive(name: str, value: ArrayLike) -> NDArray[np.float64]:
     arr = _finite(name, value)
     if arr.ndim == 0:
         if not arr > 0:
-            raise NonPositiveSigmaError(f"{name} must be > 0, got {float(arr)!r}")
+            raise PerceptionError(f"{name} must be > 0, got {float(arr)!r}")
         return arr
     bad = np.argwhere(~(arr > 0))
     if bad.size:
         idx = tuple(bad[0])
-        raise NonPositiveSigmaError(f"{name}[{', '.join(map(str, idx))}] must be > 0, got {arr[idx]!r}")
+        raise PerceptionError(f"{name}[{', '.join(map(str, idx))}] must be > 0, got {arr[idx]!r}")
     return arr
 
 
@@ -43,15 +43,15 @@ def _non_negative(name: str, value: ArrayLike) -> NDArray[np.float64]:
     bad = np.argwhere(~(np.atleast_1d(arr) >= 0))
     if bad.size:
         if arr.ndim == 0:
-            raise NonPositiveSigmaError(f"{name} must be >= 0, got {float(arr)!r}")
+            raise PerceptionError(f"{name} must be >= 0, got {float(arr)!r}")
         idx = tuple(bad[0])
-        raise NonPositiveSigmaError(f"{name}[{', '.join(map(str, idx))}] must be >= 0, got {arr[idx]!r}")
+        raise PerceptionError(f"{name}[{', '.join(map(str, idx))}] must be >= 0, got {arr[idx]!r}")
     return arr
 
 
 def _scalar_or_vector(name: str, arr: NDArray[np.float64]) -> NDArray[np.float64]:
     if arr.ndim > 1:
-        raise ShapeError(f"{name} must be a scalar or shape (N,), got shape {arr.shape}")
+        raise PerceptionError(f"{name} must be a scalar or shape (N,), got shape {arr.shape}")
     return arr
 
 
@@ -62,7 +62,7 @@ def _result(what: str, out: NDArray[np.float64], name: str, arg: NDArray[np.floa
         idx = tuple(np.argwhere(bad)[0]) if np.ndim(out) else ()
         j = idx[: arg.ndim] if arg.ndim else ()
         where = "[" + ", ".join(map(str, j)) + "]" if j else ""
-        raise NonFiniteError(f"{what} overflows for {name}{where} = {arg[j]!r}")
+        raise PerceptionError(f"{what} overflows for {name}{where} = {arg[j]!r}")
     return out
 
 
@@ -90,12 +90,12 @@ def perception_depth(
     """
     X = _finite("points", points)
     if X.shape[-1:] != (3,) or X.ndim > 2:
-        raise ShapeError(f"points must have shape (3,) or (N, 3), got shape {X.shape}")
+        raise PerceptionError(f"points must have shape (3,) or (N, 3), got shape {X.shape}")
     C = real_array("camera_center", camera_center, (3,))
     e = real_array("viewing_direction", viewing_direction, (3,))
     top = float(np.max(np.abs(e)))
     if top == 0:
-        raise NonPositiveSigmaError(f"viewing_direction must be non-zero, got {e.tolist()}")
+        raise PerceptionError(f"viewing_direction must be non-zero, got {e.tolist()}")
     u = e / top
     u = u / np.linalg.norm(u)
     with np.errstate(over="ignore", invalid="ignore"):
@@ -127,11 +127,10 @@ def depth_sigma(
 
     Raises
     ------
-    NonPositiveSigmaError
-        A depth that is not > 0 (not >= 0 with a positive floor), a ``depth_factor`` <= 0,
-        a negative ``min_sigma``.
-    NonFiniteError
-        A NaN or infinite input, or ``rho^2 / depth_factor`` that overflows.
+    PerceptionError
+        - A depth that is not > 0 (not >= 0 with a positive floor), a ``depth_factor`` <= 0,
+          a negative ``min_sigma``.
+        - A NaN or infinite input, or ``rho^2 / depth_factor`` that overflows.
     """
     floor = real_scalar("min_sigma", min_sigma, nonnegative=True)
     if floor > 0:
@@ -164,7 +163,7 @@ def disparity(rho: ArrayLike, focal_px: float, baseline: float) -> NDArray[np.fl
     with np.errstate(over="ignore"):
         out = (f * b) / r
     if not np.isfinite(f * b):
-        raise NonFiniteError(f"focal_px * baseline overflows: focal_px = {f!r}, baseline = {b!r}")
+        raise PerceptionError(f"focal_px * baseline overflows: focal_px = {f!r}, baseline = {b!r}")
     return _out(_result("focal_px * baseline / rho", out, "rho", r))
 
 
@@ -221,11 +220,11 @@ def _matched_pixels(rig: object, uv_left: ArrayLike, uv_right: ArrayLike
     from .stereo import StereoRig, _points
 
     if not isinstance(rig, StereoRig):
-        raise ShapeError(f"rig must be a StereoRig, got {type(rig).__name__}")
+        raise PerceptionError(f"rig must be a StereoRig, got {type(rig).__name__}")
     u1 = _points("uv_left", uv_left, 2)
     u2 = _points("uv_right", uv_right, 2)
     if u1.shape != u2.shape:
-        raise ShapeError(f"uv_left and uv_right must have the same shape, got {u1.shape} and {u2.shape}")
+        raise PerceptionError(f"uv_left and uv_right must have the same shape, got {u1.shape} and {u2.shape}")
     return u1, u2
 
 
@@ -250,9 +249,9 @@ def triangulation_covariance(
     s = _positive("pixel_sigma", pixel_sigma)
     s = np.broadcast_to(s, (4,)) if s.ndim == 0 else s
     if s.shape != (4,):
-        raise ShapeError(f"pixel_sigma must be a scalar or shape (4,), got shape {s.shape}")
+        raise PerceptionError(f"pixel_sigma must be a scalar or shape (4,), got shape {s.shape}")
     if np.any(s > 1e100):
-        raise NonPositiveSigmaError(f"pixel_sigma must be at most 1e100 pixels, got {s.tolist()}")
+        raise PerceptionError(f"pixel_sigma must be at most 1e100 pixels, got {s.tolist()}")
     from .errors import BehindCameraError
     from .stereo import _check_triangulated
 
@@ -279,7 +278,7 @@ def triangulation_covariance(
         bad = ~np.all(np.isfinite(C[a:b]), axis=(1, 2))
         if np.any(bad):
             i = a + int(np.flatnonzero(bad)[0])
-            raise NonFiniteError(f"the covariance of pixel pair {i} overflows (pixel_sigma {s.tolist()})")
+            raise PerceptionError(f"the covariance of pixel pair {i} overflows (pixel_sigma {s.tolist()})")
     return C
 
 
@@ -302,9 +301,9 @@ def class_bandwidth(vertices: ArrayLike) -> NDArray[np.float64]:
     """
     V = real_array("vertices", vertices, (-1, 3))
     if V.shape[0] < 2:
-        raise ShapeError(f"vertices must have shape (k, 3) with k >= 2, got shape {V.shape}")
+        raise PerceptionError(f"vertices must have shape (k, 3) with k >= 2, got shape {V.shape}")
     big = np.flatnonzero(np.any(np.abs(V) > 1e150, axis=1))
     if big.size:
-        raise NonFiniteError(f"vertices[{big[0]}] = {V[big[0]].tolist()} exceeds 1e150 in magnitude")
+        raise PerceptionError(f"vertices[{big[0]}] = {V[big[0]].tolist()} exceeds 1e150 in magnitude")
     D = V - V.mean(axis=0)
     return D.T @ D / V.shape[0]

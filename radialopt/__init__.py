@@ -9,16 +9,8 @@ except _PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "0.1.0"  # keep equal to pyproject.toml's [project] version (a test checks)
 
 from .errors import (
-    CoincidentCentersError,
-    NegativeRadiusError,
-    NonFiniteError,
-    NonPositiveSigmaError,
-    OutOfRangeError,
     RadialError,
-    ShapeError,
     SolverError,
-    TooFewSpheresError,
-    UnknownMethodError,
     VerificationError,
 )
 from .polytope import RestrictionPolytope, common_point_exists
@@ -56,18 +48,10 @@ __all__ = [
     "installed_cvxpy_solvers",
     "project_radii",
     "project_radii_batch",
-    "CoincidentCentersError",
-    "GaussianSphere",
-    "NegativeRadiusError",
-    "NonFiniteError",
-    "NonPositiveSigmaError",
-    "OutOfRangeError",
     "RadialError",
-    "ShapeError",
+    "GaussianSphere",
     "SolverError",
     "Tolerances",
-    "TooFewSpheresError",
-    "UnknownMethodError",
     "VerificationError",
     "conformal_inner",
     "conformal_sphere",
@@ -91,10 +75,7 @@ from .conformal import (
     meet4_batch,
 )
 from .errors import (
-    InvalidRegionError,
-    NotASphereError,
     SingularFisherError,
-    TooManySpheresError,
 )
 from .hypotheses import Hypothesis, LevelSets, Region, generate_hypotheses
 from .position import (
@@ -122,10 +103,7 @@ __all__ += [
     "meet2_batch",
     "meet3_batch",
     "meet4_batch",
-    "InvalidRegionError",
-    "NotASphereError",
     "SingularFisherError",
-    "TooManySpheresError",
     "Hypothesis",
     "LevelSets",
     "Region",
@@ -164,3 +142,11 @@ __all__ += ["CERTIFICATE_METHODS", "Certificate", "certify_position"]
 from .formulation import OBJECTIVES, RadialProblem  # noqa: E402
 
 __all__ += ["OBJECTIVES", "RadialProblem"]
+
+
+def __getattr__(name: str) -> type[RadialError]:
+    """0.1's error class names, deprecated: each warns and gives the class that replaced it
+    (``radialopt.errors.DEPRECATED_NAMES``)."""
+    from . import errors
+
+    return errors._deprecated(__name__, name)

@@ -35,7 +35,7 @@ def _pair_rows(
     centers_array: NDArray[np.float64],
 ) -> tuple[_PairRows, list[float]]:
     """The whitened restriction rows of every pair (chi, alpha, beta, as :func:`pair_pattern`)
-    and the centre distances, in plain Python; :class:`CoincidentCentersError` for a pair
+    and the centre distances, in plain Python; :class:`RadialError` for a pair
     closer than ``tol.coincident``."""
     rows, dist, _ = _pair_setup(centers, radii, sigmas, tol, centers_array)
     return rows, dist

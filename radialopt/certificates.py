@@ -345,12 +345,10 @@ def certify_position(spheres: Sequence[GaussianSphere], position: ArrayLike, *,
 
     Raises
     ------
-    ShapeError
-        ``spheres`` holds something else than GaussianSphere, or ``position`` is not ``(3,)``.
-    NonFiniteError
-        ``position`` is not finite.
     RadialError
-        A budget or tolerance out of range, fewer than one sphere, coincident centres.
+        - ``spheres`` holds something else than GaussianSphere, or ``position`` is not ``(3,)``.
+        - ``position`` is not finite.
+        - A budget or tolerance out of range, fewer than one sphere, coincident centres.
     """
     c, r, s = sphere_arrays(spheres, min_count=1)
     x = point3("position", position)

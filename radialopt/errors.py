@@ -1,42 +1,28 @@
-"""Exceptions of :mod:`radialopt`: one base, specific subclasses.
+"""Exceptions of :mod:`radialopt`: a base and the few subclasses a caller acts on.
 
-Every bad-input error is a :class:`RadialError`, which is a :class:`ValueError`, so callers
-can catch the whole family at once or a single case.
+Every error :mod:`radialopt` raises is a :class:`RadialError`, which is a :class:`ValueError`.
+A bad argument (a wrong shape, NaN, a non-positive sigma, a negative radius, coincident centres,
+too few or too many spheres, an unknown method, an empty region, a polyhedron without vertices,
+...) raises the base itself, with a message that names the argument, the index and the value.
+A subclass exists only where a caller does something different:
+
+- :class:`SolverError` (also a :class:`RuntimeError`): the solver failed, no answer is trusted;
+- :class:`VerificationError`: ``check=True`` found a disagreement with the reference;
+- :class:`SingularFisherError`: some direction of the position is unobservable (no covariance).
+
+The classes that 0.1 had for each kind of bad argument (``ShapeError``, ``NonFiniteError``,
+...) are deprecated names of :class:`RadialError`; see :data:`DEPRECATED_NAMES`.
 """
 
 from __future__ import annotations
 
+import warnings
+
+__all__ = ["RadialError", "SingularFisherError", "SolverError", "VerificationError"]
+
 
 class RadialError(ValueError):
-    """Base of every error raised by :mod:`radialopt`."""
-
-
-class ShapeError(RadialError):
-    """An array does not have the expected shape."""
-
-
-class NonFiniteError(RadialError):
-    """A value is NaN or infinite."""
-
-
-class NonPositiveSigmaError(RadialError):
-    """A standard deviation is zero or negative."""
-
-
-class NegativeRadiusError(RadialError):
-    """A sphere radius is negative."""
-
-
-class CoincidentCentersError(RadialError):
-    """Two sphere centres coincide, so their pair gives no restriction."""
-
-
-class TooFewSpheresError(RadialError):
-    """Fewer spheres than the operation needs."""
-
-
-class UnknownMethodError(RadialError):
-    """A method or solver name that is not available."""
+    """Base of every error raised by :mod:`radialopt`, and the error of a bad argument."""
 
 
 class SolverError(RadialError, RuntimeError):
@@ -47,34 +33,31 @@ class VerificationError(SolverError):
     """``check=True`` found a disagreement with the vertex-enumeration reference."""
 
 
-class NotASphereError(RadialError):
-    """A conformal 5-vector that is not a (possibly imaginary) sphere, e.g. a plane."""
-
-
-class TooManySpheresError(RadialError):
-    """More spheres than the operation accepts (the meet takes at most four)."""
-
-
-class InvalidRegionError(RadialError):
-    """A region whose lower corner is not below its upper corner."""
-
-
 class SingularFisherError(RadialError):
     """The Fisher information is singular: some direction of the position is unobservable."""
 
 
-class OutOfRangeError(RadialError):
-    """A finite number outside the range radialopt can compute with (e.g. ``sigma = 1e-300``
-    with centres metres apart, a coordinate of 1e300 m, a negative tolerance)."""
+#: Names of 0.1's error classes, deprecated in 0.2 and removed in 0.3, and the class each now
+#: is. An ``except`` clause that names one catches everything it caught before.
+DEPRECATED_NAMES: dict[str, type[RadialError]] = dict.fromkeys(
+    ["ShapeError", "NonFiniteError", "NonPositiveSigmaError", "NegativeRadiusError",
+     "CoincidentCentersError", "TooFewSpheresError", "UnknownMethodError", "NotASphereError",
+     "TooManySpheresError", "InvalidRegionError", "OutOfRangeError", "NotPointedError",
+     "TooLargeError", "EmptyPolyhedronError"],
+    RadialError,
+)
 
 
-class NotPointedError(RadialError):
-    """The polyhedron contains a line (``rank(A) < n``), so it has no vertices."""
+def _deprecated(module: str, name: str) -> type[RadialError]:
+    """The class a deprecated error name stands for, with a :class:`DeprecationWarning`."""
+    if name not in DEPRECATED_NAMES:
+        raise AttributeError(f"module {module!r} has no attribute {name!r}")
+    cls = DEPRECATED_NAMES[name]
+    home = f"{cls.__module__.split('.')[0]}.{cls.__name__}"
+    warnings.warn(f"{module}.{name} is deprecated and will be removed in 0.3: catch {home}, the class "
+                  "its errors are now raised as", DeprecationWarning, stacklevel=3)
+    return cls
 
 
-class TooLargeError(RadialError):
-    """The requested method would need too many subsets; use ``"double_description"``."""
-
-
-class EmptyPolyhedronError(RadialError):
-    """An operation needs at least one vertex, but the polyhedron is empty."""
+def __getattr__(name: str) -> type[RadialError]:
+    return _deprecated(__name__, name)

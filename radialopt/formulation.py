@@ -33,13 +33,8 @@ from numpy.typing import ArrayLike
 
 from ._checks import MAX_LENGTH, instance, integer, real_array, real_scalar
 from .errors import (
-    NonFiniteError,
     RadialError,
-    ShapeError,
     SolverError,
-    TooFewSpheresError,
-    TooManySpheresError,
-    UnknownMethodError,
 )
 from .polytope import pair_pattern
 from .projection import (
@@ -89,12 +84,12 @@ class RadialProblem:
 
         n = integer("n", n)
         if n < 2:
-            raise TooFewSpheresError(f"n must be >= 2 spheres, got n={n}")
+            raise RadialError(f"n must be >= 2 spheres, got n={n}")
         if n > MAX_SPHERES:
-            raise TooManySpheresError(f"n = {n} spheres: the formulation has 3 C(n, 2) rows; at most "
-                                      f"{MAX_SPHERES} spheres are accepted")
+            raise RadialError(f"n = {n} spheres: the formulation has 3 C(n, 2) rows; at most "
+                              f"{MAX_SPHERES} spheres are accepted")
         if not isinstance(objective, str) or objective not in OBJECTIVES:
-            raise UnknownMethodError(
+            raise RadialError(
                 f"unknown objective={objective!r:.100}; choose one of {', '.join(OBJECTIVES)}")
         delta = real_scalar("huber_delta", huber_delta, positive=True, maximum=MAX_LENGTH)
         self.n = int(n)
@@ -201,7 +196,7 @@ class RadialProblem:
         """Constrain ``radii[i] == value`` (metres)."""
         i = integer("i", i)
         if not 0 <= i < self.n:  # no wrap-around: i = -1 is a caller's bug, not the last sphere
-            raise ShapeError(f"i = {i!r} must be a sphere index in [0, {self.n})")
+            raise RadialError(f"i = {i!r} must be a sphere index in [0, {self.n})")
         v = real_scalar("value", value, minimum=0.0, max_abs=MAX_LENGTH)  # a radius, metres
         return self._add(lambda x: [x[i] == v], f"fix_radius(i={i}, value={v!r})")
 
@@ -210,13 +205,14 @@ class RadialProblem:
         MAX_LENGTH metres; +-inf allowed (an open side)."""
         try:
             arr = real_array(name, v, ndim=(0, 1))
-        except NonFiniteError:
-            arr = np.asarray(v, dtype=np.float64)  # real_array rejected bools etc. before this
-            if np.any(np.isnan(arr)):
-                raise
-            real_array(name, np.where(np.isinf(arr), 0.0, arr), ndim=(0, 1))  # range of the rest
+        except RadialError:
+            raw = np.asarray(v) if isinstance(v, np.ndarray | list | tuple | float) else None
+            if raw is None or raw.dtype.kind != "f" or not np.isinf(raw).any():
+                raise  # not an open side: bools, NaN, a bad shape keep real_array's error
+            finite = real_array(name, np.where(np.isinf(raw), 0.0, raw), ndim=(0, 1))  # NaN, range, ndim
+            arr = np.where(np.isinf(raw), raw, finite)
         if arr.ndim == 1 and arr.shape != (self.n,):
-            raise ShapeError(f"{name} must be a scalar or shape ({self.n},), got shape {arr.shape}")
+            raise RadialError(f"{name} must be a scalar or shape ({self.n},), got shape {arr.shape}")
         return np.broadcast_to(arr, (self.n,)).copy()
 
     # ------------------------------------------------------------------------ solving
@@ -225,7 +221,7 @@ class RadialProblem:
         :func:`project_radii` (centres, radii, sigmas)."""
         if not isinstance(spheres, Sequence) or len(spheres) != self.n:
             got = len(spheres) if isinstance(spheres, Sequence) else type(spheres).__name__
-            raise ShapeError(f"spheres must be a sequence of {self.n} GaussianSphere, got {got}")
+            raise RadialError(f"spheres must be a sequence of {self.n} GaussianSphere, got {got}")
         inst = _Problem.build(spheres, tol)
         self.parameters["b"].value = inst.b
         self.parameters["inv_sigma"].value = 1.0 / inst.sigmas
@@ -245,21 +241,20 @@ class RadialProblem:
 
         Raises
         ------
-        ShapeError
-            ``spheres`` is not n spheres.
-        UnknownMethodError
-            ``solver`` is not an installed cvxpy solver.
+        RadialError
+            - ``spheres`` is not n spheres.
+            - ``solver`` is not an installed cvxpy solver.
         SolverError
             No answer (infeasible added constraints, solver failure).
         """
         import cvxpy as cp
 
         if not isinstance(solver, str):
-            raise UnknownMethodError(f"solver must be a cvxpy solver name, got {solver!r:.100}")
+            raise RadialError(f"solver must be a cvxpy solver name, got {solver!r:.100}")
         instance("tol", tol, Tolerances)
         name = solver.upper()
         if name not in installed_cvxpy_solvers():
-            raise UnknownMethodError(
+            raise RadialError(
                 f"solver={solver!r} is not an installed cvxpy solver; installed: "
                 f"{', '.join(installed_cvxpy_solvers())}")
         inst = self.set_parameters(spheres, tol)

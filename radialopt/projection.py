@@ -38,7 +38,7 @@ which is a least-distance problem.  Four methods, one entry point :func:`project
     feasible point's); on a ridge the rule can lose, and then reports
     ``"optimal_inaccurate"``: the status is ``"optimal"`` only when the answer's KKT
     multipliers are >= 0, i.e. it IS the optimum.  The work is bounded by
-    :data:`PAPER_MAX_FLATS` flats (D1); beyond it :class:`~radialopt.errors.TooManySpheresError`.
+    :data:`PAPER_MAX_FLATS` flats (D1); beyond it :class:`~radialopt.errors.RadialError`.
 
 Every method's answer is checked against ``A r' <= b`` in metres: a violation above
 ``tol.feasibility * scale`` turns ``"optimal"`` into ``"optimal_inaccurate"``, one above
@@ -94,12 +94,8 @@ from ._ldp import CONSTRAINT_GENERATION_ROWS as CONSTRAINT_GENERATION_ROWS
 from ._ldp import _polish_certified
 from ._ldp import least_distance as least_distance
 from .errors import (
-    NegativeRadiusError,
-    NonPositiveSigmaError,
-    ShapeError,
+    RadialError,
     SolverError,
-    TooManySpheresError,
-    UnknownMethodError,
     VerificationError,
 )
 from .polytope import RestrictionPolytope, pair_pattern
@@ -359,7 +355,7 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
 
     name = "CLARABEL" if solver is None else solver.upper()
     if name not in installed_cvxpy_solvers():
-        raise UnknownMethodError(
+        raise RadialError(
             f"solver = {solver!r} is not an installed cvxpy solver; installed: "
             f"{', '.join(installed_cvxpy_solvers())}. Install e.g. `pip install osqp scs ecos`."
         )
@@ -397,7 +393,7 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
 
 # --------------------------------------------------------------------------------- paper
 #: Most flats (intersections of k hyperplanes) the paper's rule projects onto before it gives
-#: up with :class:`~radialopt.errors.TooManySpheresError` (D1: all C(84, k) flats of n = 8
+#: up with :class:`~radialopt.errors.RadialError` (D1: all C(84, k) flats of n = 8
 #: took more than 30 s; the violated rows are few, so real instances stay far below this).
 PAPER_MAX_FLATS = 100_000
 
@@ -425,7 +421,7 @@ def _solve_paper(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
         for k in range(1, min(n, len(rows)) + 1):
             count = comb(len(rows), k)
             if count > budget[0]:
-                raise TooManySpheresError(
+                raise RadialError(
                     f"method 'paper' with n = {n} spheres: {len(violated)} of {len(hn)} rows are "
                     f"violated and no flat of fewer than {k} rows is feasible; the next stage has "
                     f"{count} flats, beyond the budget PAPER_MAX_FLATS = {PAPER_MAX_FLATS}. Use "
@@ -526,7 +522,7 @@ def project_radii(
     check : bool or "exact"
         True: verify the answer against explicit vertex enumeration in floating point;
         ``"exact"``: verify it in exact rational arithmetic with pycddlib's GMP mode
-        (:func:`verify_solution_exact`; :class:`~radialopt.errors.UnknownMethodError` when
+        (:func:`verify_solution_exact`; :class:`~radialopt.errors.RadialError` when
         ``cdd.gmp`` is missing).  Either raises :class:`~radialopt.errors.VerificationError`
         on disagreement.
     tol : Tolerances
@@ -539,29 +535,28 @@ def project_radii(
     Raises
     ------
     RadialError
-        Bad input (see :mod:`radialopt.errors`), unknown method or solver.
+        - Bad input (see :mod:`radialopt.errors`), unknown method or solver.
+        - ``check`` or ``method="vertices"`` with more than
+          :data:`~radialopt.vertices.MAX_VERTEX_SPHERES` spheres (vertex enumeration).
     SolverError
         The backend failed and no answer can be trusted.
-    TooManySpheresError
-        ``check`` or ``method="vertices"`` with more than
-        :data:`~radialopt.vertices.MAX_VERTEX_SPHERES` spheres (vertex enumeration).
     """
     if not (type(method) is str and method == "active_set" and solver is None and check is False
             and type(tol) is Tolerances):
         _check_arguments(method, solver, check, tol)  # the defaults need no check
     if centers is not None or radii is not None or sigmas is not None:
         if spheres is not None:
-            raise ShapeError("pass either spheres or centers=, radii=, sigmas=, not both (got spheres "
-                             f"of type {type(spheres).__name__} and arrays)")
+            raise RadialError("pass either spheres or centers=, radii=, sigmas=, not both (got spheres "
+                              f"of type {type(spheres).__name__} and arrays)")
         if centers is None or radii is None or sigmas is None:
             missing = [k for k, v in (("centers", centers), ("radii", radii), ("sigmas", sigmas))
                        if v is None]
-            raise ShapeError("the array form needs centers=, radii= and sigmas=; missing "
-                             f"{', '.join(missing)}")
+            raise RadialError("the array form needs centers=, radii= and sigmas=; missing "
+                              f"{', '.join(missing)}")
         c, r, sg = checked_arrays(centers, radii, sigmas, min_count=2)
         return _project_arrays(c, r, sg, method, solver, check, tol)
     if spheres is None:
-        raise ShapeError("project_radii needs spheres, or centers=, radii= and sigmas= arrays")
+        raise RadialError("project_radii needs spheres, or centers=, radii= and sigmas= arrays")
     if not isinstance(spheres, (Sequence, str, bytes, GaussianSphere, np.ndarray)) and isinstance(
             spheres, Iterable):
         spheres = list(spheres)  # a generator is read once; check=True reads the spheres again
@@ -572,13 +567,13 @@ def project_radii(
 def _check_arguments(method: object, solver: object, check: object, tol: object) -> None:
     """The checks of :func:`project_radii`'s arguments other than the spheres."""
     if not isinstance(method, str) or method not in _BACKENDS:
-        raise UnknownMethodError(f"unknown method {method!r:.100}; choose one of {', '.join(METHODS)}")
+        raise RadialError(f"unknown method {method!r:.100}; choose one of {', '.join(METHODS)}")
     if solver is not None and not isinstance(solver, str):
-        raise UnknownMethodError(f"solver must be a cvxpy solver name or None, got {solver!r:.100}")
+        raise RadialError(f"solver must be a cvxpy solver name or None, got {solver!r:.100}")
     if solver is not None and method != "cvxpy":
-        raise UnknownMethodError(f"solver={solver!r} only applies to method='cvxpy', not {method!r}")
+        raise RadialError(f"solver={solver!r} only applies to method='cvxpy', not {method!r}")
     if not (check is False or check is True or (isinstance(check, str) and check == "exact")):
-        raise UnknownMethodError(f"check must be False, True or 'exact', got check={check!r:.100}")
+        raise RadialError(f"check must be False, True or 'exact', got check={check!r:.100}")
     instance("tol", tol, Tolerances)
     if check == "exact":
         _cdd_gmp()  # fail before solving when the exact mode is missing
@@ -602,7 +597,7 @@ def project_radii_unchecked(
     ``(n,)`` arrays with ``n >= 2``, all finite, radii >= 0, sigmas > 0 within the relative
     range ``sigma_range`` accepts, and ``method``, ``solver``,
     ``check``, ``tol`` valid arguments of :func:`project_radii`.  Coincident centres still
-    raise :class:`~radialopt.errors.CoincidentCentersError` (the pair distances are computed
+    raise :class:`~radialopt.errors.RadialError` (the pair distances are computed
     anyway); anything else outside the contract gives undefined results.
     """
     return _project_arrays(centers, radii, sigmas, method, solver, check, tol)
@@ -737,14 +732,14 @@ def project_radii_batch(
     instance("tol", tol, Tolerances)
     c = real_array("centers", centers, shape=("B", "n", 3))
     if c.shape[1] < 2:
-        raise ShapeError(f"centers must have shape (B, n, 3) with n >= 2, got shape {c.shape}")
+        raise RadialError(f"centers must have shape (B, n, 3) with n >= 2, got shape {c.shape}")
     r = real_array("radii", radii, shape=c.shape[:2])
     sg = real_array("sigmas", sigmas, shape=c.shape[:2], max_abs=MAX_SIGMA)
     if np.any(sg <= 0):
-        raise NonPositiveSigmaError(f"sigmas{np.argwhere(sg <= 0)[0].tolist()} = {float(sg[sg <= 0][0])!r} "
-                                    "must be > 0")
+        raise RadialError(f"sigmas{np.argwhere(sg <= 0)[0].tolist()} = {float(sg[sg <= 0][0])!r} "
+                          "must be > 0")
     if np.any(r < 0):
-        raise NegativeRadiusError(
+        raise RadialError(
             f"radii{np.argwhere(r < 0)[0].tolist()} = {float(r[r < 0][0])!r} must be >= 0")
     if c.shape[0]:
         scale = np.maximum(np.maximum(np.abs(c).max(axis=(1, 2)), r.max(axis=1)), 1.0)[:, None]
@@ -986,7 +981,7 @@ def verify_solution_exact(
 
     Raises
     ------
-    UnknownMethodError
+    RadialError
         pycddlib's GMP mode (``cdd.gmp``) is not installed.
     VerificationError
         Any of the three conditions fails.

@@ -14,22 +14,10 @@ from .association import associate
 from .association.filters import discriminator, orientation_filter, proximity_filter
 from .association.hypotheses import AssociationHypothesis
 from .errors import (
-    ArgumentTypeError,
-    CoincidentObjectsError,
-    EmptyWorldError,
-    GravityDirectionError,
     ImporterError,
     MalformedFileError,
-    NonFiniteError,
-    NonPositiveError,
-    NonRigidError,
-    OutOfRangeError,
     PoseError,
-    ShapeError,
     TooFewPerceptsError,
-    UnknownGeometryError,
-    UnknownTypeError,
-    UpAxisError,
     WorldGraphError,
 )
 from .importers.franka import franka_kitchen_path, load_franka_kitchen
@@ -41,26 +29,14 @@ from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 
 __all__ = [
     "ActiveLocalization",
-    "ArgumentTypeError",
-    "CoincidentObjectsError",
-    "EmptyWorldError",
-    "GravityDirectionError",
+    "WorldGraphError",
     "ImporterError",
     "LinkTable",
     "MalformedFileError",
-    "NonFiniteError",
-    "NonPositiveError",
-    "NonRigidError",
-    "OutOfRangeError",
     "PoseError",
     "ObjectModel",
     "ObjectTable",
-    "ShapeError",
     "TooFewPerceptsError",
-    "UnknownGeometryError",
-    "UnknownTypeError",
-    "UpAxisError",
-    "WorldGraphError",
     "ViewPlan",
     "WorldModel",
     "active_localize",
@@ -92,3 +68,11 @@ __all__ += [
     "localize_tiled",
     "TilePool",
 ]
+
+
+def __getattr__(name: str) -> type[WorldGraphError]:
+    """0.1's error class names, deprecated: each warns and gives the class that replaced it
+    (``worldgraph.errors.DEPRECATED_NAMES``)."""
+    from . import errors
+
+    return errors._deprecated(__name__, name)

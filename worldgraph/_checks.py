@@ -29,11 +29,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import (
-    ArgumentTypeError,
-    NonFiniteError,
-    NonPositiveError,
-    OutOfRangeError,
-    ShapeError,
     WorldGraphError,
 )
 
@@ -71,65 +66,66 @@ def real_array(name: str, value: Any, shape: tuple[int | None, ...] | None = Non
                max_abs: float | None = None, min_size: int = 0) -> NDArray[np.float64]:
     """``value`` as a new finite float64 array of ``shape`` (``None`` entries: any length).
 
-    Raises :class:`ArgumentTypeError` (None, str, bool, complex or non-numeric elements),
-    :class:`ShapeError` (ragged input or wrong shape, fewer than ``min_size`` elements),
-    :class:`NonFiniteError` (NaN/inf, naming the first bad index and value) and
-    :class:`OutOfRangeError` (an element with ``|x| > max_abs``).
+    Raises :class:`WorldGraphError` (None, str, bool, complex or non-numeric elements),
+    :class:`WorldGraphError` (ragged input or wrong shape, fewer than ``min_size`` elements),
+    :class:`WorldGraphError` (NaN/inf, naming the first bad index and value) and
+    :class:`WorldGraphError` (an element with ``|x| > max_abs``).
     """
     if value is None or isinstance(value, str | bytes):
-        raise ArgumentTypeError(f"{name} must be an array of real numbers, got {_short(value)}")
+        raise WorldGraphError(f"{name} must be an array of real numbers, got {_short(value)}")
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise ShapeError(f"{name} must be a rectangular array of real numbers, got {_short(value)}") from exc
+        raise WorldGraphError(f"{name} must be a rectangular array of real numbers, "
+                              f"got {_short(value)}") from exc
     if raw.dtype.kind == "c":
-        raise ArgumentTypeError(f"{name} must be real, got complex values {_short(value)}")
+        raise WorldGraphError(f"{name} must be real, got complex values {_short(value)}")
     if raw.dtype.kind == "b":
-        raise ArgumentTypeError(f"{name} must be real numbers, got booleans {_short(value)}")
+        raise WorldGraphError(f"{name} must be real numbers, got booleans {_short(value)}")
     if raw.dtype.kind not in "fiuO":
-        raise ArgumentTypeError(f"{name} must be an array of real numbers, got dtype {raw.dtype} "
-                                f"{_short(value)}")
+        raise WorldGraphError(f"{name} must be an array of real numbers, got dtype {raw.dtype} "
+                              f"{_short(value)}")
     if raw.dtype.kind == "O":
         flat = raw.reshape(-1)
         for k, item in enumerate(flat):
             if (isinstance(item, bool | np.bool_) or not isinstance(item, numbers.Real)
                     or isinstance(item, complex)):
                 idx = np.unravel_index(k, raw.shape) if raw.ndim else ()
-                raise ArgumentTypeError(f"{name}{_index(idx)} must be a real number, got {_short(item)}")
+                raise WorldGraphError(f"{name}{_index(idx)} must be a real number, got {_short(item)}")
             try:
                 float(item)
             except OverflowError as exc:
                 idx = np.unravel_index(k, raw.shape) if raw.ndim else ()
-                raise NonFiniteError(f"{name}{_index(idx)} = {_short(item)} does not fit a float64") from exc
+                raise WorldGraphError(f"{name}{_index(idx)} = {_short(item)} does not fit a float64") from exc
     try:
         arr = np.array(raw, dtype=np.float64)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise NonFiniteError(f"{name} must hold real numbers representable as float64, "
-                             f"got {_short(value)}") from exc
+        raise WorldGraphError(f"{name} must hold real numbers representable as float64, "
+                              f"got {_short(value)}") from exc
     if shape is not None and not _shape_ok(arr.shape, shape):
-        raise ShapeError(f"{name} must have shape {_shape_text(shape)}, got shape {arr.shape}")
+        raise WorldGraphError(f"{name} must have shape {_shape_text(shape)}, got shape {arr.shape}")
     if arr.size < min_size:
-        raise ShapeError(f"{name} must hold at least {min_size} element(s), got shape {arr.shape}")
+        raise WorldGraphError(f"{name} must hold at least {min_size} element(s), got shape {arr.shape}")
     bad = ~np.isfinite(arr)
     if bad.any():
         idx = tuple(np.argwhere(bad)[0]) if arr.ndim else ()
-        raise NonFiniteError(f"{name}{_index(idx)} must be finite, got {float(arr[idx])!r}")
+        raise WorldGraphError(f"{name}{_index(idx)} must be finite, got {float(arr[idx])!r}")
     if max_abs is not None:
         over = np.abs(arr) > max_abs
         if over.any():
             idx = tuple(np.argwhere(over)[0]) if arr.ndim else ()
-            raise OutOfRangeError(f"{name}{_index(idx)} = {float(arr[idx])!r} is out of range: "
+            raise WorldGraphError(f"{name}{_index(idx)} = {float(arr[idx])!r} is out of range: "
                                   f"|value| must be <= {max_abs:g}")
     return arr
 
 
 def _real_scalar(name: str, value: Any) -> float:
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-        raise ArgumentTypeError(f"{name} must be a real number, got {_short(value)}")
+        raise WorldGraphError(f"{name} must be a real number, got {_short(value)}")
     try:
         return float(value)
     except OverflowError as exc:  # a Python int above ~1.8e308
-        raise NonFiniteError(f"{name} = {_short(value)} does not fit a float64") from exc
+        raise WorldGraphError(f"{name} = {_short(value)} does not fit a float64") from exc
 
 
 def int_array(name: str, value: Any, shape: tuple[int | None, ...] | None = None, *,
@@ -137,24 +133,24 @@ def int_array(name: str, value: Any, shape: tuple[int | None, ...] | None = None
     """``value`` as a new ``intp`` array of ``shape``: integer dtype only (bool, float, str,
     None, complex rejected; an empty sequence is fine), elements ``>= minimum``."""
     if value is None or isinstance(value, str | bytes):
-        raise ArgumentTypeError(f"{name} must be an array of integers, got {_short(value)}")
+        raise WorldGraphError(f"{name} must be an array of integers, got {_short(value)}")
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise ShapeError(f"{name} must be a rectangular array of integers, got {_short(value)}") from exc
+        raise WorldGraphError(f"{name} must be a rectangular array of integers, got {_short(value)}") from exc
     if raw.size == 0 and raw.dtype.kind in "fO":
         raw = raw.astype(np.intp)
     if raw.dtype.kind not in "iu":
-        raise ArgumentTypeError(f"{name} must hold integers, got dtype {raw.dtype} {_short(value)}")
+        raise WorldGraphError(f"{name} must hold integers, got dtype {raw.dtype} {_short(value)}")
     info = np.iinfo(np.intp)
     if raw.size and (int(raw.max()) > info.max or int(raw.min()) < info.min):
-        raise OutOfRangeError(f"{name} holds integers beyond the index range, max {int(raw.max())}")
+        raise WorldGraphError(f"{name} holds integers beyond the index range, max {int(raw.max())}")
     arr = np.array(raw, dtype=np.intp)
     if shape is not None and not _shape_ok(arr.shape, shape):
-        raise ShapeError(f"{name} must have shape {_shape_text(shape)}, got shape {arr.shape}")
+        raise WorldGraphError(f"{name} must have shape {_shape_text(shape)}, got shape {arr.shape}")
     if minimum is not None and arr.size and (arr < minimum).any():
         idx = tuple(np.argwhere(arr < minimum)[0])
-        raise OutOfRangeError(f"{name}{_index(idx)} must be >= {minimum}, got {int(arr[idx])}")
+        raise WorldGraphError(f"{name}{_index(idx)} must be >= {minimum}, got {int(arr[idx])}")
     return arr
 
 
@@ -162,7 +158,7 @@ def real_float(name: str, value: Any) -> float:
     """A real scalar as ``float`` that may be infinite but not NaN (bool, complex, str, None rejected)."""
     x = _real_scalar(name, value)
     if math.isnan(x):
-        raise NonFiniteError(f"{name} must not be NaN, got {x!r}")
+        raise WorldGraphError(f"{name} must not be NaN, got {x!r}")
     return x
 
 
@@ -171,40 +167,40 @@ def real_scalar(name: str, value: Any, *, minimum: float | None = None, maximum:
     """A finite real scalar as ``float`` (bool, complex, str, None rejected), range-checked.
 
     ``positive``: ``> 0``; ``minimum`` / ``maximum``: inclusive bounds; ``max_abs``: ``|value| <=
-    max_abs``.  Below zero is :class:`NonPositiveError`, any other bound :class:`OutOfRangeError`.
+    max_abs``.  Below zero is :class:`WorldGraphError`, any other bound :class:`WorldGraphError`.
     """
     x = _real_scalar(name, value)
     if not math.isfinite(x):
-        raise NonFiniteError(f"{name} must be finite, got {x!r}")
+        raise WorldGraphError(f"{name} must be finite, got {x!r}")
     if positive and x <= 0:
-        raise NonPositiveError(f"{name} must be > 0, got {x!r}")
+        raise WorldGraphError(f"{name} must be > 0, got {x!r}")
     if minimum is not None and x < minimum:
         if minimum == 0:
-            raise NonPositiveError(f"{name} must be >= 0, got {x!r}")
-        raise OutOfRangeError(f"{name} = {x!r} is out of range: must be >= {minimum:g}")
+            raise WorldGraphError(f"{name} must be >= 0, got {x!r}")
+        raise WorldGraphError(f"{name} = {x!r} is out of range: must be >= {minimum:g}")
     if maximum is not None and x > maximum:
-        raise OutOfRangeError(f"{name} = {x!r} is out of range: must be <= {maximum:g}")
+        raise WorldGraphError(f"{name} = {x!r} is out of range: must be <= {maximum:g}")
     if max_abs is not None and abs(x) > max_abs:
-        raise OutOfRangeError(f"{name} = {x!r} is out of range: |value| must be <= {max_abs:g}")
+        raise WorldGraphError(f"{name} = {x!r} is out of range: |value| must be <= {max_abs:g}")
     return x
 
 
 def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
     """An integer (``int`` or numpy integer; not bool, float, NaN, None, str) in ``[minimum, maximum]``."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
-        raise ArgumentTypeError(f"{name} must be an integer, got {_short(value)}")
+        raise WorldGraphError(f"{name} must be an integer, got {_short(value)}")
     n = int(value)
     if minimum is not None and n < minimum:
-        raise OutOfRangeError(f"{name} must be >= {minimum}, got {n}")
+        raise WorldGraphError(f"{name} must be >= {minimum}, got {n}")
     if maximum is not None and n > maximum:
-        raise OutOfRangeError(f"{name} must be <= {maximum}, got {n}")
+        raise WorldGraphError(f"{name} must be <= {maximum}, got {n}")
     return n
 
 
 def generator(name: str, value: Any) -> np.random.Generator:
-    """``value`` if it is a :class:`numpy.random.Generator`, else :class:`ArgumentTypeError`."""
+    """``value`` if it is a :class:`numpy.random.Generator`, else :class:`WorldGraphError`."""
     if not isinstance(value, np.random.Generator):
-        raise ArgumentTypeError(f"{name} must be a numpy.random.Generator, got {_short(value)}")
+        raise WorldGraphError(f"{name} must be a numpy.random.Generator, got {_short(value)}")
     return value
 
 
@@ -215,8 +211,8 @@ def rng_from_seed(name: str, value: Any) -> np.random.Generator:
     if isinstance(value, np.random.Generator):
         return value
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
-        raise ArgumentTypeError(f"{name} must be None, a non-negative integer seed or a "
-                                f"numpy.random.Generator, got {_short(value)}")
+        raise WorldGraphError(f"{name} must be None, a non-negative integer seed or a "
+                              f"numpy.random.Generator, got {_short(value)}")
     return np.random.default_rng(integer(name, value, minimum=0))
 
 
@@ -240,29 +236,29 @@ MAX_PATH_LENGTH = 4096
 
 def file_path(name: str, value: Any, kinds: str = "a str or os.PathLike") -> str:
     """A file path as ``str``: ``str`` or ``os.PathLike`` of ``str``, non-empty, without NUL,
-    UTF-8 encodable, at most :data:`MAX_PATH_LENGTH` characters (:class:`ArgumentTypeError`)."""
+    UTF-8 encodable, at most :data:`MAX_PATH_LENGTH` characters (:class:`WorldGraphError`)."""
     import os
 
     if isinstance(value, bytes) or not isinstance(value, str | os.PathLike):
-        raise ArgumentTypeError(f"{name} must be {kinds}, got {_short(value)}")
+        raise WorldGraphError(f"{name} must be {kinds}, got {_short(value)}")
     text = os.fspath(value)
     if not isinstance(text, str):
-        raise ArgumentTypeError(f"{name} must be a str or os.PathLike of str, got {_short(value)}")
-    name_string(name, text, ArgumentTypeError)
+        raise WorldGraphError(f"{name} must be a str or os.PathLike of str, got {_short(value)}")
+    name_string(name, text)
     if len(text) > MAX_PATH_LENGTH:
-        raise ArgumentTypeError(f"{name} is {len(text)} characters long, more than {MAX_PATH_LENGTH}: "
-                                f"{_short(text)}")
+        raise WorldGraphError(f"{name} is {len(text)} characters long, more than {MAX_PATH_LENGTH}: "
+                              f"{_short(text)}")
     return text
 
 
 def as_list(name: str, value: Any, what: str, *, exclude: tuple[type, ...] = ()) -> list[Any]:
     """A sequence as a list: not None, a string, bytes, a dict or one of ``exclude`` (a lone
-    element); :class:`ArgumentTypeError` saying it must be a sequence of ``what`` otherwise."""
+    element); :class:`WorldGraphError` saying it must be a sequence of ``what`` otherwise."""
     if value is None or isinstance(value, (str, bytes, dict, *exclude)):
-        raise ArgumentTypeError(f"{name} must be a sequence of {what}, got {type(value).__name__} "
-                                f"{_short(value, 80)}")
+        raise WorldGraphError(f"{name} must be a sequence of {what}, got {type(value).__name__} "
+                              f"{_short(value, 80)}")
     try:
         return list(value)
     except TypeError as exc:
-        raise ArgumentTypeError(f"{name} must be a sequence of {what}, got {type(value).__name__} "
-                                f"{_short(value, 80)}") from exc
+        raise WorldGraphError(f"{name} must be a sequence of {what}, got {type(value).__name__} "
+                              f"{_short(value, 80)}") from exc

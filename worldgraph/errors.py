@@ -1,101 +1,75 @@
-"""Exceptions of :mod:`worldgraph`: one base, specific subclasses.
+"""Exceptions of :mod:`worldgraph`: a base and the few subclasses a caller acts on.
 
-Every bad-input error is a :class:`WorldGraphError`, which is a :class:`ValueError`, so callers
-can catch the whole family at once or a single case.
+Every error :mod:`worldgraph` raises is a :class:`WorldGraphError`, which is a
+:class:`ValueError`. A bad argument (a wrong shape or kind, NaN, a non-positive length, a
+transform that is not rigid, an unknown type, an empty world, two same-type objects at one
+place, ...) raises the base itself, with a message that names the argument, the index and the
+value. A subclass exists only where a caller does something different:
+
+- :class:`MalformedFileError`: fix the world-model file the message names;
+- :class:`ImporterError` (also an :class:`ImportError`): install the optional importer;
+- :class:`TooFewPerceptsError`: gather more percepts (another view) before associating;
+- :class:`PoseError`: the matches do not fix a pose (collinear points, singular information,
+  no convergence, degenerate weights or covariances).
+
+The classes that 0.1 had for each kind of bad argument (``ShapeError``, ``NonFiniteError``,
+...) are deprecated names of :class:`WorldGraphError`; see :data:`DEPRECATED_NAMES`.
 """
 
 from __future__ import annotations
 
+import warnings
+
 __all__ = [
-    "ArgumentTypeError",
-    "CoincidentObjectsError",
-    "EmptyWorldError",
-    "GravityDirectionError",
     "ImporterError",
     "MalformedFileError",
-    "NonFiniteError",
-    "NonPositiveError",
-    "NonRigidError",
-    "OutOfRangeError",
     "PoseError",
-    "ShapeError",
     "TooFewPerceptsError",
-    "UnknownGeometryError",
-    "UnknownTypeError",
-    "UpAxisError",
     "WorldGraphError",
 ]
 
 
 class WorldGraphError(ValueError):
-    """Base of every error raised by :mod:`worldgraph`."""
-
-
-class ShapeError(WorldGraphError):
-    """An array does not have the expected shape."""
-
-
-class NonFiniteError(WorldGraphError):
-    """A value is NaN or infinite."""
-
-
-class NonPositiveError(WorldGraphError):
-    """A length that must be positive (or non-negative) is not."""
-
-
-class ArgumentTypeError(WorldGraphError):
-    """A value of the wrong kind: None, bool, str or complex where a number is meant, a float
-    where an integer is meant, a non-Generator where a random generator is meant."""
-
-
-class UpAxisError(ArgumentTypeError):
-    """An ``up_axis`` that is not one of ``"+x"``, ``"-x"``, ``"+y"``, ``"-y"``, ``"+z"``, ``"-z"``."""
-
-
-class GravityDirectionError(WorldGraphError):
-    """An up vector (``localize(gravity=...)``) that points down in the ego frame (more than 90
-    degrees from the ego +z axis): a gravity vector passed where the up vector is meant."""
-
-
-class OutOfRangeError(WorldGraphError):
-    """A value outside its documented range (e.g. a coordinate above 1e6 m, a negative count)."""
-
-
-class NonRigidError(WorldGraphError):
-    """A transform that must be rigid is scaled, sheared or reflected."""
-
-
-class EmptyWorldError(WorldGraphError):
-    """A world model without objects."""
-
-
-class UnknownTypeError(WorldGraphError):
-    """An object type that is not in the world model, or a type that is not a non-empty string."""
-
-
-class UnknownGeometryError(WorldGraphError):
-    """An object refers to a class geometry whose vertices the world model does not hold."""
+    """Base of every error raised by :mod:`worldgraph`, and the error of a bad argument."""
 
 
 class MalformedFileError(WorldGraphError):
     """A world-model file that cannot be read: bad JSON, wrong version, missing key, bad value."""
 
 
-class CoincidentObjectsError(WorldGraphError):
-    """Two objects of the same type at the same position: no percept can tell them apart."""
+class ImporterError(WorldGraphError, ImportError):
+    """An optional importer (e.g. the Franka kitchen of gymnasium-robotics) is not available."""
 
 
 class TooFewPerceptsError(WorldGraphError):
     """Fewer percepts than association or localisation needs."""
 
 
-class ImporterError(WorldGraphError, ImportError):
-    """An optional importer (e.g. the Franka kitchen of gymnasium-robotics) is not available."""
-
-
 class PoseError(WorldGraphError):
-    """Degenerate input to a pose computation: collinear points, invalid weights.
+    """The matches do not fix a pose: collinear points, singular information, no convergence,
+    degenerate weights or covariances, or a result without a pose."""
 
-    Wrong shapes raise :class:`~worldgraph.errors.ShapeError`, NaN/inf
-    :class:`~worldgraph.errors.NonFiniteError`.
-    """
+
+#: Names of 0.1's error classes, deprecated in 0.2 and removed in 0.3, and the class each now
+#: is. An ``except`` clause that names one catches everything it caught before.
+DEPRECATED_NAMES: dict[str, type[WorldGraphError]] = dict.fromkeys(
+    ["ShapeError", "NonFiniteError", "NonPositiveError", "ArgumentTypeError", "UpAxisError",
+     "GravityDirectionError", "OutOfRangeError", "NonRigidError", "EmptyWorldError",
+     "UnknownTypeError", "UnknownGeometryError", "CoincidentObjectsError"],
+    WorldGraphError,
+)
+
+
+def _deprecated(module: str, name: str) -> type[WorldGraphError]:
+    """The class a deprecated error name stands for, with a :class:`DeprecationWarning`."""
+    if name not in DEPRECATED_NAMES:
+        raise AttributeError(f"module {module!r} has no attribute {name!r}")
+    cls = DEPRECATED_NAMES[name]
+    home = f"{cls.__module__.split('.')[0]}.{cls.__name__}"
+    warnings.warn(f"{module}.{name} is deprecated and will be removed in 0.3: catch {home}, the class "
+                  "its errors are now raised as", DeprecationWarning, stacklevel=3)
+    return cls
+
+
+def __getattr__(name: str) -> type[WorldGraphError]:
+    return _deprecated(__name__, name)

@@ -18,10 +18,7 @@ from numpy.typing import NDArray
 
 from ._checks import _short, integer, real_array, real_scalar
 from .errors import (
-    ArgumentTypeError,
-    NonPositiveError,
-    OutOfRangeError,
-    ShapeError,
+    WorldGraphError,
 )
 
 
@@ -270,7 +267,7 @@ class AssociationTolerances:
             v = real_scalar(f"AssociationTolerances.{name}", getattr(self, name), minimum=0.0,
                             positive=name != "tilt_allowance")
             if v > math.pi:
-                raise OutOfRangeError(f"AssociationTolerances.{name} = {v!r} is an angle in radians and must "
+                raise WorldGraphError(f"AssociationTolerances.{name} = {v!r} is an angle in radians and must "
                                       f"be <= pi; degrees? use np.radians({v!r}) = {math.radians(v):.6g}")
             put(name, v)
         for name in ("mu_max", "height_tolerance"):
@@ -279,15 +276,15 @@ class AssociationTolerances:
                 put(name, real_scalar(f"AssociationTolerances.{name}", v, positive=True, maximum=1e12))
         if self.gravity_aligned is not None:
             if not isinstance(self.gravity_aligned, bool | np.bool_):
-                raise ArgumentTypeError(f"AssociationTolerances.gravity_aligned must be a bool or None, "
-                                        f"got {self.gravity_aligned!r}")
+                raise WorldGraphError(f"AssociationTolerances.gravity_aligned must be a bool or None, "
+                                      f"got {self.gravity_aligned!r}")
             put("gravity_aligned", bool(self.gravity_aligned))
         put("min_clique_size", integer("AssociationTolerances.min_clique_size", self.min_clique_size,
                                        minimum=2, maximum=64))
         put("max_search_percepts", integer("AssociationTolerances.max_search_percepts",
                                            self.max_search_percepts, minimum=2, maximum=100_000))
         if self.min_clique_size > self.max_search_percepts:
-            raise OutOfRangeError(f"AssociationTolerances.min_clique_size = {self.min_clique_size} exceeds "
+            raise WorldGraphError(f"AssociationTolerances.min_clique_size = {self.min_clique_size} exceeds "
                                   f"max_search_percepts = {self.max_search_percepts} (the clique search "
                                   "looks at that many percepts at most): raise max_search_percepts too")
         for name, lo in (("near_maximum", 0), ("max_nodes", 1), ("max_cliques", 1), ("dense_pair_limit", 0),
@@ -303,12 +300,12 @@ class AssociationTolerances:
         for name, arr in (("sigma_p", sp), ("sigma_q", sq)):
             if np.any(arr < 0):
                 i = int(np.flatnonzero(np.ravel(arr) < 0)[0])
-                raise NonPositiveError(f"{name}[{i}] must be >= 0, got {float(np.ravel(arr)[i])!r}"
-                                       if arr.ndim else f"{name} must be >= 0, got {float(arr)!r}")
+                raise WorldGraphError(f"{name}[{i}] must be >= 0, got {float(np.ravel(arr)[i])!r}"
+                                      if arr.ndim else f"{name} must be >= 0, got {float(arr)!r}")
         try:
             out = self.n_sigma * self.pair_factor * np.hypot(sp, sq) + self.min_tolerance
         except ValueError as exc:
-            raise ShapeError(f"sigma_p {sp.shape} and sigma_q {sq.shape} do not broadcast") from exc
+            raise WorldGraphError(f"sigma_p {sp.shape} and sigma_q {sq.shape} do not broadcast") from exc
         return float(out) if np.ndim(out) == 0 else out
 
 
@@ -320,7 +317,7 @@ def _check_tolerances(tolerances: object, name: str = "tolerances", world: _Grav
     """The tolerances, with ``gravity_aligned=None`` resolved to the world's flag when a world is
     given."""
     if not isinstance(tolerances, AssociationTolerances):
-        raise ArgumentTypeError(f"{name} must be an AssociationTolerances, got {_short(tolerances)}")
+        raise WorldGraphError(f"{name} must be an AssociationTolerances, got {_short(tolerances)}")
     if world is not None and tolerances.gravity_aligned is None:
         return replace(tolerances, gravity_aligned=bool(world.gravity_aligned))
     return tolerances

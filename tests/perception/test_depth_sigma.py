@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 
 from perception import (
-    NonFiniteError,
-    NonPositiveSigmaError,
+    PerceptionError,
     default_head,
     depth_sigma,
     simulate_percepts,
@@ -35,20 +34,20 @@ def test_depth_sigma_arrays_and_floor_hand_computed() -> None:
 def test_depth_sigma_zero_depth_only_with_a_floor() -> None:
     assert depth_sigma(0.0, 1000.0, min_sigma=1e-4) == 1e-4
     np.testing.assert_array_equal(depth_sigma([0.0, 0.0], 5.0, min_sigma=0.5), [0.5, 0.5])
-    with pytest.raises(NonPositiveSigmaError, match=r"rho must be > 0, got 0\.0"):
+    with pytest.raises(PerceptionError, match=r"rho must be > 0, got 0\.0"):
         depth_sigma(0.0, 1000.0)
-    with pytest.raises(NonPositiveSigmaError, match=r"rho\[2\] must be >= 0"):
+    with pytest.raises(PerceptionError, match=r"rho\[2\] must be >= 0"):
         depth_sigma([1.0, 0.0, -0.5], 1000.0, min_sigma=1e-3)
 
 
 @pytest.mark.parametrize("bad", [-1e-3, np.nan, np.inf])
 def test_depth_sigma_rejects_bad_floor(bad: float) -> None:
-    with pytest.raises((NonPositiveSigmaError, NonFiniteError), match="min_sigma"):
+    with pytest.raises(PerceptionError, match="min_sigma"):
         depth_sigma(1.0, 1000.0, min_sigma=bad)
 
 
 def test_depth_sigma_overflow_names_the_depth() -> None:
-    with pytest.raises(NonFiniteError, match=r"overflows for rho\[1\]"):
+    with pytest.raises(PerceptionError, match=r"overflows for rho\[1\]"):
         depth_sigma([1.0, 1e160], 1.0, min_sigma=1e-3)
 
 
@@ -96,7 +95,7 @@ def test_simulate_scan_sigmas_follow_eq6() -> None:
 
 def test_simulate_overflow_keeps_its_error() -> None:
     """An eq. 6 overflow in a simulation is still the simulation's sigma-range error."""
-    with pytest.raises(NonPositiveSigmaError, match=r"simulated sigma inf .*outside \[1e-150, 1e150\]"):
+    with pytest.raises(PerceptionError, match=r"simulated sigma inf .*outside \[1e-150, 1e150\]"):
         simulate_percepts(["a", "a", "a"], [[1e140, 0, 0], [0, 1e140, 0], [0, 0, 1e140]], np.eye(4),
                           np.random.default_rng(0), depth_factor=1e-30, max_range=1e150)
 

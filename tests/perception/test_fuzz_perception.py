@@ -348,5 +348,5 @@ def test_pixel_footprint_huge_image_size_is_named(arg: str) -> None:
 def test_a_tiny_disparity_error_is_named_when_it_sets_both_defaults() -> None:
     """Found by the 'dev' hunt: with depth_factor and pixel_sigma both derived from a tiny
     disparity_std_px, the sigma check named only the derived values, not the argument given."""
-    with pytest.raises(pc.NonPositiveSigmaError, match=r"both come from disparity_std_px = 5\.96"):
+    with pytest.raises(pc.PerceptionError, match=r"both come from disparity_std_px = 5\.96"):
         pc.recognize(RIG320, _LEFT, _RIGHT, CLASSIFIER, disparity_std_px=5.960464477539063e-08)

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from perception import PerceptionError
+from perception import MissingExtraError, PerceptionError
 from perception.middlebury import (
-    MissingDataError,
     depth_error_table,
     depth_from_disparity,
     fit_depth_factor,
@@ -17,7 +16,7 @@ from perception.middlebury import (
 
 try:
     DATA = load_motorcycle()
-except MissingDataError:  # the optional data package is genuinely absent
+except MissingExtraError:  # the optional data package is genuinely absent
     DATA = None
 
 needs_data = pytest.mark.skipif(DATA is None, reason="scikit-image motorcycle data not available")

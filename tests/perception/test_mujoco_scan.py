@@ -329,7 +329,7 @@ def test_stereo_renders_both_cameras(room_scene):
 # bad input
 # ----------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("kw, error, match", [
-    (dict(sensor="lidar"), pc.OptionError, r"sensor must be one of .*'lidar'"),
+    (dict(sensor="lidar"), pc.PerceptionError, r"sensor must be one of .*'lidar'"),
     (dict(n_views=0), pc.PerceptionError, "n_views must be >= 1, got 0"),
     (dict(image_size=(0, 120)), pc.PerceptionError, r"image_size\[0\] \(width\) must be >= 1, got 0"),
     (dict(image_size=(160, 0)), pc.PerceptionError, r"image_size\[1\] \(height\) must be >= 1, got 0"),
@@ -337,12 +337,13 @@ def test_stereo_renders_both_cameras(room_scene):
     (dict(false_rate=-0.1), pc.PerceptionError, r"false_rate must lie in"),
     (dict(mask_jitter_px=-1), pc.PerceptionError, "mask_jitter_px must be >= 0"),
     (dict(min_pixels=0), pc.PerceptionError, "min_pixels must be >= 1"),
-    (dict(depth_noise=-1e-3), pc.NonPositiveSigmaError, "depth_noise must be >= 0"),
+    (dict(depth_noise=-1e-3), pc.PerceptionError, "depth_noise must be >= 0"),
     (dict(rng=0), pc.PerceptionError, "rng must be a numpy.random.Generator"),
-    (dict(centre_offset={"door": "deep"}), pc.ShapeError, r"centre_offset\['door'\] must be a real number"),
-    (dict(centre_offset=0.1), pc.ShapeError, "centre_offset must be a mapping type -> CentreOffset"),
-    (dict(percepts="yes"), pc.ShapeError, "percepts must be a bool, got str 'yes'"),
-    (dict(chain="head"), pc.ShapeError, "chain must be a KinematicChain or None, got str"),
+    (dict(centre_offset={"door": "deep"}), pc.PerceptionError,
+     r"centre_offset\['door'\] must be a real number"),
+    (dict(centre_offset=0.1), pc.PerceptionError, "centre_offset must be a mapping type -> CentreOffset"),
+    (dict(percepts="yes"), pc.PerceptionError, "percepts must be a bool, got str 'yes'"),
+    (dict(chain="head"), pc.PerceptionError, "chain must be a KinematicChain or None, got str"),
 ])
 def test_bad_scan_arguments(room_scene, kw, error, match):
     with pytest.raises(error, match=match):
@@ -352,26 +353,26 @@ def test_bad_scan_arguments(room_scene, kw, error, match):
 def test_non_rigid_pose(room_scene):
     bad = np.eye(4)
     bad[0, 0] = 2.0
-    with pytest.raises(pc.InvalidPoseError, match="world_from_ego must be a rigid transform"):
+    with pytest.raises(pc.PerceptionError, match="world_from_ego must be a rigid transform"):
         room_scene.scan(bad, rng=np.random.default_rng(0), image_size=SMALL, percepts=False)
-    with pytest.raises(pc.InvalidPoseError, match="world_from_camera"):
+    with pytest.raises(pc.PerceptionError, match="world_from_camera"):
         room_scene.render(bad, SMALL)
 
 
 def test_bad_scenes(tmp_path, room):
-    with pytest.raises(pc.SceneError, match="path_or_model: .*nothing.xml: no such file"):
+    with pytest.raises(pc.RobotFileError, match="path_or_model: .*nothing.xml: no such file"):
         MujocoScene(tmp_path / "nothing.xml")
     bad = tmp_path / "bad.xml"
     bad.write_text("<mujoco><worldbody>")
-    with pytest.raises(pc.SceneError, match="bad.xml: MuJoCo cannot compile it"):
+    with pytest.raises(pc.RobotFileError, match="bad.xml: MuJoCo cannot compile it"):
         MujocoScene(bad)
-    with pytest.raises(pc.SceneError, match="path_or_model must be a non-empty str"):
+    with pytest.raises(pc.RobotFileError, match="path_or_model must be a non-empty str"):
         MujocoScene(42)
-    with pytest.raises(pc.SceneError, match="no body or world geom gets a type"):
+    with pytest.raises(pc.RobotFileError, match="no body or world geom gets a type"):
         MujocoScene(room, type_of={"^nothing": "x"})
-    with pytest.raises(pc.TypeRuleError, match=r"type_of\('knob_1'\) raised ZeroDivisionError"):
+    with pytest.raises(pc.PerceptionError, match=r"type_of\('knob_1'\) raised ZeroDivisionError"):
         MujocoScene(room, type_of=lambda name: 1 / 0 if name == "knob_1" else None)
-    with pytest.raises(pc.TypeRuleError, match="type_of must be None, a callable"):
+    with pytest.raises(pc.PerceptionError, match="type_of must be None, a callable"):
         MujocoScene(room, type_of=3)
 
 
@@ -448,7 +449,7 @@ def test_centre_offsets_of_a_flat_front_and_a_sphere(tmp_path):
     assert offsets["knob"].depth == pytest.approx(2 * 0.1 / 3, abs=4e-3)
     # a sphere's extent is centred on it from every side: below the floor, which is reported
     assert offsets["knob"].lateral_sd == pytest.approx(CENTRE_LATERAL_FLOOR)
-    with pytest.raises(pc.ShapeError, match=r"world_from_egos must be a \(4, 4\) or \(m, 4, 4\) array"):
+    with pytest.raises(pc.PerceptionError, match=r"world_from_egos must be a \(4, 4\) or \(m, 4, 4\) array"):
         scene.centre_offsets(np.eye(3))
 
 

@@ -8,7 +8,7 @@ import pytest
 
 import perception as pc
 import worldgraph as wg
-from perception.errors import NonPositiveSigmaError
+from perception.errors import PerceptionError
 from perception.tolerances import SIGMA_COVARIANCE_FACTOR
 
 
@@ -46,18 +46,18 @@ def test_a_sigma_ten_times_off_the_covariance_is_refused() -> None:
     covariance = np.diag([0.01**2, 0.002**2, 0.002**2])  # range std 1 cm (along x)
     pc.Percept("handle", position, 0.01, covariance=covariance)  # agrees
     pc.Percept("handle", position, 0.0025, covariance=covariance)  # 4x off: within the factor 5
-    with pytest.raises(NonPositiveSigmaError, match=r"sigma = 0\.001 m contradicts the covariance.*"
+    with pytest.raises(PerceptionError, match=r"sigma = 0\.001 m contradicts the covariance.*"
                                                     r"0\.01 m.*ratio sigma / that = 0\.1.*sigma=None"):
         pc.Percept("handle", position, 0.001, covariance=covariance)
-    with pytest.raises(NonPositiveSigmaError, match=r"sigma = 0\.1 m contradicts.*ratio sigma / that = 10"):
+    with pytest.raises(PerceptionError, match=r"sigma = 0\.1 m contradicts.*ratio sigma / that = 10"):
         pc.Percept("handle", position, 0.1, covariance=covariance)
     assert 2.0 < SIGMA_COVARIANCE_FACTOR < 10.0
 
 
 def test_neither_sigma_nor_covariance_is_refused() -> None:
-    with pytest.raises(NonPositiveSigmaError, match=r"sigma = None and covariance = None"):
+    with pytest.raises(PerceptionError, match=r"sigma = None and covariance = None"):
         pc.Percept("door", [1.0, 0.0, 0.0])
-    with pytest.raises(NonPositiveSigmaError, match=r"needs sigma .* or covariance"):
+    with pytest.raises(PerceptionError, match=r"needs sigma .* or covariance"):
         pc.Percept("door", [1.0, 0.0, 0.0], None, None)
 
 

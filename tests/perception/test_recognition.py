@@ -15,14 +15,7 @@ from hypothesis import strategies as st
 from scipy.stats import multivariate_normal
 
 from perception.errors import (
-    ImageFormatError,
-    InvalidPoseError,
-    NonFiniteError,
-    NonPositiveSigmaError,
-    NotFittedError,
     PerceptionError,
-    ShapeError,
-    UnknownClassError,
 )
 from perception.recognition import (
     CENTROID_OFFSET_SCALE,
@@ -448,7 +441,7 @@ def test_recognize_frames_and_sigma(trained: GaussianClassifier) -> None:
         lateral = (point[2] / RIG.K1[0, 0]) ** 2 * scale**2 * shape
         np.testing.assert_allclose(cov[:2, :2], lateral, rtol=0.02, atol=1e-12)
         assert abs(cov[2, 2]) < 1e-6 * lateral[0, 0]
-    with pytest.raises(NonPositiveSigmaError, match=r"depth_factor = [\d.]+ and pixel_sigma disagree"):
+    with pytest.raises(PerceptionError, match=r"depth_factor = [\d.]+ and pixel_sigma disagree"):
         recognize(RIG, left, right, trained, pixel_sigma=1e-6, centroid_offset_scale=scale)
 
 
@@ -516,59 +509,58 @@ def test_percept_covariances_are_calibrated_on_rendered_scenes(trained: Gaussian
 
 def test_bad_images_raise_image_format_error(trained: GaussianClassifier) -> None:
     good = np.zeros((HEIGHT, WIDTH, 3), np.uint8)
-    with pytest.raises(ImageFormatError, match="dtype"):
+    with pytest.raises(PerceptionError, match="dtype"):
         detect(good.astype(np.float32), trained)
-    with pytest.raises(ImageFormatError, match=r"\(480, 640\)"):
+    with pytest.raises(PerceptionError, match=r"\(480, 640\)"):
         detect(good[:, :, 0], trained)
-    with pytest.raises(ImageFormatError, match="rig.image_size"):
+    with pytest.raises(PerceptionError, match="rig.image_size"):
         recognize(RIG, good, good[:100], trained)
-    with pytest.raises(ImageFormatError):
+    with pytest.raises(PerceptionError, match="left must be a numpy array"):
         recognize(RIG, [[1, 2, 3]], good, trained)
-    assert issubclass(ImageFormatError, PerceptionError)
 
 
 def test_bad_poses_raise_specific_errors() -> None:
     boxes = scene_boxes(["door"], [[0.0, 0.0, 3.0]])
     bad = np.eye(4)
     bad[0, 3] = np.nan
-    with pytest.raises(NonFiniteError, match="camera_from_world"):
+    with pytest.raises(PerceptionError, match="camera_from_world"):
         render_stereo(RIG, bad, boxes, np.random.default_rng(0))
-    with pytest.raises(InvalidPoseError, match="rotation"):
+    with pytest.raises(PerceptionError, match="rotation"):
         render_labels(RIG, np.diag([2.0, 1.0, 1.0, 1.0]), boxes)
-    with pytest.raises(ShapeError, match=r"\(4, 4\)"):
+    with pytest.raises(PerceptionError, match=r"\(4, 4\)"):
         render_labels(RIG, np.eye(3), boxes)
-    with pytest.raises(InvalidPoseError, match="last row"):
+    with pytest.raises(PerceptionError, match="last row"):
         render_labels(RIG, np.ones((4, 4)) * 0 + np.eye(4) + np.eye(4, k=-3), boxes)
 
 
 def test_bad_boxes_and_parameters_raise_specific_errors(trained: GaussianClassifier) -> None:
-    with pytest.raises(NonPositiveSigmaError, match="size"):
+    with pytest.raises(PerceptionError, match="size"):
         Box(center=(0, 0, 1), size=(0.1, 0.0, 0.1), rotation=np.eye(3), color=(1, 2, 3), type="door")
-    with pytest.raises(NonFiniteError, match="center"):
+    with pytest.raises(PerceptionError, match="center"):
         Box(center=(0, np.inf, 1), size=(0.1, 0.1, 0.1), rotation=np.eye(3), color=(1, 2, 3), type="door")
-    with pytest.raises(UnknownClassError, match="window"):
+    with pytest.raises(PerceptionError, match="window"):
         scene_boxes(["window"], [[0, 0, 1]])
-    with pytest.raises(ShapeError, match=r"\(2, 3\)"):
+    with pytest.raises(PerceptionError, match=r"\(2, 3\)"):
         scene_boxes(["door", "handle"], [[0, 0, 1]])
     image = np.zeros((HEIGHT, WIDTH, 3), np.uint8)
-    with pytest.raises(NonPositiveSigmaError, match="depth_factor"):
+    with pytest.raises(PerceptionError, match="depth_factor"):
         recognize(RIG, image, image, trained, depth_factor=-1.0)
-    with pytest.raises(NonPositiveSigmaError, match="centroid_offset_scale"):
+    with pytest.raises(PerceptionError, match="centroid_offset_scale"):
         recognize(RIG, image, image, trained, centroid_offset_scale=-0.1)
-    with pytest.raises(NonPositiveSigmaError, match="shape_covariance"):
+    with pytest.raises(PerceptionError, match="shape_covariance"):
         Detection(type="handle", centroid_uv=(1.0, 1.0), area=10.0, features=np.zeros(7),
                   shape_covariance=[[1.0, 2.0], [2.0, 1.0]])
-    with pytest.raises(NonPositiveSigmaError, match="max_epipolar_px"):
+    with pytest.raises(PerceptionError, match="max_epipolar_px"):
         match_stereo(RIG, [], [], max_epipolar_px=0.0)
-    with pytest.raises(NonFiniteError):
+    with pytest.raises(PerceptionError, match=r"features\[0, 0\] must be finite"):
         trained.log_likelihood(np.full((1, trained.n_features), np.nan))
-    with pytest.raises(ShapeError, match=r"\(n, 7\)"):
+    with pytest.raises(PerceptionError, match=r"\(n, 7\)"):
         trained.predict(np.zeros((2, 3)))
-    with pytest.raises(NonFiniteError, match="centroid_uv"):
+    with pytest.raises(PerceptionError, match="centroid_uv"):
         Detection(type="handle", centroid_uv=(np.nan, 1.0), area=10.0, features=np.zeros(7))
-    with pytest.raises(NonPositiveSigmaError, match="area"):
+    with pytest.raises(PerceptionError, match="area"):
         Detection(type="handle", centroid_uv=(1.0, 1.0), area=0.0, features=np.zeros(7))
-    with pytest.raises(NotFittedError, match="'b'"):
+    with pytest.raises(PerceptionError, match="'b'"):
         GaussianClassifier.fit(np.zeros((3, 2)) + np.arange(3)[:, None], ["a", "a", "b"])
 
 

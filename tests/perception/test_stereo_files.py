@@ -18,8 +18,8 @@ import pytest
 import perception as pc
 import perception.stereo as stereo_module
 from perception.errors import (
-    CalibrationError,
-    CalibrationFileError,
+    PerceptionError,
+    RobotFileError,
 )
 
 REPO = Path(__file__).resolve().parents[2]
@@ -36,7 +36,7 @@ def test_to_file_with_a_lone_surrogate_in_the_path_raises_instead_of_crashing(tm
         import perception as pc
         try:
             pc.StereoRig.default().to_file('r\\udcff.yaml')
-        except pc.CalibrationFileError as exc:
+        except pc.RobotFileError as exc:
             print('RAISED', exc)
         """, tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -48,14 +48,14 @@ def test_to_file_with_a_lone_surrogate_in_the_path_raises_instead_of_crashing(tm
 def test_bad_paths_are_named_for_reading_and_writing(bad: object, tmp_path: Path) -> None:
     rig = pc.StereoRig.default()
     for call in (lambda: rig.to_file(bad), lambda: pc.StereoRig.from_file(bad)):  # type: ignore[arg-type]
-        with pytest.raises(CalibrationFileError, match="path"):
+        with pytest.raises(RobotFileError, match="path"):
             call()
 
 
 def test_os_errors_of_a_path_become_calibration_file_errors(tmp_path: Path) -> None:
     """A path component longer than NAME_MAX gave a bare OSError (File name too long)."""
     long_name = str(tmp_path / ("x" * 300))
-    with pytest.raises(CalibrationFileError, match=r"path='.*xxxx"):
+    with pytest.raises(RobotFileError, match=r"path='.*xxxx"):
         pc.StereoRig.from_file(long_name)
 
 
@@ -78,7 +78,7 @@ def test_deeply_nested_json_raises_instead_of_crashing(tmp_path: Path) -> None:
         open('d.json', 'w').write('[' * 100000 + ']' * 100000)
         try:
             pc.StereoRig.from_file('d.json')
-        except pc.CalibrationFileError as exc:
+        except pc.RobotFileError as exc:
             print('RAISED', exc)
         """, tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -96,13 +96,13 @@ def test_deeply_nested_json_raises_instead_of_crashing(tmp_path: Path) -> None:
 def test_nesting_deeper_than_64_is_refused_naming_path_and_depth(name: str, text: str, depth: int,
                                                                   tmp_path: Path) -> None:
     (tmp_path / name).write_text(text)
-    with pytest.raises(CalibrationFileError, match=rf"{name}.*depth {depth}\b"):
+    with pytest.raises(RobotFileError, match=rf"{name}.*depth {depth}\b"):
         pc.StereoRig.from_file(tmp_path / name)
 
 
 def test_shallow_malformed_file_and_missing_key_name_the_path(tmp_path: Path) -> None:
     (tmp_path / "s.json").write_text("[" * 10 + "]" * 10)
-    with pytest.raises(CalibrationFileError, match="s.json"):
+    with pytest.raises(RobotFileError, match="s.json"):
         pc.StereoRig.from_file(tmp_path / "s.json")
     rig = pc.StereoRig.default()
     rig.to_file(tmp_path / "full.yaml")
@@ -110,13 +110,13 @@ def test_shallow_malformed_file_and_missing_key_name_the_path(tmp_path: Path) ->
     start = next(i for i, line in enumerate(lines) if line.startswith("T:"))
     end = next(i for i in range(start + 1, len(lines)) if not lines[i].startswith(" "))
     (tmp_path / "no_t.yaml").write_text("\n".join(lines[:start] + lines[end:]) + "\n")
-    with pytest.raises(CalibrationFileError, match=r"no_t.yaml.*lacks key 'T'"):
+    with pytest.raises(RobotFileError, match=r"no_t.yaml.*lacks key 'T'"):
         pc.StereoRig.from_file(tmp_path / "no_t.yaml")
     # a valid file with a bad value: the error names the path as well as the value
     text = (tmp_path / "full.yaml").read_text()
     assert "0., 0., 0., 0., 0." in text
     (tmp_path / "big_d.yaml").write_text(text.replace("0., 0., 0., 0., 0.", "1.e+154, 0., 0., 0., 0.", 1))
-    with pytest.raises(CalibrationError, match=r"big_d.yaml.*D1\[0\]"):
+    with pytest.raises(PerceptionError, match=r"big_d.yaml.*D1\[0\]"):
         pc.StereoRig.from_file(tmp_path / "big_d.yaml")
 
 
@@ -124,7 +124,7 @@ def test_oversized_file_is_refused_before_parsing(tmp_path: Path, monkeypatch: p
     pc.StereoRig.default().to_file(tmp_path / "rig.yaml")
     size = (tmp_path / "rig.yaml").stat().st_size
     monkeypatch.setattr(stereo_module, "MAX_FILE_BYTES", size - 1)
-    with pytest.raises(CalibrationFileError, match=rf"rig.yaml.*{size:,} bytes"):
+    with pytest.raises(RobotFileError, match=rf"rig.yaml.*{size:,} bytes"):
         pc.StereoRig.from_file(tmp_path / "rig.yaml")
     monkeypatch.setattr(stereo_module, "MAX_FILE_BYTES", size)
     assert pc.StereoRig.from_file(tmp_path / "rig.yaml").image_size == (640, 480)

@@ -258,11 +258,11 @@ def test_budget_exhaustion_is_not_a_certificate(random_scenes):
 # --- (e) bad input ------------------------------------------------------------------------
 
 @pytest.mark.parametrize("position, exc, name", [
-    ([0.0, 0.0], ro.ShapeError, "position"),
-    ([[0.0, 0.0, 0.0]], ro.ShapeError, "position"),
-    ([np.nan, 0.0, 0.0], ro.NonFiniteError, "position"),
-    ([np.inf, 0.0, 0.0], ro.NonFiniteError, "position"),
-    (["a", 0.0, 0.0], ro.ShapeError, "position"),
+    ([0.0, 0.0], ro.RadialError, r"position must have shape \(3,\), got shape \(2,\)"),
+    ([[0.0, 0.0, 0.0]], ro.RadialError, r"position must have shape \(3,\), got shape \(1, 3\)"),
+    ([np.nan, 0.0, 0.0], ro.RadialError, r"position\[0\] = nan must be finite"),
+    ([np.inf, 0.0, 0.0], ro.RadialError, r"position\[0\] = inf must be finite"),
+    (["a", 0.0, 0.0], ro.RadialError, "position must be an array of real numbers"),
 ])
 def test_bad_position_raises(position, exc, name):
     sp = ro.make_spheres(np.eye(3) * 5, [1.0, 1.0, 1.0], 0.1)
@@ -282,7 +282,7 @@ def test_bad_parameters_raise(kwargs, name):
 
 
 def test_bad_spheres_raise():
-    with pytest.raises(ro.ShapeError, match="spheres"):
+    with pytest.raises(ro.RadialError, match="spheres"):
         ro.certify_position([object()], [0.0, 0.0, 0.0])
-    with pytest.raises(ro.TooFewSpheresError):
+    with pytest.raises(ro.RadialError, match="need at least 1 spheres, got 0"):
         ro.certify_position([], [0.0, 0.0, 0.0])

@@ -18,7 +18,7 @@ from radialopt.comparison import (
     shifted_geometric_mean,
     summarize,
 )
-from radialopt.errors import UnknownMethodError
+from radialopt.errors import RadialError
 
 
 @pytest.fixture(scope="module")
@@ -134,7 +134,7 @@ def test_formulation_rows_run_and_l2_matches_exact(problems):
 
 
 def test_unknown_solver_is_rejected(problems):
-    with pytest.raises(UnknownMethodError, match="nope"):
+    with pytest.raises(RadialError, match="nope"):
         compare_solvers(problems, ["nope"])
-    with pytest.raises(UnknownMethodError, match="formulation:l3"):
+    with pytest.raises(RadialError, match="formulation:l3"):
         compare_solvers(problems, ["formulation:l3"])

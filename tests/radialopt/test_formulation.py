@@ -78,20 +78,20 @@ def test_infeasible_added_constraints_raise_solver_error():
 @pytest.mark.parametrize(
     ("call", "error", "word"),
     [
-        (lambda: RadialProblem(1), ro.TooFewSpheresError, "n"),
-        (lambda: RadialProblem(2.5), ro.ShapeError, "n"),
-        (lambda: RadialProblem(3, objective="l3"), ro.UnknownMethodError, "objective"),
+        (lambda: RadialProblem(1), ro.RadialError, "n"),
+        (lambda: RadialProblem(2.5), ro.RadialError, "n"),
+        (lambda: RadialProblem(3, objective="l3"), ro.RadialError, "objective"),
         (lambda: RadialProblem(3, "huber", huber_delta=0), ro.RadialError, "huber_delta"),
-        (lambda: RadialProblem(3).fix_radius(3, 1.0), ro.ShapeError, "i"),
-        (lambda: RadialProblem(3).fix_radius(0, float("nan")), ro.NonFiniteError, "value"),
+        (lambda: RadialProblem(3).fix_radius(3, 1.0), ro.RadialError, "i"),
+        (lambda: RadialProblem(3).fix_radius(0, float("nan")), ro.RadialError, "value"),
         (lambda: RadialProblem(3).fix_radius(0, -1.0), ro.RadialError, "value"),
         (lambda: RadialProblem(3).bound_radii(2.0, 1.0), ro.RadialError, "lo"),
-        (lambda: RadialProblem(3).bound_radii([0, 1], 2.0), ro.ShapeError, "lo"),
+        (lambda: RadialProblem(3).bound_radii([0, 1], 2.0), ro.RadialError, "lo"),
         (lambda: RadialProblem(3).add_constraint(lambda x: 3), ro.RadialError, "fn"),
         (lambda: RadialProblem(3).solve(ro.make_spheres([[0, 0, 0], [1, 0, 0]], [1, 1], 0.1)),
-         ro.ShapeError, "spheres"),
+         ro.RadialError, "spheres"),
         (lambda: RadialProblem(2).solve(ro.make_spheres([[0, 0, 0], [1, 0, 0]], [1, 1], 0.1),
-                                        solver="NOPE"), ro.UnknownMethodError, "solver"),
+                                        solver="NOPE"), ro.RadialError, "solver"),
     ],
 )
 def test_bad_input_names_the_argument(call, error, word):

@@ -28,7 +28,7 @@ def test_bound_radii_rejects_bad_bounds(lo: object, hi: object, name: str) -> No
 
 
 def test_fix_radius_rejects_a_huge_value() -> None:
-    with pytest.raises(errors.OutOfRangeError, match=r"value = 1e\+308"):
+    with pytest.raises(errors.RadialError, match=r"value = 1e\+308"):
         ro.RadialProblem(4).fix_radius(1, 1e308)
 
 

@@ -130,9 +130,9 @@ def test_common_point_degenerate_centres_collinear_and_coplanar():
 
 
 def test_coincident_centres_raise_naming_the_pair():
-    with pytest.raises(ro.CoincidentCentersError, match=r"centers\[0\] = .* and centers\[2\] = "):
+    with pytest.raises(ro.RadialError, match=r"centers\[0\] = .* and centers\[2\] = "):
         ro.RestrictionPolytope.from_centers([[1, 1, 1], [0, 0, 0], [1, 1, 1]])
-    with pytest.raises(ro.ShapeError, match=r"\(1, 3\)"):
+    with pytest.raises(ro.RadialError, match=r"\(1, 3\)"):
         ro.RestrictionPolytope.from_centers([[1, 1, 1]])
-    with pytest.raises(ro.NonFiniteError):
+    with pytest.raises(ro.RadialError, match=r"centers\[0, 2\] = nan must be finite"):
         ro.RestrictionPolytope.from_centers([[1, 1, np.nan], [0, 0, 0]])

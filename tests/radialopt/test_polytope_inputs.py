@@ -21,6 +21,6 @@ def test_row_name_rejects_a_negative_index() -> None:
 
 
 def test_from_centers_coincident_message_uses_the_argument_name() -> None:
-    with pytest.raises(errors.CoincidentCentersError, match=r"centers\[0\] = \[0\.0, 0\.0, 0\.0\] and "
+    with pytest.raises(errors.RadialError, match=r"centers\[0\] = \[0\.0, 0\.0, 0\.0\] and "
                        r"centers\[2\] = \[0\.0, 0\.0, 0\.0\]"):
         ro.RestrictionPolytope.from_centers([[0.0, 0, 0], [1.0, 0, 0], [0.0, 0, 0]])

@@ -120,8 +120,8 @@ def test_batch_sigma_range_names_the_instance():
     rng = np.random.default_rng(12)
     C, R, S = random_batch(rng, 6, 4)
     S[3, 1] = 1e-20
-    with pytest.raises(ro.OutOfRangeError, match=r"sigmas\[3\]\[1\] = 1e-20"):
+    with pytest.raises(ro.RadialError, match=r"sigmas\[3\]\[1\] = 1e-20"):
         ro.project_radii_batch(C, R, S)
     R[2, 0] = -1.0
-    with pytest.raises(ro.NegativeRadiusError, match=r"radii\[2, 0\] = -1.0"):
+    with pytest.raises(ro.RadialError, match=r"radii\[2, 0\] = -1.0"):
         ro.project_radii_batch(C, R, np.abs(S) + 0.01)

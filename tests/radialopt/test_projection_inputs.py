@@ -30,7 +30,7 @@ def _random_spheres(n: int, seed: int) -> list[ro.GaussianSphere]:
 @pytest.mark.parametrize("kwargs", [dict(check=True), dict(check="exact"), dict(method="vertices")])
 def test_project_radii_with_enumeration_refuses_too_many_spheres(kwargs: dict) -> None:
     spheres = _random_spheres(10, 2)
-    with pytest.raises(errors.TooManySpheresError, match=r"10 spheres.*MAX_VERTEX_SPHERES"):
+    with pytest.raises(errors.RadialError, match=r"10 spheres.*MAX_VERTEX_SPHERES"):
         ro.project_radii(spheres, **kwargs)
     sol = ro.project_radii(spheres)  # check=False handles any size
     poly = ro.RestrictionPolytope.from_centers([s.center for s in spheres])
@@ -40,7 +40,7 @@ def test_project_radii_with_enumeration_refuses_too_many_spheres(kwargs: dict) -
 # ---------------------------------------------------------------- 8. empty / unknown solver names
 @pytest.mark.parametrize("solver", ["", " ", "NO_SUCH_SOLVER"])
 def test_project_radii_rejects_an_empty_or_unknown_solver(solver: str) -> None:
-    with pytest.raises(errors.UnknownMethodError, match=rf"solver = {solver!r}"):
+    with pytest.raises(errors.RadialError, match=rf"solver = {solver!r}"):
         ro.project_radii(four_spheres(), method="cvxpy", solver=solver)
 
 

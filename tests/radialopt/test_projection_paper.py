@@ -125,7 +125,7 @@ def test_d1_paper_at_eight_spheres_returns():
 def test_d1_paper_beyond_its_budget_raises_naming_n():
     rng = np.random.default_rng(3)
     spheres = ro.make_spheres(rng.uniform(-3, 3, (8, 3)), np.full(8, 0.01), 1.0)
-    with pytest.raises(ro.TooManySpheresError, match="n = 8"):
+    with pytest.raises(ro.RadialError, match="n = 8"):
         ro.project_radii(spheres, method="paper")
 
 

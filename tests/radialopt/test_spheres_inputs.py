@@ -51,7 +51,7 @@ def test_total_density_memory_is_bounded_by_the_chunk(monkeypatch: pytest.Monkey
 
 # ---------------------------------------------------------------- 5. conformal_sphere radius sign
 def test_conformal_sphere_rejects_a_negative_radius() -> None:
-    with pytest.raises(errors.NegativeRadiusError, match=r"radius = -1\.0"):
+    with pytest.raises(errors.RadialError, match=r"radius = -1\.0"):
         ro.conformal_sphere([0.0, 0, 0], -1.0)
     # a non-negative radius still works: e_inf coefficient 1/2 (|X|^2 - r^2) of eq. 4
     s = ro.conformal_sphere([1.0, 2.0, 2.0], 1.5)

@@ -13,12 +13,10 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 from scipy.spatial.distance import cdist
 
-from radialopt.errors import NonFiniteError, RadialError, ShapeError, TooManySpheresError, UnknownMethodError
+from radialopt.errors import RadialError
 from radialopt.polytope import RestrictionPolytope
 from radialopt.vertices import (
     VERTEX_TOLERANCES,
-    NotPointedError,
-    TooLargeError,
     VertexEnumeration,
     certify_projection,
     enumerate_vertices,
@@ -334,34 +332,34 @@ def test_empty_polyhedron(method: str) -> None:
 
 def test_bad_inputs_raise_specific_errors() -> None:
     A = np.eye(2)
-    with pytest.raises(ShapeError, match="b must have shape"):
+    with pytest.raises(RadialError, match="b must have shape"):
         enumerate_vertices((A, np.ones(3)))
-    with pytest.raises(ShapeError, match="A must have shape"):
+    with pytest.raises(RadialError, match="A must have shape"):
         enumerate_vertices((np.ones(3), np.ones(3)))
-    with pytest.raises(ShapeError):
+    with pytest.raises(RadialError, match="polytope must be a RestrictionPolytope or a pair"):
         enumerate_vertices("not a polytope")
-    with pytest.raises(NonFiniteError):
+    with pytest.raises(RadialError, match=r"polytope.A\[0, 1\] = nan must be finite"):
         enumerate_vertices((np.array([[1.0, np.nan], [0, 1]]), np.ones(2)))
-    with pytest.raises(NotPointedError, match="contains a line"):
+    with pytest.raises(RadialError, match="contains a line"):
         enumerate_vertices((np.array([[1.0, 0.0], [-1.0, 0.0]]), np.ones(2)))
-    with pytest.raises(UnknownMethodError, match="double_description"):
+    with pytest.raises(RadialError, match="double_description"):
         enumerate_vertices((A, np.ones(2)), method="lrs")
     big = RestrictionPolytope.from_centers(_seeded(0, 8))
-    with pytest.raises(TooLargeError):  # a plain (A, b) pair is not held to MAX_VERTEX_SPHERES
+    # a plain (A, b) pair is not held to MAX_VERTEX_SPHERES
+    with pytest.raises(RadialError, match=r"brute force needs C\(84, 8\) = \d+ subsets"):
         enumerate_vertices((big.A, big.b), method="bruteforce")
-    with pytest.raises(TooManySpheresError, match="8 spheres.*MAX_VERTEX_SPHERES = 7"):
+    with pytest.raises(RadialError, match="8 spheres.*MAX_VERTEX_SPHERES = 7"):
         enumerate_vertices(big, method="bruteforce")
-    assert issubclass(NotPointedError, RadialError) and issubclass(TooLargeError, RadialError)
 
 
 def test_projection_input_errors() -> None:
     P = RestrictionPolytope.from_centers(_seeded(1, 3))
     E = enumerate_vertices(P)
-    with pytest.raises(ShapeError):
+    with pytest.raises(RadialError, match=r"target must have shape \(3,\)"):
         project_vform(E, np.ones(4), np.ones(3))
     with pytest.raises(RadialError):
         project_vform(E, np.ones(3), np.array([1.0, 0.0, 1.0]))
-    with pytest.raises(NonFiniteError):
+    with pytest.raises(RadialError, match=r"point\[0\] = inf must be finite"):
         certify_projection(E, P, np.ones(3), np.ones(3), np.array([np.inf, 0, 0]))
 
 

@@ -15,7 +15,7 @@ from radialopt import errors
 def test_enumerate_vertices_refuses_more_than_max_vertex_spheres() -> None:
     n = ro.MAX_VERTEX_SPHERES + 1
     poly = ro.RestrictionPolytope.from_centers(np.random.default_rng(0).uniform(0, 10, (n, 3)))
-    with pytest.raises(errors.TooManySpheresError, match=rf"{n} spheres.*MAX_VERTEX_SPHERES = "
+    with pytest.raises(errors.RadialError, match=rf"{n} spheres.*MAX_VERTEX_SPHERES = "
                        rf"{ro.MAX_VERTEX_SPHERES}.*check=False.*cvxpy"):
         ro.enumerate_vertices(poly)
 

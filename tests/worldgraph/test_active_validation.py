@@ -30,12 +30,7 @@ from worldgraph.active import (
 from worldgraph.association.filters import discriminator
 from worldgraph.association.hypotheses import AssociationHypothesis
 from worldgraph.errors import (
-    ArgumentTypeError,
-    NonFiniteError,
-    NonPositiveError,
-    OutOfRangeError,
-    ShapeError,
-    UnknownTypeError,
+    WorldGraphError,
 )
 from worldgraph.localization import LocalizationResult
 
@@ -196,7 +191,7 @@ def test_sights_that_repeat_percepts_in_hand_add_nothing():
     other = [pc.Percept("knob", spread[0], 0.01)]
     assert view_information(world, res, behind, types=KINDS, percepts=other)[0] == pytest.approx(
         view_information(world, res, behind, types=KINDS)[0])
-    with pytest.raises(ArgumentTypeError, match=r"percepts\[1\]"):
+    with pytest.raises(WorldGraphError, match=r"percepts\[1\]"):
         wg.plan_view(world, res, types=KINDS, percepts=[seen[0], "door"])
 
 
@@ -274,12 +269,12 @@ def test_active_localize_learns_a_cap_on_percepts_per_look(monkeypatch):
 
 
 @pytest.mark.parametrize("kwargs, error, name", [
-    (dict(depth_factor=1e-6), OutOfRangeError, "depth_factor"),
-    (dict(depth_factor=float("nan")), NonFiniteError, "depth_factor"),
-    (dict(detection=1.5), OutOfRangeError, "detection"),
-    (dict(detection=0.0), NonPositiveError, "detection"),
-    (dict(max_sights=0), OutOfRangeError, "max_sights"),
-    (dict(max_sights=2.5), ArgumentTypeError, "max_sights"),
+    (dict(depth_factor=1e-6), WorldGraphError, "depth_factor = 1e-06 is out of range"),
+    (dict(depth_factor=float("nan")), WorldGraphError, "depth_factor must be finite"),
+    (dict(detection=1.5), WorldGraphError, "detection = 1.5 is out of range"),
+    (dict(detection=0.0), WorldGraphError, "detection must be > 0"),
+    (dict(max_sights=0), WorldGraphError, "max_sights must be >= 1"),
+    (dict(max_sights=2.5), WorldGraphError, "max_sights must be an integer"),
 ])
 def test_active_localize_checks_its_look_model_before_the_first_look(kwargs, error, name):
     world, cluster, spread = _cluster_and_spread()
@@ -597,47 +592,51 @@ def test_joint_limits_are_kept_and_an_unreachable_gaze_is_flagged():
 
 
 @pytest.mark.parametrize(("kwargs", "error", "name"), [
-    ({"fov_deg": -1.0}, NonPositiveError, "fov_deg"),
-    ({"fov_deg": 400.0}, OutOfRangeError, "fov_deg"),
-    ({"max_range": float("nan")}, NonFiniteError, "max_range"),
-    ({"detection": 1.5}, OutOfRangeError, "detection"),
-    ({"margin": -0.1}, NonPositiveError, "margin"),
-    ({"candidates": [[1.0, 0.0]]}, ShapeError, "candidates"),
-    ({"candidates": [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]}, OutOfRangeError, "candidates[1]"),
-    ({"types": ["door", "sofa"]}, UnknownTypeError, "types[1]"),
-    ({"types": "door"}, ArgumentTypeError, "types"),
-    ({"rng": 42}, ArgumentTypeError, "rng"),
-    ({"head": "armar"}, ArgumentTypeError, "head"),
-    ({"head": pc.default_head(), "joint_limits": {"neck": (0, 1)}}, UnknownTypeError, "neck"),
-    ({"head": pc.default_head(), "joint_limits": {"neck_yaw": (1, 0)}}, OutOfRangeError, "neck_yaw"),
+    ({"fov_deg": -1.0}, WorldGraphError, "fov_deg must be > 0"),
+    ({"fov_deg": 400.0}, WorldGraphError, "fov_deg = 400.0 is out of range"),
+    ({"max_range": float("nan")}, WorldGraphError, "max_range must be finite"),
+    ({"detection": 1.5}, WorldGraphError, "detection = 1.5 is out of range"),
+    ({"margin": -0.1}, WorldGraphError, "margin must be >= 0"),
+    ({"candidates": [[1.0, 0.0]]}, WorldGraphError, r"candidates must have shape \(k, 3\)"),
+    ({"candidates": [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]}, WorldGraphError,
+     r"candidates\[1\] = .* is no direction"),
+    ({"types": ["door", "sofa"]}, WorldGraphError,
+     r"types\[1\] = 'sofa' is not a type of the world"),
+    ({"types": "door"}, WorldGraphError, "types must be a sequence of object type names"),
+    ({"rng": 42}, WorldGraphError, "rng must be a numpy.random.Generator"),
+    ({"head": "armar"}, WorldGraphError, "head must be a perception.KinematicChain or None"),
+    ({"head": pc.default_head(), "joint_limits": {"neck": (0, 1)}}, WorldGraphError,
+     r"joint_limits names unknown joints \['neck'\]"),
+    ({"head": pc.default_head(), "joint_limits": {"neck_yaw": (1, 0)}}, WorldGraphError,
+     r"joint_limits\['neck_yaw'\] must be \(lower, upper\) with lower < upper"),
 ])
 def test_bad_arguments_raise_named_errors(kwargs, error, name):
     world = _two_rooms()
     res = _result([np.eye(4), _pose_b()], [0.0, 0.0], world)
-    with pytest.raises(error, match=name.replace("[", r"\[").replace("]", r"\]")):
+    with pytest.raises(error, match=name):
         wg.plan_view(world, res, **kwargs)
 
 
 def test_bad_world_result_and_loop_arguments():
     world = _two_rooms()
     res = _result([np.eye(4), _pose_b()], [0.0, 0.0], world)
-    with pytest.raises(ArgumentTypeError, match="world"):
+    with pytest.raises(WorldGraphError, match="world"):
         wg.plan_view("kitchen", res)
-    with pytest.raises(ArgumentTypeError, match="result"):
+    with pytest.raises(WorldGraphError, match="result"):
         wg.plan_view(world, {"status": "ambiguous"})
     no_pose = LocalizationResult(np.full((4, 4), np.nan), np.full(3, np.nan), np.full((3, 3), np.nan), (), (),
                                  False, "no_association")
-    with pytest.raises(NonFiniteError, match="no_association"):
+    with pytest.raises(WorldGraphError, match="no_association"):
         wg.plan_view(world, no_pose, types=["door"])
     look = _look_at(world, np.eye(4))
     percepts = look(np.array([1.0, 0.0, 0.0])) + look(np.array([-1.0, 0.0, 0.0]))
-    with pytest.raises(ArgumentTypeError, match="look"):
+    with pytest.raises(WorldGraphError, match="look"):
         wg.active_localize(world, percepts, "look")
-    with pytest.raises(OutOfRangeError, match="max_looks"):
+    with pytest.raises(WorldGraphError, match="max_looks"):
         wg.active_localize(world, percepts, look, max_looks=-1)
-    with pytest.raises(ArgumentTypeError, match=r"look\(direction\)\[0\]"):
+    with pytest.raises(WorldGraphError, match=r"look\(direction\)\[0\]"):
         wg.active_localize(world, percepts, lambda d: ["door"])
-    with pytest.raises(OutOfRangeError, match="zero direction"):
+    with pytest.raises(WorldGraphError, match="zero direction"):
         wg.active_localize(world, percepts, look, planner=lambda r: np.zeros(3))
 
 
@@ -668,9 +667,9 @@ def test_an_ok_answer_with_a_wide_rotation_bound_gets_a_look():
     out = wg.active_localize(world, percepts, look)  # default goal: 2 degrees
     assert out.looks == 1 and len(looked) == 1 and out.result.status == "ok"
     assert _rotation_3sigma_deg(out.result) < 2.0
-    with pytest.raises(OutOfRangeError, match="goal_rotation_3sigma.*degrees"):
+    with pytest.raises(WorldGraphError, match="goal_rotation_3sigma.*degrees"):
         wg.active_localize(world, percepts, look, goal_rotation_3sigma=5.0)
-    with pytest.raises(NonPositiveError, match="goal_rotation_3sigma"):
+    with pytest.raises(WorldGraphError, match="goal_rotation_3sigma"):
         wg.active_localize(world, percepts, look, goal_rotation_3sigma=0.0)
 
 

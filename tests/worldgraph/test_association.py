@@ -20,7 +20,7 @@ from worldgraph.association.cliques import maximum_cliques
 from worldgraph.association.consistency import _Graph, _prune_by_pairs, _prune_vectorised
 from worldgraph.association.filters import discriminator, orientation_filter, proximity_filter
 from worldgraph.association.hypotheses import is_ambiguous
-from worldgraph.errors import TooFewPerceptsError, UnknownTypeError, WorldGraphError
+from worldgraph.errors import TooFewPerceptsError, WorldGraphError
 from worldgraph.model import WorldModel
 from worldgraph.tolerances import AssociationTolerances
 
@@ -422,7 +422,7 @@ def test_bad_input() -> None:
     rng = np.random.default_rng(0)
     world = random_world(rng, n=30)
     percepts = exact_percepts(world, np.eye(4), np.arange(4))
-    with pytest.raises(UnknownTypeError, match="'window'"):
+    with pytest.raises(WorldGraphError, match="'window'"):
         associate(world, percepts + [Percept("window", [1.0, 0, 0], 0.01)])
     with pytest.raises(TooFewPerceptsError, match="got 2"):
         associate(world, percepts[:2])

@@ -19,7 +19,7 @@ import worldgraph as wg
 from perception import Percept
 from tests.problems import robot_at_a_table
 from worldgraph import scenes
-from worldgraph.errors import ArgumentTypeError, MalformedFileError, WorldGraphError
+from worldgraph.errors import MalformedFileError, WorldGraphError
 from worldgraph.tiles import (
     ClusterTiles,
     append_tiles,
@@ -99,7 +99,7 @@ def test_append_and_bad_folders(tiles, tmp_path) -> None:
         append_tiles(tiles[:1], out)
     with pytest.raises(MalformedFileError, match="no tile index"):
         read_index(str(tmp_path / "nothing"))
-    with pytest.raises(ArgumentTypeError, match="tiles"):
+    with pytest.raises(WorldGraphError, match="tiles"):
         save_tiles(tiles[0], str(tmp_path / "x"))
     world_file = str(tmp_path / "world.npz")
     tiles[0].world.save(world_file)
@@ -135,7 +135,7 @@ def test_cluster_tiles_answer_as_localize_tiled_and_the_whole_world(site, tiles,
         _same(both[0], remote.localize(scans[0][1], near=near[0], radius=1.0))
         _same(both[1], remote.localize(scans[1][1]))
         assert "outside_prior" in both[0].message and "outside_prior" not in both[1].message
-        with pytest.raises(ArgumentTypeError, match="near"):
+        with pytest.raises(WorldGraphError, match="near"):
             remote.localize_many([scans[0][1]], near=np.zeros((2, 3)), radius=1.0)
     assert remote.closed
     with pytest.raises(WorldGraphError, match="closed"):

@@ -131,11 +131,11 @@ def test_obj_type_of_that_raises_names_the_node(obj_file):
 
 
 def test_bad_type_of(obj_file):
-    with pytest.raises(wg.ArgumentTypeError, match=r"pattern '\(door' is not a valid regular"):
+    with pytest.raises(wg.WorldGraphError, match=r"pattern '\(door' is not a valid regular"):
         wg.WorldModel.from_file(obj_file, type_of={"(door": "door"})
-    with pytest.raises(wg.ArgumentTypeError, match="type_of must be None, a callable"):
+    with pytest.raises(wg.WorldGraphError, match="type_of must be None, a callable"):
         wg.WorldModel.from_file(obj_file, type_of=3)
-    with pytest.raises(wg.ArgumentTypeError, match=r"type_of\['door'\] must be a non-empty string"):
+    with pytest.raises(wg.WorldGraphError, match=r"type_of\['door'\] must be a non-empty string"):
         wg.WorldModel.from_file(obj_file, type_of={"door": ""})
 
 
@@ -287,7 +287,7 @@ def test_mjcf_bad_file_and_bad_mode(tmp_path, mjcf_file):
     path.write_text("<mujoco><worldbody>")
     with pytest.raises(wg.MalformedFileError, match="bad.xml: MuJoCo cannot compile it"):
         wg.WorldModel.from_file(path)
-    with pytest.raises(wg.ArgumentTypeError, match="mjcf_objects must be one of"):
+    with pytest.raises(wg.WorldGraphError, match="mjcf_objects must be one of"):
         wg.WorldModel.from_file(mjcf_file, mjcf_objects="links")
 
 
@@ -349,10 +349,10 @@ def test_file_format_overrides_the_suffix(tmp_path):
 def test_no_recognisable_objects_names_path_and_names(tmp_path):
     path = tmp_path / "shapes.obj"
     path.write_text("o Cube\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\ng Sphere_001\nv 0 0 1\nf 1 2 4\n")
-    with pytest.raises(wg.EmptyWorldError, match=r"shapes.obj: no object recognised among the 2 names "
+    with pytest.raises(wg.WorldGraphError, match=r"shapes.obj: no object recognised among the 2 names "
                                                  r"\['Cube', 'Sphere_001'\]"):
         wg.WorldModel.from_file(path)
-    with pytest.raises(wg.EmptyWorldError, match="type_of gave None for every name"):
+    with pytest.raises(wg.WorldGraphError, match="type_of gave None for every name"):
         wg.WorldModel.from_file(path, type_of={"^door": "door"})
 
 
@@ -531,9 +531,8 @@ def test_a_room_upside_down_is_named(tmp_path):
 def test_a_bad_up_axis_is_named(tmp_path, bad):
     path = tmp_path / "scene.glb"
     wg.importers.write_scene(_galley(), path)
-    with pytest.raises(wg.UpAxisError, match=r"up_axis must be None .* one of \('\+x'.*got "):
+    with pytest.raises(wg.WorldGraphError, match=r"up_axis must be None .* one of \('\+x'.*got "):
         wg.WorldModel.from_file(path, up_axis=bad)
-    assert issubclass(wg.UpAxisError, wg.WorldGraphError)
 
 
 def test_z_up_from_takes_each_axis_to_plus_z():

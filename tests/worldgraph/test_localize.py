@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 import radialopt as ro
 from perception import Percept
 from perception.simulate import simulate_percepts
-from worldgraph.errors import UnknownTypeError, WorldGraphError
+from worldgraph.errors import WorldGraphError
 from worldgraph.localization import localize
 from worldgraph.model import WorldModel
 
@@ -165,7 +165,7 @@ def test_unknown_types_are_ignored_then_rejected() -> None:
     assert "window" in res.message
     assert sorted(res.correspondences) == [(p + 1, int(o)) for p, o in enumerate(truth)]
     assert np.allclose(res.transformation, pose, atol=2e-3)
-    with pytest.raises(UnknownTypeError, match="window"):
+    with pytest.raises(WorldGraphError, match="window"):
         localize(world, [window, window, window])
 
 

@@ -14,7 +14,7 @@ from tests.worlds import four_type_world_and_percepts
 
 def test_rotation_gate_in_degrees_is_refused_with_a_hint() -> None:
     world, percepts = four_type_world_and_percepts()
-    with pytest.raises(wg.OutOfRangeError, match=r"max_rotation_3sigma = 45.0 .*radians.*np.radians"):
+    with pytest.raises(wg.WorldGraphError, match=r"max_rotation_3sigma = 45.0 .*radians.*np.radians"):
         wg.localize(world, percepts, max_rotation_3sigma=45.0)
     assert wg.localize(world, percepts, max_rotation_3sigma=0.5).status in wg.LOCALIZE_STATUSES
 

@@ -16,12 +16,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from worldgraph.errors import (
-    ArgumentTypeError,
     ImporterError,
-    NonFiniteError,
-    NonPositiveError,
-    OutOfRangeError,
-    ShapeError,
     WorldGraphError,
 )
 from worldgraph.model import ring_join
@@ -188,19 +183,19 @@ BAD_NAN[3, 1] = np.nan
 
 
 @pytest.mark.parametrize(("kwargs", "error", "words"), [
-    ({"a": BAD_NAN}, NonFiniteError, ["a[3, 1]", "nan"]),
-    ({"b": np.full((2, 3), np.inf)}, NonFiniteError, ["b[0, 0]", "inf"]),
-    ({"b": np.zeros((4, 2))}, ShapeError, ["b", "(4, 2)"]),
-    ({"a": None}, ArgumentTypeError, ["a", "None"]),
-    ({"a": np.ones((2, 3)) * (1 + 1j)}, ArgumentTypeError, ["a", "complex"]),
-    ({"a": [[0.0, 0.0, 2e12]]}, OutOfRangeError, ["a[0, 2]", "2000000000000"]),
-    ({"h_lo": -1.0}, NonPositiveError, ["h_lo", "-1.0"]),
-    ({"h_lo": 3.0, "h_hi": 2.0}, OutOfRangeError, ["h_lo = 3.0", "h_hi = 2.0"]),
-    ({"z_lo": 0.5, "z_hi": 0.25}, OutOfRangeError, ["z_lo = 0.5", "z_hi = 0.25"]),
-    ({"z_hi": float("inf")}, NonFiniteError, ["z_hi", "inf"]),
-    ({"h_hi": float("nan")}, NonFiniteError, ["h_hi", "nan"]),
-    ({"h_hi": True}, ArgumentTypeError, ["h_hi", "True"]),
-    ({"z_lo": "0"}, ArgumentTypeError, ["z_lo", "'0'"]),
+    ({"a": BAD_NAN}, WorldGraphError, ["a[3, 1]", "nan"]),
+    ({"b": np.full((2, 3), np.inf)}, WorldGraphError, ["b[0, 0]", "inf"]),
+    ({"b": np.zeros((4, 2))}, WorldGraphError, ["b", "(4, 2)"]),
+    ({"a": None}, WorldGraphError, ["a", "None"]),
+    ({"a": np.ones((2, 3)) * (1 + 1j)}, WorldGraphError, ["a", "complex"]),
+    ({"a": [[0.0, 0.0, 2e12]]}, WorldGraphError, ["a[0, 2]", "2000000000000"]),
+    ({"h_lo": -1.0}, WorldGraphError, ["h_lo", "-1.0"]),
+    ({"h_lo": 3.0, "h_hi": 2.0}, WorldGraphError, ["h_lo = 3.0", "h_hi = 2.0"]),
+    ({"z_lo": 0.5, "z_hi": 0.25}, WorldGraphError, ["z_lo = 0.5", "z_hi = 0.25"]),
+    ({"z_hi": float("inf")}, WorldGraphError, ["z_hi", "inf"]),
+    ({"h_hi": float("nan")}, WorldGraphError, ["h_hi", "nan"]),
+    ({"h_hi": True}, WorldGraphError, ["h_hi", "True"]),
+    ({"z_lo": "0"}, WorldGraphError, ["z_lo", "'0'"]),
 ])
 def test_ring_argument_errors(kwargs, error, words):
     args = {"a": GOOD, "b": GOOD, "h_lo": 1.0, "h_hi": 2.0, "z_lo": 0.0, "z_hi": 1.0} | kwargs
@@ -211,11 +206,11 @@ def test_ring_argument_errors(kwargs, error, words):
 
 
 @pytest.mark.parametrize(("kwargs", "error", "words"), [
-    ({"a": BAD_NAN}, NonFiniteError, ["a[3, 1]", "nan"]),
-    ({"b": np.zeros((3,))}, ShapeError, ["b", "(3,)"]),
-    ({"r_lo": -0.5}, NonPositiveError, ["r_lo", "-0.5"]),
-    ({"r_lo": 2.0, "r_hi": 1.0}, OutOfRangeError, ["r_lo = 2.0", "r_hi = 1.0"]),
-    ({"r_hi": None}, ArgumentTypeError, ["r_hi", "None"]),
+    ({"a": BAD_NAN}, WorldGraphError, ["a[3, 1]", "nan"]),
+    ({"b": np.zeros((3,))}, WorldGraphError, ["b", "(3,)"]),
+    ({"r_lo": -0.5}, WorldGraphError, ["r_lo", "-0.5"]),
+    ({"r_lo": 2.0, "r_hi": 1.0}, WorldGraphError, ["r_lo = 2.0", "r_hi = 1.0"]),
+    ({"r_hi": None}, WorldGraphError, ["r_hi", "None"]),
 ])
 def test_shell_argument_errors(kwargs, error, words):
     args = {"a": GOOD, "b": GOOD, "r_lo": 1.0, "r_hi": 2.0} | kwargs
@@ -284,12 +279,13 @@ def test_kept_grid_with_a_mask_equals_the_reference_on_the_chosen_points(case, c
 
 def test_kept_grid_arguments_are_checked() -> None:
     grid = ring_join.ring_grid(np.zeros((3, 3)))
-    with pytest.raises(ArgumentTypeError, match="grid must be a RingGrid, got ndarray"):
+    with pytest.raises(WorldGraphError, match="grid must be a RingGrid, got ndarray"):
         ring_join.ring_pairs_in(np.zeros((1, 3)), np.zeros((3, 3)), h_lo=0, h_hi=1, z_lo=0, z_hi=1)
-    with pytest.raises(ShapeError, match=r"b_mask must be a bool array of shape \(3,\), got dtype int64"):
+    with pytest.raises(WorldGraphError, match=r"b_mask must be a bool array of shape \(3,\), got dtype "
+                                              r"int64"):
         ring_join.ring_pairs_in(np.zeros((1, 3)), grid, h_lo=0, h_hi=1, z_lo=0, z_hi=1,
                                 b_mask=np.ones(3, dtype=np.int64))
-    with pytest.raises(NonPositiveError, match="cell"):
+    with pytest.raises(WorldGraphError, match="cell"):
         ring_join.ring_grid(np.zeros((3, 3)), cell=0.0)
     empty = ring_join.ring_grid(np.zeros((0, 3)))
     i, j = ring_join.ring_pairs_in(np.zeros((2, 3)), empty, h_lo=0, h_hi=1, z_lo=-1, z_hi=1)

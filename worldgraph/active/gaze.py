@@ -13,7 +13,7 @@ from scipy.optimize import least_squares
 from perception import KinematicChain
 
 from .._checks import real_array
-from ..errors import ArgumentTypeError, OutOfRangeError, UnknownTypeError
+from ..errors import WorldGraphError
 from ..tolerances import (
     AIM_LSQ_TOL,
     AIM_REGULARISATION,
@@ -49,24 +49,24 @@ def _check_limits(head: KinematicChain, joint_limits: object) -> tuple[NDArray, 
             return None
         return own_lo.copy(), own_hi.copy()
     if not isinstance(joint_limits, Mapping):
-        raise ArgumentTypeError(f"joint_limits must be a mapping joint name -> (lower, upper) radians, got "
-                                f"{type(joint_limits).__name__}")
+        raise WorldGraphError(f"joint_limits must be a mapping joint name -> (lower, upper) radians, got "
+                              f"{type(joint_limits).__name__}")
     names = [j.name for j in head.joints]
     unknown = sorted(set(joint_limits) - set(head.names))
     if unknown:
-        raise UnknownTypeError(f"joint_limits names unknown joints {unknown}; the head has "
-                               f"{list(head.names)}")
+        raise WorldGraphError(f"joint_limits names unknown joints {unknown}; the head has "
+                              f"{list(head.names)}")
     lo = np.full(len(names), -np.inf)
     hi = np.full(len(names), np.inf)
     for i, name in enumerate(names):
         if name in joint_limits:
             pair = real_array(f"joint_limits[{name!r}]", joint_limits[name], (2,))
             if not pair[0] < pair[1]:
-                raise OutOfRangeError(f"joint_limits[{name!r}] must be (lower, upper) with lower < upper, "
+                raise WorldGraphError(f"joint_limits[{name!r}] must be (lower, upper) with lower < upper, "
                                       f"got {pair.tolist()}")
             lo[i], hi[i] = pair
             if not max(lo[i], own_lo[i]) <= min(hi[i], own_hi[i]):
-                raise OutOfRangeError(f"joint_limits[{name!r}] = {pair.tolist()} does not meet the joint's "
+                raise WorldGraphError(f"joint_limits[{name!r}] = {pair.tolist()} does not meet the joint's "
                                       f"own limits {[float(own_lo[i]), float(own_hi[i])]}")
     return np.maximum(lo, own_lo), np.minimum(hi, own_hi)
 
@@ -101,7 +101,7 @@ def gaze_angles(head: KinematicChain, target: object, *, joint_limits: Mapping[s
         None when no limits were given.
     """
     if not isinstance(head, KinematicChain):
-        raise ArgumentTypeError(f"head must be a perception.KinematicChain, got {type(head).__name__}")
+        raise WorldGraphError(f"head must be a perception.KinematicChain, got {type(head).__name__}")
     tgt = real_array("target", target, (3,), max_abs=1e6)
     bounds = _check_limits(head, joint_limits)
     n = len(head.joints)

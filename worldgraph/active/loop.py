@@ -14,7 +14,7 @@ from perception import KinematicChain, Percept
 
 from .._checks import as_list, integer, real_array, real_scalar
 from ..association.consistency import check_world_and_percepts
-from ..errors import ArgumentTypeError, OutOfRangeError
+from ..errors import WorldGraphError
 from ..localization.pipeline import localize
 from ..localization.result import LocalizationResult, PoseStatus
 from ..model import WorldModel
@@ -172,22 +172,22 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         look is planned for).
     """
     if not callable(look):
-        raise ArgumentTypeError(f"look must be a callable direction -> list of Percept, "
-                                f"got {type(look).__name__}")
+        raise WorldGraphError(f"look must be a callable direction -> list of Percept, "
+                              f"got {type(look).__name__}")
     if planner is not None and not callable(planner):
-        raise ArgumentTypeError(f"planner must be None or a callable result -> ViewPlan or direction, got "
-                                f"{type(planner).__name__}")
+        raise WorldGraphError(f"planner must be None or a callable result -> ViewPlan or direction, got "
+                              f"{type(planner).__name__}")
     max_looks = integer("max_looks", max_looks, minimum=0, maximum=1000)
     statuses = as_list("look_while", look_while, "status names")
     if goal_rotation_3sigma is not None:
         goal_rotation_3sigma = real_scalar("goal_rotation_3sigma", goal_rotation_3sigma, positive=True)
         g = goal_rotation_3sigma
         if g > math.pi:
-            raise OutOfRangeError(f"goal_rotation_3sigma = {g!r} is an angle in radians and must be <= pi; "
+            raise WorldGraphError(f"goal_rotation_3sigma = {g!r} is an angle in radians and must be <= pi; "
                                   f"did you mean degrees? np.radians({g:g}) = {math.radians(g):.4g}")
     for i, st in enumerate(statuses):
         if st not in _LOOK_STATUSES:
-            raise OutOfRangeError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
+            raise WorldGraphError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
                                   f"choose among {_LOOK_STATUSES}")
     tol = _resolved_tol(tol)
     current = check_world_and_percepts(world, percepts)
@@ -218,13 +218,13 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         else:
             d = real_array("planner(result)", plan, (3,))
             if not np.linalg.norm(d) > 0:
-                raise OutOfRangeError(f"planner(result) returned a zero direction {d.tolist()}")
+                raise WorldGraphError(f"planner(result) returned a zero direction {d.tolist()}")
             d = d / np.linalg.norm(d)
         new = as_list("look(direction)", look(d.copy()), "perception.Percept", exclude=(Percept,))
         for i, p in enumerate(new):
             if not isinstance(p, Percept):
-                raise ArgumentTypeError(f"look(direction)[{i}] must be a perception.Percept, "
-                                        f"got {type(p).__name__}")
+                raise WorldGraphError(f"look(direction)[{i}] must be a perception.Percept, "
+                                      f"got {type(p).__name__}")
         directions.append(d)
         if planner is None and learn_cap and isinstance(plan, ViewPlan):
             cap = _learned_cap(cap, plan, len(new), detection)

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from perception import KinematicChain, Percept
 
 from .._checks import as_list, generator, integer, real_array, real_scalar
-from ..errors import ArgumentTypeError, OutOfRangeError
+from ..errors import WorldGraphError
 from ..localization.result import LocalizationResult
 from ..model import WorldModel
 from ..tolerances import (
@@ -154,7 +154,7 @@ def _depth_factor(value: object) -> float:
     """The eq. 6 factor (1/m), in [0.001, 1e12]."""
     depth_factor = real_scalar("depth_factor", value, positive=True, maximum=1e12)
     if depth_factor < 1e-3:
-        raise OutOfRangeError(f"depth_factor = {depth_factor!r} is out of range: must be >= 0.001 (1/m)")
+        raise WorldGraphError(f"depth_factor = {depth_factor!r} is out of range: must be >= 0.001 (1/m)")
     return depth_factor
 
 
@@ -162,9 +162,9 @@ def _check_common(world: object, result: object, fov_deg: object, max_range: obj
                   depth_factor: object, min_sigma: object, n_sigma: object, margin: object
                   ) -> tuple[float, float, float, float, float, float, float]:
     if not isinstance(world, WorldModel):
-        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+        raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
     if not isinstance(result, LocalizationResult):
-        raise ArgumentTypeError(f"result must be a LocalizationResult, got {type(result).__name__}")
+        raise WorldGraphError(f"result must be a LocalizationResult, got {type(result).__name__}")
     depth_factor = _depth_factor(depth_factor)
     return (real_scalar("fov_deg", fov_deg, positive=True, maximum=360.0),
             real_scalar("max_range", max_range, positive=True, maximum=1e6),
@@ -178,7 +178,7 @@ def _directions(name: str, value: object) -> NDArray[np.float64]:
     arr = real_array(name, value, (None, 3), max_abs=1e12)
     zero = np.flatnonzero(np.linalg.norm(arr, axis=1) == 0)
     if zero.size:
-        raise OutOfRangeError(f"{name}[{int(zero[0])}] = {arr[zero[0]].tolist()} is no direction "
+        raise WorldGraphError(f"{name}[{int(zero[0])}] = {arr[zero[0]].tolist()} is no direction "
                               "(zero length)")
     return _unit_rows(arr)
 
@@ -203,7 +203,7 @@ def _percepts_in_hand(percepts: object) -> list[Percept]:
     out = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
     for i, p in enumerate(out):
         if not isinstance(p, Percept):
-            raise ArgumentTypeError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
+            raise WorldGraphError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
     return out
 
 
@@ -290,16 +290,15 @@ def plan_view(world: WorldModel, result: LocalizationResult, *, fov_deg: float =
 
     Raises
     ------
-    NonFiniteError
-        The result holds no pose.
     WorldGraphError
-        Bad arguments (the subclass and the message name the argument and the value).
+        - The result holds no pose.
+        - Bad arguments (the subclass and the message name the argument and the value).
     """
     fov, max_range, detection, depth_factor, min_sigma, n_sigma, margin = _check_common(
         world, result, fov_deg, max_range, detection, depth_factor, min_sigma, n_sigma, margin)
     if head is not None and not isinstance(head, KinematicChain):
-        raise ArgumentTypeError(f"head must be a perception.KinematicChain or None, "
-                                f"got {type(head).__name__}")
+        raise WorldGraphError(f"head must be a perception.KinematicChain or None, "
+                              f"got {type(head).__name__}")
     extra = np.zeros((0, 3)) if candidates is None else _directions("candidates", candidates)
     if rng is not None:
         rng = generator("rng", rng)

@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 from perception import Percept, PerceptionError, depth_sigma
 
 from .._checks import as_list
-from ..errors import NonFiniteError, UnknownTypeError
+from ..errors import WorldGraphError
 from ..localization.result import LocalizationResult
 from ..model import WorldModel
 from ..pose.validation import pose_difference
@@ -59,8 +59,8 @@ def _hypotheses(result: LocalizationResult) -> tuple[list[NDArray[np.float64]], 
     """The poses of the near-best hypotheses and their weights."""
     T = np.asarray(result.transformation, dtype=np.float64)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        raise NonFiniteError(f"result.transformation must be a finite pose to plan a view from, but the "
-                             f"result (status {result.status!r}) has none")
+        raise WorldGraphError(f"result.transformation must be a finite pose to plan a view from, but the "
+                              f"result (status {result.status!r}) has none")
     poses = [T] + [np.asarray(a, dtype=np.float64) for a in result.alternatives]
     costs = np.asarray(result.near_best_costs, dtype=np.float64)
     if costs.shape != (len(poses),) or not np.all(np.isfinite(costs)):
@@ -74,14 +74,14 @@ def _check_types(world: WorldModel, types: object, result: LocalizationResult) -
         objs = [o for _, o in result.correspondences]
         out = sorted({str(world.types[o]) for o in objs})
         if not out:
-            raise UnknownTypeError("types: the result has no correspondences to take the recognisable "
-                                   "types from; pass types=")
+            raise WorldGraphError("types: the result has no correspondences to take the recognisable "
+                                  "types from; pass types=")
         return out
     out = as_list("types", types, "object type names")
     for i, t in enumerate(out):
         if not isinstance(t, str) or t not in world.type_index:
-            raise UnknownTypeError(f"types[{i}] = {t!r} is not a type of the world "
-                                   f"(types: {sorted(world.type_index)})")
+            raise WorldGraphError(f"types[{i}] = {t!r} is not a type of the world "
+                                  f"(types: {sorted(world.type_index)})")
     return out
 
 
@@ -91,7 +91,7 @@ def _gate(rho: NDArray[np.float64], depth_factor: float, min_sigma: float, n_sig
     try:
         sigma = np.asarray(depth_sigma(rho, depth_factor, min_sigma=min_sigma), dtype=np.float64)
     except PerceptionError as exc:  # a predicted range the eq. 6 model refuses (NaN, overflow)
-        raise NonFiniteError(f"predicted percept sigma (eq. 6) failed: {exc}") from exc
+        raise WorldGraphError(f"predicted percept sigma (eq. 6) failed: {exc}") from exc
     return n_sigma * math.sqrt(2.0) * sigma + margin
 
 

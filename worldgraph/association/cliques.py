@@ -39,9 +39,6 @@ from numpy.typing import NDArray
 
 from .._checks import integer
 from ..errors import (
-    ArgumentTypeError,
-    OutOfRangeError,
-    ShapeError,
     WorldGraphError,
 )
 
@@ -94,24 +91,24 @@ def _check_entry(key: tuple[int, int], mat: object, sizes: list[int]) -> _Entry:
     p, q = key
     if isinstance(mat, tuple):
         if len(mat) != 2:
-            raise ShapeError(f"adjacency[{key}] must be a bool matrix or a pair (rows, cols) of index "
-                             f"arrays, got a tuple of length {len(mat)}")
+            raise WorldGraphError(f"adjacency[{key}] must be a bool matrix or a pair (rows, cols) of index "
+                                  f"arrays, got a tuple of length {len(mat)}")
         rows, cols = (np.asarray(x) for x in mat)
         for name, arr, size in (("rows", rows, sizes[p]), ("cols", cols, sizes[q])):
             if arr.ndim != 1 or (arr.size and arr.dtype.kind not in "iu"):
-                raise ArgumentTypeError(f"adjacency[{key}] {name} must be a 1-D integer array, got dtype "
-                                        f"{arr.dtype} and shape {arr.shape}")
+                raise WorldGraphError(f"adjacency[{key}] {name} must be a 1-D integer array, got dtype "
+                                      f"{arr.dtype} and shape {arr.shape}")
             if arr.size and (arr.min() < 0 or arr.max() >= size):
                 bad = int(np.flatnonzero((arr < 0) | (arr >= size))[0])
-                raise OutOfRangeError(f"adjacency[{key}] {name}[{bad}] = {int(arr[bad])} is outside "
+                raise WorldGraphError(f"adjacency[{key}] {name}[{bad}] = {int(arr[bad])} is outside "
                                       f"[0, {size})")
         if rows.shape != cols.shape:
-            raise ShapeError(f"adjacency[{key}] rows and cols must have equal length, got {rows.shape} "
-                             f"and {cols.shape}")
+            raise WorldGraphError(f"adjacency[{key}] rows and cols must have equal length, got {rows.shape} "
+                                  f"and {cols.shape}")
         return rows, cols
     mat = np.asarray(mat)
     if mat.dtype != np.bool_:
-        raise ArgumentTypeError(f"adjacency[{key}] must be a bool array, got dtype {mat.dtype}")
+        raise WorldGraphError(f"adjacency[{key}] must be a bool array, got dtype {mat.dtype}")
     if mat.shape != (sizes[p], sizes[q]):
         raise WorldGraphError(f"adjacency[{key}] must have shape ({sizes[p]}, {sizes[q]}), "
                               f"got shape {mat.shape}")
@@ -472,11 +469,11 @@ def maximum_cliques(
     CliqueSearch
     """
     if sizes is None or isinstance(sizes, str | bytes):
-        raise ArgumentTypeError(f"sizes must be a sequence of non-negative integers, got {sizes!r}")
+        raise WorldGraphError(f"sizes must be a sequence of non-negative integers, got {sizes!r}")
     sizes = [integer(f"sizes[{i}]", s, minimum=0, maximum=10**7) for i, s in enumerate(sizes)]
     if not isinstance(adjacency, dict):
-        raise ArgumentTypeError(f"adjacency must be a dict (p, q) -> bool array or None, got "
-                                f"{type(adjacency).__name__}")
+        raise WorldGraphError(f"adjacency must be a dict (p, q) -> bool array or None, got "
+                              f"{type(adjacency).__name__}")
     for key in adjacency:
         if not (isinstance(key, tuple) and len(key) == 2 and all(isinstance(v, int | np.integer)
                                                                   and not isinstance(v, bool) for v in key)
@@ -494,7 +491,8 @@ def maximum_cliques(
         allowed = [np.asarray(a) for a in allowed]
         if len(allowed) != len(sizes) or any(a.dtype != np.bool_ or a.shape != (s,)
                                              for a, s in zip(allowed, sizes, strict=False)):
-            raise ShapeError(f"allowed must hold one bool array of shape (sizes[p],) per part ({len(sizes)})")
+            raise WorldGraphError(f"allowed must hold one bool array of shape (sizes[p],) per part "
+                                  f"({len(sizes)})")
     checked = {(int(key[0]), int(key[1])): _check_entry((int(key[0]), int(key[1])), mat, sizes)
                for key, mat in adjacency.items()}
     k = len(sizes)

@@ -18,10 +18,7 @@ from perception import Percept
 
 from .._checks import as_list
 from ..errors import (
-    ArgumentTypeError,
-    EmptyWorldError,
-    OutOfRangeError,
-    UnknownTypeError,
+    WorldGraphError,
 )
 from ..model import FAR_PAIR_HEIGHT, FAR_PAIR_RANGE, FarPairIndex, WorldModel, ring_join
 from ..pose.gravity import tilt_widening
@@ -44,14 +41,14 @@ def check_world_and_percepts(world: WorldModel, percepts: Sequence[Percept]) -> 
     ``percepts[i]`` (the index of a wrong element, its sigma or covariance scale).
     """
     if not isinstance(world, WorldModel):
-        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+        raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
     if len(world) == 0:
-        raise EmptyWorldError("the world model has no objects")
+        raise WorldGraphError("the world model has no objects")
     percepts = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
     lo, hi = SIGMA_RANGE
     for k, p in enumerate(percepts):
         if not isinstance(p, Percept):
-            raise ArgumentTypeError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
+            raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
     if not percepts:
         return percepts
     # one vectorised pass (a Percept is already validated: finite, SPD); loops only to name
@@ -59,21 +56,21 @@ def check_world_and_percepts(world: WorldModel, percepts: Sequence[Percept]) -> 
     bad = np.flatnonzero(~((sig >= lo) & (sig <= hi)))
     if bad.size:
         k = int(bad[0])
-        raise OutOfRangeError(f"percepts[{k}].sigma = {sig[k]:.3g} m is outside [{lo:g}, {hi:g}] m, the "
+        raise WorldGraphError(f"percepts[{k}].sigma = {sig[k]:.3g} m is outside [{lo:g}, {hi:g}] m, the "
                               "range the association and pose fits can handle (covariance scale "
                               f"{sig[k] ** 2:.3g} m^2)")
     pos = np.array([p.position for p in percepts], dtype=np.float64)
     bad = np.flatnonzero(~np.all(np.abs(pos) <= MAX_COORDINATE, axis=1))
     if bad.size:
         k = int(bad[0])
-        raise OutOfRangeError(f"percepts[{k}].position = {pos[k].tolist()} exceeds {MAX_COORDINATE:g} m")
+        raise WorldGraphError(f"percepts[{k}].position = {pos[k].tolist()} exceeds {MAX_COORDINATE:g} m")
     with_cov = [k for k, p in enumerate(percepts) if p.covariance is not None]
     if with_cov:
         ev = np.linalg.eigvalsh(np.array([percepts[k].covariance for k in with_cov], dtype=np.float64))
         bad = np.flatnonzero(~((ev[:, 0] >= lo * lo) & (ev[:, -1] <= hi * hi)))
         if bad.size:
             k, e = with_cov[int(bad[0])], ev[int(bad[0])]
-            raise OutOfRangeError(f"percepts[{k}].covariance has eigenvalues {e[0]:.3g}..{e[-1]:.3g} "
+            raise WorldGraphError(f"percepts[{k}].covariance has eigenvalues {e[0]:.3g}..{e[-1]:.3g} "
                                   f"m^2, outside [{lo * lo:g}, {hi * hi:g}] m^2 (the range the fits "
                                   "can handle)")
     return percepts
@@ -83,8 +80,8 @@ def _check_inputs(world: WorldModel, percepts: Sequence[Percept]) -> list[Percep
     percepts = check_world_and_percepts(world, percepts)
     for k, p in enumerate(percepts):
         if p.type not in world.type_index:
-            raise UnknownTypeError(f"percepts[{k}] has type {p.type!r}, which is not in the world model; "
-                                   f"known types: {world._known_types()}")
+            raise WorldGraphError(f"percepts[{k}] has type {p.type!r}, which is not in the world model; "
+                                  f"known types: {world._known_types()}")
     return percepts
 
 

@@ -17,8 +17,6 @@ from perception import Percept
 from .._checks import integer, real_scalar
 from .._rigid import rigid_transform
 from ..errors import (
-    ArgumentTypeError,
-    ShapeError,
     TooFewPerceptsError,
     WorldGraphError,
 )
@@ -98,10 +96,10 @@ def filtered_graph_view(world: WorldModel, candidates: Sequence[NDArray[np.intp]
     the filter's ``"links"``).
     """
     if not isinstance(world, WorldModel):
-        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+        raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
     if candidates is None or isinstance(candidates, str | bytes) or not isinstance(links, dict):
-        raise ArgumentTypeError("candidates must be a sequence of object-index arrays and links a dict, got "
-                                f"{type(candidates).__name__} and {type(links).__name__}")
+        raise WorldGraphError("candidates must be a sequence of object-index arrays and links a dict, got "
+                              f"{type(candidates).__name__} and {type(links).__name__}")
     cand_arrays = []
     for i, c in enumerate(candidates):
         try:
@@ -187,15 +185,16 @@ def _check_proximity(world: WorldModel, percepts: list[Percept], proximity: obje
     these percepts, checked (shapes, keys, object types)."""
     k = len(percepts)
     if not isinstance(proximity, dict) or "objects" not in proximity or "adjacency" not in proximity:
-        raise ArgumentTypeError("proximity must be the dict returned by proximity_filter (with 'objects' and "
-                                f"'adjacency'), got {type(proximity).__name__}")
+        raise WorldGraphError("proximity must be the dict returned by proximity_filter (with 'objects' and "
+                              f"'adjacency'), got {type(proximity).__name__}")
     objects_in, adjacency = proximity["objects"], proximity["adjacency"]
     if not isinstance(objects_in, list | tuple) or not isinstance(adjacency, dict):
-        raise ShapeError("proximity['objects'] must be a list of object arrays and proximity['adjacency'] a "
-                         f"dict, got {type(objects_in).__name__} and {type(adjacency).__name__}")
+        raise WorldGraphError("proximity['objects'] must be a list of object arrays and "
+                              "proximity['adjacency'] a "
+                              f"dict, got {type(objects_in).__name__} and {type(adjacency).__name__}")
     if len(objects_in) != k:
-        raise ShapeError(f"percepts has {k} percepts but proximity['objects'] has {len(objects_in)} entries: "
-                         "pass the percepts proximity_filter was given")
+        raise WorldGraphError(f"percepts has {k} percepts but proximity['objects'] has {len(objects_in)} "
+                              "entries: pass the percepts proximity_filter was given")
     objects = []
     for p, o in enumerate(objects_in):
         arr = np.asarray(o)
@@ -208,8 +207,8 @@ def _check_proximity(world: WorldModel, percepts: list[Percept], proximity: obje
     for p, q in itertools.combinations(range(k), 2):
         mat = np.asarray(adjacency.get((p, q)) if (p, q) in adjacency else np.zeros((0, 0)))
         if mat.dtype != np.bool_ or mat.shape != (len(objects[p]), len(objects[q])):
-            raise ShapeError(f"proximity['adjacency'][({p}, {q})] must be a bool array of shape "
-                             f"({len(objects[p])}, {len(objects[q])}), got {mat.dtype} {mat.shape}")
+            raise WorldGraphError(f"proximity['adjacency'][({p}, {q})] must be a bool array of shape "
+                                  f"({len(objects[p])}, {len(objects[q])}), got {mat.dtype} {mat.shape}")
         adj[(p, q)] = mat.copy()
     return objects, adj
 
@@ -298,7 +297,7 @@ def discriminator(world: WorldModel, hypotheses: Sequence[AssociationHypothesis]
         Global object index.
     """
     if not isinstance(world, WorldModel):
-        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+        raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
     hyps = _check_hypotheses(hypotheses)
     if len(hyps) < 2:
         raise TooFewPerceptsError(f"the discriminator needs two hypotheses, got {len(hyps)}")

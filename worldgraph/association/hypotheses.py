@@ -17,7 +17,7 @@ from perception import Percept
 from .._checks import real_scalar
 from .._rigid import rigid_transform
 from ..errors import (
-    ArgumentTypeError,
+    WorldGraphError,
 )
 from ..model import WorldModel
 from ..pose.frames import weighted_kabsch_batch
@@ -385,17 +385,17 @@ def is_ambiguous(hypotheses: Sequence[AssociationHypothesis],
 
 def _check_hypotheses(hypotheses: object) -> list[AssociationHypothesis]:
     if hypotheses is None or isinstance(hypotheses, str | bytes | AssociationHypothesis):
-        raise ArgumentTypeError(f"hypotheses must be a sequence of AssociationHypothesis, "
-                                f"got {type(hypotheses).__name__}")
+        raise WorldGraphError(f"hypotheses must be a sequence of AssociationHypothesis, "
+                              f"got {type(hypotheses).__name__}")
     try:
         hyps = list(hypotheses)  # type: ignore[call-overload]
     except TypeError as exc:
-        raise ArgumentTypeError(f"hypotheses must be a sequence of AssociationHypothesis, "
-                                f"got {type(hypotheses).__name__}") from exc
+        raise WorldGraphError(f"hypotheses must be a sequence of AssociationHypothesis, "
+                              f"got {type(hypotheses).__name__}") from exc
     for i, h in enumerate(hyps):
         if not isinstance(h, AssociationHypothesis):
-            raise ArgumentTypeError(f"hypotheses[{i}] must be an AssociationHypothesis, "
-                                    f"got {type(h).__name__}")
+            raise WorldGraphError(f"hypotheses[{i}] must be an AssociationHypothesis, "
+                                  f"got {type(h).__name__}")
     return hyps
 
 

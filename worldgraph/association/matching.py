@@ -162,7 +162,7 @@ def associate(world: WorldModel, percepts: Sequence[Percept],
 
     Raises
     ------
-    UnknownTypeError
+    WorldGraphError
         A percept type the world does not have.
     TooFewPerceptsError
         Fewer than ``min_clique_size`` percepts.

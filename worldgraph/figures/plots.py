@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from .._checks import _short, as_list, integer, real_array, real_scalar
 from .._rigid import rigid_transform
-from ..errors import ArgumentTypeError, ImporterError, ShapeError
+from ..errors import ImporterError, WorldGraphError
 from ..localization import LocalizationResult
 from ..model import WorldModel
 from ..tolerances import PSD_RTOL, SAME_POSITION, SYMMETRY_RTOL, TINY
@@ -89,13 +89,13 @@ def type_colours(types: Iterable[str]) -> dict[str, str]:
 
     Raises
     ------
-    ArgumentTypeError
+    WorldGraphError
         ``types`` is a string, or holds something other than non-empty strings.
     """
     names = as_list("types", types, "type names")
     for i, t in enumerate(names):
         if not isinstance(t, str | np.str_) or not t:
-            raise ArgumentTypeError(f"types[{i}] must be a non-empty string, got {_short(t)}")
+            raise WorldGraphError(f"types[{i}] must be a non-empty string, got {_short(t)}")
     out = {str(t): TYPE_COLOURS[str(t)] for t in names if str(t) in TYPE_COLOURS}
     spare = [c for c in _SPARE_COLOURS if c not in out.values()]
     for k, t in enumerate(sorted({str(t) for t in names} - out.keys())):
@@ -125,10 +125,9 @@ def covariance_ellipse(center: Any, covariance: Any, *, n_sigma: float = 3.0, **
 
     Raises
     ------
-    ShapeError, NonFiniteError
-        ``center`` or ``covariance`` of the wrong shape, or not finite.
-    ArgumentTypeError
-        ``covariance`` not symmetric or with a negative eigenvalue (beyond rounding).
+    WorldGraphError
+        - ``center`` or ``covariance`` of the wrong shape, or not finite.
+        - ``covariance`` not symmetric or with a negative eigenvalue (beyond rounding).
     """
     _pyplot()
     from matplotlib.patches import Ellipse
@@ -138,10 +137,10 @@ def covariance_ellipse(center: Any, covariance: Any, *, n_sigma: float = 3.0, **
     n_sigma = real_scalar("n_sigma", n_sigma, positive=True)
     scale = max(float(np.abs(cov).max()), TINY)
     if abs(cov[0, 1] - cov[1, 0]) > SYMMETRY_RTOL * scale:
-        raise ArgumentTypeError(f"covariance must be symmetric, got {cov.tolist()}")
+        raise WorldGraphError(f"covariance must be symmetric, got {cov.tolist()}")
     eig, vec = np.linalg.eigh(cov)
     if eig[0] < -PSD_RTOL * scale:
-        raise ArgumentTypeError(
+        raise WorldGraphError(
             f"covariance must be positive semi-definite, got eigenvalues {eig.tolist()}")
     semi = n_sigma * np.sqrt(np.maximum(eig, 0.0))
     angle = math.degrees(math.atan2(vec[1, 1], vec[0, 1]))  # direction of the major axis
@@ -180,7 +179,7 @@ def _percept_list(percepts: Any) -> list[Any]:
     items = as_list("percepts", percepts, "perception.Percept")
     for i, p in enumerate(items):
         if not (isinstance(getattr(p, "type", None), str) and hasattr(p, "position")):
-            raise ArgumentTypeError(f"percepts[{i}] must be a perception.Percept, got {_short(p)}")
+            raise WorldGraphError(f"percepts[{i}] must be a perception.Percept, got {_short(p)}")
     return items
 
 
@@ -259,22 +258,21 @@ def top_view(
     ------
     ImporterError
         matplotlib is not installed.
-    ArgumentTypeError
-        ``world`` not a WorldModel, ``result`` not a LocalizationResult, a percept that is not
-        a Percept, a bad ``n_hypotheses``.
-    ShapeError, NonFiniteError, NonRigidError
-        ``truth`` or ``pose`` not a finite rigid (4, 4) transform.
+    WorldGraphError
+        - ``world`` not a WorldModel, ``result`` not a LocalizationResult, a percept that is not
+          a Percept, a bad ``n_hypotheses``.
+        - ``truth`` or ``pose`` not a finite rigid (4, 4) transform.
     """
     plt = _pyplot()
     if not isinstance(world, WorldModel):
-        raise ArgumentTypeError(f"world must be a WorldModel, got {_short(world)}")
+        raise WorldGraphError(f"world must be a WorldModel, got {_short(world)}")
     if result is not None and not isinstance(result, LocalizationResult):
-        raise ArgumentTypeError(f"result must be a LocalizationResult or None, got {_short(result)}")
+        raise WorldGraphError(f"result must be a LocalizationResult or None, got {_short(result)}")
     plist = [] if percepts is None else _percept_list(percepts)
     n_hypotheses = integer("n_hypotheses", n_hypotheses, minimum=0)
     n_sigma = real_scalar("n_sigma", n_sigma, positive=True)
     if not isinstance(legend, bool):
-        raise ArgumentTypeError(f"legend must be a bool, got {_short(legend)}")
+        raise WorldGraphError(f"legend must be a bool, got {_short(legend)}")
     truth_t = None if truth is None else rigid_transform("truth", truth)
     if pose is not None:
         place = rigid_transform("pose", pose)
@@ -401,19 +399,18 @@ def image_view(image: Any, detections: Sequence[Any] = (), *, ax: Any = None, bg
     ------
     ImporterError
         matplotlib is not installed.
-    ShapeError
-        ``image`` is not an (height, width, 3) array.
-    ArgumentTypeError
-        A detection without ``type`` or ``centroid_uv``.
+    WorldGraphError
+        - ``image`` is not an (height, width, 3) array.
+        - A detection without ``type`` or ``centroid_uv``.
     """
     plt = _pyplot()
     img = np.asarray(image)
     if img.ndim != 3 or img.shape[2] != 3 or img.shape[0] == 0 or img.shape[1] == 0:
-        raise ShapeError(f"image must be an (height, width, 3) array, got shape {img.shape}")
+        raise WorldGraphError(f"image must be an (height, width, 3) array, got shape {img.shape}")
     dets = as_list("detections", detections, "perception.Detection")
     for i, d in enumerate(dets):
         if not (isinstance(getattr(d, "type", None), str) and hasattr(d, "centroid_uv")):
-            raise ArgumentTypeError(f"detections[{i}] must be a perception.Detection, got {_short(d)}")
+            raise WorldGraphError(f"detections[{i}] must be a perception.Detection, got {_short(d)}")
     if colours is None:
         colours = type_colours([d.type for d in dets])
     if ax is None:

@@ -43,7 +43,7 @@ from perception import Percept
 
 from .._checks import _short, as_list, name_string, real_scalar
 from .._rigid import rigid_transform
-from ..errors import ArgumentTypeError, ImporterError
+from ..errors import ImporterError, WorldGraphError
 from ..localization import LocalizationResult
 from ..model import WorldModel
 from .plots import type_colours
@@ -85,11 +85,11 @@ def _rgb(hex_colour: str) -> tuple[int, int, int]:
 
 
 def _prefix_path(prefix: Any) -> str:
-    prefix = name_string("prefix", prefix, ArgumentTypeError)
+    prefix = name_string("prefix", prefix)
     parts = prefix.strip("/").split("/")
     for i, part in enumerate(parts):
         if not part:
-            raise ArgumentTypeError(
+            raise WorldGraphError(
                 f"prefix must be an entity path of non-empty parts separated by '/', got "
                 f"{prefix!r} (part {i} is empty)")
     return "/" + "/".join(parts)
@@ -99,7 +99,7 @@ def _percepts(percepts: Any) -> list[Percept]:
     items = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
     for i, p in enumerate(items):
         if not isinstance(p, Percept):
-            raise ArgumentTypeError(f"percepts[{i}] must be a perception.Percept, got {_short(p)}")
+            raise WorldGraphError(f"percepts[{i}] must be a perception.Percept, got {_short(p)}")
     return items
 
 
@@ -164,14 +164,12 @@ def log_rerun(
     ------
     ImporterError
         rerun-sdk is not installed (``pip install gaussian-spheres[rerun]``).
-    ArgumentTypeError
-        ``world`` not a WorldModel, ``percepts`` not a sequence of Percept (naming the index),
-        ``result`` not a LocalizationResult, ``recording`` not a ``rerun.RecordingStream``,
-        ``recording`` omitted with no active recording, or a bad ``prefix``.
-    NonPositiveError, NonFiniteError
-        ``n_sigma`` not a positive finite number.
-    ShapeError, NonFiniteError, NonRigidError
-        ``truth`` not a finite rigid (4, 4) transform.
+    WorldGraphError
+        - ``world`` not a WorldModel, ``percepts`` not a sequence of Percept (naming the index),
+          ``result`` not a LocalizationResult, ``recording`` not a ``rerun.RecordingStream``,
+          ``recording`` omitted with no active recording, or a bad ``prefix``.
+        - ``n_sigma`` not a positive finite number.
+        - ``truth`` not a finite rigid (4, 4) transform.
 
     Examples
     --------
@@ -182,18 +180,18 @@ def log_rerun(
     """
     rr = _rerun()
     if not isinstance(world, WorldModel):
-        raise ArgumentTypeError(f"world must be a WorldModel, got {_short(world)}")
+        raise WorldGraphError(f"world must be a WorldModel, got {_short(world)}")
     plist = [] if percepts is None else _percepts(percepts)
     if result is not None and not isinstance(result, LocalizationResult):
-        raise ArgumentTypeError(f"result must be a LocalizationResult or None, got {_short(result)}")
+        raise WorldGraphError(f"result must be a LocalizationResult or None, got {_short(result)}")
     if recording is not None and not isinstance(recording, rr.RecordingStream):
-        raise ArgumentTypeError(f"recording must be a rerun.RecordingStream or None, got {_short(recording)}")
+        raise WorldGraphError(f"recording must be a rerun.RecordingStream or None, got {_short(recording)}")
     root = _prefix_path(prefix)
     n_sigma = real_scalar("n_sigma", n_sigma, positive=True)
     truth_t = None if truth is None else rigid_transform("truth", truth)
     rec = rr.get_data_recording(recording)
     if rec is None:
-        raise ArgumentTypeError(
+        raise WorldGraphError(
             "recording is None and there is no active rerun recording: call rerun.init(...) first "
             "or pass recording=rerun.RecordingStream(...)")
 

@@ -88,7 +88,7 @@ Types (``type_of``):
 Errors (all :class:`~worldgraph.errors.WorldGraphError`): a missing file, an unknown suffix
 and a file trimesh or MuJoCo cannot read are :class:`~worldgraph.errors.MalformedFileError`
 naming the path; a file in which no candidate gets a type is an
-:class:`~worldgraph.errors.EmptyWorldError` naming the path and the names seen; a missing
+:class:`~worldgraph.errors.WorldGraphError` naming the path and the names seen; a missing
 optional package (``mujoco``, ``pycollada``) is an :class:`~worldgraph.errors.ImporterError`
 naming what to install.
 
@@ -179,14 +179,12 @@ def world_from_file(path: str | os.PathLike[str], type_of: Any = None, *, max_li
     ------
     MalformedFileError
         Missing file, unknown suffix, unreadable file.
-    EmptyWorldError
-        No node got a type; the message names the path and the names seen.
+    WorldGraphError
+        - No node got a type; the message names the path and the names seen.
+        - A bad ``type_of``, ``mjcf_objects`` or ``file_format``.
+        - A bad ``up_axis``, naming it.
     ImporterError
         A needed optional package is missing (``mujoco``: ``pip install gaussian-spheres[mjcf]``).
-    ArgumentTypeError
-        A bad ``type_of``, ``mjcf_objects`` or ``file_format``.
-    UpAxisError
-        A bad ``up_axis``, naming it.
 
     Warns
     -----

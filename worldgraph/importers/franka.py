@@ -438,7 +438,7 @@ def franka_kitchen_scene(path: str | pathlib.Path | None = None) -> tuple[trimes
 
     Every problem with the file (bad XML, missing includes or meshes, bad numbers, nesting too
     deep) is a :class:`MalformedFileError` naming the file; a ``path`` that is not ``None``, a
-    ``str`` or an ``os.PathLike`` (or holds a NUL character) is an :class:`ArgumentTypeError`.
+    ``str`` or an ``os.PathLike`` (or holds a NUL character) is an :class:`WorldGraphError`.
     """
     directory = franka_kitchen_path() if path is None else \
         pathlib.Path(_checks.file_path("path", path, "None, a str or an os.PathLike"))

@@ -36,7 +36,7 @@ it beats a better-fitting one outside) but never fails a unique answer; a region
 caller also rejects poses outside it (``"outside_region"``).
 
 Percepts whose type the world does not have are ignored (named in the result's message);
-when no percept type is known, :class:`~worldgraph.errors.UnknownTypeError` is raised.
+when no percept type is known, :class:`~worldgraph.errors.WorldGraphError` is raised.
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ from .._checks import generator, real_array, real_scalar
 from ..association.consistency import MAX_COORDINATE, check_world_and_percepts
 from ..association.hypotheses import AssociationHypothesis
 from ..association.matching import associate_searched
-from ..errors import ArgumentTypeError, OutOfRangeError, UnknownTypeError, WorldGraphError
+from ..errors import WorldGraphError
 from ..model import WorldModel
 from ..model.units import units_hint
 from ..pose.gravity import (
@@ -185,7 +185,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         more), or has a pose that tilts the ego z axis beyond the allowance (plus 1 degree), the
         free 3D search answers instead.  A (3,) up vector (an IMU's, in the ego frame): the gravity search
         about it, no fallback; it must point within 90 degrees of the ego +z axis (REP 103: z up),
-        else :class:`~worldgraph.errors.GravityDirectionError` is raised before any search (a
+        else :class:`~worldgraph.errors.WorldGraphError` is raised before any search (a
         gravity vector such as ``[0, 0, -9.81]`` passed for the up vector: pass its negative).
         ``None``: the free 3D search, any tilt.  :attr:`LocalizationResult.search` says which search
         answered.  The paper's method uses no gravity in its search, but its answer is checked
@@ -220,14 +220,11 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
 
     Raises
     ------
-    EmptyWorldError
-        The world has no objects.
-    UnknownTypeError
-        Percepts were given but none has a type of the world.
-    GravityDirectionError
-        An up vector ``gravity`` more than 90 degrees from the ego +z axis (a gravity vector).
     WorldGraphError
-        Unknown method, something other than Percepts, a bad region or bound.
+        - The world has no objects.
+        - Percepts were given but none has a type of the world.
+        - An up vector ``gravity`` more than 90 degrees from the ego +z axis (a gravity vector).
+        - Unknown method, something other than Percepts, a bad region or bound.
     radialopt.VerificationError
         ``check=True`` and a radial solution disagrees with the vertex-enumeration reference (a
         solver fault, not bad input: it is not converted into a :class:`WorldGraphError`).
@@ -301,23 +298,23 @@ def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str
     box = _check_region(region)
     gen = None if rng is None else generator("rng", rng)
     if not isinstance(solver, str):
-        raise ArgumentTypeError(f"solver must be 'active_set' or a cvxpy solver name, got {solver!r}")
+        raise WorldGraphError(f"solver must be 'active_set' or a cvxpy solver name, got {solver!r}")
     solver_name = solver if solver == "active_set" else solver.upper()
     if solver_name != "active_set" and solver_name not in ro.installed_cvxpy_solvers():
         raise WorldGraphError(f"solver {solver!r} is neither 'active_set' nor an installed cvxpy solver "
                               f"({', '.join(ro.installed_cvxpy_solvers())})")
     if not isinstance(check, bool | np.bool_):
-        raise ArgumentTypeError(f"check must be a bool, got {check!r}")
+        raise WorldGraphError(f"check must be a bool, got {check!r}")
     if not isinstance(certify, bool | np.bool_):
-        raise ArgumentTypeError(f"certify must be a bool, got {certify!r}")
+        raise WorldGraphError(f"certify must be a bool, got {certify!r}")
     pos_tol = real_scalar("max_position_3sigma", max_position_3sigma, positive=True)
     rot_tol = real_scalar("max_rotation_3sigma", max_rotation_3sigma, positive=True)
     if rot_tol > math.pi:
-        raise OutOfRangeError(f"max_rotation_3sigma = {rot_tol!r} is an angle in radians and must be <= pi; "
+        raise WorldGraphError(f"max_rotation_3sigma = {rot_tol!r} is an angle in radians and must be <= pi; "
                               f"did you mean degrees? np.radians({rot_tol:g}) = {math.radians(rot_tol):.4g}")
     big = float(np.max(np.abs(world.positions)))
     if not big <= MAX_COORDINATE:
-        raise OutOfRangeError(f"world positions reach {big:.3g} m; localize handles coordinates up to "
+        raise WorldGraphError(f"world positions reach {big:.3g} m; localize handles coordinates up to "
                               f"{MAX_COORDINATE:g} m (shift the world's origin)")
     plan = check_gravity(gravity, tol)
     return checked, _Settings(method, tol, box, gen, pos_tol, rot_tol, solver_name, bool(check),
@@ -335,8 +332,8 @@ def _check_region(region: object) -> ro.Region | None:
             return ro.Region(lo, hi)
         except ro.RadialError as exc:
             raise WorldGraphError(f"region (lower, upper) is not a box: {exc}") from exc
-    raise ArgumentTypeError(f"region must be None, a radialopt.Region or a (lower, upper) pair of 3-vectors, "
-                            f"got {type(region).__name__}")
+    raise WorldGraphError(f"region must be None, a radialopt.Region or a (lower, upper) pair of 3-vectors, "
+                          f"got {type(region).__name__}")
 
 
 def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
@@ -397,8 +394,8 @@ def _known_percepts_step(world: WorldModel, percepts: list[Percept], settings: _
     known = np.array([p.type in world.type_index for p in percepts], dtype=bool)
     unknown = sorted({p.type for p, ok in zip(percepts, known, strict=True) if not ok})
     if percepts and not known.any():
-        raise UnknownTypeError(f"no percept type is in the world model: percept types {unknown}, "
-                               f"world types {list(world.type_index)}")
+        raise WorldGraphError(f"no percept type is in the world model: percept types {unknown}, "
+                              f"world types {list(world.type_index)}")
     notes = [f"ignored {int((~known).sum())} percept(s) of unknown type(s) {unknown}"] if unknown else []
     idx = np.flatnonzero(known)
     used = [percepts[i] for i in idx]

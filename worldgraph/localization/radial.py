@@ -18,7 +18,7 @@ from radialopt.projection import project_radii_unchecked
 
 from .._checks import integer
 from ..association.consistency import check_world_and_percepts
-from ..errors import ArgumentTypeError
+from ..errors import WorldGraphError
 from ..model import WorldModel
 from ..tolerances import DUPLICATE_DISTANCE, SIGNIFICANCE
 from .context import _Context
@@ -84,19 +84,19 @@ def _most_certain(ctx: _Context, p_i: NDArray[np.intp], o_i: NDArray[np.intp], s
 def _check_pairs(pairs: object, n_percepts: int, n_objects: int) -> list[tuple[int, int]]:
     """``(percept, object)`` index pairs in range."""
     if pairs is None or isinstance(pairs, str | bytes):
-        raise ArgumentTypeError(f"pairs must be a sequence of (percept, object) index pairs, got {pairs!r}")
+        raise WorldGraphError(f"pairs must be a sequence of (percept, object) index pairs, got {pairs!r}")
     out = []
     try:
         items = list(pairs)  # type: ignore[call-overload]
     except TypeError as exc:
-        raise ArgumentTypeError("pairs must be a sequence of (percept, object) index pairs, "
-                                f"got {pairs!r}") from exc
+        raise WorldGraphError("pairs must be a sequence of (percept, object) index pairs, "
+                              f"got {pairs!r}") from exc
     for i, pair in enumerate(items):
         try:
             p, o = pair
         except (TypeError, ValueError) as exc:
-            raise ArgumentTypeError(f"pairs[{i}] must be a (percept, object) index pair, "
-                                    f"got {pair!r}") from exc
+            raise WorldGraphError(f"pairs[{i}] must be a (percept, object) index pair, "
+                                  f"got {pair!r}") from exc
         p = integer(f"pairs[{i}][0]", p, minimum=0, maximum=n_percepts - 1)
         o = integer(f"pairs[{i}][1]", o, minimum=0, maximum=n_objects - 1)
         out.append((p, o))

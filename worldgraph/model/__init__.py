@@ -19,7 +19,7 @@ index and the value): poses rigid; coordinates, sizes and vertices at most
 :data:`MAX_COORDINATE` = 1e6 m in absolute value; ``max_link_length + link_margin`` at most
 :data:`MAX_LINK_LENGTH` = 1e7 m; ids, types and geometry keys non-empty strings without NUL.
 Two objects of one type closer than :data:`COINCIDENT_TOLERANCE` raise
-:class:`~worldgraph.errors.CoincidentObjectsError` at the first such pair found (memory O(n)).
+:class:`~worldgraph.errors.WorldGraphError` at the first such pair found (memory O(n)).
 
 Object frame: the origin is the centre of the object's bounding box, so
 ``ObjectModel.position == pose[:3, 3]``; ``size`` is the box extents along the object axes.

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from .. import _checks
-from ..errors import MalformedFileError, NonPositiveError, OutOfRangeError, ShapeError, WorldGraphError
+from ..errors import MalformedFileError, WorldGraphError
 from ..tolerances import QUERY_WIDEN
 
 #: Largest allowed ``max_link_length + link_margin`` (metres): above every distance in a world
@@ -54,11 +54,12 @@ class LinkTable:
         j = _checks.int_array("LinkTable j", self.j, (None,), minimum=0)
         length = _checks.real_array("LinkTable length", self.length, (None,))
         if not (i.shape == j.shape == length.shape):
-            raise ShapeError(f"LinkTable i, j, length must have one shape (k,), got {i.shape}, {j.shape}, "
+            raise WorldGraphError(f"LinkTable i, j, length must have one shape (k,), got {i.shape}, "
+                                  f"{j.shape}, "
                              f"{length.shape}")
         if (length < 0).any():
             k = int(np.argmax(length < 0))
-            raise NonPositiveError(f"LinkTable length[{k}] must be >= 0, got {float(length[k])!r}")
+            raise WorldGraphError(f"LinkTable length[{k}] must be >= 0, got {float(length[k])!r}")
         if length.size > 1 and (np.diff(length) < 0).any():
             k = int(np.argmax(np.diff(length) < 0))
             raise WorldGraphError(f"LinkTable length must be sorted ascending, but length[{k + 1}] = "
@@ -237,7 +238,7 @@ def _search_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: c
         counts = np.asarray(tree.query_ball_point(positions[:: n // 1000], radius, return_length=True))
         estimate = (float(counts.mean()) - 1.0) * n / 2.0
         if estimate > MAX_LINKS:
-            raise OutOfRangeError(
+            raise WorldGraphError(
                 f"max_link_length = {world.max_link_length:g} m (+ link_margin {world.link_margin:g} m) "
                 f"would link about {estimate:,.0f} object pairs ({n:,} objects, about "
                 f"{counts.mean() - 1:,.0f} within reach of each), more than {MAX_LINKS:,}: lower "
@@ -380,7 +381,7 @@ def _stored_links(world: Any, names: list[str], codes: NDArray[np.intp], tree: c
     reach.  A file damaged in transit fails the archive's CRC; the samples catch files whose
     tables were made for other positions or settings.
     Same-type links shorter than :data:`~worldgraph.tolerances.COINCIDENT_TOLERANCE` raise
-    :class:`~worldgraph.errors.CoincidentObjectsError` (the pair search's coincidence check).
+    :class:`~worldgraph.errors.WorldGraphError` (the pair search's coincidence check).
     """
     def bad(msg: str) -> MalformedFileError:
         return MalformedFileError(f"{source}: stored link tables: {msg}")

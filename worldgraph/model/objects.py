@@ -15,12 +15,6 @@ from perception.chain import rotation_defect, rotation_errors
 
 from .. import _checks, _rigid
 from ..errors import (
-    ArgumentTypeError,
-    NonPositiveError,
-    OutOfRangeError,
-    ShapeError,
-    UnknownGeometryError,
-    UnknownTypeError,
     WorldGraphError,
 )
 from ..tolerances import RIGID_TOLERANCE
@@ -46,20 +40,18 @@ def _check_size(name: str, value: Any) -> NDArray[np.float64]:
     size = _checks.real_array(name, value, (3,), max_abs=MAX_COORDINATE)
     if (size < 0).any():
         k = int(np.argmax(size < 0))
-        raise NonPositiveError(f"{name}[{k}] must be >= 0, got {float(size[k])!r}")
+        raise WorldGraphError(f"{name}[{k}] must be >= 0, got {float(size[k])!r}")
     return size
 
 
 def _check_rotations(name: str, rot: NDArray[np.float64]) -> None:
-    """Raise :class:`~worldgraph.errors.NonRigidError` naming the first rotation of a finite stack
+    """Raise :class:`~worldgraph.errors.WorldGraphError` naming the first rotation of a finite stack
     ``(n, 3, 3)`` that is not proper within :data:`~worldgraph.tolerances.RIGID_TOLERANCE`."""
     bad = rotation_errors(rot, RIGID_TOLERANCE)[2]
     if bad.any():
-        from ..errors import NonRigidError
-
         k = int(np.argmax(bad))
-        raise NonRigidError(f"{name}[{k}] must be a rotation (R^T R = I, det R = +1), but it "
-                            f"{rotation_defect(rot[k], RIGID_TOLERANCE)}")
+        raise WorldGraphError(f"{name}[{k}] must be a rotation (R^T R = I, det R = +1), but it "
+                              f"{rotation_defect(rot[k], RIGID_TOLERANCE)}")
 
 
 def _check_unique_ids(ids: list[str], what: str) -> None:
@@ -77,18 +69,18 @@ def _name_list(name: str, value: Any, n: int, error: type[WorldGraphError]) -> l
     if isinstance(value, str):
         value = [value]
     if value is None or isinstance(value, bytes | Mapping) or not isinstance(value, Iterable):
-        raise ArgumentTypeError(f"{name} must be a sequence of {n} strings, got {_checks._short(value)}")
+        raise WorldGraphError(f"{name} must be a sequence of {n} strings, got {_checks._short(value)}")
     items = value.reshape(-1).tolist() if isinstance(value, np.ndarray) else list(value)
     if len(items) != n:
-        raise ShapeError(f"{name} must have length {n} to match positions of shape ({n}, 3), "
-                         f"got length {len(items)}")
+        raise WorldGraphError(f"{name} must have length {n} to match positions of shape ({n}, 3), "
+                              f"got length {len(items)}")
     return [str(_checks.name_string(f"{name}[{k}]", x, error)) for k, x in enumerate(items)]
 
 
 def _check_type_name(value: Any, what: str) -> str:
     """A type name: a non-empty ``str`` without NUL characters (numpy string arrays would drop
     trailing NULs and merge types)."""
-    return _checks.name_string(what, value, UnknownTypeError)
+    return _checks.name_string(what, value)
 
 
 def _object_index(index: ArrayLike, n: int, minimum: int) -> NDArray[np.intp]:
@@ -96,7 +88,7 @@ def _object_index(index: ArrayLike, n: int, minimum: int) -> NDArray[np.intp]:
     idx = _checks.int_array("index", index, (None,), minimum=minimum)
     if idx.size and int(idx.max()) >= n:
         k = int(np.argmax(idx >= n))
-        raise OutOfRangeError(f"index[{k}] = {int(idx[k])} must be < the number of objects, {n}")
+        raise WorldGraphError(f"index[{k}] = {int(idx[k])} must be < the number of objects, {n}")
     return idx
 
 
@@ -116,7 +108,7 @@ class ObjectModel:
     pose : (4, 4) float
         ``world_from_object``, rigid (rotation orthonormal with determinant +1 within 1e-6, last
         row ``0 0 0 1``: scaled, sheared or reflected poses raise
-        :class:`~worldgraph.errors.NonRigidError`); its origin (metres, ``|x| <=``
+        :class:`~worldgraph.errors.WorldGraphError`); its origin (metres, ``|x| <=``
         :data:`MAX_COORDINATE`) is the centre of the object's bounding box.
     size : (3,) float
         Extents (metres) of the bounding box along the object axes, ``>= 0``, at most
@@ -136,7 +128,7 @@ class ObjectModel:
     def __post_init__(self) -> None:
         _checks.name_string("ObjectModel.id", self.id)
         _check_type_name(self.type, f"ObjectModel {self.id!r} type")
-        _checks.name_string(f"ObjectModel {self.id!r} geometry", self.geometry, UnknownGeometryError)
+        _checks.name_string(f"ObjectModel {self.id!r} geometry", self.geometry)
         pose = _rigid.rigid_transform(f"ObjectModel {self.id!r} pose", self.pose,
                                        max_translation=MAX_COORDINATE)
         pose[3] = _LAST_ROW
@@ -231,7 +223,7 @@ class ObjectTable(Sequence[ObjectModel]):
                  ids: Sequence[str] | None = None, numbers: ArrayLike | None = None, *,
                  rotations: ArrayLike | None = None, geometries: Sequence[str] | None = None) -> None:
         if isinstance(type_names, str | bytes) or not isinstance(type_names, Sequence):
-            raise ArgumentTypeError(f"type_names must be a sequence of str, got {_checks._short(type_names)}")
+            raise WorldGraphError(f"type_names must be a sequence of str, got {_checks._short(type_names)}")
         names = tuple(type_names)
         for k, t in enumerate(names):
             _check_type_name(t, f"type_names[{k}]")
@@ -241,12 +233,12 @@ class ObjectTable(Sequence[ObjectModel]):
         n = len(c)
         if n and int(c.max()) >= len(names):
             k = int(np.argmax(c >= len(names)))
-            raise OutOfRangeError(f"codes[{k}] = {int(c[k])} must be < len(type_names) = {len(names)}")
+            raise WorldGraphError(f"codes[{k}] = {int(c[k])} must be < len(type_names) = {len(names)}")
         pos = _checks.real_array("positions", positions, (n, 3), max_abs=MAX_COORDINATE)
         sz = _checks.real_array("sizes", sizes, (n, 3), max_abs=MAX_COORDINATE)
         if np.any(sz < 0):
             bad = np.argwhere(sz < 0)[0]
-            raise NonPositiveError(f"sizes[{bad[0]}, {bad[1]}] must be >= 0, got {float(sz[tuple(bad)])!r}")
+            raise WorldGraphError(f"sizes[{bad[0]}, {bad[1]}] must be >= 0, got {float(sz[tuple(bad)])!r}")
         id_list: tuple[str, ...] | None = None
         num = None
         if ids is not None:
@@ -264,7 +256,7 @@ class ObjectTable(Sequence[ObjectModel]):
             _check_rotations("rotations", rot)
         geometry_names, geometry_codes = None, None
         if geometries is not None:
-            keys = _name_list("geometries", geometries, n, UnknownGeometryError)
+            keys = _name_list("geometries", geometries, n, WorldGraphError)
             uniq, inverse = np.unique(np.array(keys, dtype=object), return_inverse=True)
             geometry_names, geometry_codes = tuple(str(g) for g in uniq), inverse.reshape(-1)
         self._set(names, c, pos, sz, id_list, num, rot, geometry_names, geometry_codes)
@@ -333,8 +325,8 @@ class ObjectTable(Sequence[ObjectModel]):
         try:
             k = int(key.__index__())
         except (AttributeError, TypeError):
-            raise ArgumentTypeError(f"an ObjectTable index must be an int or a slice, "
-                                    f"got {_checks._short(key)}") from None
+            raise WorldGraphError(f"an ObjectTable index must be an int or a slice, "
+                                  f"got {_checks._short(key)}") from None
         n = len(self)
         if not -n <= k < n:
             raise IndexError(f"object index {k} out of range for {n} objects")

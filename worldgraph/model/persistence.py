@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import _checks
-from ..errors import ArgumentTypeError, MalformedFileError, WorldGraphError
+from ..errors import MalformedFileError, WorldGraphError
 from . import binary_files
 from .objects import ObjectModel
 
@@ -92,8 +92,8 @@ def world_from_dict(cls: Any, data: Any, source: str = "data") -> Any:
     """The body of :meth:`WorldModel.from_dict <worldgraph.model.WorldModel.from_dict>`; ``cls`` is the
     :class:`~worldgraph.model.WorldModel` class (or subclass) to build."""
     if not isinstance(source, str):
-        raise ArgumentTypeError(f"source must be a str (the name used in messages), "
-                                f"got {type(source).__name__}")
+        raise WorldGraphError(f"source must be a str (the name used in messages), "
+                              f"got {type(source).__name__}")
 
     def bad(msg: str) -> MalformedFileError:
         return MalformedFileError(f"{source}: {msg}")

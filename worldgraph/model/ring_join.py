@@ -61,7 +61,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import _checks
-from ..errors import ArgumentTypeError, ImporterError, OutOfRangeError, ShapeError
+from ..errors import ImporterError, WorldGraphError
 
 __all__ = ["HAVE_NUMBA", "MAX_ABS_COORDINATE", "RingGrid", "ring_grid", "ring_pairs", "ring_pairs_in",
            "shell_pairs"]
@@ -313,7 +313,7 @@ def _band(lo_name: str, lo: Any, hi_name: str, hi: Any, *, nonnegative: bool) ->
         low = _checks.real_scalar(lo_name, lo, max_abs=MAX_ABS_COORDINATE)
     high = _checks.real_scalar(hi_name, hi, max_abs=MAX_ABS_COORDINATE)
     if low > high:
-        raise OutOfRangeError(f"{lo_name} = {low!r} must be <= {hi_name} = {high!r}")
+        raise WorldGraphError(f"{lo_name} = {low!r} must be <= {hi_name} = {high!r}")
     return low, high
 
 
@@ -418,7 +418,7 @@ def ring_pairs(a: Any, b: Any, *, h_lo: float, h_hi: float, z_lo: float, z_hi: f
     ------
     ImporterError
         numba is not installed (``pip install numba``).
-    ShapeError, NonFiniteError, ArgumentTypeError, OutOfRangeError, NonPositiveError
+    WorldGraphError
         A bad array (naming the argument, index and value) or bound (``h_lo < 0``,
         ``lo > hi``, non-finite).
     """
@@ -519,15 +519,15 @@ def ring_pairs_in(a: Any, grid: RingGrid, *, h_lo: float, h_hi: float, z_lo: flo
     the points the grid was built from), only those where ``b_mask`` (bool, one per point) is
     True when given: no sort per call."""
     if not isinstance(grid, RingGrid):
-        raise ArgumentTypeError(f"grid must be a RingGrid, got {type(grid).__name__}")
+        raise WorldGraphError(f"grid must be a RingGrid, got {type(grid).__name__}")
     pa = _points("a", a)
     h_lo, h_hi = _band("h_lo", h_lo, "h_hi", h_hi, nonnegative=True)
     z_lo, z_hi = _band("z_lo", z_lo, "z_hi", z_hi, nonnegative=False)
     if b_mask is not None:
         b_mask = np.asarray(b_mask)
         if b_mask.dtype != np.bool_ or b_mask.shape != (len(grid),):
-            raise ShapeError(f"b_mask must be a bool array of shape ({len(grid)},), got dtype "
-                             f"{b_mask.dtype} and shape {b_mask.shape}")
+            raise WorldGraphError(f"b_mask must be a bool array of shape ({len(grid)},), got dtype "
+                                  f"{b_mask.dtype} and shape {b_mask.shape}")
     kernel = _kernels()["ring"]
     if len(pa) == 0 or len(grid) == 0:
         return _empty()
@@ -562,7 +562,7 @@ def shell_pairs(a: Any, b: Any, *, r_lo: float, r_hi: float,
     ------
     ImporterError
         numba is not installed (``pip install numba``).
-    ShapeError, NonFiniteError, ArgumentTypeError, OutOfRangeError, NonPositiveError
+    WorldGraphError
         A bad array (naming the argument, index and value) or bound.
     """
     pa, pb = _points("a", a), _points("b", b)

@@ -15,18 +15,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from perception.errors import TypeRuleError
+from perception.errors import PerceptionError
 from perception.mujoco import body_meshes, geom_mesh, import_mujoco, object_geoms
 from perception.type_rules import KNOWN_TYPES, default_type_of
 from perception.type_rules import type_rule as _perception_type_rule
 
 from .. import _checks
 from ..errors import (
-    ArgumentTypeError,
-    EmptyWorldError,
     ImporterError,
     MalformedFileError,
-    UpAxisError,
     WorldGraphError,
 )
 
@@ -104,14 +101,14 @@ def type_rule(type_of: Any) -> Callable[[str], str | None]:
 
     Raises
     ------
-    ArgumentTypeError
+    WorldGraphError
         ``type_of`` of another kind, an empty mapping, a pattern that does not compile (naming
         it) or a type that is not a non-empty string.
     """
     try:
         return _perception_type_rule(type_of)
-    except TypeRuleError as exc:
-        raise ArgumentTypeError(str(exc)) from exc
+    except PerceptionError as exc:
+        raise WorldGraphError(str(exc)) from exc
 
 
 # ----------------------------------------------------------------------------------------------
@@ -124,7 +121,8 @@ def _check_up_axis(up_axis: object) -> str:
         text = "+" + text if text in ("x", "y", "z") else text
         if text in UP_AXES:
             return text
-    raise UpAxisError(f"up_axis must be None (the format's convention) or one of {UP_AXES} (the file axis "
+    raise WorldGraphError(f"up_axis must be None (the format's convention) or one of {UP_AXES} (the file "
+                          f"axis "
                       f"that points up), got {_checks._short(up_axis)}")
 
 
@@ -146,7 +144,7 @@ def z_up_from(up_axis: str) -> NDArray[np.float64]:
 
     Raises
     ------
-    UpAxisError
+    WorldGraphError
         Any other value, named.
 
     Examples
@@ -221,8 +219,8 @@ def _file_kind(path: str, file_format: str | None) -> str:
         what = f"{path}: file suffix {suffix!r}"
     else:
         if not isinstance(file_format, str):
-            raise ArgumentTypeError(f"file_format must be None or a suffix such as '.obj', got "
-                                    f"{_checks._short(file_format)}")
+            raise WorldGraphError(f"file_format must be None or a suffix such as '.obj', got "
+                                  f"{_checks._short(file_format)}")
         suffix = file_format.lower() if file_format.startswith(".") else "." + file_format.lower()
         what = f"file_format = {file_format!r}"
     if suffix in OBJ_SUFFIXES:
@@ -265,7 +263,7 @@ def scene_from_file(path: str | os.PathLike[str], *, file_format: str | None = N
         Missing or unreadable file, unknown suffix, a file its reader rejects.
     ImporterError
         ``mujoco`` (MJCF) or ``pycollada`` (``.dae``) not installed.
-    UpAxisError
+    WorldGraphError
         ``up_axis`` not one of :data:`UP_AXES`.
     """
     return _read_scene(_checks.file_path("path", path), file_format, mjcf_objects, up_axis, None)
@@ -275,8 +273,8 @@ def _read_scene(text: str, file_format: str | None, mjcf_objects: str, up_axis: 
                 rule: Callable[[str], str | None] | None) -> trimesh.Scene:
     """:func:`scene_from_file` of a checked path; ``rule`` types MJCF bodies as they are read."""
     if not isinstance(mjcf_objects, str) or mjcf_objects not in MJCF_OBJECTS:
-        raise ArgumentTypeError(f"mjcf_objects must be one of {MJCF_OBJECTS}, got "
-                                f"{_checks._short(mjcf_objects)}")
+        raise WorldGraphError(f"mjcf_objects must be one of {MJCF_OBJECTS}, got "
+                              f"{_checks._short(mjcf_objects)}")
     kind = _file_kind(text, file_format)
     up = None if up_axis is None else _check_up_axis(up_axis)
     if not os.path.isfile(text):
@@ -343,7 +341,7 @@ def write_scene(scene: trimesh.Scene, path: str | os.PathLike[str], *, up_axis: 
 
     Raises
     ------
-    UpAxisError
+    WorldGraphError
         A bad ``up_axis``.
     MalformedFileError
         A suffix trimesh cannot write.
@@ -559,7 +557,7 @@ def typed_scene(path: str | os.PathLike[str], type_of: Any = None, *, mjcf_objec
                 file_format: str | None = None, up_axis: str | None = None
                 ) -> tuple[trimesh.Scene, dict[str, Any]]:
     """The scene of a file (:func:`scene_from_file`) and the type of each typed node name (the
-    type rules of :func:`worldgraph.importers.world_from_file`); :class:`EmptyWorldError` when
+    type rules of :func:`worldgraph.importers.world_from_file`); :class:`WorldGraphError` when
     no node gets a type.  For MJCF bodies the rule is applied as the file is read, so that a
     typed body's node also holds the visual geoms of its untyped descendants (module docstring
     of :mod:`worldgraph.importers`)."""
@@ -589,6 +587,6 @@ def typed_scene(path: str | os.PathLike[str], type_of: Any = None, *, mjcf_objec
         more = f" and {len(names) - 20} more" if len(names) > 20 else ""
         how = ("the leading word of a name must be one of worldgraph.importers.KNOWN_TYPES"
                if type_of is None else "type_of gave None for every name")
-        raise EmptyWorldError(f"{text}: no object recognised among the {len(names)} names {shown}{more} "
+        raise WorldGraphError(f"{text}: no object recognised among the {len(names)} names {shown}{more} "
                               f"({how}; pass type_of= to type them)")
     return scene, types

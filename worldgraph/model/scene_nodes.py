@@ -15,8 +15,6 @@ from perception.chain import rotation_errors
 
 from .. import _checks
 from ..errors import (
-    ArgumentTypeError,
-    UnknownGeometryError,
     WorldGraphError,
 )
 from ..tolerances import RIGID_TOLERANCE
@@ -50,8 +48,8 @@ def _check_room(room: Any, what: str = "room") -> radialopt.Region | None:
     elif isinstance(room, tuple | list) and len(room) == 2:
         lower, upper = room
     else:
-        raise ArgumentTypeError(f"{what} must be a radialopt.Region, a (lower, upper) pair or None, "
-                                f"got {_checks._short(room)}")
+        raise WorldGraphError(f"{what} must be a radialopt.Region, a (lower, upper) pair or None, "
+                              f"got {_checks._short(room)}")
     lower = _checks.real_array(f"{what} lower", lower, (3,), max_abs=MAX_COORDINATE)
     upper = _checks.real_array(f"{what} upper", upper, (3,), max_abs=MAX_COORDINATE)
     if isinstance(room, Region):
@@ -97,7 +95,7 @@ def check_scene(scene: Any) -> None:
         from ..errors import ImporterError
         raise ImporterError("from_trimesh needs trimesh: pip install trimesh") from exc
     if not isinstance(scene, _trimesh.Scene):
-        raise ArgumentTypeError(f"scene must be a trimesh.Scene, got {_checks._short(scene)}")
+        raise WorldGraphError(f"scene must be a trimesh.Scene, got {_checks._short(scene)}")
     from ..errors import ImporterError
 
     for node in list(getattr(scene.graph.transforms, "node_data", {})):
@@ -355,7 +353,7 @@ def _trimesh_table(nodes: list[Any], matrices: NDArray[np.float64], geom_names: 
     for oid, key in zip(ids, keys, strict=True):
         _checks.name_string("ObjectModel.id", oid)
         if key not in checked:
-            checked.add(_checks.name_string(f"ObjectModel {oid!r} geometry", key, UnknownGeometryError))
+            checked.add(_checks.name_string(f"ObjectModel {oid!r} geometry", key))
     _check_unique_ids(ids, "objects")
     class_vertices: dict[str, NDArray[np.float64]] = {}
     for i, k in enumerate(keep):  # the first node of each geometry scales its class vertices

@@ -19,15 +19,7 @@ from scipy.spatial import cKDTree
 
 from .. import _checks
 from ..errors import (
-    ArgumentTypeError,
-    CoincidentObjectsError,
-    EmptyWorldError,
     MalformedFileError,
-    NonPositiveError,
-    OutOfRangeError,
-    ShapeError,
-    UnknownGeometryError,
-    UnknownTypeError,
     WorldGraphError,
 )
 from ..tolerances import COINCIDENT_TOLERANCE
@@ -134,8 +126,8 @@ class WorldModel:
     def __post_init__(self) -> None:
         object.__setattr__(self, "room", _check_room(self.room))
         if not isinstance(self.gravity_aligned, bool | np.bool_):
-            raise ArgumentTypeError(f"gravity_aligned must be a bool, "
-                                    f"got {_checks._short(self.gravity_aligned)}")
+            raise WorldGraphError(f"gravity_aligned must be a bool, "
+                                  f"got {_checks._short(self.gravity_aligned)}")
         object.__setattr__(self, "gravity_aligned", bool(self.gravity_aligned))
         table = self.objects if isinstance(self.objects, ObjectTable) else None
         objects: Sequence[ObjectModel]
@@ -143,34 +135,34 @@ class WorldModel:
             objects = table
         else:
             if isinstance(self.objects, str | bytes | Mapping) or not isinstance(self.objects, Iterable):
-                raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
-                                        f"{_checks._short(self.objects)}")
+                raise WorldGraphError("objects must be a sequence of ObjectModel, got "
+                                      f"{_checks._short(self.objects)}")
             try:
                 objects = tuple(self.objects)
             except TypeError as exc:
-                raise ArgumentTypeError("objects must be a sequence of ObjectModel, got "
-                                        f"{_checks._short(self.objects)}") from exc
+                raise WorldGraphError("objects must be a sequence of ObjectModel, got "
+                                      f"{_checks._short(self.objects)}") from exc
         if not len(objects):
-            raise EmptyWorldError("objects must hold at least one object (an ObjectModel), got 0")
+            raise WorldGraphError("objects must hold at least one object (an ObjectModel), got 0")
         if self.scene is not None:
             check_scene(self.scene)
         if table is None:
             for k, obj in enumerate(objects):
                 if not isinstance(obj, ObjectModel):
-                    raise ArgumentTypeError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
+                    raise WorldGraphError(f"objects[{k}] must be an ObjectModel, got {type(obj).__name__}")
             _check_unique_ids([o.id for o in objects], "objects")
         mll = _checks.real_scalar("max_link_length", self.max_link_length, positive=True,
                                   maximum=MAX_LINK_LENGTH)
         margin = _checks.real_scalar("link_margin", self.link_margin, minimum=0.0, maximum=MAX_LINK_LENGTH)
         if mll + margin > MAX_LINK_LENGTH:
-            raise OutOfRangeError(f"max_link_length + link_margin = {mll + margin!r} must be "
+            raise WorldGraphError(f"max_link_length + link_margin = {mll + margin!r} must be "
                                   f"<= {MAX_LINK_LENGTH:g}")
         if not isinstance(self.class_vertices, Mapping):
-            raise ArgumentTypeError("class_vertices must be a mapping geometry key -> (k, 3) vertices, got "
-                                    f"{_checks._short(self.class_vertices)}")
+            raise WorldGraphError("class_vertices must be a mapping geometry key -> (k, 3) vertices, got "
+                                  f"{_checks._short(self.class_vertices)}")
         cv: dict[str, NDArray[np.float64]] = {}
         for key, verts in self.class_vertices.items():
-            _checks.name_string(f"class_vertices key {key!r}", key, UnknownGeometryError)
+            _checks.name_string(f"class_vertices key {key!r}", key)
             v = _checks.real_array(f"class_vertices[{key!r}]", verts, (None, 3), max_abs=MAX_COORDINATE,
                                    min_size=1)
             v.setflags(write=False)
@@ -188,8 +180,8 @@ class WorldModel:
             missing = [(o.id, o.geometry) for o in objects if o.geometry not in cv]
         if missing:
             oid, geometry = missing[0]
-            raise UnknownGeometryError(f"object {oid!r} has geometry {geometry!r}, which is not "
-                                       f"a key of class_vertices {sorted(cv)[:10]}")
+            raise WorldGraphError(f"object {oid!r} has geometry {geometry!r}, which is not "
+                                  f"a key of class_vertices {sorted(cv)[:10]}")
         object.__setattr__(self, "objects", objects)
         object.__setattr__(self, "max_link_length", mll)
         object.__setattr__(self, "link_margin", margin)
@@ -208,9 +200,9 @@ class WorldModel:
         self._build_links()
 
     # -- construction helpers ------------------------------------------------------------------
-    def _coincident(self, a: int, b: int, distance: float) -> CoincidentObjectsError:
+    def _coincident(self, a: int, b: int, distance: float) -> WorldGraphError:
         a, b = sorted((int(a), int(b)))
-        return CoincidentObjectsError(
+        return WorldGraphError(
             f"objects[{a}] ({self.objects[a].id!r}) and objects[{b}] ({self.objects[b].id!r}) of type "
             f"{self.objects[a].type!r} coincide at position {self._positions[a].tolist()} (distance "
             f"{distance:.3g} m <= {COINCIDENT_TOLERANCE:g} m)")
@@ -281,8 +273,8 @@ class WorldModel:
         pos = _checks.real_array("positions", positions, (None, 3), max_abs=MAX_COORDINATE)
         n = pos.shape[0]
         if n == 0:
-            raise EmptyWorldError("positions must hold at least one object, got shape (0, 3)")
-        type_list = _name_list("types", types, n, UnknownTypeError)
+            raise WorldGraphError("positions must hold at least one object, got shape (0, 3)")
+        type_list = _name_list("types", types, n, WorldGraphError)
         if sizes is None:
             sz = np.full((n, 3), DEFAULT_SIZE)
         else:
@@ -290,11 +282,11 @@ class WorldModel:
             if sz.shape == (3,):
                 sz = np.broadcast_to(sz, (n, 3))
             if sz.shape != (n, 3):
-                raise ShapeError(f"sizes must have shape ({n}, 3) or (3,), got shape {sz.shape}")
+                raise WorldGraphError(f"sizes must have shape ({n}, 3) or (3,), got shape {sz.shape}")
             if np.any(sz < 0):
                 bad = np.argwhere(sz < 0)[0]
-                raise NonPositiveError(f"sizes[{bad[0]}, {bad[1]}] must be >= 0, "
-                                       f"got {float(sz[tuple(bad)])!r}")
+                raise WorldGraphError(f"sizes[{bad[0]}, {bad[1]}] must be >= 0, "
+                                      f"got {float(sz[tuple(bad)])!r}")
         id_list: tuple[str, ...] | None = None
         if ids is not None:  # the default ids f"{type}_{k}" are unique: k is
             id_list = tuple(_name_list("ids", ids, n, WorldGraphError))
@@ -344,7 +336,7 @@ class WorldModel:
         """
         check_scene(scene)
         if type_of is not None and not callable(type_of):
-            raise ArgumentTypeError(f"type_of must be a callable or None, got {_checks._short(type_of)}")
+            raise WorldGraphError(f"type_of must be a callable or None, got {_checks._short(type_of)}")
         auto = isinstance(room, str)
         region: radialopt.Region | None = None
         if auto:
@@ -402,7 +394,7 @@ class WorldModel:
                           "proper rotation with one axis mirrored (position and size exact, class vertices "
                           f"not mirrored): {mirrored[:5]}", UserWarning, stacklevel=2)
         if table is None:
-            raise EmptyWorldError("scene has no typed geometry nodes with vertices (a WorldModel needs one)")
+            raise WorldGraphError("scene has no typed geometry nodes with vertices (a WorldModel needs one)")
         world = cls(table, max_link_length=max_link_length, class_vertices=class_vertices, scene=scene,
                     link_margin=link_margin, room=region)
         return world._warn_units()
@@ -427,7 +419,7 @@ class WorldModel:
         ``up_axis=``; with ``room="auto"``, a room box its sideways floor and walls cannot give
         is left unset (the warning says so), and an error building such a world says the same.
         A bad ``up_axis`` raises
-        :class:`~worldgraph.errors.UpAxisError`."""
+        :class:`~worldgraph.errors.WorldGraphError`."""
         scene, types = typed_scene(path, type_of, mjcf_objects=mjcf_objects, file_format=file_format,
                                    up_axis=up_axis)
         def build(room: Any) -> WorldModel:
@@ -528,10 +520,10 @@ class WorldModel:
 
     def _check_known_type(self, t: str, what: str = "type") -> None:
         if not isinstance(t, str):
-            raise UnknownTypeError(f"{what} must be a type name (str), got {_checks._short(t)}")
+            raise WorldGraphError(f"{what} must be a type name (str), got {_checks._short(t)}")
         if t not in self._type_index:
-            raise UnknownTypeError(f"{what} = {t!r} is not in the world model; "
-                                   f"known types: {self._known_types()}")
+            raise WorldGraphError(f"{what} = {t!r} is not in the world model; "
+                                  f"known types: {self._known_types()}")
 
     def _known_types(self, limit: int = 20) -> str:
         """The world's types for an error message: the first ``limit``, then how many more (a
@@ -604,7 +596,7 @@ class WorldModel:
         self._check_known_type(type_a, "type_a")
         self._check_known_type(type_b, "type_b")
         if not isinstance(gravity_aligned, bool | np.bool_):
-            raise ArgumentTypeError(f"gravity_aligned must be a bool, got {_checks._short(gravity_aligned)}")
+            raise WorldGraphError(f"gravity_aligned must be a bool, got {_checks._short(gravity_aligned)}")
         index, flip = self._far_pair_index(type_a, type_b, bool(gravity_aligned))
         if index is None or not flip:
             return index
@@ -675,7 +667,7 @@ class WorldModel:
         :meth:`far_pairs` and the association read it as built.  A world of 5,000 types, one
         per object, has 12.5M type pairs, but only those its objects' neighbourhoods hold."""
         if not isinstance(gravity_aligned, bool | np.bool_):
-            raise ArgumentTypeError(f"gravity_aligned must be a bool, got {_checks._short(gravity_aligned)}")
+            raise WorldGraphError(f"gravity_aligned must be a bool, got {_checks._short(gravity_aligned)}")
         gravity = bool(gravity_aligned)
         return _build_world_far_pairs(self, gravity)
 
@@ -700,7 +692,7 @@ class WorldModel:
         return {t: float(np.median(thinnest[idx])) for t, idx in self._type_index.items()}
 
     def indices_of(self, type_name: str) -> NDArray[np.intp]:
-        """Object indices of one type (``UnknownTypeError`` if absent)."""
+        """Object indices of one type (``WorldGraphError`` if absent)."""
         self._check_known_type(type_name, "type_name")
         return self._type_index[type_name]
 
@@ -748,14 +740,14 @@ class WorldModel:
             types = [types]
         if (types is None or isinstance(types, bytes | Mapping) or not isinstance(types, Iterable)
                 or (isinstance(types, np.ndarray) and types.ndim == 0)):
-            raise ArgumentTypeError(f"types must be an iterable of type names, got {_checks._short(types)}")
+            raise WorldGraphError(f"types must be an iterable of type names, got {_checks._short(types)}")
         keep: Collection[str] = list(types)
         for k, t in enumerate(keep):
             self._check_known_type(t, f"types[{k}]")
         keep = set(keep)
         index = np.flatnonzero(np.isin(self._types, sorted(keep)))
         if not index.size:
-            raise EmptyWorldError(f"types must name at least one type of the world, got "
+            raise WorldGraphError(f"types must name at least one type of the world, got "
                                   f"{_checks._short(types)}")
         return self.take(index)
 
@@ -764,7 +756,7 @@ class WorldModel:
         same link settings, room and ``gravity_aligned`` flag; a table stays a table."""
         idx = _object_index(index, len(self), 0)
         if not idx.size:
-            raise EmptyWorldError("index must select at least one object, got 0")
+            raise WorldGraphError("index must select at least one object, got 0")
         if len(np.unique(idx)) != len(idx):
             raise WorldGraphError(f"index must hold distinct object indices, got {_checks._short(index)}")
         objs: Sequence[ObjectModel]

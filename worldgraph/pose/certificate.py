@@ -66,7 +66,7 @@ from radialopt.certificates import Certificate
 
 from .._checks import real_scalar
 from .._rigid import rigid_transform
-from ..errors import ArgumentTypeError, PoseError, TooFewPerceptsError, WorldGraphError
+from ..errors import PoseError, TooFewPerceptsError, WorldGraphError
 from ..tolerances import (
     CERTIFICATE_COST_ROUNDING,
     CERTIFICATE_GAP,
@@ -153,7 +153,7 @@ def _check_solver(solver: object) -> str:
     import cvxpy as cp
 
     if not isinstance(solver, str):
-        raise ArgumentTypeError(f"solver must be the name of an installed cvxpy SDP solver, got {solver!r}")
+        raise WorldGraphError(f"solver must be the name of an installed cvxpy SDP solver, got {solver!r}")
     if solver.upper() not in cp.installed_solvers():
         raise PoseError(f"solver {solver!r} is not an installed cvxpy solver "
                         f"({', '.join(cp.installed_solvers())})")
@@ -311,7 +311,7 @@ def certify_pose(ego_points: ArrayLike, world_points: ArrayLike, covariances: Ar
 
     Raises
     ------
-    ShapeError, NonFiniteError, TooFewPerceptsError, NonPositiveError, PoseError
+    WorldGraphError, TooFewPerceptsError, PoseError
         Bad input, naming the argument; PoseError also for a solver that is not installed.
     """
     t0 = time.perf_counter()

@@ -15,7 +15,7 @@ from scipy.stats import chi2
 
 from .._checks import integer, real_array, real_scalar
 from .._rigid import rigid_transform
-from ..errors import PoseError, ShapeError
+from ..errors import PoseError, WorldGraphError
 from ..tolerances import COLLINEAR_TOL as COLLINEAR_TOL  # re-exported: worldgraph.pose.COLLINEAR_TOL
 from ..tolerances import (
     COST_DECREASE_RTOL,
@@ -60,8 +60,8 @@ def _points(name: str, x: ArrayLike, n: int | None = None, like: str = "") -> ND
     """(n, 3) points; ``like`` names the argument whose length ``n`` is (for the mismatch message)."""
     out = real_array(name, x, (None, 3), max_abs=MAX_POSE_COORDINATE)
     if n is not None and len(out) != n:
-        raise ShapeError(f"{name} must have shape ({n}, 3){f' like {like}' if like else ''}, "
-                         f"got shape {out.shape}")
+        raise WorldGraphError(f"{name} must have shape ({n}, 3){f' like {like}' if like else ''}, "
+                              f"got shape {out.shape}")
     return out
 
 
@@ -93,7 +93,7 @@ def _rotation_block(name: str, value: ArrayLike) -> NDArray[np.float64]:
     if arr.shape == (4, 4):
         return rigid_transform(name, arr)[:3, :3]
     if arr.shape != (3, 3):
-        raise ShapeError(f"{name} must have shape (3, 3) or (4, 4), got shape {arr.shape}")
+        raise WorldGraphError(f"{name} must have shape (3, 3) or (4, 4), got shape {arr.shape}")
     padded = np.eye(4)
     padded[:3, :3] = arr
     return rigid_transform(name, padded)[:3, :3]
@@ -124,7 +124,7 @@ def percept_frame(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> NDArray[np.float6
 
     Raises
     ------
-    ShapeError, NonFiniteError, OutOfRangeError
+    WorldGraphError
         A wrongly shaped, non-finite or too large (> 1e12 m) point.
     PoseError
         Collinear (or coincident) points.
@@ -296,8 +296,8 @@ def _covariances(covariances: ArrayLike, k: int, name: str = "covariances", like
     ``name`` is the caller's argument name, used in the messages."""
     C = real_array(name, covariances, (None, 3, 3))
     if len(C) != k:
-        raise ShapeError(f"{name} must have shape ({k}, 3, 3){f' like {like}' if like else ''}, "
-                         f"got shape {C.shape}")
+        raise WorldGraphError(f"{name} must have shape ({k}, 3, 3){f' like {like}' if like else ''}, "
+                              f"got shape {C.shape}")
     asym = (np.abs(C - np.swapaxes(C, 1, 2)).max(axis=(1, 2))
             > SYMMETRY_RTOL * np.abs(C).max(axis=(1, 2)) + TINY)
     if asym.any():

@@ -17,7 +17,7 @@ a (3,) up vector in the ego frame
     search, and the poses returned are of the ego frame as given: a tilted head or base still
     gets the storey-aware search.  No fallback.  The ego frame is z up (REP 103), so an up vector
     more than 90 degrees from the ego +z axis is refused
-    (:class:`~worldgraph.errors.GravityDirectionError`): it is a gravity vector (pointing down)
+    (:class:`~worldgraph.errors.WorldGraphError`): it is a gravity vector (pointing down)
     passed where the up vector is meant; an accelerometer at rest reads +9.81 m/s^2 along up,
     so its raw reading is the up vector, and a gravity vector's negative is.
 ``None``
@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from perception import Percept
 
 from .._checks import real_array
-from ..errors import ArgumentTypeError, GravityDirectionError, OutOfRangeError
+from ..errors import WorldGraphError
 from ..tolerances import LEVEL_TOLERANCE, MAX_EGO_TILT, MIN_UP_NORM, TINY, AssociationTolerances
 
 __all__ = ["GRAVITY_MODES", "MIN_GRAVITY_SUPPORT", "TILT_GATE", "TILT_PRIOR_SIGMAS", "TILT_SLACK", "Gravity",
@@ -99,21 +99,21 @@ def check_up_sigma(up_sigma: object, tol: AssociationTolerances) -> float:
         return max(tol.tilt_allowance / TILT_PRIOR_SIGMAS, MIN_TILT_SD)
     real = int | float | np.integer | np.floating
     if isinstance(up_sigma, bool | np.bool_) or not isinstance(up_sigma, real):
-        raise ArgumentTypeError(f"up_sigma must be a float (radians), math.inf or None, got {up_sigma!r}")
+        raise WorldGraphError(f"up_sigma must be a float (radians), math.inf or None, got {up_sigma!r}")
     value = float(up_sigma)
     if not value > 0.0:
-        raise OutOfRangeError(f"up_sigma = {up_sigma!r} must be > 0 (radians; math.inf: no tilt prior)")
+        raise WorldGraphError(f"up_sigma = {up_sigma!r} must be > 0 (radians; math.inf: no tilt prior)")
     if math.isfinite(value) and value > math.pi:
-        raise OutOfRangeError(f"up_sigma = {up_sigma!r} is an angle in radians and must be <= pi (or "
+        raise WorldGraphError(f"up_sigma = {up_sigma!r} is an angle in radians and must be <= pi (or "
                               f"math.inf); did you mean degrees? np.radians({value:g}) = "
                               f"{math.radians(value):.4g}")
     return value
 
 
 def _check_tilt_prior(tilt_prior: object) -> TiltPrior | None:
-    """``tilt_prior`` when it is a :class:`TiltPrior` or None, else ArgumentTypeError."""
+    """``tilt_prior`` when it is a :class:`TiltPrior` or None, else WorldGraphError."""
     if tilt_prior is not None and not isinstance(tilt_prior, TiltPrior):
-        raise ArgumentTypeError(f"tilt_prior must be a TiltPrior or None, got {type(tilt_prior).__name__}")
+        raise WorldGraphError(f"tilt_prior must be a TiltPrior or None, got {type(tilt_prior).__name__}")
     return tilt_prior
 
 
@@ -142,7 +142,7 @@ class TiltPrior:
         object.__setattr__(self, "up", _unit_up(self.up, "TiltPrior.up"))
         sd = float(self.sd) if isinstance(self.sd, int | float | np.floating | np.integer) else math.nan
         if isinstance(self.sd, bool | np.bool_) or not 0.0 < sd < math.inf:
-            raise OutOfRangeError(f"TiltPrior.sd must be a finite angle > 0 (radians), got {self.sd!r}")
+            raise WorldGraphError(f"TiltPrior.sd must be a finite angle > 0 (radians), got {self.sd!r}")
         object.__setattr__(self, "sd", sd)
 
     def residual(self, rotation: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -202,7 +202,7 @@ def level_rotation(up: ArrayLike) -> NDArray[np.float64]:
 
     Raises
     ------
-    OutOfRangeError
+    WorldGraphError
         ``up`` has a zero or non-finite length.
     """
     u = _unit_up(up)
@@ -222,7 +222,7 @@ def _unit_up(up: object, name: str = "gravity") -> NDArray[np.float64]:
     u = real_array(name, up, (3,), max_abs=1e12)
     n = float(np.linalg.norm(u))
     if not n > MIN_UP_NORM:
-        raise OutOfRangeError(f"{name} = {u.tolist()} must be a non-zero up vector in the ego frame")
+        raise WorldGraphError(f"{name} = {u.tolist()} must be a non-zero up vector in the ego frame")
     return u / n
 
 
@@ -243,7 +243,7 @@ def tilt_angle(world_from_ego: ArrayLike, up: ArrayLike = (0.0, 0.0, 1.0)) -> fl
     """
     m = np.asarray(world_from_ego, dtype=np.float64)
     if m.shape not in ((4, 4), (3, 3)):
-        raise ArgumentTypeError(f"world_from_ego must have shape (4, 4) or (3, 3), got {m.shape}")
+        raise WorldGraphError(f"world_from_ego must have shape (4, 4) or (3, 3), got {m.shape}")
     if not np.all(np.isfinite(m)):
         return math.nan
     z = m[:3, :3] @ _unit_up(up, "up")
@@ -264,21 +264,21 @@ def check_gravity(gravity: object, tol: AssociationTolerances) -> SearchPlan:
     """The search of a call from its ``gravity`` argument and ``tol.gravity_aligned``."""
     if isinstance(gravity, str):
         if gravity not in GRAVITY_MODES:
-            raise ArgumentTypeError(f"gravity must be 'auto', a (3,) up vector in the ego frame or None, "
-                                    f"got {gravity!r}")
+            raise WorldGraphError(f"gravity must be 'auto', a (3,) up vector in the ego frame or None, "
+                                  f"got {gravity!r}")
         if tol.gravity_aligned is None:
             return SearchPlan(_EZ.copy(), None, True)
         return SearchPlan(_EZ.copy(), None, False) if tol.gravity_aligned else FREE_SEARCH
     if gravity is None:
         return FREE_SEARCH
     if isinstance(gravity, bool | np.bool_):
-        raise ArgumentTypeError(f"gravity must be 'auto', a (3,) up vector in the ego frame or None, "
-                                f"got {gravity!r} (True: use 'auto' or (0, 0, 1); False: None)")
+        raise WorldGraphError(f"gravity must be 'auto', a (3,) up vector in the ego frame or None, "
+                              f"got {gravity!r} (True: use 'auto' or (0, 0, 1); False: None)")
     u = _unit_up(gravity)
     if u[2] < 0.0:
         given = real_array("gravity", gravity, (3,))
         angle = math.degrees(math.acos(max(-1.0, min(1.0, float(u[2])))))
-        raise GravityDirectionError(
+        raise WorldGraphError(
             f"gravity = {given.tolist()} points {angle:.0f} deg from the ego +z axis (more than 90): "
             "gravity= wants the up vector in the ego frame (REP 103: z up), and this looks like a gravity "
             f"vector (pointing down); pass its negative, {(-given + 0.0).tolist()} (an accelerometer at "

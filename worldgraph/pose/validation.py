@@ -46,7 +46,7 @@ from perception import OBJECT_VIEW, Percept
 
 from .._checks import as_list, integer, real_array, real_scalar
 from .._rigid import rigid_transform
-from ..errors import ArgumentTypeError, OutOfRangeError, PoseError, ShapeError, UnknownTypeError
+from ..errors import PoseError, WorldGraphError
 from ..model import WorldModel
 from ..tolerances import (
     CONSTRAINED_VARIANCE_RATIO,
@@ -121,13 +121,14 @@ def _inputs(world_from_ego: Any, ego: Any, covs: Any, world_points: Any = _ABSEN
 def _matrix_or_unknown(name: str, value: object, n: int) -> NDArray[np.float64]:
     """A real (n, n) matrix; NaN/inf entries are allowed (they mean "unknown")."""
     if value is None or isinstance(value, str | bytes):
-        raise ArgumentTypeError(f"{name} must be a ({n}, {n}) real array, got {value!r}")
+        raise WorldGraphError(f"{name} must be a ({n}, {n}) real array, got {value!r}")
     try:
         arr = np.asarray(value)
     except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a ({n}, {n}) real array") from exc
+        raise WorldGraphError(f"{name} must be a ({n}, {n}) real array") from exc
     if arr.dtype.kind not in "fiu" or arr.shape != (n, n):
-        raise ShapeError(f"{name} must be a ({n}, {n}) real array, got dtype {arr.dtype} shape {arr.shape}")
+        raise WorldGraphError(f"{name} must be a ({n}, {n}) real array, got dtype {arr.dtype} shape "
+                              f"{arr.shape}")
     return arr.astype(np.float64)
 
 
@@ -150,11 +151,11 @@ def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
     percepts = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
     for i, p in enumerate(percepts):
         if not isinstance(p, Percept):
-            raise ArgumentTypeError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
+            raise WorldGraphError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
     out = np.empty((len(percepts), 3, 3))
     for k, p in enumerate(percepts):
         if p.covariance is None and not p.sigma < 1e150:
-            raise OutOfRangeError(f"percepts[{k}].sigma = {p.sigma!r} m: its variance sigma^2 overflows")
+            raise WorldGraphError(f"percepts[{k}].sigma = {p.sigma!r} m: its variance sigma^2 overflows")
         out[k] = p.covariance if p.covariance is not None else p.sigma**2 * np.eye(3)
     return out
 
@@ -304,11 +305,11 @@ class NearestObjects:
 
     def __init__(self, world: WorldModel, types: list[str], k: int = 4) -> None:
         if not isinstance(world, WorldModel):
-            raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+            raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
         types = as_list("types", types, "type names")
         for i, t in enumerate(types):
             if not isinstance(t, str) or t not in world.type_index:
-                raise UnknownTypeError(f"types[{i}] = {t!r} is not a type of the world model")
+                raise WorldGraphError(f"types[{i}] = {t!r} is not a type of the world model")
         k = integer("k", k, minimum=1, maximum=1000)
         self.world = world
         self.k = k
@@ -409,19 +410,19 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
     Returns None when fewer than three inliers remain or they fix no pose.
     """
     if not isinstance(world, WorldModel):
-        raise ArgumentTypeError(f"world must be a WorldModel, got {type(world).__name__}")
+        raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
     if not isinstance(nearest, NearestObjects):
-        raise ArgumentTypeError(f"nearest must be a NearestObjects, got {type(nearest).__name__}")
+        raise WorldGraphError(f"nearest must be a NearestObjects, got {type(nearest).__name__}")
     T, ego, covs, _ = _inputs(start, ego, covs, pose_name="start")
     max_rounds = integer("max_rounds", max_rounds, minimum=1, maximum=1000)
     gate = real_scalar("gate", gate, positive=True)
     try:
         pairs = tuple((int(p), int(o)) for p, o in pairs)
     except (TypeError, ValueError) as exc:
-        raise ArgumentTypeError(f"pairs must be (percept, object) index pairs, got {pairs!r:.200}") from exc
+        raise WorldGraphError(f"pairs must be (percept, object) index pairs, got {pairs!r:.200}") from exc
     for i, (p, o) in enumerate(pairs):
         if not (0 <= p < len(ego) and 0 <= o < len(world)):
-            raise OutOfRangeError(f"pairs[{i}] = {(p, o)} is out of range ({len(ego)} percepts, "
+            raise WorldGraphError(f"pairs[{i}] = {(p, o)} is out of range ({len(ego)} percepts, "
                                        f"{len(world)} objects)")
     current = tuple(sorted(pairs))
     fit: PoseFit | None = None
@@ -652,8 +653,8 @@ def shared_view_covariance(world_from_ego: NDArray, ego: NDArray, covs: NDArray,
 def _check_shared(shared: object, k: int) -> Sequence[Sequence[tuple[int, NDArray]]]:
     if (shared is None or isinstance(shared, str | bytes) or not isinstance(shared, Sequence | np.ndarray)
             or (isinstance(shared, np.ndarray) and shared.ndim == 0) or len(shared) != k):
-        raise ShapeError(f"shared must hold one sequence of (view, loading) pairs per percept "
-                         f"({k}), got {shared!r:.80}")
+        raise WorldGraphError(f"shared must hold one sequence of (view, loading) pairs per percept "
+                              f"({k}), got {shared!r:.80}")
     return shared  # type: ignore[return-value]
 
 

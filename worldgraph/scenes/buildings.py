@@ -274,8 +274,7 @@ def _site_args(storeys: object, n_objects: object, storey_height: object, max_li
     n_objects = _checks.integer("n_objects", n_objects, minimum=1, maximum=MAX_SITE_OBJECTS)
     height = _checks.real_scalar("storey_height", storey_height, positive=True, maximum=100.0)
     if height < MIN_STOREY_HEIGHT:
-        from ..errors import OutOfRangeError
-        raise OutOfRangeError(f"storey_height must be >= {MIN_STOREY_HEIGHT:g} m (lamps hang at 2.75 m), "
+        raise WorldGraphError(f"storey_height must be >= {MIN_STOREY_HEIGHT:g} m (lamps hang at 2.75 m), "
                               f"got {height!r}")
     _link_args(max_link_length, link_margin)
     return storeys, n_objects, height
@@ -453,8 +452,7 @@ def campus_site(buildings: int = 10, storeys: int = 5, n_objects: int = 1_000_00
     buildings = _checks.integer("buildings", buildings, minimum=1, maximum=MAX_BUILDINGS)
     storeys, n_objects, height = _site_args(storeys, n_objects, storey_height, max_link_length, link_margin)
     if buildings > n_objects:
-        from ..errors import OutOfRangeError
-        raise OutOfRangeError(f"n_objects = {n_objects} must be >= buildings = {buildings}")
+        raise WorldGraphError(f"n_objects = {n_objects} must be >= buildings = {buildings}")
     gap = _checks.real_scalar("gap", gap, positive=True, maximum=10_000.0)
     seed = _seed(seed)
     per = np.full(buildings, n_objects // buildings)

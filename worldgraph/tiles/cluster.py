@@ -24,7 +24,7 @@ import numpy as np
 from perception import Percept
 
 from .. import _checks
-from ..errors import ArgumentTypeError, MalformedFileError, WorldGraphError
+from ..errors import MalformedFileError, WorldGraphError
 from ..localization.pipeline import (
     LOCALIZE_METHODS,
     answered_by_free_search,
@@ -163,8 +163,8 @@ class ClusterTiles:
             plist = _checks.as_list(f"queries[{q}]", percepts, "perception.Percept", exclude=(Percept,))
             for k, p in enumerate(plist):
                 if not isinstance(p, Percept):
-                    raise ArgumentTypeError(f"queries[{q}][{k}] must be a perception.Percept, "
-                                            f"got {_checks._short(p)}")
+                    raise WorldGraphError(f"queries[{q}][{k}] must be a perception.Percept, "
+                                          f"got {_checks._short(p)}")
             lists.append(plist)
         nears, radii = _per_query(near, radius, len(lists))
         visits = [self.plan(p, tol=tol, near=n, radius=r)
@@ -249,15 +249,15 @@ def _per_query(near: Any, radius: Any, n: int) -> tuple[list[Any], list[Any]]:
     if near is None and radius is None:
         return [None] * n, [None] * n
     if near is None or radius is None:
-        raise ArgumentTypeError("near and radius go together: pass both (a position prior) or neither")
+        raise WorldGraphError("near and radius go together: pass both (a position prior) or neither")
     arr = np.asarray(near, dtype=np.float64) if not isinstance(near, str) else None
     if arr is None or arr.shape not in ((3,), (n, 3)):
-        raise ArgumentTypeError(f"near must be a (3,) point or one per query ({n}, 3), "
-                                f"got {_checks._short(near)}")
+        raise WorldGraphError(f"near must be a (3,) point or one per query ({n}, 3), "
+                              f"got {_checks._short(near)}")
     rad = np.broadcast_to(np.asarray(radius, dtype=np.float64), (n,)) if np.ndim(radius) <= 1 else None
     if rad is None or np.size(radius) not in (1, n):
-        raise ArgumentTypeError(f"radius must be one value or one per query ({n}), "
-                                f"got {_checks._short(radius)}")
+        raise WorldGraphError(f"radius must be one value or one per query ({n}), "
+                              f"got {_checks._short(radius)}")
     points = [arr] * n if arr.ndim == 1 else list(arr)
     out_n = [None if not np.all(np.isfinite(p)) else p for p in points]
     return out_n, [None if p is None else float(r) for p, r in zip(out_n, rad, strict=True)]

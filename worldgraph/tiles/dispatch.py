@@ -16,7 +16,7 @@ import numpy as np
 from perception import Percept
 
 from .. import _checks
-from ..errors import ArgumentTypeError, WorldGraphError
+from ..errors import WorldGraphError
 from ..localization.pipeline import (
     LOCALIZE_METHODS,
     answered_by_free_search,
@@ -44,8 +44,8 @@ def _client(scheduler: object, name: str = "scheduler", what: str = "None, ") ->
     if isinstance(scheduler, str):
         _checks.name_string(name, scheduler)
         return Client(scheduler), True
-    raise ArgumentTypeError(f"{name} must be {what}a scheduler address such as 'tcp://host:8786' or a "
-                            f"distributed.Client, got {_checks._short(scheduler)}")
+    raise WorldGraphError(f"{name} must be {what}a scheduler address such as 'tcp://host:8786' or a "
+                          f"distributed.Client, got {_checks._short(scheduler)}")
 
 
 def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: str = "ml", *,
@@ -106,10 +106,9 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
 
     Raises
     ------
-    UnknownTypeError
-        No tile has any of the percepts' types.
     WorldGraphError
-        Bad tiles, method, scheduler or workers; errors of :func:`localize` on bad percepts.
+        - No tile has any of the percepts' types.
+        - Bad tiles, method, scheduler or workers; errors of :func:`localize` on bad percepts.
     """
     t_start = time.perf_counter()
     tiles = _check_tiles(tiles)
@@ -118,15 +117,15 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     percepts = _checks.as_list("percepts", percepts, "perception.Percept")
     for k, p in enumerate(percepts):
         if not isinstance(p, Percept):
-            raise ArgumentTypeError(f"percepts[{k}] must be a perception.Percept, got {_checks._short(p)}")
+            raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {_checks._short(p)}")
     tol = _resolved_tol(tol)
     if workers is not None:
         workers = _checks.integer("workers", workers, minimum=1, maximum=1024)
     if pool is not None:
         if not isinstance(pool, TilePool):
-            raise ArgumentTypeError(f"pool must be None or a TilePool, got {_checks._short(pool)}")
+            raise WorldGraphError(f"pool must be None or a TilePool, got {_checks._short(pool)}")
         if scheduler is not None or workers is not None:
-            raise ArgumentTypeError("pool cannot be combined with scheduler or workers (it has its own)")
+            raise WorldGraphError("pool cannot be combined with scheduler or workers (it has its own)")
         if not pool.serves(tiles):
             raise WorldGraphError(f"pool serves other tiles ({len(pool.tiles)} tiles) than the {len(tiles)} "
                                   "given: make a TilePool of these tiles")

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import _checks
-from ..errors import ArgumentTypeError, MalformedFileError, WorldGraphError
+from ..errors import MalformedFileError, WorldGraphError
 from ..model import WorldModel
 from ..model.binary_files import load_binary, read_entries, world_arrays, write_entries
 from .prefilter import LINK_BIN, TileSummary, summarize
@@ -209,12 +209,12 @@ def append_tiles(tiles: Iterable[Tile], folder: str | os.PathLike[str]) -> TileI
 def _write_tiles(tiles: Iterable[Tile], folder: str, summaries: list[TileSummary], files: list[str]
                  ) -> TileIndex:
     if isinstance(tiles, Tile | str | bytes) or not isinstance(tiles, Iterable):
-        raise ArgumentTypeError(f"tiles must be an iterable of Tile, got {_checks._short(tiles)}")
+        raise WorldGraphError(f"tiles must be an iterable of Tile, got {_checks._short(tiles)}")
     labels = {s.label for s in summaries}
     for k, tile in enumerate(tiles):
         if not isinstance(tile, Tile):
-            raise ArgumentTypeError(f"tiles[{k}] must be a Tile (from worldgraph.tiles.tiling), "
-                                    f"got {_checks._short(tile)}")
+            raise WorldGraphError(f"tiles[{k}] must be a Tile (from worldgraph.tiles.tiling), "
+                                  f"got {_checks._short(tile)}")
         if tile.label in labels:
             raise WorldGraphError(f"tiles[{k}]: label {tile.label} is already in {folder}")
         labels.add(tile.label)

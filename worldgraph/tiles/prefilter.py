@@ -5,7 +5,7 @@ percepts (:func:`tiles_to_visit`).
 A tile is skipped only when :func:`~worldgraph.localize` on it could not find a pose:
 
 * ``"no_types"``: fewer than ``max(3, tol.min_clique_size)`` percepts have a type the tile holds
-  (``localize`` would say ``"too_few_percepts"`` or raise ``UnknownTypeError``);
+  (``localize`` would say ``"too_few_percepts"`` or raise ``WorldGraphError``);
 * ``"no_consistent_triple"``: no three of those percepts are pairwise consistent with the tile's
   link lengths.  Every association of ``localize`` (the gravity search and the free search alike)
   keeps a percept pair only when its 3D length is within ``tol.pair_tolerance`` of the length of
@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from perception import Percept
 
 from .. import _checks
-from ..errors import ArgumentTypeError
+from ..errors import WorldGraphError
 from ..tolerances import AssociationTolerances, _resolved_tol
 from .tiling import Tile
 
@@ -88,8 +88,8 @@ class TileSummary:
 def summarize(tile: Tile, bin_width: float = LINK_BIN) -> TileSummary:
     """The :class:`TileSummary` of ``tile`` (from its world's link tables)."""
     if not isinstance(tile, Tile):
-        raise ArgumentTypeError(f"tile must be a Tile (from worldgraph.tiles.tiling), "
-                                f"got {_checks._short(tile)}")
+        raise WorldGraphError(f"tile must be a Tile (from worldgraph.tiles.tiling), "
+                              f"got {_checks._short(tile)}")
     bin_width = _checks.real_scalar("bin_width", bin_width, positive=True)
     world = tile.world
     bins = {}
@@ -171,16 +171,16 @@ def tiles_to_visit(summaries: Sequence[TileSummary], percepts: Sequence[Percept]
     items = _checks.as_list("summaries", summaries, "TileSummary (from worldgraph.tiles.summarize)")
     for k, s in enumerate(items):
         if not isinstance(s, TileSummary):
-            raise ArgumentTypeError(f"summaries[{k}] must be a TileSummary, got {_checks._short(s)}")
+            raise WorldGraphError(f"summaries[{k}] must be a TileSummary, got {_checks._short(s)}")
     plist = _checks.as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
     for k, p in enumerate(plist):
         if not isinstance(p, Percept):
-            raise ArgumentTypeError(f"percepts[{k}] must be a perception.Percept, got {_checks._short(p)}")
+            raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {_checks._short(p)}")
     tol = _resolved_tol(tol)
     prior = None
     if near is not None or radius is not None:
         if near is None or radius is None:
-            raise ArgumentTypeError("near and radius go together: pass both (a position prior) or neither")
+            raise WorldGraphError("near and radius go together: pass both (a position prior) or neither")
         prior = (_checks.real_array("near", near, (3,)), _checks.real_scalar("radius", radius, positive=True))
     need = max(3, int(tol.min_clique_size))
     x_all = np.array([p.position for p in plist], dtype=np.float64).reshape(-1, 3)

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from perception import Percept
 
 from ..association.hypotheses import AssociationHypothesis
-from ..errors import UnknownTypeError, WorldGraphError
+from ..errors import WorldGraphError
 from ..localization.pipeline import (
     localize,
 )
@@ -73,11 +73,12 @@ def _fit_cost(world: WorldModel, percepts: list[Percept], result: LocalizationRe
 def _run_tile(world: WorldModel, percepts: list[Percept], world_types: frozenset[str], method: str,
               tol: AssociationTolerances, region: Any, rng: np.random.Generator | None,
               gravity: NDArray[np.float64] | None, up_sigma: float | None = None) -> _TileAnswer:
-    try:
-        result = localize(world, percepts, method, tol=tol, region=region, rng=rng, gravity=gravity,
-                          up_sigma=up_sigma)
-    except UnknownTypeError as exc:  # the tile has none of the percepts' types
-        return _TileAnswer(None, exc)
+    if percepts and not any(p.type in world.type_index for p in percepts):  # nothing to match here
+        return _TileAnswer(None, WorldGraphError(
+            f"no percept type is in the tile: percept types {sorted({p.type for p in percepts})}, "
+            f"tile types {list(world.type_index)}"))
+    result = localize(world, percepts, method, tol=tol, region=region, rng=rng, gravity=gravity,
+                      up_sigma=up_sigma)
     if result.status not in _WITH_POSE:
         return _TileAnswer(result, None)
     n_missing = sum(1 for p in percepts if p.type in world_types and p.type not in world.type_index)
@@ -119,7 +120,7 @@ def _combine(labels: Sequence[int], answers: list[_TileAnswer], tol: Association
         failed = list(results)
         if not failed:
             errors = [a.error for a in answers if a.error is not None]
-            raise UnknownTypeError(f"no tile has a type of the percepts: {errors[0]}")
+            raise WorldGraphError(f"no tile has a type of the percepts: {errors[0]}")
         rank = {s: i for i, s in enumerate(FAILURE_ORDER)}
         k = min(failed, key=lambda j: (rank.get(results[j].status, len(rank)), j))
         res = results[k]

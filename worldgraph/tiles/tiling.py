@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from .. import _checks
-from ..errors import ArgumentTypeError, EmptyWorldError, ShapeError
+from ..errors import WorldGraphError
 from ..model import WorldModel
 from ..tolerances import HALO_SLACK
 
@@ -79,13 +79,13 @@ def split(world: WorldModel, labels: ArrayLike, halo: float = 0.0) -> tuple[Tile
         Each with the world's link settings and room.
     """
     if not isinstance(world, WorldModel):
-        raise ArgumentTypeError(f"world must be a WorldModel, got {_checks._short(world)}")
+        raise WorldGraphError(f"world must be a WorldModel, got {_checks._short(world)}")
     n = len(world)
     lab = _checks.int_array("labels", labels, (n,), minimum=0)
     halo = _checks.real_scalar("halo", halo, minimum=0.0)
     names, codes = np.unique(lab, return_inverse=True)
     if len(names) > MAX_TILES:
-        raise ShapeError(f"labels must hold at most {MAX_TILES} distinct values, got {len(names)}")
+        raise WorldGraphError(f"labels must hold at most {MAX_TILES} distinct values, got {len(names)}")
     order = np.argsort(codes, kind="stable")
     starts = np.searchsorted(codes[order], np.arange(len(names) + 1))
     every = np.arange(n)
@@ -105,9 +105,9 @@ def split(world: WorldModel, labels: ArrayLike, halo: float = 0.0) -> tuple[Tile
 def _check_tiles(tiles: object) -> tuple[Tile, ...]:
     items = _checks.as_list("tiles", tiles, "Tile (from worldgraph.tiles.tiling)")
     if not items:
-        raise EmptyWorldError("tiles must hold at least one Tile, got none")
+        raise WorldGraphError("tiles must hold at least one Tile, got none")
     for k, t in enumerate(items):
         if not isinstance(t, Tile):
-            raise ArgumentTypeError(f"tiles[{k}] must be a Tile (from worldgraph.tiles.tiling), "
-                                    f"got {_checks._short(t)}")
+            raise WorldGraphError(f"tiles[{k}] must be a Tile (from worldgraph.tiles.tiling), "
+                                  f"got {_checks._short(t)}")
     return tuple(items)
