@@ -51,7 +51,7 @@ def _short(value: Any, limit: int = 200) -> str:
 
 
 def _index(idx: tuple[int | np.integer, ...]) -> str:
-    return "[" + ", ".join(str(int(i)) for i in idx) + "]"
+    return "[" + ", ".join(str(int(i)) for i in idx) + "]" if idx else ""  # a 0-d array: no index
 
 
 def _shape_ok(shape: tuple[int, ...], want: tuple[int | None, ...]) -> bool:

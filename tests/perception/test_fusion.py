@@ -168,7 +168,7 @@ def test_bandwidth_matrix_and_dict() -> None:
     assert [f.views for f in fuse_percepts([a, c], bandwidth={"door": 0.5})] == [2]
     with pytest.raises(PerceptionError, match="'door'"):
         fuse_percepts([a, b], bandwidth={"handle": 0.1})
-    with pytest.raises(PerceptionError, match="bandwidth"):
+    with pytest.raises(PerceptionError, match=r"bandwidth must be > 0, got \-0\.1"):
         fuse_percepts([a, b], bandwidth=-0.1)
     with pytest.raises(PerceptionError, match="positive definite"):
         fuse_percepts([a, b], bandwidth=-long_x)

@@ -110,15 +110,15 @@ def test_simulate_percepts_bad_input() -> None:
     rng = np.random.default_rng(0)
     with pytest.raises(PerceptionError, match=r"(?i)\(n, 3\)"):
         simulate_percepts(types, X[:, :2], M, rng)
-    with pytest.raises(PerceptionError, match="types"):
+    with pytest.raises(PerceptionError, match=r"types must have one entry per row of"):
         simulate_percepts(types[:-1], X, M, rng)
-    with pytest.raises(PerceptionError, match="nan"):
+    with pytest.raises(PerceptionError, match=r"world_positions\[7, 1\] must be finite,.*nan"):
         simulate_percepts(types, np.where(X > 7, np.nan, X), M, rng)
-    with pytest.raises(PerceptionError, match="rigid"):
+    with pytest.raises(PerceptionError, match=r"world_from_ego must be a rigid transform"):
         simulate_percepts(types, X, 2 * M, rng)
-    with pytest.raises(PerceptionError, match="''"):
+    with pytest.raises(PerceptionError, match=r"types\[0\] must be a non\-empty string without.*''"):
         simulate_percepts([""] + types[1:], X, M, rng)
-    with pytest.raises(PerceptionError, match="n_false"):
+    with pytest.raises(PerceptionError, match=r"n_false > 0 needs false_types or at least one"):
         simulate_percepts([], np.zeros((0, 3)), M, rng, n_false=2)
     with pytest.raises(PerceptionError, match="miss_rate"):
         simulate_percepts(types, X, M, rng, miss_rate=1.5)

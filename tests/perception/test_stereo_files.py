@@ -55,7 +55,7 @@ def test_bad_paths_are_named_for_reading_and_writing(bad: object, tmp_path: Path
 def test_os_errors_of_a_path_become_calibration_file_errors(tmp_path: Path) -> None:
     """A path component longer than NAME_MAX gave a bare OSError (File name too long)."""
     long_name = str(tmp_path / ("x" * 300))
-    with pytest.raises(RobotFileError, match=r"path='.*xxxx"):
+    with pytest.raises(RobotFileError, match=r"calibration file.*path='.*xxxx"):
         pc.StereoRig.from_file(long_name)
 
 
@@ -116,7 +116,7 @@ def test_shallow_malformed_file_and_missing_key_name_the_path(tmp_path: Path) ->
     text = (tmp_path / "full.yaml").read_text()
     assert "0., 0., 0., 0., 0." in text
     (tmp_path / "big_d.yaml").write_text(text.replace("0., 0., 0., 0., 0.", "1.e+154, 0., 0., 0., 0.", 1))
-    with pytest.raises(PerceptionError, match=r"big_d.yaml.*D1\[0\]"):
+    with pytest.raises(PerceptionError, match=r"calibration.*big_d.yaml.*D1\[0\]"):
         pc.StereoRig.from_file(tmp_path / "big_d.yaml")
 
 

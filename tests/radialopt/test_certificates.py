@@ -282,7 +282,7 @@ def test_bad_parameters_raise(kwargs, name):
 
 
 def test_bad_spheres_raise():
-    with pytest.raises(ro.RadialError, match="spheres"):
+    with pytest.raises(ro.RadialError, match=r"spheres\[0\] must be a GaussianSphere, got object"):
         ro.certify_position([object()], [0.0, 0.0, 0.0])
     with pytest.raises(ro.RadialError, match="need at least 1 spheres, got 0"):
         ro.certify_position([], [0.0, 0.0, 0.0])

@@ -134,7 +134,7 @@ def test_formulation_rows_run_and_l2_matches_exact(problems):
 
 
 def test_unknown_solver_is_rejected(problems):
-    with pytest.raises(RadialError, match="nope"):
+    with pytest.raises(RadialError, match=r"unknown solver 'nope'"):
         compare_solvers(problems, ["nope"])
-    with pytest.raises(RadialError, match="formulation:l3"):
+    with pytest.raises(RadialError, match=r"unknown solver 'formulation:l3'"):
         compare_solvers(problems, ["formulation:l3"])

@@ -303,5 +303,5 @@ def test_bad_input_raises_specific_errors():
         ro.meet(s, [0.0, np.nan, 1.0, 1.0, 0.0])
     with pytest.raises(ro.RadialError, match=r"\(k, 3, 3\)"):
         ro.meet3_batch(np.zeros((2, 4, 3)), np.zeros((2, 4)))
-    with pytest.raises(ro.RadialError, match="radii_sq"):
+    with pytest.raises(ro.RadialError, match=r"radii_sq must have shape"):
         ro.meet4_batch(np.zeros((2, 4, 3)), np.zeros((2, 3)))

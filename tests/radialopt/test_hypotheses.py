@@ -150,7 +150,7 @@ def test_region_validation_and_errors():
     region = ro.Region([0, 0, 0], [1, 2, 3])
     assert region.contains([0.5, 1, 3]) is True
     np.testing.assert_array_equal(region.contains([[0.5, 1, 3.1], [0, 0, 0]]), [False, True])
-    with pytest.raises(ro.RadialError, match="lower"):
+    with pytest.raises(ro.RadialError, match=r"Region lower \[0\.0, 3\.0, 0\.0\] must be <= upper"):
         ro.Region([0, 3, 0], [1, 2, 3])
     with pytest.raises(ro.RadialError, match=r"shape \(3,\)"):
         ro.Region([0, 0], [1, 2])

@@ -111,11 +111,11 @@ def test_building_checks_its_arguments(kwargs, error, name):
 
 
 def test_campus_checks_its_arguments():
-    with pytest.raises(wg.WorldGraphError, match="buildings"):
+    with pytest.raises(wg.WorldGraphError, match=r"buildings must be >= 1, got 0"):
         scenes.campus_site(buildings=0, n_objects=100)
-    with pytest.raises(wg.WorldGraphError, match="buildings"):
+    with pytest.raises(wg.WorldGraphError, match=r"buildings must be an integer, got '2'"):
         scenes.campus_site(buildings="2", n_objects=100)
-    with pytest.raises(wg.WorldGraphError, match="n_objects"):
+    with pytest.raises(wg.WorldGraphError, match=r"n_objects = 4 must be >= buildings = 5"):
         scenes.campus_site(buildings=5, storeys=1, n_objects=4)
-    with pytest.raises(wg.WorldGraphError, match="gap"):
+    with pytest.raises(wg.WorldGraphError, match=r"gap must be > 0, got 0\.0"):
         scenes.campus_site(buildings=2, storeys=1, n_objects=100, gap=0.0)

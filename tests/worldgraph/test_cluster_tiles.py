@@ -99,7 +99,7 @@ def test_append_and_bad_folders(tiles, tmp_path) -> None:
         append_tiles(tiles[:1], out)
     with pytest.raises(MalformedFileError, match="no tile index"):
         read_index(str(tmp_path / "nothing"))
-    with pytest.raises(WorldGraphError, match="tiles"):
+    with pytest.raises(WorldGraphError, match=r"tiles must be an iterable of Tile, got"):
         save_tiles(tiles[0], str(tmp_path / "x"))
     world_file = str(tmp_path / "world.npz")
     tiles[0].world.save(world_file)

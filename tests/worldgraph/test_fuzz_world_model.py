@@ -792,7 +792,7 @@ def test_from_trimesh_skips_empty_geometry():
     scene = trimesh.Scene()
     scene.add_geometry(trimesh.Trimesh(), node_name="empty_0")
     scene.add_geometry(trimesh.PointCloud(np.zeros((0, 3))), node_name="cloud_0")
-    with pytest.raises(wg.WorldGraphError, match="vertices"):
+    with pytest.raises(wg.WorldGraphError, match=r"scene has no typed geometry nodes with vertices"):
         WorldModel.from_trimesh(scene)
     scene.add_geometry(trimesh.PointCloud([[0, 0, 0], [1, 2, 3]]), node_name="cloud_1")
     scene.add_geometry(
@@ -865,7 +865,7 @@ def test_franka_bad_paths(tmp_path):
 
     with pytest.raises(WorldGraphError, match="path must be None, a str or an os.PathLike, got 3"):
         franka.franka_kitchen_scene(3)
-    with pytest.raises(WorldGraphError, match="NUL"):
+    with pytest.raises(WorldGraphError, match=r"path must not contain.*NUL"):
         franka.load_franka_kitchen("a\x00b")
     with pytest.raises(wg.WorldGraphError, match="max_link_length"):
         franka.load_franka_kitchen(tmp_path, max_link_length=float("nan"))

@@ -74,13 +74,13 @@ def test_split_matches_brute_force(halo):
 
 def test_split_checks_its_arguments(site):
     w = site.world
-    with pytest.raises(wg.WorldGraphError, match="labels"):
+    with pytest.raises(wg.WorldGraphError, match=r"labels must have shape"):
         split(w, np.zeros(len(w) - 1, dtype=int))
-    with pytest.raises(wg.WorldGraphError, match="labels"):
+    with pytest.raises(wg.WorldGraphError, match=r"labels must hold integers, got dtype float64"):
         split(w, np.zeros(len(w)))
-    with pytest.raises(wg.WorldGraphError, match="labels"):
+    with pytest.raises(wg.WorldGraphError, match=r"labels\[0\] must be >= 0, got \-1"):
         split(w, np.full(len(w), -1))
-    with pytest.raises(wg.WorldGraphError, match="halo"):
+    with pytest.raises(wg.WorldGraphError, match=r"halo must be >= 0, got \-1\.0"):
         split(w, site.building, halo=-1.0)
     with pytest.raises(wg.WorldGraphError, match="world"):
         split(w.positions, site.building)
@@ -147,21 +147,21 @@ def test_unknown_types_raise(tiles):
 
 def test_localize_tiled_checks_its_arguments(tiles):
     p = [Percept("door", np.array([x, 1.0, 0.0]), 0.01) for x in (1.0, 2.0, 3.5)]
-    with pytest.raises(wg.WorldGraphError, match="tiles"):
+    with pytest.raises(wg.WorldGraphError, match=r"tiles\[0\] must be a Tile"):
         localize_tiled([tiles[0].world], p)
-    with pytest.raises(wg.WorldGraphError, match="tiles"):
+    with pytest.raises(wg.WorldGraphError, match=r"tiles must hold at least one Tile, got none"):
         localize_tiled([], p)
     with pytest.raises(wg.WorldGraphError, match="method"):
         localize_tiled(tiles, p, method="magic")
-    with pytest.raises(wg.WorldGraphError, match="workers"):
+    with pytest.raises(wg.WorldGraphError, match=r"workers must be an integer, got 1\.5"):
         localize_tiled(tiles, p, workers=1.5)
-    with pytest.raises(wg.WorldGraphError, match="workers"):
+    with pytest.raises(wg.WorldGraphError, match=r"workers must be >= 1, got 0"):
         localize_tiled(tiles, p, workers=0)
-    with pytest.raises(wg.WorldGraphError, match="scheduler"):
+    with pytest.raises(wg.WorldGraphError, match=r"scheduler must be None, a scheduler address such"):
         localize_tiled(tiles, p, scheduler=8786)
-    with pytest.raises(wg.WorldGraphError, match="percepts"):
+    with pytest.raises(wg.WorldGraphError, match=r"percepts\[3\] must be a perception\.Percept, got"):
         localize_tiled(tiles, [*p, "door"])
-    with pytest.raises(wg.WorldGraphError, match="rng"):
+    with pytest.raises(wg.WorldGraphError, match=r"rng must be a numpy\.random\.Generator, got 3"):
         localize_tiled(tiles, p, rng=3)
 
 
@@ -218,7 +218,7 @@ def test_pool_arguments_are_checked(site, tiles):
             localize_tiled(tiles, p, pool=pool, workers=2)
     with pytest.raises(wg.WorldGraphError, match="pool must be"):
         localize_tiled(tiles, p, pool="pool")
-    with pytest.raises(wg.WorldGraphError, match="workers"):
+    with pytest.raises(wg.WorldGraphError, match=r"workers must be >= 1, got 0"):
         wg.TilePool(tiles, workers=0)
-    with pytest.raises(wg.WorldGraphError, match="tiles"):
+    with pytest.raises(wg.WorldGraphError, match=r"tiles\[0\] must be a Tile"):
         wg.TilePool([tiles[0].world])

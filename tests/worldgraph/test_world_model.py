@@ -191,9 +191,9 @@ def test_link_margin_keeps_pairs_just_above_max_link_length():
 
 def test_link_lengths_unknown_type():
     w = WorldModel.from_arrays(["door", "handle"], [[0, 0, 0], [1, 0, 0]])
-    with pytest.raises(wg.WorldGraphError, match="'lamp'"):
+    with pytest.raises(wg.WorldGraphError, match=r"type_b = 'lamp' is not in the world model"):
         w.link_lengths("door", "lamp")
-    with pytest.raises(wg.WorldGraphError, match="'lamp'"):
+    with pytest.raises(wg.WorldGraphError, match=r"types\[0\] = 'lamp' is not in the world model"):
         w.subset(["lamp"])
 
 
@@ -266,11 +266,11 @@ def test_object_model_validation():
         ObjectModel("a", "door", np.eye(3), (1, 1, 1))
     with pytest.raises(wg.WorldGraphError, match="last row"):
         ObjectModel("a", "door", np.ones((4, 4)), (1, 1, 1))
-    with pytest.raises(wg.WorldGraphError, match="nan"):
+    with pytest.raises(wg.WorldGraphError, match=r"ObjectModel 'a' size\[1\] must be finite, got nan"):
         ObjectModel("a", "door", np.eye(4), (1, np.nan, 1))
     with pytest.raises(wg.WorldGraphError, match="type must be a non-empty string"):
         ObjectModel("a", "", np.eye(4), (1, 1, 1))
-    with pytest.raises(wg.WorldGraphError, match="'cone'"):
+    with pytest.raises(wg.WorldGraphError, match=r"object 'a' has geometry 'cone', which is not a"):
         WorldModel((ObjectModel("a", "door", np.eye(4), (1, 1, 1), "cone"),), class_vertices={})
     with pytest.raises(wg.WorldGraphError, match="objects must hold at least one object"):
         WorldModel(())
@@ -437,7 +437,7 @@ def test_from_trimesh_type_of_overrides_and_skips():
     assert sorted(o.id for o in w.objects) == ["door_1", "door_2"]
     with pytest.raises(wg.WorldGraphError, match="scene has no typed geometry nodes"):
         WorldModel.from_trimesh(scene, type_of=lambda name, geom: None)
-    with pytest.raises(wg.WorldGraphError, match="door_1"):
+    with pytest.raises(wg.WorldGraphError, match=r"type of node 'door_1' must be a non\-empty"):
         WorldModel.from_trimesh(scene, type_of=lambda name, geom: 5)
 
 
@@ -607,9 +607,9 @@ def test_far_pairs_hold_exactly_the_pairs_within_reach(gravity: bool) -> None:
         window = idx.window(10.0, 10.5)
         inside = np.flatnonzero((key >= 10.0) & (key <= 10.5))
         assert window.start <= inside.min() and window.stop > inside.max()
-    with pytest.raises(wg.WorldGraphError, match="type_b"):
+    with pytest.raises(wg.WorldGraphError, match=r"type_b = 'sofa' is not in the world model"):
         world.far_pairs("door", "sofa")
-    with pytest.raises(wg.WorldGraphError, match="gravity_aligned"):
+    with pytest.raises(wg.WorldGraphError, match=r"gravity_aligned must be a bool, got 'yes'"):
         world.far_pairs("door", "knob", "yes")
 
 
@@ -695,7 +695,7 @@ def test_gravity_aligned_flag_round_trips_and_drives_the_association_default(tmp
     assert edges(level, ASSOCIATION_TOLERANCES) == edges(flat, on)
     assert edges(flat, ASSOCIATION_TOLERANCES) == edges(level, off)
     assert edges(level, ASSOCIATION_TOLERANCES) < edges(flat, ASSOCIATION_TOLERANCES)
-    with pytest.raises(wg.WorldGraphError, match="gravity_aligned"):
+    with pytest.raises(wg.WorldGraphError, match=r"gravity_aligned must be a bool, got 'yes'"):
         WorldModel.from_arrays(types, pos, gravity_aligned="yes")
     assert scenes.building_site(storeys=2, n_objects=2000).world.gravity_aligned
     assert not scenes.kitchen().gravity_aligned
