@@ -740,7 +740,7 @@ class MujocoScene:
 
         Raises
         ------
-        RobotFileError
+        PerceptionError
             No free floor point near the objects after ``1000 n`` tries.
         """
         n = integer("n", n, minimum=1, maximum=100_000)
@@ -971,8 +971,7 @@ class MujocoScene:
         PerceptionError
             - ``world_from_camera`` is not a rigid transform.
             - A bad ``image_size``.
-        RobotFileError
-            No OpenGL context (set ``MUJOCO_GL=egl``).
+            - No OpenGL context (set ``MUJOCO_GL=egl``).
         """
         pose = check_transform("world_from_camera", world_from_camera)
         size = _image_size(image_size)
