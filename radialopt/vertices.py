@@ -723,3 +723,13 @@ def certify_projection(
             f"(relative violation {opt_r:.3g} > tol {tol:g})"
         )
     return True, residual, "ok"
+
+
+def __getattr__(name: str) -> type[RadialError]:
+    """0.1 exported ``EmptyPolyhedronError``, ``NotPointedError`` and ``TooLargeError`` here:
+    deprecated names of :class:`~radialopt.errors.RadialError` (with a warning)."""
+    if name not in ("EmptyPolyhedronError", "NotPointedError", "TooLargeError"):
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    from . import errors
+
+    return errors._deprecated(__name__, name)
