@@ -8,11 +8,7 @@ try:
 except _PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "0.1.0"  # keep equal to pyproject.toml's [project] version (a test checks)
 
-from .errors import (
-    RadialError,
-    SolverError,
-    VerificationError,
-)
+from .errors import RadialError, SolverError, VerificationError
 from .polytope import RestrictionPolytope, common_point_exists
 from .projection import (
     METHODS,
@@ -48,8 +44,8 @@ __all__ = [
     "installed_cvxpy_solvers",
     "project_radii",
     "project_radii_batch",
-    "RadialError",
     "GaussianSphere",
+    "RadialError",
     "SolverError",
     "Tolerances",
     "VerificationError",
@@ -74,9 +70,7 @@ from .conformal import (
     meet3_batch,
     meet4_batch,
 )
-from .errors import (
-    SingularFisherError,
-)
+from .errors import SingularFisherError
 from .hypotheses import Hypothesis, LevelSets, Region, generate_hypotheses
 from .position import (
     ESTIMATOR_OPTIONS,

@@ -29,7 +29,6 @@ from .tolerances import ASSOCIATION_TOLERANCES, AssociationTolerances
 
 __all__ = [
     "ActiveLocalization",
-    "WorldGraphError",
     "ImporterError",
     "LinkTable",
     "MalformedFileError",
@@ -37,6 +36,7 @@ __all__ = [
     "ObjectModel",
     "ObjectTable",
     "TooFewPerceptsError",
+    "WorldGraphError",
     "ViewPlan",
     "WorldModel",
     "active_localize",
