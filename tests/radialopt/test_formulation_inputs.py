@@ -48,3 +48,16 @@ def test_bound_radii_keeps_open_sides_and_arrays() -> None:
     np.testing.assert_allclose(sol.radii, [1.9, 3.4, 2.1, 2.3], atol=1e-6)
     sol = ro.RadialProblem(4).bound_radii(0.0, 3.0).solve(spheres)
     assert np.all(sol.radii <= 3.0 + 1e-6)
+
+
+@pytest.mark.parametrize("lo, message", [
+    ([True, False, True, False], "must hold real numbers, not booleans"),
+    ([np.nan, 0.0, 0.0, -np.inf], r"lo\[0\] = nan must be finite"),
+    ([[0.0, -np.inf]], "must have 0 or 1 dimension"),
+    ([0.0, 0.0, 2e10, -np.inf], r"lo\[2\] = 2e\+10 exceeds the usable magnitude"),
+    ([0.0, -np.inf], r"lo must be a scalar or shape \(4,\), got shape \(2,\)"),
+])
+def test_an_open_side_does_not_let_another_defect_through(lo, message) -> None:
+    # an infinite entry is an open side; the other entries are still checked as real_array does
+    with pytest.raises(ro.RadialError, match=message):
+        ro.RadialProblem(4).bound_radii(lo, np.inf)
