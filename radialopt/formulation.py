@@ -204,13 +204,14 @@ class RadialProblem:
         """``v`` (scalar or (n,)) as an (n,) float array: real, not NaN, finite values of at most
         MAX_LENGTH metres; +-inf allowed (an open side)."""
         try:
+            raw = np.asarray(v)
+        except (TypeError, ValueError, OverflowError):  # ragged or odd: real_array names the fault
+            raw = np.zeros(0)
+        is_open = np.isinf(raw) if raw.dtype.kind == "f" else np.zeros(raw.shape, dtype=bool)
+        if is_open.any():  # +-inf is an open side; the rest is checked as real_array checks any array
+            arr = np.where(is_open, raw, real_array(name, np.where(is_open, 0.0, raw), ndim=(0, 1)))
+        else:
             arr = real_array(name, v, ndim=(0, 1))
-        except RadialError:
-            raw = np.asarray(v) if isinstance(v, np.ndarray | list | tuple | float) else None
-            if raw is None or raw.dtype.kind != "f" or not np.isinf(raw).any():
-                raise  # not an open side: bools, NaN, a bad shape keep real_array's error
-            finite = real_array(name, np.where(np.isinf(raw), 0.0, raw), ndim=(0, 1))  # NaN, range, ndim
-            arr = np.where(np.isinf(raw), raw, finite)
         if arr.ndim == 1 and arr.shape != (self.n,):
             raise RadialError(f"{name} must be a scalar or shape ({self.n},), got shape {arr.shape}")
         return np.broadcast_to(arr, (self.n,)).copy()

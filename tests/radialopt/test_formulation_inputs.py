@@ -56,6 +56,7 @@ def test_bound_radii_keeps_open_sides_and_arrays() -> None:
     ([[0.0, -np.inf]], "must have 0 or 1 dimension"),
     ([0.0, 0.0, 2e10, -np.inf], r"lo\[2\] = 2e\+10 exceeds the usable magnitude"),
     ([0.0, -np.inf], r"lo must be a scalar or shape \(4,\), got shape \(2,\)"),
+    ([[0.0, 1.0], [2.0]], "lo must be an array of real numbers"),  # ragged
 ])
 def test_an_open_side_does_not_let_another_defect_through(lo, message) -> None:
     # an infinite entry is an open side; the other entries are still checked as real_array does
