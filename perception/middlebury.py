@@ -219,8 +219,6 @@ def depth_error_table(
 def __getattr__(name: str) -> type[PerceptionError]:
     """``MissingDataError``, 0.1's name of :class:`~perception.errors.MissingExtraError` here,
     deprecated."""
-    if name != "MissingDataError":
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     from . import errors
 
-    return errors._deprecated(__name__, name)
+    return errors._deprecated(__name__, name, {"MissingDataError": MissingExtraError})

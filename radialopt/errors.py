@@ -48,11 +48,14 @@ DEPRECATED_NAMES: dict[str, type[RadialError]] = dict.fromkeys(
 )
 
 
-def _deprecated(module: str, name: str) -> type[RadialError]:
-    """The class a deprecated error name stands for, with a :class:`DeprecationWarning`."""
-    if name not in DEPRECATED_NAMES:
+def _deprecated(module: str, name: str,
+                names: dict[str, type[RadialError]] | None = None) -> type[RadialError]:
+    """The class the deprecated error name ``name`` of ``module`` stands for (``names``, by default
+    :data:`DEPRECATED_NAMES`), with a :class:`DeprecationWarning`; else an :class:`AttributeError`."""
+    names = DEPRECATED_NAMES if names is None else names
+    if name not in names:
         raise AttributeError(f"module {module!r} has no attribute {name!r}")
-    cls = DEPRECATED_NAMES[name]
+    cls = names[name]
     home = f"{cls.__module__.split('.')[0]}.{cls.__name__}"
     warnings.warn(f"{module}.{name} is deprecated and will be removed in 0.3: catch {home}, the class "
                   "its errors are now raised as", DeprecationWarning, stacklevel=3)

@@ -728,8 +728,7 @@ def certify_projection(
 def __getattr__(name: str) -> type[RadialError]:
     """0.1 exported ``EmptyPolyhedronError``, ``NotPointedError`` and ``TooLargeError`` here:
     deprecated names of :class:`~radialopt.errors.RadialError` (with a warning)."""
-    if name not in ("EmptyPolyhedronError", "NotPointedError", "TooLargeError"):
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     from . import errors
 
-    return errors._deprecated(__name__, name)
+    return errors._deprecated(__name__, name, dict.fromkeys(
+        ("EmptyPolyhedronError", "NotPointedError", "TooLargeError"), RadialError))
