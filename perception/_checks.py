@@ -215,23 +215,23 @@ def file_path(name: str, value: Any, error: type[PerceptionError] = PerceptionEr
     return text
 
 
-def sequence(name: str, value: Any, kind: type | None = None, error: type[PerceptionError] = PerceptionError
-             ) -> list[Any]:
+def sequence(name: str, value: Any, kind: type | None = None) -> list[Any]:
     """A sequence (not a string or a lone ``kind``) as a list; every element an instance of
     ``kind``, or, when ``kind`` is None, a non-empty string without NUL characters."""
     what = "str" if kind is None else kind.__name__
     lone = (str, bytes) if kind is None else (str, bytes, kind)
     if value is None or isinstance(value, lone):
-        raise error(f"{name} must be a sequence of {what}, got {type(value).__name__} {_short(value)}")
+        raise PerceptionError(f"{name} must be a sequence of {what}, "
+                              f"got {type(value).__name__} {_short(value)}")
     try:
         out = list(value)
     except TypeError as exc:
-        raise error(f"{name} must be a sequence of {what}, got {type(value).__name__}") from exc
+        raise PerceptionError(f"{name} must be a sequence of {what}, got {type(value).__name__}") from exc
     for i, item in enumerate(out):
         if kind is None:
             name_string(f"{name}[{i}]", item)
         elif not isinstance(item, kind):
-            raise error(f"{name}[{i}] must be a {what}, got {type(item).__name__}: {_short(item)}")
+            raise PerceptionError(f"{name}[{i}] must be a {what}, got {type(item).__name__}: {_short(item)}")
     return out
 
 
