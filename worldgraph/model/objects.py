@@ -64,7 +64,7 @@ def _check_unique_ids(ids: list[str], what: str) -> None:
         first[x] = k
 
 
-def _name_list(name: str, value: Any, n: int, error: type[WorldGraphError]) -> list[str]:
+def _name_list(name: str, value: Any, n: int) -> list[str]:
     """``n`` names (non-empty ``str`` without NUL) from a sequence or array; one ``str`` is a list of one."""
     if isinstance(value, str):
         value = [value]
@@ -74,7 +74,7 @@ def _name_list(name: str, value: Any, n: int, error: type[WorldGraphError]) -> l
     if len(items) != n:
         raise WorldGraphError(f"{name} must have length {n} to match positions of shape ({n}, 3), "
                               f"got length {len(items)}")
-    return [str(_checks.name_string(f"{name}[{k}]", x, error)) for k, x in enumerate(items)]
+    return [str(_checks.name_string(f"{name}[{k}]", x)) for k, x in enumerate(items)]
 
 
 def _check_type_name(value: Any, what: str) -> str:
@@ -242,7 +242,7 @@ class ObjectTable(Sequence[ObjectModel]):
         id_list: tuple[str, ...] | None = None
         num = None
         if ids is not None:
-            id_list = tuple(_name_list("ids", ids, n, WorldGraphError))
+            id_list = tuple(_name_list("ids", ids, n))
             _check_unique_ids(list(id_list), "ids")
         elif numbers is not None:
             num = _checks.int_array("numbers", numbers, (n,), minimum=0)
@@ -256,7 +256,7 @@ class ObjectTable(Sequence[ObjectModel]):
             _check_rotations("rotations", rot)
         geometry_names, geometry_codes = None, None
         if geometries is not None:
-            keys = _name_list("geometries", geometries, n, WorldGraphError)
+            keys = _name_list("geometries", geometries, n)
             uniq, inverse = np.unique(np.array(keys, dtype=object), return_inverse=True)
             geometry_names, geometry_codes = tuple(str(g) for g in uniq), inverse.reshape(-1)
         self._set(names, c, pos, sz, id_list, num, rot, geometry_names, geometry_codes)

@@ -274,7 +274,7 @@ class WorldModel:
         n = pos.shape[0]
         if n == 0:
             raise WorldGraphError("positions must hold at least one object, got shape (0, 3)")
-        type_list = _name_list("types", types, n, WorldGraphError)
+        type_list = _name_list("types", types, n)
         if sizes is None:
             sz = np.full((n, 3), DEFAULT_SIZE)
         else:
@@ -289,7 +289,7 @@ class WorldModel:
                                       f"got {float(sz[tuple(bad)])!r}")
         id_list: tuple[str, ...] | None = None
         if ids is not None:  # the default ids f"{type}_{k}" are unique: k is
-            id_list = tuple(_name_list("ids", ids, n, WorldGraphError))
+            id_list = tuple(_name_list("ids", ids, n))
             _check_unique_ids(list(id_list), "ids")
         names, codes = np.unique(np.array(type_list, dtype=object), return_inverse=True)
         codes = codes.reshape(-1)
