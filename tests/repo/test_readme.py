@@ -136,25 +136,36 @@ def test_readme_setup_commands_are_what_ci_runs() -> None:
     bash = fenced_blocks(setup.group(0), "bash")
     assert len(bash) == 2, f"README.md's set-up has {len(bash)} bash blocks, not its two commands"
     install_and_example, tests = (commands(source) for _, source in bash)
-    ci = commands(CI_RUN.read_text(encoding="utf-8"))
+    ci_text = CI_RUN.read_text(encoding="utf-8")
+    ci = commands(ci_text)
+    ci_setup = setup_commands(ci)
+    # README command 1 installs the package from this checkout with the examples extra and runs the
+    # example the README names, which exists; CI runs it first, as written
+    example_setup = setup_commands(install_and_example)
+    assert example_setup == [["pip", "install", "-e", ".[examples]"]]
+    runs = [c for c in install_and_example if c[0] == "python"]
+    assert len(runs) == 1 and (ROOT / runs[0][1]).is_file()
+    assert ci_setup[:1] == example_setup and runs[0] in ci, "CI runs README command 1 as written"
     # README command 2 is CI's job: the same apt-get, pip install and pytest lines, in the same order,
     # followed by the README's documentation build
     docs = re.search(r"^## Documentation.*?(?=^## )", text, re.MULTILINE | re.DOTALL)
     assert docs, "README.md has no '## Documentation' section"
     (docs_block,) = (commands(source) for _, source in fenced_blocks(docs.group(0), "bash"))
-    assert setup_commands(tests) == setup_commands(ci)[:len(setup_commands(tests))]
-    assert [c[0] for c in setup_commands(ci)].count("pytest") == 1
+    test_setup = setup_commands(tests)
+    assert ci_setup[1:1 + len(test_setup)] == test_setup, "CI runs README command 2 as written"
+    assert [c[0] for c in ci_setup].count("pytest") == 1
     ci_docs = [c for c in ci if c[:4] == ["python", "-m", "sphinx", "-W"]]
     readme_docs = [c for c in docs_block if c[0] == "python"]
     assert ci_docs and ci_docs == readme_docs, "CI builds the docs as the README says"
-    assert ["pip", "install", "-e", ".[docs]"] in setup_commands(ci)
-    # README command 1 installs the same package from the same checkout with the examples extra
-    assert setup_commands(install_and_example) == [["pip", "install", "-e", ".[examples]"]]
-    editable = [c for c in setup_commands(ci) if c[:3] == ["pip", "install", "-e"]]
-    assert [c[3] for c in editable] == [".[test]", ".[docs]"]
-    # and runs the example the README names, which exists
-    runs = [c for c in install_and_example if c[0] == "python"]
-    assert len(runs) == 1 and (ROOT / runs[0][1]).is_file()
+    editable = [c for c in ci_setup if c[:3] == ["pip", "install", "-e"]]
+    assert [c[3] for c in editable] == [".[examples]", ".[test]", ".[docs]"]
+    # each README command starts in a virtual environment of CI's own, made just before it
+    lines = ci_text.splitlines()
+    starts = [i for i, line in enumerate(lines) if line.startswith("fresh_venv ")]
+    first_of = [next(i for i, line in enumerate(lines) if line.startswith(start))
+                for start in ("python -m pip install -e", "apt-get")]
+    assert len(starts) == 2 and starts[0] < first_of[0] < starts[1] < first_of[1], \
+        "each README command runs in its own fresh virtual environment"
 
 
 def test_ci_run_is_executable() -> None:
