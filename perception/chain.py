@@ -355,6 +355,38 @@ class KinematicChain:
             J[:, i] = np.cross(axis, X - frames[i][:3, 3])
         return J
 
+    def point_jacobians(
+        self, angles: Mapping[str, float] | ArrayLike, points_camera: ArrayLike
+    ) -> NDArray[np.float64]:
+        """:meth:`point_jacobian` of many left-camera points at one set of angles, at once.
+
+        Parameters
+        ----------
+        angles
+            The joint angles, as for :meth:`point_jacobian`.
+        points_camera
+            (n, 3) points in the left camera frame.
+
+        Returns
+        -------
+        (n, 3, n_joints) float
+            Entry ``k`` equals ``point_jacobian(angles, points_camera[k])``.
+
+        Raises
+        ------
+        PerceptionError
+            If ``points_camera`` is not a finite (n, 3) array.
+        """
+        x = real_array("points_camera", points_camera, shape=(-1, 3))
+        frames = self.joint_frames(angles)
+        camera = frames[-1] @ self.tip_from_camera
+        X = x @ camera[:3, :3].T + camera[:3, 3]
+        J = np.zeros((x.shape[0], 3, self.n_joints))
+        for i, j in enumerate(self.joints):
+            axis = frames[i][:3, _AXES[j.axis]]
+            J[:, :, i] = np.cross(axis, X - frames[i][:3, 3])
+        return J
+
 
 def _vector3(name: str, value: ArrayLike) -> NDArray[np.float64]:
     return vector3(name, value)

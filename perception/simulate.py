@@ -382,8 +382,9 @@ def simulate_scan(
         out_pos.append(ego)
         out_sig.append(sig)
         out_truth.append(np.concatenate([detected, -np.ones(n_false, dtype=np.int64)]).astype(np.int64))
-        out_shared.append([((view, chain.point_jacobian(q, c) * enc),) if encoders_err else ()
-                           for c in cam])
+        jacobians = chain.point_jacobians(q, cam) * enc if encoders_err else None
+        out_shared.append([((view, jacobians[k]),) for k in range(cam.shape[0])] if jacobians is not None
+                          else [()] * cam.shape[0])
     pos = np.vstack(out_pos) if out_pos else np.zeros((0, 3))
     _bounded_positions(pos)
     sigs = np.concatenate(out_sig) if out_sig else np.zeros(0)

@@ -92,6 +92,20 @@ def test_point_jacobian_finite_differences() -> None:
     assert np.all(J[:, 6] == 0)  # the right eye does not move the left camera
 
 
+def test_point_jacobians_equal_the_one_point_jacobian_per_point() -> None:
+    chain = default_head()
+    rng = np.random.default_rng(4)
+    q = rng.uniform(-0.3, 0.3, 7)
+    points = rng.uniform(-2.0, 2.0, (9, 3)) + [0.0, 0.0, 3.0]
+    J = chain.point_jacobians(q, points)
+    assert J.shape == (9, 3, 7)
+    for k, x in enumerate(points):
+        np.testing.assert_allclose(J[k], chain.point_jacobian(q, x), rtol=0, atol=1e-13)
+    assert chain.point_jacobians(q, np.zeros((0, 3))).shape == (0, 3, 7)
+    with pytest.raises(PerceptionError, match="points_camera"):
+        chain.point_jacobians(q, np.ones((3, 2)))
+
+
 def test_percept_covariance_monte_carlo() -> None:
     chain = default_head()
     q = np.array([0.15, 0.02, -0.5, 0.1, -0.05, 0.03])
