@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 from ._checks import (
     _short,
@@ -55,6 +56,7 @@ from .errors import (
     RobotFileError,
 )
 from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE, CentreOffset, _offset_of, rgbd_percepts
+from .percept import Percept
 from .simulate import scan_angles
 from .type_rules import type_rule
 
@@ -66,7 +68,10 @@ __all__ = [
     "DEFAULT_MAX_RANGE",
     "DEPTH_NOISE_BLOCK",
     "DEPTH_NOISE_IID",
+    "LOOK_SPREAD_DEG",
+    "LOOK_VIEWS",
     "MAX_RENDER_SIDE",
+    "NECK_REACH_DEG",
     "SENSORS",
     "VISIBLE_GROUPS",
     "MujocoScan",
@@ -83,6 +88,14 @@ __all__ = [
 ]
 
 _PIP = "pip install gaussian-spheres[mujoco]"
+#: Views of one :meth:`MujocoScene.look`.
+LOOK_VIEWS = 3
+#: Neck yaw of a look's outer views either side of its direction (degrees): with the default
+#: camera's 60-degree field of view, three views cover about 100 degrees.
+LOOK_SPREAD_DEG = 20.0
+#: How far the neck yaws either side of the base (degrees) in :meth:`MujocoScene.look`: the reach
+#: of :meth:`MujocoScene.scan`'s default sweep; beyond it the base turns.
+NECK_REACH_DEG = 70.0
 #: Geom groups MuJoCo renders by default (``mjvOption.geomgroup`` is 1, 1, 1, 0, 0, 0).
 VISIBLE_GROUPS = (0, 1, 2)
 #: MuJoCo's default geom colour: a geom with a material and this rgba takes the material's colour.
@@ -1116,11 +1129,128 @@ class MujocoScene:
         far = real_scalar("max_range", max_range, positive=True)
         run_front_end = boolean("percepts", percepts)
         centres = self._centre_offset(centre_offset) if run_front_end or centre_offset is not None else {}
-        K = self.camera_matrix(size)
         Q = scan_angles(head, n, yaw_deg, pitch_deg)
+        degrade = _Degrade(self.types, gen, miss, false, jitter, min_px)
+        return self._sweep(pose, Q, head, kind, gen, size, degrade, noise, far, run_front_end, centres)
+
+    def look(self, world_from_ego: ArrayLike, direction: ArrayLike, *, sensor: str = "rgbd",
+             rng: np.random.Generator, n_views: int = LOOK_VIEWS, spread_deg: float = LOOK_SPREAD_DEG,
+             neck_reach_deg: float = NECK_REACH_DEG, image_size: Any = (640, 480),
+             chain: KinematicChain | None = None, miss_rate: float = 0.0, false_rate: float = 0.0,
+             mask_jitter_px: int = 0, min_pixels: int = 1, depth_noise: float = DEFAULT_DEPTH_NOISE,
+             max_range: float = DEFAULT_MAX_RANGE, centre_offset: Mapping[str, Any] | None = None,
+             pitch_deg: tuple[float, float] = (-10.0, 10.0)) -> list[Percept]:
+        """The percepts of one look towards an ego-frame direction, fused, in the ego frame of
+        ``world_from_ego``.
+
+        The head turns its neck (yaw and pitch) towards ``direction``; ``n_views`` views fan out
+        over neck yaws ``spread_deg`` either side of it (the pitch alternating by ``pitch_deg``
+        about the direction's, as :meth:`scan` does).  Where the fan reaches past
+        ``neck_reach_deg`` (or the chain's ``neck_yaw`` limits, if tighter), the base turns in
+        place about ego z by the least angle that brings every view within reach, and the
+        percepts are rotated back into the ego frame the look started from (the turn taken as
+        known exactly: a turn in place measured by the wheel encoders).  The views' percepts are
+        fused (:func:`perception.fuse_percepts` with :func:`perception.percept_bandwidths`), so
+        the list plugs into :func:`worldgraph.active_localize` as its ``look``::
+
+            look = functools.partial(scene.look, world_from_ego, sensor="stereo", rng=rng)
+            wg.active_localize(world, fused, look, max_looks=3)
+
+        Parameters
+        ----------
+        world_from_ego : (4, 4) float
+            The robot pose when the look starts.
+        direction : (3,) float
+            Where to look, ego frame (x forward, y left, z up); any non-zero length.
+        sensor, rng, image_size, chain, miss_rate, false_rate, mask_jitter_px, min_pixels, \
+depth_noise, max_range, centre_offset
+            As for :meth:`scan` (the detector model and the front end are the same).
+        n_views : int
+            Views of the look (>= 1, default :data:`LOOK_VIEWS`).
+        spread_deg : float
+            Neck yaw of the outer views either side of the direction (degrees, >= 0, default
+            :data:`LOOK_SPREAD_DEG`).
+        neck_reach_deg : float
+            How far the neck yaws either side of the base (degrees, > 0, default
+            :data:`NECK_REACH_DEG`, the reach of :meth:`scan`'s sweep).
+        pitch_deg : (float, float)
+            The pitch zigzag about the direction's pitch (degrees; negative looks up).
+
+        Returns
+        -------
+        list of Percept
+            Fused over the look's views, ego frame of ``world_from_ego``; empty when nothing
+            typed was recognised.
+
+        Raises
+        ------
+        PerceptionError
+            Naming the argument: a zero or non-finite ``direction``, ``n_views`` < 1, a negative
+            ``spread_deg``, a non-positive ``neck_reach_deg``, ``spread_deg`` beyond the reach
+            (no base turn brings the fan within it), and every error of :meth:`scan`.
+        """
+        pose = check_transform("world_from_ego", world_from_ego)
+        d = real_array("direction", direction, shape=(3,))
+        if not float(np.linalg.norm(d)) > 0.0:
+            raise PerceptionError(f"direction must be a non-zero ego-frame vector, got {d.tolist()}")
+        if not isinstance(sensor, str) or sensor not in SENSORS:
+            raise PerceptionError(f"sensor must be one of {SENSORS}, got {_short(sensor)}")
+        kind: Sensor = "rgbd" if sensor == "rgbd" else "stereo"
+        n = integer("n_views", n_views, minimum=1, maximum=1000)
+        spread = math.radians(real_scalar("spread_deg", spread_deg, nonnegative=True, maximum=180.0))
+        reach = math.radians(real_scalar("neck_reach_deg", neck_reach_deg, positive=True, maximum=180.0))
+        gen = check_rng("rng", rng)
+        size = _image_size(image_size)
+        head = default_head() if chain is None else chain
+        if not isinstance(head, KinematicChain):
+            raise PerceptionError(f"chain must be a KinematicChain or None, got {type(chain).__name__}")
+        for need in ("neck_yaw", "neck_pitch"):
+            if need not in head.names:
+                raise PerceptionError(f"look needs a joint named {need!r}; the chain has {list(head.names)}")
+        pitch = _pitch_pair(pitch_deg)
+        degrade = _Degrade(self.types, gen, real_scalar("miss_rate", miss_rate, minimum=0.0, maximum=1.0),
+                           real_scalar("false_rate", false_rate, minimum=0.0, maximum=1.0),
+                           integer("mask_jitter_px", mask_jitter_px, minimum=0, maximum=1000),
+                           integer("min_pixels", min_pixels, minimum=1))
+        noise = real_scalar("depth_noise", depth_noise, nonnegative=True)
+        far = real_scalar("max_range", max_range, positive=True)
+        centres = self._centre_offset(centre_offset)
+        yaw_index, pitch_index = head.names.index("neck_yaw"), head.names.index("neck_pitch")
+        lower, upper = head.limits[yaw_index]
+        lo_reach, hi_reach = max(-reach, lower), min(reach, upper)
+        target = math.atan2(d[1], d[0])
+        yaws = target + (np.linspace(-spread, spread, n) if n > 1 else np.zeros(1))
+        if yaws[-1] - yaws[0] > hi_reach - lo_reach:
+            fan = math.degrees(yaws[-1] - yaws[0])
+            raise PerceptionError(f"spread_deg = {spread_deg!r}: a fan of {fan:g} degrees does not fit the "
+                                  f"neck's reach of "
+                                  f"{math.degrees(hi_reach - lo_reach):g} degrees")
+        # the least base turn that brings every view's neck yaw into [lo_reach, hi_reach]
+        base = min(max(0.0, yaws[-1] - hi_reach), yaws[0] - lo_reach)
+        Q = np.zeros((n, head.n_joints))
+        Q[:, yaw_index] = yaws - base
+        up = math.atan2(d[2], math.hypot(d[0], d[1]))
+        Q[:, pitch_index] = -up + np.radians(np.where(np.arange(n) % 2 == 0, pitch[0], pitch[1]))
+        turn = np.eye(4)
+        turn[:3, :3] = Rotation.from_euler("z", base).as_matrix()
+        seen = self._sweep(pose @ turn, Q, head, kind, gen, size, degrade, noise, far, True, centres)
+        raw = [_rotated(p, turn[:3, :3]) for p in seen.percepts] if base != 0.0 else list(seen.percepts)
+        if not raw:
+            return []
+        from .fusion import fuse_percepts, percept_bandwidths
+
+        return list(fuse_percepts(raw, bandwidth=percept_bandwidths(raw)))
+
+    def _sweep(self, pose: NDArray[np.float64], Q: NDArray[np.float64], head: KinematicChain, sensor: Sensor,
+               gen: np.random.Generator, size: tuple[int, int], degrade: _Degrade, noise: float, far: float,
+               run_front_end: bool, centres: dict[str, CentreOffset]) -> MujocoScan:
+        """Render, detect and (with ``run_front_end``) perceive the views of head angles ``Q`` (one row
+        per view) from the robot pose ``pose``; the arguments checked by the caller."""
+        kind = sensor
+        n = Q.shape[0]
+        K = self.camera_matrix(size)
         t_render = t_detect = t_percepts = 0.0
         views: list[ScanView] = []
-        degrade = _Degrade(self.types, gen, miss, false, jitter, min_px)
         for q in Q:
             ego_left = head.ego_from_camera(q)
             ego_right = head.ego_from_right_camera(q) if sensor == "stereo" else None
@@ -1281,3 +1411,18 @@ class _Degrade:
             dets.append(Detection(type=typ, mask=fake, score=1.0))
             truth.append(-1)
         return tuple(dets), tuple(truth), tuple(missed)
+
+
+def _pitch_pair(value: Any) -> tuple[float, float]:
+    arr = real_array("pitch_deg", value, shape=(2,))
+    if np.any(np.abs(arr) > 90.0):
+        raise PerceptionError(f"pitch_deg must lie within [-90, 90] degrees, got {arr.tolist()}")
+    return float(arr[0]), float(arr[1])
+
+
+def _rotated(p: Percept, R: NDArray[np.float64]) -> Percept:
+    """``p`` seen from a frame turned by ``R`` (``x_old = R x_new``): position, covariance and
+    shared loadings rotated; the range and its sigma are unchanged."""
+    cov = None if p.covariance is None else R @ p.covariance @ R.T
+    return Percept(p.type, R @ p.position, p.sigma, covariance=cov, views=p.views,
+                   shared=tuple((v, R @ S) for v, S in p.shared))
