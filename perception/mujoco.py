@@ -91,8 +91,9 @@ _PIP = "pip install gaussian-spheres[mujoco]"
 #: Views of one :meth:`MujocoScene.look`.
 LOOK_VIEWS = 3
 #: Neck yaw of a look's outer views either side of its direction (degrees): with the default
-#: camera's 60-degree field of view, three views cover about 100 degrees.
-LOOK_SPREAD_DEG = 20.0
+#: camera's 58-degree horizontal field of view, three views cover about 80 degrees and see the middle
+#: 38 in every view.
+LOOK_SPREAD_DEG = 10.0
 #: How far the neck yaws either side of the base (degrees) in :meth:`MujocoScene.look`: the reach
 #: of :meth:`MujocoScene.scan`'s default sweep; beyond it the base turns.
 NECK_REACH_DEG = 70.0
@@ -1139,13 +1140,14 @@ class MujocoScene:
              chain: KinematicChain | None = None, miss_rate: float = 0.0, false_rate: float = 0.0,
              mask_jitter_px: int = 0, min_pixels: int = 1, depth_noise: float = DEFAULT_DEPTH_NOISE,
              max_range: float = DEFAULT_MAX_RANGE, centre_offset: Mapping[str, Any] | None = None,
-             pitch_deg: tuple[float, float] = (-10.0, 10.0)) -> list[Percept]:
+             pitch_deg: tuple[float, float] = (0.0, 0.0), min_views: int = 1) -> list[Percept]:
         """The percepts of one look towards an ego-frame direction, fused, in the ego frame of
         ``world_from_ego``.
 
         The head turns its neck (yaw and pitch) towards ``direction``; ``n_views`` views fan out
-        over neck yaws ``spread_deg`` either side of it (the pitch alternating by ``pitch_deg``
-        about the direction's, as :meth:`scan` does).  Where the fan reaches past
+        over neck yaws ``spread_deg`` either side of it, all at the direction's pitch (or
+        alternating by ``pitch_deg`` about it, as :meth:`scan` does), so that what lies near the
+        direction is seen in every view and survives fusion's ``min_views``.  Where the fan reaches past
         ``neck_reach_deg`` (or the chain's ``neck_yaw`` limits, if tighter), the base turns in
         place about ego z by the least angle that brings every view within reach, and the
         percepts are rotated back into the ego frame the look started from (the turn taken as
@@ -1174,7 +1176,12 @@ depth_noise, max_range, centre_offset
             How far the neck yaws either side of the base (degrees, > 0, default
             :data:`NECK_REACH_DEG`, the reach of :meth:`scan`'s sweep).
         pitch_deg : (float, float)
-            The pitch zigzag about the direction's pitch (degrees; negative looks up).
+            The pitch zigzag about the direction's pitch (degrees; negative looks up); default
+            none.
+        min_views : int
+            Fusion keeps objects seen complete in at least this many of the look's views
+            (default 1: near the fan's edges an object is seen whole once, and its percept's
+            covariance says how well; 2 also drops false detections that do not repeat).
 
         Returns
         -------
@@ -1215,12 +1222,13 @@ depth_noise, max_range, centre_offset
         noise = real_scalar("depth_noise", depth_noise, nonnegative=True)
         far = real_scalar("max_range", max_range, positive=True)
         centres = self._centre_offset(centre_offset)
+        fuse_min = integer("min_views", min_views, minimum=1, maximum=n)
         yaw_index, pitch_index = head.names.index("neck_yaw"), head.names.index("neck_pitch")
         lower, upper = head.limits[yaw_index]
         lo_reach, hi_reach = max(-reach, lower), min(reach, upper)
         target = math.atan2(d[1], d[0])
         yaws = target + (np.linspace(-spread, spread, n) if n > 1 else np.zeros(1))
-        if yaws[-1] - yaws[0] > hi_reach - lo_reach:
+        if yaws[-1] - yaws[0] > hi_reach - lo_reach + 1e-9:
             fan = math.degrees(yaws[-1] - yaws[0])
             raise PerceptionError(f"spread_deg = {spread_deg!r}: a fan of {fan:g} degrees does not fit the "
                                   f"neck's reach of "
@@ -1239,7 +1247,7 @@ depth_noise, max_range, centre_offset
             return []
         from .fusion import fuse_percepts, percept_bandwidths
 
-        return list(fuse_percepts(raw, bandwidth=percept_bandwidths(raw)))
+        return list(fuse_percepts(raw, bandwidth=percept_bandwidths(raw), min_views=fuse_min))
 
     def _sweep(self, pose: NDArray[np.float64], Q: NDArray[np.float64], head: KinematicChain, sensor: Sensor,
                gen: np.random.Generator, size: tuple[int, int], degrade: _Degrade, noise: float, far: float,

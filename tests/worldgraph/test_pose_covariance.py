@@ -5,7 +5,7 @@ percepts of known landmarks are drawn around the truth, the pose is estimated, a
 (ROS order ``(x, y, z, rx, ry, rz)``: ``t_true - t_est`` in world axes, the rotation vector of
 ``R_true @ R_est.T``) are compared with the returned 6x6 covariance.
 
-* 2000 draws per geometry go straight through the estimation layer of ``localize(method="ml")``
+* 1500 draws per geometry go straight through the estimation layer of ``localize(method="ml")``
   (``_validated``: ``refine_pose`` -> ``ros_pose_covariance`` of its information ->
   ``laplace_inflate`` about the refined pose), skipping the association, which the end-to-end
   tests (300 draws through ``localize`` itself) cover.
@@ -15,20 +15,20 @@ percepts of known landmarks are drawn around the truth, the pose is estimated, a
 
 Bands (``N`` draws; one NEES is chi-square(6) when the covariance is right: mean 6, variance 12):
 
-* NEES mean in ``[6 - 5 s - 0.5, 6 + 5 s]``, ``s = sqrt(12 / N)`` (0.077 for 2000 draws): five
+* NEES mean in ``[6 - 5 s - 0.5, 6 + 5 s]``, ``s = sqrt(12 / N)`` (0.089 for 1500 draws): five
   standard errors of the chi-square mean either side; the lower side has 0.5 more because
   ``laplace_inflate`` only ever widens (where it acts the NEES drops below chi-square; 0.5 lets
   it double the variance of one of the six directions on every draw), the upper side has no
   allowance: an overconfident covariance is the failure these tests exist to catch.  (In the
   geometries here the widening does not act; the allowance is for it doing so in future.)
 * The fraction of NEES inside the 3-sigma gate chi2.ppf(0.9973, 6) = 20.06 is >= 0.985
-  (expected 0.9973; the binomial standard error is 0.0012 at 2000 draws).
+  (expected 0.9973; the binomial standard error is 0.0013 at 1500 draws).
 * The second moment ``E[e e^T]`` about the truth (so a bias counts against it) against the
   mean returned covariance: each diagonal ratio in ``[0.8, 1.2]``, about six standard errors
-  ``sqrt(2 / N) = 0.032`` of a variance ratio either side of 1.
+  ``sqrt(2 / N) = 0.037`` of a variance ratio either side of 1.
 * Translation-rotation correlation coefficients: where the returned one is large (``|rho| >
   0.3``) the empirical one has its sign, and every one lies within 0.1 of the returned one (the
-  standard error of a correlation coefficient is below ``1 / sqrt(N) = 0.022``).  A flipped
+  standard error of a correlation coefficient is below ``1 / sqrt(N) = 0.026``).  A flipped
   error convention (``t_est - t_true``, ``R_est^T R_true``, ego axes) flips these signs.
 """
 
@@ -58,7 +58,7 @@ from worldgraph.pose.validation import (
 DEPTH_FACTOR = 1000.0
 #: 3-sigma gate (probability 0.9973) of a chi-square(6) NEES: 20.06.
 GATE_6 = float(chi2.ppf(0.9973002039, 6))
-N_DRAWS = 2000
+N_DRAWS = 1500
 N_END_TO_END = 300
 
 
@@ -244,7 +244,7 @@ def test_ml_translation_rotation_cross_covariance_sign(name: str) -> None:
         assert large.any(), f"{name}: no large translation-rotation correlation to check:\n{corr_ret}"
     assert np.all(np.sign(corr_emp[large]) == np.sign(corr_ret[large])), \
         f"{name}: cross-correlation signs differ\nempirical\n{corr_emp}\nreturned\n{corr_ret}"
-    # every coefficient, large or not, within 0.1 (4.5 standard errors) of the returned one
+    # every coefficient, large or not, within 0.1 (3.9 standard errors) of the returned one
     assert np.all(np.abs(corr_emp - corr_ret) <= 0.1), \
         f"{name}: cross correlations differ\nempirical\n{corr_emp}\nreturned\n{corr_ret}"
 

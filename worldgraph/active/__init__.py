@@ -52,13 +52,18 @@ from __future__ import annotations
 from .gaze import GAZE_TOLERANCE, gaze_angles
 from .loop import (
     _LOOK_STATUSES,
+    EXPLORE_STATUSES,
     GOAL_ROTATION_3SIGMA,
     MIN_CAP_EVIDENCE,
     MIN_FACTOR_RANGE,
+    SCANNED_YAW_DEG,
     ActiveLocalization,
+    ExploreStatus,
+    LookReason,
     LookStatus,
     active_localize,
     depth_factor_of,
+    explore_direction,
     merge_percepts,
 )
 from .plan import (
@@ -89,6 +94,10 @@ from .predict import (
 
 __all__ = [
     "ActiveLocalization",
+    "EXPLORE_STATUSES",
+    "ExploreStatus",
+    "LookReason",
+    "SCANNED_YAW_DEG",
     "VIEW_STATUSES",
     "GOAL_ROTATION_3SIGMA",
     "ViewPlan",
@@ -96,6 +105,7 @@ __all__ = [
     "ViewStatus",
     "active_localize",
     "depth_factor_of",
+    "explore_direction",
     "gaze_angles",
     "merge_percepts",
     "plan_view",

@@ -39,9 +39,24 @@ _LOOK_STATUSES: tuple[str, ...] = get_args(LookStatus)
 #: :func:`active_localize` also looks while an "ok" answer's 3-sigma rotation bound is wider than
 #: this (radians): 2 degrees, what a pose judged correct may be off by in the benchmarks.
 GOAL_ROTATION_3SIGMA = math.radians(2.0)
-
-
-
+#: Statuses without a pose that :func:`active_localize` answers by exploring: a look where the
+#: robot has not looked yet.
+ExploreStatus = Literal["too_few_percepts", "no_association", "degenerate", "degenerate_coplanar",
+                        "degenerate_collinear"]
+EXPLORE_STATUSES: tuple[str, ...] = get_args(ExploreStatus)
+#: Why :func:`active_localize` took a look: ``"explore"``, no pose yet, towards the widest arc of
+#: ego yaw not looked at; ``"plan"``, from the pose (:func:`plan_view` or the caller's planner).
+LookReason = Literal["explore", "plan"]
+#: The ego yaws (degrees) a default :meth:`perception.mujoco.MujocoScene.scan` or
+#: :func:`perception.simulate_scan` sweeps its neck over: what the percepts passed to
+#: :func:`active_localize` are taken to have covered, unless told otherwise.
+SCANNED_YAW_DEG = (-70.0, 70.0)
+#: Ego yaw step (degrees) of the directions :func:`explore_direction` considers.
+EXPLORE_STEP_DEG = 5.0
+#: Elevation (degrees, negative: down) of :func:`explore_direction`'s looks: recognisable objects
+#: (handles, drawers, knobs, doors) sit mostly below a head at standing height, and a look 15
+#: degrees down still keeps objects at head height within a 45-degree vertical field of view.
+EXPLORE_PITCH_DEG = -15.0
 
 
 @dataclass(frozen=True)
@@ -61,6 +76,9 @@ class ActiveLocalization:
     percepts : tuple of Percept
         The percepts passed in followed by the new ones each look added.
     looks : int
+    reasons : tuple of {"explore", "plan"}
+        Why each look was taken (:data:`LookReason`): to explore (no pose yet) or planned from
+        the pose.
     """
 
     result: LocalizationResult
@@ -69,6 +87,50 @@ class ActiveLocalization:
     directions: tuple[NDArray[np.float64], ...]
     percepts: tuple[Percept, ...]
     looks: int
+    reasons: tuple[LookReason, ...] = ()
+
+
+def explore_direction(looked: Sequence[NDArray[np.float64]], scanned_yaw_deg: tuple[float, float] | None,
+                      fov_deg: float) -> NDArray[np.float64]:
+    """Where to look with no pose yet: the horizontal ego direction farthest in yaw from all that
+    was looked at.
+
+    Looked at: the sweep ``scanned_yaw_deg`` (neck yaws, degrees) widened by half the field of
+    view either side, and each direction in ``looked`` widened by half the field of view.  The
+    answer is the middle of the widest arc of yaw outside them; once the whole circle is covered,
+    the yaw farthest from every direction in ``looked`` (a second chance where the looks were
+    fewest).  With no pose, every yaw is as likely to face any part of the map, so the map cannot
+    rank the directions: covering the circle in the fewest looks is what finds objects soonest.
+    The look points :data:`EXPLORE_PITCH_DEG` below the horizon.
+
+    Returns
+    -------
+    (3,) float
+        A unit vector.
+    """
+    half = math.radians(fov_deg) / 2.0
+    yaws = np.radians(np.arange(-180.0, 180.0, EXPLORE_STEP_DEG))
+    looked_yaws = np.array([math.atan2(d[1], d[0]) for d in looked if math.hypot(d[0], d[1]) > 0.0])
+
+    def gap(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.abs((a[:, None] - b[None, :] + np.pi) % (2.0 * np.pi) - np.pi)
+
+    # the angular distance of every candidate yaw to the covered set (negative inside it)
+    clearance = np.full(yaws.size, np.inf)
+    if looked_yaws.size:
+        clearance = np.minimum(clearance, (gap(yaws, looked_yaws) - half).min(axis=1))
+    if scanned_yaw_deg is not None:
+        lo, hi = math.radians(scanned_yaw_deg[0]) - half, math.radians(scanned_yaw_deg[1]) + half
+        if hi - lo >= 2.0 * np.pi:
+            clearance = np.minimum(clearance, -1.0)
+        else:
+            mid, width = (lo + hi) / 2.0, (hi - lo) / 2.0
+            clearance = np.minimum(clearance, gap(yaws, np.array([mid]))[:, 0] - width)
+    if not np.any(clearance > 0.0) and looked_yaws.size:
+        clearance = gap(yaws, looked_yaws).min(axis=1)
+    yaw = float(yaws[int(np.argmax(clearance))])
+    pitch = math.radians(EXPLORE_PITCH_DEG)
+    return np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
 
 
 def merge_percepts(old: Sequence[Percept], new: Sequence[Percept], n_sigma: float = MERGE_SIGMAS,
@@ -120,11 +182,13 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                     head: KinematicChain | None = None, look_while: Sequence[str] = ("ambiguous", "weak"),
                     goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA, gravity: Gravity = "auto",
                     up_sigma: float | None = None, depth_factor: float | None = None, detection: float = 0.9,
-                    max_sights: int | None = None) -> ActiveLocalization:
-    """Localise; while the status is in ``look_while`` (default ``"ambiguous"`` and ``"weak"``) and
-    looks remain:
-    plan a view, look, and localise again with the old and new percepts (:func:`merge_percepts`
-    drops second sights).
+                    max_sights: int | None = None, explore_while: Sequence[str] = EXPLORE_STATUSES,
+                    scanned_yaw_deg: tuple[float, float] | None = SCANNED_YAW_DEG) -> ActiveLocalization:
+    """Localise; while looks remain and there is no pose yet (a status in ``explore_while``) look
+    where the robot has not looked (:func:`explore_direction`); while the status is in
+    ``look_while`` (default ``"ambiguous"`` and ``"weak"``) plan a view from the pose and look;
+    after each look localise again with the old and new percepts (:func:`merge_percepts` drops
+    second sights).  ``percepts`` may be empty (nothing recognised yet).
 
     Parameters
     ----------
@@ -165,11 +229,19 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         a look returns fewer than half the detections its plan expected; from then on the most
         any look returned (a recogniser that reports a few objects per view).
 
+    explore_while : sequence of str
+        Statuses without a pose that call for an exploring look (default :data:`EXPLORE_STATUSES`:
+        too few percepts, no association, degenerate landmarks); ``()`` never explores.
+    scanned_yaw_deg : (float, float) or None
+        The neck yaws (degrees) the percepts passed in were swept over (default
+        :data:`SCANNED_YAW_DEG`, the default scan's); exploring looks go elsewhere first.
+        ``None``: nothing has been looked at yet.
+
     Returns
     -------
     ActiveLocalization
-        Stops early when the status is not in ``look_while`` (a unique answer, or a failure no
-        look is planned for).
+        Stops early when the status is in neither ``look_while`` nor ``explore_while`` (a unique
+        answer, or a failure no look is planned for).
     """
     if not callable(look):
         raise WorldGraphError(f"look must be a callable direction -> list of Percept, "
@@ -189,6 +261,19 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         if st not in _LOOK_STATUSES:
             raise WorldGraphError(f"look_while[{i}] = {st!r} is not a status that comes with a pose; "
                                   f"choose among {_LOOK_STATUSES}")
+    explore = as_list("explore_while", explore_while, "status names")
+    for i, st in enumerate(explore):
+        if st not in EXPLORE_STATUSES:
+            raise WorldGraphError(f"explore_while[{i}] = {st!r} is not a status without a pose that a look "
+                                  f"can mend; choose among {EXPLORE_STATUSES}")
+    if scanned_yaw_deg is not None:
+        sweep = real_array("scanned_yaw_deg", scanned_yaw_deg, (2,))
+        if not sweep[0] <= sweep[1]:
+            raise WorldGraphError(f"scanned_yaw_deg = {sweep.tolist()} must be (lowest, highest) degrees")
+        scanned: tuple[float, float] | None = (float(sweep[0]), float(sweep[1]))
+    else:
+        scanned = None
+    fov_deg = real_scalar("fov_deg", fov_deg, positive=True, maximum=360.0)
     tol = _resolved_tol(tol)
     current = check_world_and_percepts(world, percepts)
     check_gravity(gravity, tol)  # a bad gravity (or up_sigma) fails before the first look
@@ -196,6 +281,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     learn_cap = max_sights is None
     cap = None if max_sights is None else integer("max_sights", max_sights, minimum=1, maximum=10**9)
     detection = real_scalar("detection", detection, positive=True, maximum=1.0)
+    explicit_factor = depth_factor
     if depth_factor is None:
         depth_factor = depth_factor_of(current)
     else:
@@ -203,23 +289,30 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     result = localize(world, current, method, tol=tol, gravity=gravity, up_sigma=up_sigma)
     results, plans = [result], []
     directions: list[NDArray[np.float64]] = []
-    while len(directions) < max_looks and (result.status in statuses
-                                           or _imprecise(result, goal_rotation_3sigma)):
-        if planner is None:
-            plan: ViewPlan | NDArray[np.float64] = plan_view(world, result, fov_deg=fov_deg,
-                                                             max_range=max_range, types=types, head=head,
-                                                             depth_factor=depth_factor, detection=detection,
-                                                             max_sights=cap, percepts=current)
+    reasons: list[LookReason] = []
+    while len(directions) < max_looks:
+        plan: ViewPlan | NDArray[np.float64] | None = None
+        if result.status in explore:
+            reasons.append("explore")
+            d = explore_direction(directions, scanned, fov_deg)
+        elif result.status in statuses or _imprecise(result, goal_rotation_3sigma):
+            reasons.append("plan")
+            if planner is None:
+                plan = plan_view(world, result, fov_deg=fov_deg, max_range=max_range, types=types, head=head,
+                                 depth_factor=depth_factor, detection=detection, max_sights=cap,
+                                 percepts=current)
+            else:
+                plan = planner(result)
+            if isinstance(plan, ViewPlan):
+                plans.append(plan)
+                d = plan.direction
+            else:
+                d = real_array("planner(result)", plan, (3,))
+                if not np.linalg.norm(d) > 0:
+                    raise WorldGraphError(f"planner(result) returned a zero direction {d.tolist()}")
+                d = d / np.linalg.norm(d)
         else:
-            plan = planner(result)
-        if isinstance(plan, ViewPlan):
-            plans.append(plan)
-            d = plan.direction
-        else:
-            d = real_array("planner(result)", plan, (3,))
-            if not np.linalg.norm(d) > 0:
-                raise WorldGraphError(f"planner(result) returned a zero direction {d.tolist()}")
-            d = d / np.linalg.norm(d)
+            break
         new = as_list("look(direction)", look(d.copy()), "perception.Percept", exclude=(Percept,))
         for i, p in enumerate(new):
             if not isinstance(p, Percept):
@@ -229,7 +322,10 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         if planner is None and learn_cap and isinstance(plan, ViewPlan):
             cap = _learned_cap(cap, plan, len(new), detection)
         current = merge_percepts(current, new)
+        if reasons[-1] == "explore" and explicit_factor is None and new:
+            depth_factor = depth_factor_of(current)
         result = localize(world, current, method, tol=tol, gravity=gravity, up_sigma=up_sigma)
         results.append(result)
     return ActiveLocalization(result=result, results=tuple(results), plans=tuple(plans),
-                              directions=tuple(directions), percepts=tuple(current), looks=len(directions))
+                              directions=tuple(directions), percepts=tuple(current), looks=len(directions),
+                              reasons=tuple(reasons))
