@@ -15,13 +15,18 @@ more than 0.5 m or 10 deg off.  Rows: every pose, and the poses whose scan sees 
 typed objects (the issue's target population).
 
 Run:  MUJOCO_GL=egl python benchmarks/from_pixels.py [--scene PATH] [--type-of JSON] [--poses 40]
-      [--sensors rgbd stereo] [--views 20] [--size 640x480] [--seed 0]
+      [--sensors rgbd stereo] [--views 20] [--size 640x480] [--seed 0] [--max-looks 3] [--any-yaw]
+
+A second table follows the scan alone with ``worldgraph.active_localize`` and
+``MujocoScene.look`` (up to ``--max-looks`` looks with the scan's detector model); ``--any-yaw``
+turns every pose to a random yaw, so that a first scan may face away from every object.
 Prints a Markdown table (progress on stderr).
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import sys
@@ -42,10 +47,13 @@ STAGES = ("render", "detect", "percepts", "fusion", "localize")
 
 
 def run(scene: MujocoScene, world: wg.WorldModel, sensor: str, poses: np.ndarray, rng: np.random.Generator,
-        views: int, size: tuple[int, int], degrade: dict) -> dict[str, list]:
-    keys = ("verdict", "paper", "nees", "dpos", "drot", "seen", "n", *STAGES)
+        views: int, size: tuple[int, int], degrade: dict, max_looks: int) -> dict[str, list]:
+    keys = ("verdict", "paper", "nees", "dpos", "drot", "seen", "n", *STAGES, "looked", "looks",
+            "looked_nees", "looks_time", "total")
+    detector = {k: v for k, v in degrade.items() if k != "pitch_deg"}  # a look's pitch is its direction's
     stats: dict[str, list] = {k: [] for k in keys}
     for k, pose in enumerate(poses):
+        t_scan = time.perf_counter()
         scan = scene.scan(pose, sensor=sensor, n_views=views, rng=rng, image_size=size, **degrade)
         t0 = time.perf_counter()
         fused = (pc.fuse_percepts(list(scan.percepts), bandwidth=pc.percept_bandwidths(scan.percepts))
@@ -70,8 +78,21 @@ def run(scene: MujocoScene, world: wg.WorldModel, sensor: str, poses: np.ndarray
         stats["percepts"].append(scan.timings.percepts)
         stats["fusion"].append(t1 - t0)
         stats["localize"].append(t2 - t1)
+        # look until it knows: explore while there is no pose, plan from the pose while ambiguous
+        t3 = time.perf_counter()
+        look = functools.partial(scene.look, pose, sensor=sensor, rng=rng, image_size=size, **detector)
+        active = wg.active_localize(world, fused, look, max_looks=max_looks)
+        t4 = time.perf_counter()
+        lv, lnees = verdict(active.result, pose)
+        stats["looked"].append(lv)
+        stats["looked_nees"].append(lnees)
+        stats["looks"].append(active.looks)
+        stats["looks_time"].append(t4 - t3)
+        stats["total"].append((t0 - t_scan) + (t2 - t0) + (t4 - t3))
         print(f"{sensor} {k}: seen {seen}, {len(scan.percepts)} raw -> {len(fused)} fused, {v} "
-              f"({res.status if res is not None else 'no percepts'}), NEES {nees:.1f}", file=sys.stderr)
+              f"({res.status if res is not None else 'no percepts'}), NEES {nees:.1f}; after "
+              f"{active.looks} looks {lv} ({active.result.status}, {len(active.percepts)} percepts)",
+              file=sys.stderr)
     return stats
 
 
@@ -89,6 +110,9 @@ def main() -> None:
     ap.add_argument("--false-rate", type=float, default=0.02)
     ap.add_argument("--mask-jitter", type=int, default=1, help="mask edge jitter, pixels")
     ap.add_argument("--min-pixels", type=int, default=20)
+    ap.add_argument("--max-looks", type=int, default=3, help="looks of active_localize after the scan")
+    ap.add_argument("--any-yaw", action="store_true",
+                    help="turn each robot pose to a random yaw (it need not face an object)")
     ap.add_argument("--pitch", type=float, nargs=2, default=(-20.0, 0.0),
                     help="neck pitch of the sweep's two rows, degrees (negative looks up)")
     args = ap.parse_args()
@@ -105,11 +129,19 @@ def main() -> None:
     scene.default_centre_offsets()  # measured once per scene, on poses of its own seed
     print(f"centre offsets measured in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     poses = scene.robot_poses(args.poses, np.random.default_rng(args.seed))
+    if args.any_yaw:
+        yaw_rng = np.random.default_rng(args.seed + 2)
+        for pose in poses:
+            yaw = yaw_rng.uniform(-np.pi, np.pi)
+            pose[:3, :3] = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0],
+                                     [0.0, 0.0, 1.0]])
     degrade = dict(miss_rate=args.miss_rate, false_rate=args.false_rate, mask_jitter_px=args.mask_jitter,
                    min_pixels=args.min_pixels, pitch_deg=tuple(args.pitch))
     rows = [(sensor, run(scene, world, sensor, poses, np.random.default_rng(args.seed + 1), args.views,
-                         (width, height), degrade)) for sensor in args.sensors]
+                         (width, height), degrade, args.max_looks)) for sensor in args.sensors]
     print(table(rows, args.views, (width, height)))
+    print()
+    print(looks_table(rows, args.max_looks))
     print(f"\nScene {os.path.basename(path)} ({len(world)} typed objects), poses of MujocoScene.robot_poses "
           f"(seed {args.seed}); degradation: miss {args.miss_rate}, false {args.false_rate}, mask jitter "
           f"{args.mask_jitter} px, min {args.min_pixels} px.")
@@ -145,6 +177,33 @@ def table(rows, views, size) -> str:
     out.append("")
     out.append(f"{views} views of {size[0]}x{size[1]} per scan; medians per scan (rendering per view); "
                f"unique-correct: status ok, not ambiguous, 6D NEES <= {CHI2_6_3SIGMA}, rotation <= 2 deg.")
+    return "\n".join(out)
+
+
+def looks_table(rows, max_looks: int) -> str:
+    head = ("| sensor | first scan: share with >= 5 percepts | unique-correct: seen >= 5 / all | "
+            f"with <= {max_looks} looks: unique-correct (all) | gross ok | mean NEES (ok) | mean looks "
+            "| looks time (median) | scan + looks + localize per pose (median / max) |")
+    out = [head, "|" + "---|" * (head.count("|") - 1)]
+    for sensor, s in rows:
+        v, lv = np.array(s["verdict"]), np.array(s["looked"])
+        enough = np.array(s["n"]) >= MIN_SEEN
+        first = 100.0 * np.mean(v[enough] == "correct") if enough.any() else float("nan")
+        ok = np.isin(lv, ["correct", "wrong", "gross"])
+        nees = np.array(s["looked_nees"])[ok]
+        out.append(
+            f"| {sensor} | {100.0 * np.mean(enough):.0f} % | "
+            f"{first:.0f} / {100.0 * np.mean(v == 'correct'):.0f} % | "
+            f"{100.0 * np.mean(lv == 'correct'):.0f} % | {int(np.sum(lv == 'gross'))} | "
+            f"{np.mean(nees) if nees.size else float('nan'):.1f} | {np.mean(s['looks']):.2f} | "
+            f"{np.median(s['looks_time']):.2f} s | "
+            f"{np.median(s['total']):.2f} / {np.max(s['total']):.2f} s |")
+    out.append("")
+    out.append("First scan: fused percepts >= 5 (the target population); with looks: "
+               "`active_localize(world, fused, functools.partial(scene.look, pose, ...), "
+               "max_looks=...)`, "
+               "exploring while there is no pose and planning from it while ambiguous or weak, the "
+               "looks with the scan's detector model.")
     return "\n".join(out)
 
 

@@ -1140,14 +1140,14 @@ class MujocoScene:
              chain: KinematicChain | None = None, miss_rate: float = 0.0, false_rate: float = 0.0,
              mask_jitter_px: int = 0, min_pixels: int = 1, depth_noise: float = DEFAULT_DEPTH_NOISE,
              max_range: float = DEFAULT_MAX_RANGE, centre_offset: Mapping[str, Any] | None = None,
-             pitch_deg: tuple[float, float] = (0.0, 0.0), min_views: int = 1) -> list[Percept]:
+             pitch_deg: tuple[float, float] = (-10.0, 10.0), min_views: int = 1) -> list[Percept]:
         """The percepts of one look towards an ego-frame direction, fused, in the ego frame of
         ``world_from_ego``.
 
         The head turns its neck (yaw and pitch) towards ``direction``; ``n_views`` views fan out
-        over neck yaws ``spread_deg`` either side of it, all at the direction's pitch (or
-        alternating by ``pitch_deg`` about it, as :meth:`scan` does), so that what lies near the
-        direction is seen in every view and survives fusion's ``min_views``.  Where the fan reaches past
+        over neck yaws ``spread_deg`` either side of it, the pitch alternating by ``pitch_deg``
+        about the direction's (as :meth:`scan` does), so that the look spans from low drawers to
+        wall cabinets.  Where the fan reaches past
         ``neck_reach_deg`` (or the chain's ``neck_yaw`` limits, if tighter), the base turns in
         place about ego z by the least angle that brings every view within reach, and the
         percepts are rotated back into the ego frame the look started from (the turn taken as
@@ -1176,8 +1176,7 @@ depth_noise, max_range, centre_offset
             How far the neck yaws either side of the base (degrees, > 0, default
             :data:`NECK_REACH_DEG`, the reach of :meth:`scan`'s sweep).
         pitch_deg : (float, float)
-            The pitch zigzag about the direction's pitch (degrees; negative looks up); default
-            none.
+            The pitch zigzag about the direction's pitch (degrees; negative looks up).
         min_views : int
             Fusion keeps objects seen complete in at least this many of the look's views
             (default 1: near the fan's edges an object is seen whole once, and its percept's

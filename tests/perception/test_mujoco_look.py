@@ -157,8 +157,9 @@ def test_explore_direction_turns_to_the_widest_arc_not_looked_at():
     # looked: yaw [-100, 100] and [150, 210]; the gaps' middles are +-125 degrees
     assert abs(abs(np.degrees(np.arctan2(second[1], second[0]))) - 125.0) <= 2.5
     assert np.isclose(second[2], np.sin(down)) and np.isclose(np.linalg.norm(second), 1.0)
-    # nothing looked at: any direction; the whole circle looked at: away from every look
-    assert np.isclose(np.linalg.norm(wg.active.explore_direction([], None, 60.0)), 1.0)
+    # nothing looked at: ahead; the whole circle looked at: away from every look
+    np.testing.assert_allclose(wg.active.explore_direction([], None, 60.0), [np.cos(down), 0.0, np.sin(down)],
+                               atol=1e-12)  # straight ahead
     looks = [np.array([np.cos(a), np.sin(a), 0.0]) for a in np.radians([0.0, 90.0, 180.0])]
     last = wg.active.explore_direction(looks, (-180.0, 180.0), 60.0)
     assert abs(np.degrees(np.arctan2(last[1], last[0])) + 90.0) <= 2.5

@@ -54,9 +54,10 @@ SCANNED_YAW_DEG = (-70.0, 70.0)
 #: Ego yaw step (degrees) of the directions :func:`explore_direction` considers.
 EXPLORE_STEP_DEG = 5.0
 #: Elevation (degrees, negative: down) of :func:`explore_direction`'s looks: recognisable objects
-#: (handles, drawers, knobs, doors) sit mostly below a head at standing height, and a look 15
-#: degrees down still keeps objects at head height within a 45-degree vertical field of view.
-EXPLORE_PITCH_DEG = -15.0
+#: (handles, drawers, knobs, doors) sit mostly below a head at standing height; 5 degrees down,
+#: with a look's pitch zigzag of 10 degrees and a 45-degree vertical field of view, spans from
+#: knee height to wall cabinets at 2-3 m.
+EXPLORE_PITCH_DEG = -5.0
 
 
 @dataclass(frozen=True)
@@ -99,7 +100,7 @@ def explore_direction(looked: Sequence[NDArray[np.float64]], scanned_yaw_deg: tu
     view either side, and each direction in ``looked`` widened by half the field of view.  The
     answer is the middle of the widest arc of yaw outside them; once the whole circle is covered,
     the yaw farthest from every direction in ``looked`` (a second chance where the looks were
-    fewest).  With no pose, every yaw is as likely to face any part of the map, so the map cannot
+    fewest); with nothing looked at, straight ahead.  With no pose, every yaw is as likely to face any part of the map, so the map cannot
     rank the directions: covering the circle in the fewest looks is what finds objects soonest.
     The look points :data:`EXPLORE_PITCH_DEG` below the horizon.
 
@@ -128,7 +129,8 @@ def explore_direction(looked: Sequence[NDArray[np.float64]], scanned_yaw_deg: tu
             clearance = np.minimum(clearance, gap(yaws, np.array([mid]))[:, 0] - width)
     if not np.any(clearance > 0.0) and looked_yaws.size:
         clearance = gap(yaws, looked_yaws).min(axis=1)
-    yaw = float(yaws[int(np.argmax(clearance))])
+    # nothing looked at yet: straight ahead
+    yaw = 0.0 if np.all(np.isinf(clearance)) else float(yaws[int(np.argmax(clearance))])
     pitch = math.radians(EXPLORE_PITCH_DEG)
     return np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
 
