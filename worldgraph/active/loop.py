@@ -100,8 +100,9 @@ def explore_direction(looked: Sequence[NDArray[np.float64]], scanned_yaw_deg: tu
     view either side, and each direction in ``looked`` widened by half the field of view.  The
     answer is the middle of the widest arc of yaw outside them; once the whole circle is covered,
     the yaw farthest from every direction in ``looked`` (a second chance where the looks were
-    fewest); with nothing looked at, straight ahead.  With no pose, every yaw is as likely to face any part of the map, so the map cannot
-    rank the directions: covering the circle in the fewest looks is what finds objects soonest.
+    fewest); with nothing looked at, straight ahead.  With no pose, every yaw is as likely to
+    face any part of the map, so the map cannot rank the directions: covering the circle in the
+    fewest looks is what finds objects soonest.
     The look points :data:`EXPLORE_PITCH_DEG` below the horizon.
 
     Returns
