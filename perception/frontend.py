@@ -98,8 +98,9 @@ MAX_CENTRE_DEPTH = 10.0
 MIN_FOCAL_PX, MAX_FOCAL_PX = 1.0, 1e7
 #: Smallest and largest depth reading accepted (m); 0, NaN and inf are "no reading".
 MIN_DEPTH, MAX_DEPTH = 0.001, 1e4
-#: A depth image whose median valid reading exceeds this (m) is taken for millimetres.
-MAX_PLAUSIBLE_DEPTH = 100.0
+#: The farthest a depth camera reads (m), by default: :func:`rgbd_percepts` takes a depth image
+#: whose median valid reading lies beyond its ``max_depth`` for another unit than metres.
+MAX_CAMERA_DEPTH = 20.0
 #: A region is occluded when more than this fraction of the valid depth readings just outside
 #: its outline lie nearer than its own nearby readings (by :data:`OCCLUSION_MARGIN`).
 OCCLUDED_FRACTION = 0.2
@@ -161,11 +162,15 @@ class DetectionPercepts:
         For each percept, the index of its detection (left list for stereo).
     dropped : tuple of Dropped
         Every detection that gave no percept, with its reason.
+    notes : tuple of str
+        What the front end noticed about the input as a whole and the caller should hear (for
+        stereo: most detections match with negative disparity, so left and right look swapped).
     """
 
     percepts: tuple[Percept, ...]
     sources: tuple[int, ...]
     dropped: tuple[Dropped, ...]
+    notes: tuple[str, ...] = ()
 
 
 # ----------------------------------------------------------------------------------------------
@@ -185,8 +190,10 @@ def _camera_matrix(value: ArrayLike) -> NDArray[np.float64]:
     return K
 
 
-def _depth_image(value: ArrayLike) -> NDArray[np.float64]:
-    """A (h, w) depth image in metres: NaN, inf and 0 are holes; negative readings are refused."""
+def _depth_image(value: ArrayLike, max_depth: float = MAX_CAMERA_DEPTH) -> NDArray[np.float64]:
+    """A (h, w) depth image in metres: NaN, inf and 0 are holes; negative readings are refused, and
+    so is an image whose median reading lies beyond the camera's range ``max_depth`` (m), naming
+    what the readings would be in centimetres and in millimetres."""
     raw = np.asarray(value) if not isinstance(value, (str, bytes)) else None
     if raw is None or raw.ndim != 2 or raw.shape[0] < 1 or raw.shape[1] < 1:
         shape = None if raw is None else raw.shape
@@ -213,9 +220,15 @@ def _depth_image(value: ArrayLike) -> NDArray[np.float64]:
     sample = depth[::4, ::4][valid[::4, ::4]]
     if sample.size:
         med = float(np.median(sample))
-        if med > MAX_PLAUSIBLE_DEPTH:
-            raise PerceptionError(f"depth readings have median {med:.4g}: that looks like millimetres; pass "
-                                  "depth / 1000.0 (metres)")
+        if med > max_depth:
+            fits = [f"as {unit} {med / scale:.3g} m (pass depth / {scale:g})"
+                    for unit, scale in (("centimetres", 100.0), ("millimetres", 1000.0))
+                    if MIN_DEPTH <= med / scale <= max_depth]
+            hint = "; ".join(fits) if fits else "no common unit brings them within it"
+            raise PerceptionError(
+                f"depth readings have median {med:.4g}, beyond the camera's range max_depth = "
+                f"{max_depth:g} m, so they are not metres: {hint}; or pass max_depth= if the camera "
+                "reaches farther")
     return np.where(valid, depth, np.nan)
 
 
@@ -513,6 +526,7 @@ def rgbd_percepts(
     centre_offset: float | CentreOffset | Mapping[str, float | CentreOffset] | None = None,
     min_pixels: int = 20,
     keep_cut_off: bool = False,
+    max_depth: float = MAX_CAMERA_DEPTH,
 ) -> DetectionPercepts:
     """Percepts from detections and a registered depth image (an RGB-D camera).
 
@@ -557,6 +571,9 @@ def rgbd_percepts(
     keep_cut_off : bool
         Keep regions that touch the image border, with the centre's position across the view
         as uncertain as the visible part is wide.
+    max_depth : float
+        The camera's range (m, default :data:`MAX_CAMERA_DEPTH`): a depth image whose median
+        reading lies beyond it is refused as not in metres.
 
     Returns
     -------
@@ -565,12 +582,13 @@ def rgbd_percepts(
     Raises
     ------
     PerceptionError
-        A depth image that is not 2D float metres (integer depth and medians above
-        :data:`MAX_PLAUSIBLE_DEPTH` are named as millimetres), negative depth, a mask of another
+        A depth image that is not 2D float metres (integer depth is named as millimetres, and a
+        median reading beyond ``max_depth`` as not metres, with what it would be in centimetres
+        and millimetres), negative depth, a mask of another
         size than the depth image, a box outside it, a bad ``K`` or transform.
     """
     dets = _detections("detections", detections)
-    Z = _depth_image(depth)
+    Z = _depth_image(depth, real_scalar("max_depth", max_depth, positive=True, maximum=MAX_DEPTH))
     Kc = _camera_matrix(K)
     T = check_transform("ego_from_camera", ego_from_camera)
     c = real_scalar("depth_noise", depth_noise, positive=True, maximum=1.0)
@@ -751,6 +769,8 @@ def stereo_percepts(
         "pixel_sigma", pixel_sigma, positive=True, maximum=1e3)
     offsets = _centre_offsets(centre_offset, {d.type for d in lefts})
     w, h = rig.image_size
+    _check_image_size("left", lefts, w, h)
+    _check_image_size("right", rights, w, h)
     dropped: list[Dropped] = []
 
     def usable(dets: list[Detection], record: bool) -> list[int]:
@@ -768,6 +788,8 @@ def stereo_percepts(
     matches = match_stereo(rig, [lefts[i] for i in li], [rights[j] for j in ri], max_epipolar_px,
                            min_depth=min_depth)
     matched = {li[m.left]: ri[m.right] for m in matches}
+    notes = _swapped_note(rig, [lefts[i] for i in li], [rights[j] for j in ri], len(matched),
+                          max_epipolar_px, min_depth)
     for i in li:
         if i not in matched:
             dropped.append(Dropped(i, lefts[i].type, "no_stereo_match",
@@ -808,4 +830,39 @@ def stereo_percepts(
             dropped.append(Dropped(i, dl.type, "behind_camera", f"no valid covariance: {exc}"))
             continue
         sources.append(i)
-    return DetectionPercepts(tuple(percepts), tuple(sources), tuple(dropped))
+    return DetectionPercepts(tuple(percepts), tuple(sources), tuple(dropped), notes)
+
+
+#: :func:`stereo_percepts` notes swapped cameras when at least this many detections would match
+#: with the images swapped, and more than twice as many as match as given.
+SWAPPED_MIN_MATCHES = 3
+
+
+def _check_image_size(name: str, dets: list[Detection], w: int, h: int) -> None:
+    """Masks of the rig's image size (``(height, width)`` = ``(h, w)``); a size that fits only
+    transposed names the rig's ``image_size`` as the likely mistake."""
+    for i, d in enumerate(dets):
+        if d.mask is None or d.mask.shape == (h, w):
+            continue
+        if d.mask.shape == (w, h):
+            raise PerceptionError(
+                f"{name}[{i}].mask has shape {d.mask.shape} (height, width) but rig.image_size is "
+                f"({w}, {h}): image_size is (width, height); did you give ({h}, {w})?")
+        raise PerceptionError(f"{name}[{i}].mask has shape {d.mask.shape} (height, width); the rig's "
+                              f"images are {w} x {h} (rig.image_size = ({w}, {h}))")
+
+
+def _swapped_note(rig: Any, lefts: list[Detection], rights: list[Detection], matched: int,
+                  max_epipolar_px: float, min_depth: float) -> tuple[str, ...]:
+    """A note when the detections pair up far better with the cameras swapped (their disparity
+    negative as given)."""
+    from .recognition import match_stereo
+
+    if len(lefts) < SWAPPED_MIN_MATCHES or matched * 2 >= len(lefts):
+        return ()
+    # the same rig with the two images' detections exchanged
+    crossed = len(match_stereo(rig, rights, lefts, max_epipolar_px, min_depth=min_depth))
+    if crossed >= SWAPPED_MIN_MATCHES and crossed > 2 * matched:
+        return (f"most detections match with negative disparity ({crossed} of {len(lefts)} pair up "
+                f"with the cameras swapped, {matched} as given): are left and right swapped?",)
+    return ()

@@ -248,6 +248,7 @@ class StereoRig:
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
         object.__setattr__(self, "image_size", (size[0], size[1]))
+        _check_not_transposed(size, K1, K2)
         self._check_usable()
 
     def _check_usable(self) -> None:
@@ -638,3 +639,28 @@ class StereoRig:
             alpha=alpha,
         )
         return Rectification(*(np.asarray(m, dtype=np.float64) for m in (R1, R2, P1, P2, Q)))
+
+
+#: A principal point more than this fraction of the image's side from its centre, on either axis,
+#: where the transposed size puts it within it, makes :class:`StereoRig` refuse the size as given
+#: as (height, width).
+PRINCIPAL_POINT_FRACTION = 0.15
+
+
+def _check_not_transposed(size: tuple[int, int], K1: NDArray[np.float64], K2: NDArray[np.float64]) -> None:
+    """Refuse an ``image_size`` that only fits the camera matrices transposed (a (height, width)
+    size for a (width, height) one)."""
+    w, h = size
+    if w == h:
+        return
+
+    def off(width: int, height: int) -> bool:
+        return any(abs(K[0, 2] - (width - 1) / 2.0) > PRINCIPAL_POINT_FRACTION * width
+                   or abs(K[1, 2] - (height - 1) / 2.0) > PRINCIPAL_POINT_FRACTION * height
+                   for K in (K1, K2))
+
+    if off(w, h) and not off(h, w):
+        raise PerceptionError(
+            f"image_size = ({w}, {h}) puts the principal point ({K1[0, 2]:g}, {K1[1, 2]:g}) far from "
+            f"the image centre, which ({h}, {w}) fits: image_size is (width, height); did you give "
+            "(height, width)?")

@@ -200,8 +200,19 @@ def test_depth_in_millimetres_and_bad_images_get_clear_errors():
     det = [pc.Detection("door", mask=lab == 0)]
     with pytest.raises(pc.PerceptionError, match=r"depth has integer dtype uint16:.*millimetres.*1000"):
         pc.rgbd_percepts(det, (Z * 1000).astype(np.uint16), K, np.eye(4))
-    with pytest.raises(pc.PerceptionError, match=r"depth readings have median 6000:.*millimetres"):
+    with pytest.raises(pc.PerceptionError, match=r"depth readings have median 6000, beyond .*max_depth = 20 m"
+                                                 r".*as millimetres 6 m \(pass depth / 1000\)") as info:
         pc.rgbd_percepts(det, Z * 1000.0, K, np.eye(4))
+    assert "centimetres" not in str(info.value)  # 60 m is beyond the camera's range too
+    # centimetres: named as centimetres (and millimetres, which would also be in range)
+    with pytest.raises(pc.PerceptionError, match=r"median 600, .*as centimetres 6 m \(pass depth / 100\)"):
+        pc.rgbd_percepts(det, Z * 100.0, K, np.eye(4))
+    # close range in millimetres (median 90): not read as 90 m
+    close = Z * (0.09 / float(np.nanmedian(Z[::4, ::4]))) * 1000.0
+    with pytest.raises(pc.PerceptionError, match=r"median 90, .*as millimetres 0.09 m"):
+        pc.rgbd_percepts(det, close, K, np.eye(4))
+    # a camera that reaches farther says so
+    assert pc.rgbd_percepts(det, Z * 10.0, K, np.eye(4), max_depth=100.0).percepts
     with pytest.raises(pc.PerceptionError, match=r"detections\[0\].mask has shape \(480, 640\).*240 x 320"):
         pc.rgbd_percepts(det, Z[::2, ::2], K, np.eye(4))
     bad = Z.copy()
@@ -270,6 +281,31 @@ def test_stereo_percepts_cover_the_object_centre():
             nees.append(float(e @ np.linalg.solve(p.covariance, e)))
     assert len(nees) >= 20
     assert max(nees) < CHI2_3_999 and np.mean(nees) < 4.5
+
+
+def test_stereo_masks_of_another_size_and_a_transposed_rig_size_are_named():
+    boxes = door_boxes(np.random.default_rng(7), 3)
+    rig, left, right = _stereo_scene(boxes)
+    small = [pc.Detection("door", mask=d.mask[::2, ::2]) for d in right]
+    with pytest.raises(pc.PerceptionError, match=r"right\[0\].mask has shape \(240, 320\).*640 x 480"):
+        pc.stereo_percepts(left, small, rig, np.eye(4))
+    w, h = rig.image_size
+    with pytest.raises(pc.PerceptionError, match=rf"image_size = \({h}, {w}\).*\(height, width\)"):
+        pc.StereoRig(K1=rig.K1, D1=None, K2=rig.K2, D2=None, R=rig.R, T=rig.T, image_size=(h, w))
+    # a square image cannot look transposed
+    square = np.array([[500.0, 0.0, 199.5], [0.0, 500.0, 199.5], [0.0, 0.0, 1.0]])
+    assert pc.StereoRig(K1=square, D1=None, K2=square, D2=None, R=rig.R, T=rig.T, image_size=(400, 400))
+
+
+def test_stereo_notes_left_and_right_swapped():
+    boxes = door_boxes(np.random.default_rng(8), 4)
+    rig, left, right = _stereo_scene(boxes)
+    straight = pc.stereo_percepts(left, right, rig, np.eye(4))
+    assert len(straight.percepts) >= 3 and straight.notes == ()
+    swapped = pc.stereo_percepts(right, left, rig, np.eye(4))
+    assert not swapped.percepts
+    assert len(swapped.notes) == 1 and "are left and right swapped?" in swapped.notes[0]
+    assert "negative disparity" in swapped.notes[0]
 
 
 def test_stereo_drops_unmatched_and_half_hidden_detections():
