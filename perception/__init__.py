@@ -24,7 +24,14 @@ from .errors import (
     TooManyNeighboursError,
 )
 from .frontend import CentreOffset, DetectionPercepts, Dropped, rgbd_percepts, stereo_percepts
-from .fusion import fuse_percepts, mean_shift_modes, percept_bandwidths
+from .fusion import (
+    FusionDrop,
+    FusionReport,
+    fuse_percepts,
+    fuse_percepts_report,
+    mean_shift_modes,
+    percept_bandwidths,
+)
 from .percept import OBJECT_VIEW, Percept
 from .recognition import (
     GaussianClassifier,
@@ -53,6 +60,8 @@ __all__ = [
     "Detection",
     "DetectionPercepts",
     "Dropped",
+    "FusionDrop",
+    "FusionReport",
     "GaussianClassifier",
     "Joint",
     "KinematicChain",
@@ -72,6 +81,7 @@ __all__ = [
     "depth_sigma",
     "disparity",
     "fuse_percepts",
+    "fuse_percepts_report",
     "match_stereo",
     "mean_shift_modes",
     "percept_bandwidths",

@@ -15,7 +15,8 @@ never an n x n array.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any, cast
+from dataclasses import dataclass
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -431,6 +432,49 @@ def _check_percepts(percepts: Any) -> list[Percept]:
     return ps
 
 
+#: Why :func:`fuse_percepts_report` left out a set of raw percepts.
+FusionDropReason = Literal["too_few_views"]
+
+
+@dataclass(frozen=True)
+class FusionDrop:
+    """A set of raw percepts (one mean-shift mode) that fusion left out.
+
+    Attributes
+    ----------
+    type : str
+    position : (3,) float
+        The mean position of the set's raw percepts (ego frame).
+    views : int
+        The views the set holds.
+    reason : FusionDropReason
+        ``"too_few_views"``: fewer than ``min_views``.
+    detail : str
+    """
+
+    type: str
+    position: NDArray[np.float64]
+    views: int
+    reason: FusionDropReason
+    detail: str
+
+
+@dataclass(frozen=True)
+class FusionReport:
+    """What :func:`fuse_percepts_report` made of raw percepts.
+
+    Attributes
+    ----------
+    percepts : tuple of Percept
+        The fused percepts, as :func:`fuse_percepts` returns them.
+    dropped : tuple of FusionDrop
+        Every set of raw percepts that gave no fused percept, with its reason.
+    """
+
+    percepts: tuple[Percept, ...]
+    dropped: tuple[FusionDrop, ...]
+
+
 def fuse_percepts(
     percepts: Sequence[Percept],
     *,
@@ -477,7 +521,8 @@ def fuse_percepts(
     Returns
     -------
     list of Percept
-        Sorted by type, then by position.
+        Sorted by type, then by position.  :func:`fuse_percepts_report` also says which sets
+        of raw percepts were left out and why (objects seen in fewer than ``min_views`` views).
 
     Raises
     ------
@@ -485,6 +530,36 @@ def fuse_percepts(
         - ``bandwidth`` is a dict without an entry for a type present.
         - Any invalid argument (named with index and value), or a set that cannot be melted
           without overflow.
+    """
+    return list(fuse_percepts_report(percepts, bandwidth=bandwidth, min_views=min_views, max_iter=max_iter,
+                                     tol=tol).percepts)
+
+
+def fuse_percepts_report(
+    percepts: Sequence[Percept],
+    *,
+    bandwidth: float | ArrayLike | Mapping[str, float | ArrayLike] | None = None,
+    min_views: int = 2,
+    max_iter: int = 100,
+    tol: float = MEAN_SHIFT_TOL,
+) -> FusionReport:
+    """:func:`fuse_percepts`, with a report of what it left out.
+
+    Parameters
+    ----------
+    percepts, bandwidth, min_views, max_iter, tol
+        As for :func:`fuse_percepts`.
+
+    Returns
+    -------
+    FusionReport
+        The fused percepts and every set of raw percepts (a mean-shift mode) that gave none:
+        its type, mean position, views and reason.
+
+    Raises
+    ------
+    PerceptionError
+        As :func:`fuse_percepts`.
     """
     ps = _check_percepts(percepts)
     min_views = integer("min_views", min_views, minimum=1)
@@ -505,6 +580,7 @@ def fuse_percepts(
         _bandwidth_factor("bandwidth", Hall, 3)
         H = dict.fromkeys(types, Hall)
     fused: list[Percept] = []
+    dropped: list[FusionDrop] = []
     for t in types:
         group = [p for p in ps if p.type == t]
         group = [group[i] for i in _canonical_order(group)]
@@ -520,11 +596,17 @@ def fuse_percepts(
         out = []
         for k in range(int(labels.max()) + 1):
             members = [group[i] for i in np.flatnonzero(labels == k)]
-            if sum(p.views for p in members) >= min_views:
+            views = sum(p.views for p in members)
+            if views >= min_views:
                 out.append(_melt(members))
+            else:
+                centre = np.mean([p.position for p in members], axis=0)
+                dropped.append(FusionDrop(t, centre, views, "too_few_views",
+                                          f"{views} view(s) of a {t!r} near {np.round(centre, 3).tolist()}, "
+                                          f"fewer than min_views = {min_views}"))
         out = [out[i] for i in _canonical_order(out)] if out else []
         fused += out
-    return fused
+    return FusionReport(tuple(fused), tuple(dropped))
 
 
 #: Default number of standard deviations of :func:`percept_bandwidths`.

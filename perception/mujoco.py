@@ -58,6 +58,7 @@ from .errors import (
 from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE, CentreOffset, _offset_of, rgbd_percepts
 from .percept import Percept
 from .simulate import scan_angles
+from .tolerances import ANGLE_SLACK
 from .type_rules import type_rule
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -1227,7 +1228,7 @@ depth_noise, max_range, centre_offset
         lo_reach, hi_reach = max(-reach, lower), min(reach, upper)
         target = math.atan2(d[1], d[0])
         yaws = target + (np.linspace(-spread, spread, n) if n > 1 else np.zeros(1))
-        if yaws[-1] - yaws[0] > hi_reach - lo_reach + 1e-9:
+        if yaws[-1] - yaws[0] > hi_reach - lo_reach + ANGLE_SLACK:
             fan = math.degrees(yaws[-1] - yaws[0])
             raise PerceptionError(f"spread_deg = {spread_deg!r}: a fan of {fan:g} degrees does not fit the "
                                   f"neck's reach of "

@@ -56,3 +56,7 @@ RIG_ROUND_TRIP_RTOL = 1e-6
 #: Depth front end: an isotropic floor, this fraction of the depth noise, added to a percept's own
 #: covariance (the depth error alone spans one direction; the floor keeps it positive definite).
 DEPTH_COVARIANCE_FLOOR = 1e-3
+
+#: :meth:`perception.mujoco.MujocoScene.look`: slack (radians) when a look's fan of neck yaws is
+#: compared with the neck's reach (a fan exactly as wide as the reach fits).
+ANGLE_SLACK = 1e-9

@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+import perception as pc
 import perception.fusion as fusion_module
 from perception import (
     Percept,
@@ -349,3 +350,23 @@ def test_mean_shift_budget_counts_every_pair_it_evaluates(monkeypatch) -> None:
     ref_modes, ref_labels = dense_mean_shift(X, 0.01 * np.eye(3), np.ones(len(X)))
     np.testing.assert_array_equal(labels, ref_labels)
     np.testing.assert_allclose(modes, ref_modes, rtol=0, atol=1e-9)
+
+
+def test_the_fusion_report_names_what_min_views_left_out():
+    rng = np.random.default_rng(12)
+    # three doors seen in 3 views each, a knob seen once, a drawer seen twice
+    raw = [pc.Percept("door", [2.0 + k, 0.0, 1.0] + 0.005 * rng.standard_normal(3), 0.01)
+           for k in range(3) for _ in range(3)]
+    raw += [pc.Percept("knob", [1.0, 1.0, 1.0], 0.01)]
+    raw += [pc.Percept("drawer", [1.0, -1.0, 0.5] + 0.005 * rng.standard_normal(3), 0.01) for _ in range(2)]
+    report = pc.fuse_percepts_report(raw, bandwidth=0.1, min_views=3)
+    assert sorted(p.type for p in report.percepts) == ["door", "door", "door"]
+    assert sorted((d.type, d.views, d.reason) for d in report.dropped) == [
+        ("drawer", 2, "too_few_views"), ("knob", 1, "too_few_views")]
+    knob = next(d for d in report.dropped if d.type == "knob")
+    np.testing.assert_allclose(knob.position, [1.0, 1.0, 1.0])
+    assert "min_views = 3" in knob.detail
+    # fuse_percepts returns the same percepts
+    plain = pc.fuse_percepts(raw, bandwidth=0.1, min_views=3)
+    assert [p.position.tolist() for p in plain] == [p.position.tolist() for p in report.percepts]
+    assert pc.fuse_percepts_report(raw, bandwidth=0.1, min_views=1).dropped == ()

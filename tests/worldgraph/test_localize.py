@@ -213,3 +213,23 @@ def test_kitchen_with_a_false_percept_is_right_or_says_so(kitchen: WorldModel) -
             assert np.linalg.norm(res.position - pose[:3, 3]) < 0.3
             assert rotation_error_deg(res.transformation, pose) < 5.0
         done += 1
+
+
+def test_raw_percepts_of_a_scan_get_a_note_and_fused_ones_do_not():
+    import perception as pc
+    from worldgraph import scenes
+
+    world = scenes.kitchen(seed=0)
+    rng = np.random.default_rng(0)
+    truth = np.eye(4)
+    lower, upper = world.bounds
+    truth[:3, 3] = [(lower[0] + upper[0]) / 2, (lower[1] + upper[1]) / 2, 1.6]
+    seen = np.isin(world.types, ("door", "handle", "drawer", "knob"))
+    raw = pc.simulate_scan(world.types[seen].tolist(), world.positions[seen], truth, rng, n_views=10)
+    note = "look like the raw percepts of several views"
+    assert note in localize(world, raw).message
+    fused = pc.fuse_percepts(raw, bandwidth={"door": 0.3, "drawer": 0.3, "handle": 0.1, "knob": 0.1})
+    assert note not in localize(world, fused).message
+    # one view of distinct objects (views == 1, none close to another of its type): no note
+    one, _ = pc.simulate_percepts(world.types[seen].tolist(), world.positions[seen], truth, rng)
+    assert note not in localize(world, one).message

@@ -361,6 +361,43 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
     return result
 
 
+#: ``localize`` notes unfused percepts when at least this many are given, none fused
+#: (``views == 1``), and at least :data:`UNFUSED_FRACTION` of them have a percept of their type
+#: within 3 sigma (of the pair's combined range sigmas): the same object seen in several views.
+UNFUSED_MIN_PERCEPTS = 4
+#: The share of percepts with a close percept of their type that :func:`unfused_hint` notes.
+UNFUSED_FRACTION = 0.25
+
+
+def unfused_hint(percepts: Sequence[Percept]) -> str | None:
+    """A sentence for the message when percepts look like the raw per-view percepts of a scan
+    rather than one per object (:data:`UNFUSED_MIN_PERCEPTS`, :data:`UNFUSED_FRACTION`), or
+    ``None``."""
+    if len(percepts) < UNFUSED_MIN_PERCEPTS or any(p.views > 1 for p in percepts):
+        return None
+    from scipy.spatial import cKDTree
+
+    types = np.array([p.type for p in percepts])
+    pos = np.array([p.position for p in percepts], dtype=np.float64)
+    sig = np.array([p.sigma for p in percepts], dtype=np.float64)
+    close = np.zeros(len(percepts), dtype=bool)
+    for t in np.unique(types):
+        idx = np.flatnonzero(types == t)
+        if idx.size < 2:
+            continue
+        tree = cKDTree(pos[idx])
+        reach = 3.0 * math.sqrt(2.0) * float(sig[idx].max())
+        for a, b in tree.query_pairs(reach, output_type="ndarray"):
+            i, j = idx[a], idx[b]
+            if np.linalg.norm(pos[i] - pos[j]) <= 3.0 * math.hypot(sig[i], sig[j]):
+                close[i] = close[j] = True
+    if close.mean() < UNFUSED_FRACTION:
+        return None
+    return (f"{int(close.sum())} of {len(percepts)} percepts have a percept of their type within 3 sigma and "
+            "none is fused (views == 1): these look like the raw percepts of several views; fuse them first "
+            "(perception.fuse_percepts), or one object counts several times and the covariance is too small")
+
+
 def _units_hints(world: WorldModel, used: list[Percept]) -> list[str]:
     """Sentences for the message when positions look like millimetres (docs/design.md#units)."""
     hint = units_hint(world, used)
@@ -400,6 +437,8 @@ def _known_percepts_step(world: WorldModel, percepts: list[Percept], settings: _
     idx = np.flatnonzero(known)
     used = [percepts[i] for i in idx]
     notes += _units_hints(world, used)
+    raw = unfused_hint(used)
+    notes += [raw] if raw else []
     timings = {"association": 0.0, "validation": 0.0, "radial": 0.0, "position": 0.0, "orientation": 0.0}
     return _Call(world, settings, used, idx, len(percepts), notes, timings, t_start)
 
