@@ -30,6 +30,7 @@ import functools
 import json
 import os
 import sys
+import tempfile
 import time
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -41,6 +42,7 @@ import perception as pc  # noqa: E402
 import worldgraph as wg  # noqa: E402
 from perception.mujoco import MujocoScene
 from worldgraph.importers.franka import FRANKA_BODY_TYPES, franka_kitchen_path
+from worldgraph.scenes.mjcf import write_mjcf
 
 MIN_SEEN = 5
 STAGES = ("render", "detect", "percepts", "fusion", "localize")
@@ -111,40 +113,67 @@ def main() -> None:
     ap.add_argument("--mask-jitter", type=int, default=1, help="mask edge jitter, pixels")
     ap.add_argument("--min-pixels", type=int, default=20)
     ap.add_argument("--max-looks", type=int, default=3, help="looks of active_localize after the scan")
+    ap.add_argument("--procedural", type=int, default=0, metavar="N",
+                    help="instead of --scene: N procedural kitchens and layouts (worldgraph.scenes) "
+                         "exported as textured MJCF (worldgraph.scenes.mjcf), --poses poses each")
     ap.add_argument("--any-yaw", action="store_true",
                     help="turn each robot pose to a random yaw (it need not face an object)")
     ap.add_argument("--pitch", type=float, nargs=2, default=(-20.0, 0.0),
                     help="neck pitch of the sweep's two rows, degrees (negative looks up)")
     args = ap.parse_args()
-    path = args.scene or str(franka_kitchen_path() / "kitchen_env_model.xml")
-    if args.type_of:
-        type_of = json.loads(args.type_of)
-    else:
-        type_of = FRANKA_BODY_TYPES if args.scene is None else None
     width, height = (int(x) for x in args.size.split("x"))
-    world = wg.WorldModel.from_file(path, type_of=type_of)
-    scene = MujocoScene(path, type_of=type_of)
-    print(f"{path}: {len(world)} typed objects {sorted(set(world.types.tolist()))}", file=sys.stderr)
-    t0 = time.perf_counter()
-    scene.default_centre_offsets()  # measured once per scene, on poses of its own seed
-    print(f"centre offsets measured in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    poses = scene.robot_poses(args.poses, np.random.default_rng(args.seed))
-    if args.any_yaw:
-        yaw_rng = np.random.default_rng(args.seed + 2)
-        for pose in poses:
-            yaw = yaw_rng.uniform(-np.pi, np.pi)
-            pose[:3, :3] = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0],
-                                     [0.0, 0.0, 1.0]])
     degrade = dict(miss_rate=args.miss_rate, false_rate=args.false_rate, mask_jitter_px=args.mask_jitter,
                    min_pixels=args.min_pixels, pitch_deg=tuple(args.pitch))
-    rows = [(sensor, run(scene, world, sensor, poses, np.random.default_rng(args.seed + 1), args.views,
-                         (width, height), degrade, args.max_looks)) for sensor in args.sensors]
+    if args.procedural:
+        sources = procedural_scenes(args.procedural, tempfile.mkdtemp(prefix="from_pixels_"))
+    else:
+        path = args.scene or str(franka_kitchen_path() / "kitchen_env_model.xml")
+        if args.type_of:
+            type_of = json.loads(args.type_of)
+        else:
+            type_of = FRANKA_BODY_TYPES if args.scene is None else None
+        sources = [(path, type_of)]
+    per_sensor: dict[str, list[dict[str, list]]] = {sensor: [] for sensor in args.sensors}
+    for k, (path, type_of) in enumerate(sources):
+        world = wg.WorldModel.from_file(path, type_of=type_of)
+        scene = MujocoScene(path, type_of=type_of)
+        print(f"{path}: {len(world)} typed objects {sorted(set(world.types.tolist()))}", file=sys.stderr)
+        t0 = time.perf_counter()
+        scene.default_centre_offsets()  # measured once per scene, on poses of its own seed
+        print(f"centre offsets measured in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        poses = scene.robot_poses(args.poses, np.random.default_rng(args.seed + 10 * k))
+        if args.any_yaw:
+            yaw_rng = np.random.default_rng(args.seed + 10 * k + 2)
+            for pose in poses:
+                yaw = yaw_rng.uniform(-np.pi, np.pi)
+                pose[:3, :3] = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0],
+                                         [0.0, 0.0, 1.0]])
+        for sensor in args.sensors:
+            per_sensor[sensor].append(run(scene, world, sensor, poses, np.random.default_rng(args.seed + 1),
+                                          args.views, (width, height), degrade, args.max_looks))
+        scene.close()
+    rows = [(sensor, {key: [v for st in runs for v in st[key]] for key in runs[0]})
+            for sensor, runs in per_sensor.items()]
     print(table(rows, args.views, (width, height)))
     print()
     print(looks_table(rows, args.max_looks))
-    print(f"\nScene {os.path.basename(path)} ({len(world)} typed objects), poses of MujocoScene.robot_poses "
-          f"(seed {args.seed}); degradation: miss {args.miss_rate}, false {args.false_rate}, mask jitter "
-          f"{args.mask_jitter} px, min {args.min_pixels} px.")
+    names = ", ".join(os.path.basename(p) for p, _ in sources[:3]) + (" ..." if len(sources) > 3 else "")
+    print(f"\n{len(sources)} scene(s) ({names}), poses of MujocoScene.robot_poses "
+          f"(seed {args.seed}{', any yaw' if args.any_yaw else ''}); degradation: miss {args.miss_rate}, "
+          f"false {args.false_rate}, mask jitter {args.mask_jitter} px, min {args.min_pixels} px.")
+
+
+def procedural_scenes(n: int, folder: str) -> list[tuple[str, None]]:
+    """``n`` procedural scenes written as MJCF files in ``folder``: the paper-sized kitchen and the
+    five layout kinds in turn, each with its own seed (layout and materials)."""
+    out = []
+    for i in range(n):
+        kinds = (None, *wg.scenes.LAYOUT_KINDS)
+        kind = kinds[i % len(kinds)]
+        world = wg.scenes.kitchen(seed=i) if kind is None else wg.scenes.kitchen_layout(kind, seed=i)
+        name = f"{kind or 'kitchen'}_{i:02d}.xml"
+        out.append((str(write_mjcf(world, os.path.join(folder, name), seed=i)), None))
+    return out
 
 
 def table(rows, views, size) -> str:

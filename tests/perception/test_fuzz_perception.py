@@ -171,6 +171,8 @@ CASES: dict[str, tuple[Callable[..., Any], dict[str, Any]]] = {
     "Percept": (pc.Percept, dict(type="door", position=[1.0, 2.0, 3.0], sigma=0.1, covariance=COV3, views=2)),
     "fuse_percepts": (pc.fuse_percepts, dict(percepts=PERCEPTS, bandwidth=0.2, min_views=2, max_iter=50,
                                              tol=1e-6)),
+    "fuse_percepts_report": (pc.fuse_percepts_report, dict(percepts=PERCEPTS, bandwidth=0.2, min_views=2,
+                                                           max_iter=50, tol=1e-6)),
     "mean_shift_modes": (pc.mean_shift_modes, dict(points=X3, bandwidth=0.5, weights=[1.0, 2.0, 3.0],
                                                    max_iter=20, tol=1e-6)),
     "depth_sigma": (pc.depth_sigma, dict(rho=[1.0, 2.0], depth_factor=1000.0)),
@@ -255,7 +257,8 @@ SLOW = {"train_classifier", "recognize", "render_stereo", "simulate_scan", "dete
 def test_every_public_entry_point_is_fuzzed() -> None:
     # result records and a constant take no input of their own
     names = {n for n in pc.__all__ if not n.endswith("Error")} - {"Rectification", "DetectionPercepts",
-                                                                  "Dropped", "OBJECT_VIEW"}
+                                                                  "Dropped", "OBJECT_VIEW", "FusionDrop",
+                                                                  "FusionReport"}
     covered = {c.split(".")[0] for c in CASES} | {"train_classifier"}
     assert names <= covered, sorted(names - covered)
 

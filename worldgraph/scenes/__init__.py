@@ -30,7 +30,9 @@ Where things live: :mod:`.builder` (the mesh helpers, the scene builder, :func:`
 :mod:`.furniture` (handles, knobs, cabinets, appliances, the room shell, :data:`STRUCTURAL_TYPES`),
 :mod:`.paper_kitchen` (:func:`kitchen_scene`, :func:`kitchen`), :mod:`.layouts` (:data:`LAYOUT_KINDS`,
 :func:`kitchen_layout_scene`, :func:`kitchen_layout`, the planning of their runs) and
-:mod:`.buildings` (:func:`corridor`, :func:`floor`, :func:`building`, :func:`campus`, :class:`Site`).
+:mod:`.buildings` (:func:`corridor`, :func:`floor`, :func:`building`, :func:`campus`, :class:`Site`)
+and :mod:`.mjcf` (:func:`scene_mjcf`, :func:`write_mjcf`: a kitchen or layout as a textured MuJoCo
+scene, for simulated head scans).
 """
 
 from .builder import scene_statistics
@@ -52,6 +54,7 @@ from .buildings import (
 )
 from .furniture import STRUCTURAL_TYPES
 from .layouts import LAYOUT_KINDS, LAYOUT_TYPES, kitchen_layout, kitchen_layout_scene
+from .mjcf import scene_mjcf, write_mjcf
 from .paper_kitchen import KITCHEN_ROOM, KITCHEN_TARGETS, kitchen, kitchen_scene
 
 __all__ = [
@@ -79,4 +82,6 @@ __all__ = [
     "kitchen_layout_scene",
     "kitchen_scene",
     "scene_statistics",
+    "scene_mjcf",
+    "write_mjcf",
 ]
