@@ -135,6 +135,9 @@ REFINE_TOL = 1e-12
 ISOTROPIC_RTOL = 1e-9
 #: Pose: rotations whose entries agree to this are the same start.
 SAME_ROTATION = 1e-9
+#: Scenes as MJCF (:mod:`worldgraph.scenes.mjcf`): a mesh of 8 vertices within this (relative to
+#: its largest coordinate, at least 1 m) of its bounding box's corners is written as a box.
+BOX_CORNER_RTOL = 1e-9
 #: Pose: a start is better only when its cost is lower by this times ``max(cost, 1)``.
 START_IMPROVEMENT = 1e-9
 #: Pose (LM on the covariance-weighted cost): starting damping.

@@ -25,6 +25,7 @@ from scipy.spatial.transform import Rotation
 from .._checks import file_path, integer
 from ..errors import WorldGraphError
 from ..model import WorldModel
+from ..tolerances import BOX_CORNER_RTOL
 
 __all__ = ["TEXTURE_KINDS", "scene_mjcf", "write_mjcf"]
 
@@ -62,7 +63,8 @@ def _is_box(mesh: Any) -> bool:
     if v.shape != (8, 3):
         return False
     lo, hi = v.min(axis=0), v.max(axis=0)
-    at_corner = np.minimum(np.abs(v - lo), np.abs(v - hi)) <= 1e-9 * max(1.0, float(np.abs(v).max()))
+    slack = BOX_CORNER_RTOL * max(1.0, float(np.abs(v).max()))
+    at_corner = np.minimum(np.abs(v - lo), np.abs(v - hi)) <= slack
     return bool(np.all(at_corner)) and bool(np.all(hi - lo > 0))
 
 
