@@ -365,7 +365,7 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
 #: (``views == 1``), and at least :data:`UNFUSED_FRACTION` of them have a percept of their type
 #: within 3 sigma (of the pair's combined range sigmas): the same object seen in several views.
 UNFUSED_MIN_PERCEPTS = 4
-#: The share of percepts with a close percept of their type that :func:`unfused_hint` notes.
+#: The share of percepts with a close percept of their type that makes ``localize`` note them.
 UNFUSED_FRACTION = 0.25
 
 
