@@ -1,7 +1,8 @@
-"""Every module the test suite imports comes from what the README's test command installs: the
-package's dependencies and its ``test`` extra, what they require in turn, and the distributions that
-command installs by name. A test whose import only a developer's machine happens to have (Sphinx,
-once, from the ``docs`` extra) fails here on every machine, not only on a fresh one.
+"""Every module the test suite imports comes from a distribution the README's test command names:
+the package's dependencies, its ``test`` extra, or one that command installs by name. Named, not
+merely pulled in by another (pytest brings packaging today, Sphinx brings docutils; a release that
+drops them would break a fresh machine). A test whose import only a developer's machine happens to
+have (Sphinx, once, from the ``docs`` extra) fails here on every machine, not only on a fresh one.
 
 Read statically: the imports of the tests, of the docs helpers and examples they load, and of the
 three packages (whose optional imports the tests exercise), each mapped to the distribution that
@@ -12,7 +13,6 @@ from __future__ import annotations
 
 import ast
 import re
-import shlex
 import sys
 from importlib import metadata
 from pathlib import Path
@@ -20,6 +20,8 @@ from pathlib import Path
 from packaging.markers import default_environment
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
+
+from tests.repo.test_readme import commands, fenced_blocks
 
 ROOT = Path(__file__).resolve().parents[2]
 SCANNED = ("tests", "perception", "worldgraph", "radialopt", "examples")
@@ -84,45 +86,26 @@ def _local_names() -> set[str]:
     return names
 
 
-def _readme_test_command() -> str:
+def _readme_test_command() -> list[list[str]]:
+    """The simple commands of the README's second set-up block (its test command)."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     setup = re.search(r"^## Set-up.*?(?=^## )", text, re.MULTILINE | re.DOTALL)
     assert setup, "README.md has no '## Set-up' section"
-    blocks = re.findall(r"^```bash\n(.*?)^```", setup.group(0), re.MULTILINE | re.DOTALL)
+    blocks = fenced_blocks(setup.group(0), "bash")
     assert len(blocks) == 2, "README.md's set-up has not its two commands"
-    return blocks[1]
+    return commands(blocks[1][1])
 
 
-def installed_by_the_test_command() -> set[str]:
-    """Canonical names of the distributions the README's test command installs: the dependencies and
-    the ``test`` extra (markers evaluated here), everything they require, recursively, and the
-    distributions it names in its other ``pip install`` lines."""
+def named_by_the_test_command() -> set[str]:
+    """Canonical names of the distributions the README's test command names: the dependencies and
+    the ``test`` extra (markers evaluated here), and those its other ``pip install`` lines name."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
-    command = _readme_test_command()
-    assert 'pip install -e ".[test]"' in command, "the README's test command installs the test extra"
+    pips = [c for c in _readme_test_command() if c[:2] == ["pip", "install"]]
+    assert ["pip", "install", "-e", ".[test]"] in pips, "the README's test command installs the test extra"
     roots = [Requirement(r) for r in [*project["dependencies"], *project["optional-dependencies"]["test"]]]
-    by_name = [w for part in command.split("&&") for w in [shlex.split(part)]
-               if w[:2] == ["pip", "install"] and "-e" not in w]
-    roots += [Requirement(w) for words in by_name for w in words[2:] if not w.startswith("-")]
-    env = default_environment()
-    todo = [r for r in roots if r.marker is None or r.marker.evaluate({**env, "extra": ""})]
-    seen: set[str] = set()
-    while todo:
-        req = todo.pop()
-        name = canonicalize_name(req.name)
-        if name in seen:
-            continue
-        seen.add(name)
-        try:
-            requires = metadata.requires(req.name) or []
-        except metadata.PackageNotFoundError:
-            continue  # named but not installed here: its own imports fail below, by name
-        for extra in [""] + sorted(req.extras):
-            for text in requires:
-                sub = Requirement(text)
-                if sub.marker is None or sub.marker.evaluate({**env, "extra": extra}):
-                    todo.append(sub)
-    return seen
+    roots += [Requirement(w) for c in pips if "-e" not in c for w in c[2:] if not w.startswith("-")]
+    env = {**default_environment(), "extra": ""}
+    return {canonicalize_name(r.name) for r in roots if r.marker is None or r.marker.evaluate(env)}
 
 
 def test_the_import_reader_finds_required_and_leaves_optional_imports() -> None:
@@ -136,9 +119,9 @@ def test_the_import_reader_finds_required_and_leaves_optional_imports() -> None:
     assert required_imports(source) == {"numpy", "scipy", "sphinx", "cv2", "mujoco", "tomllib"}
 
 
-def test_every_import_of_the_suite_is_installed_by_the_readme_test_command() -> None:
+def test_every_import_of_the_suite_comes_from_a_distribution_the_readme_test_command_names() -> None:
     providers = metadata.packages_distributions()
-    allowed = installed_by_the_test_command()
+    allowed = named_by_the_test_command()
     local = _local_names()
     wanted: dict[str, list[str]] = {}
     paths = [p for folder in SCANNED for p in sorted((ROOT / folder).rglob("*.py"))]
@@ -153,5 +136,5 @@ def test_every_import_of_the_suite_is_installed_by_the_readme_test_command() -> 
             where = ", ".join(files[:3]) + (f" and {len(files) - 3} more" if len(files) > 3 else "")
             given = f"provided here by {sorted(dists)}" if dists else "installed nowhere here"
             missing.append(f"{module!r} ({given}), imported by {where}")
-    assert not missing, ("imports the README's test command does not install (add the distribution "
-                         "to the test extra):\n" + "\n".join(missing))
+    assert not missing, ("imports from distributions the README's test command does not name (add "
+                         "the distribution to the test extra):\n" + "\n".join(missing))
