@@ -347,13 +347,7 @@ class KinematicChain:
         (3, n_joints) float
         """
         x = _vector3("point_camera", point_camera)
-        frames = self.joint_frames(angles)
-        X = (frames[-1] @ self.tip_from_camera @ np.append(x, 1.0))[:3]
-        J = np.zeros((3, self.n_joints))
-        for i, j in enumerate(self.joints):
-            axis = frames[i][:3, _AXES[j.axis]]
-            J[:, i] = np.cross(axis, X - frames[i][:3, 3])
-        return J
+        return self.point_jacobians(angles, x[None, :])[0]
 
     def point_jacobians(
         self, angles: Mapping[str, float] | ArrayLike, points_camera: ArrayLike

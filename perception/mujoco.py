@@ -1114,26 +1114,33 @@ class MujocoScene:
               ``depth_noise``, a non-positive ``max_range``, ``rng`` not a Generator.
         """
         pose = check_transform("world_from_ego", world_from_ego)
-        if not isinstance(sensor, str) or sensor not in SENSORS:
-            raise PerceptionError(f"sensor must be one of {SENSORS}, got {_short(sensor)}")
-        kind: Sensor = "rgbd" if sensor == "rgbd" else "stereo"
+        kind = _sensor(sensor)
         n = integer("n_views", n_views, minimum=1, maximum=100_000)
+        gen, size, head, degrade, noise, far = self._sweep_arguments(
+            rng, image_size, chain, miss_rate, false_rate, mask_jitter_px, min_pixels, depth_noise, max_range)
+        run_front_end = boolean("percepts", percepts)
+        centres = self._centre_offset(centre_offset) if run_front_end or centre_offset is not None else {}
+        Q = scan_angles(head, n, yaw_deg, pitch_deg)
+        return self._sweep(pose, Q, head, kind, gen, size, degrade, noise, far, run_front_end, centres)
+
+    def _sweep_arguments(self, rng: Any, image_size: Any, chain: Any, miss_rate: Any, false_rate: Any,
+                         mask_jitter_px: Any, min_pixels: Any, depth_noise: Any, max_range: Any
+                         ) -> tuple[np.random.Generator, tuple[int, int], KinematicChain, _Degrade, float,
+                                    float]:
+        """The checked arguments :meth:`scan` and :meth:`look` share: the generator, the image size,
+        the head, the detector model, the depth noise and the range."""
         gen = check_rng("rng", rng)
         size = _image_size(image_size)
         head = default_head() if chain is None else chain
         if not isinstance(head, KinematicChain):
             raise PerceptionError(f"chain must be a KinematicChain or None, got {type(chain).__name__}")
-        miss = real_scalar("miss_rate", miss_rate, minimum=0.0, maximum=1.0)
-        false = real_scalar("false_rate", false_rate, minimum=0.0, maximum=1.0)
-        jitter = integer("mask_jitter_px", mask_jitter_px, minimum=0, maximum=1000)
-        min_px = integer("min_pixels", min_pixels, minimum=1)
+        degrade = _Degrade(self.types, gen, real_scalar("miss_rate", miss_rate, minimum=0.0, maximum=1.0),
+                           real_scalar("false_rate", false_rate, minimum=0.0, maximum=1.0),
+                           integer("mask_jitter_px", mask_jitter_px, minimum=0, maximum=1000),
+                           integer("min_pixels", min_pixels, minimum=1))
         noise = real_scalar("depth_noise", depth_noise, nonnegative=True)
         far = real_scalar("max_range", max_range, positive=True)
-        run_front_end = boolean("percepts", percepts)
-        centres = self._centre_offset(centre_offset) if run_front_end or centre_offset is not None else {}
-        Q = scan_angles(head, n, yaw_deg, pitch_deg)
-        degrade = _Degrade(self.types, gen, miss, false, jitter, min_px)
-        return self._sweep(pose, Q, head, kind, gen, size, degrade, noise, far, run_front_end, centres)
+        return gen, size, head, degrade, noise, far
 
     def look(self, world_from_ego: ArrayLike, direction: ArrayLike, *, sensor: str = "rgbd",
              rng: np.random.Generator, n_views: int = LOOK_VIEWS, spread_deg: float = LOOK_SPREAD_DEG,
@@ -1200,27 +1207,16 @@ depth_noise, max_range, centre_offset
         d = real_array("direction", direction, shape=(3,))
         if not float(np.linalg.norm(d)) > 0.0:
             raise PerceptionError(f"direction must be a non-zero ego-frame vector, got {d.tolist()}")
-        if not isinstance(sensor, str) or sensor not in SENSORS:
-            raise PerceptionError(f"sensor must be one of {SENSORS}, got {_short(sensor)}")
-        kind: Sensor = "rgbd" if sensor == "rgbd" else "stereo"
+        kind = _sensor(sensor)
         n = integer("n_views", n_views, minimum=1, maximum=1000)
         spread = math.radians(real_scalar("spread_deg", spread_deg, nonnegative=True, maximum=180.0))
         reach = math.radians(real_scalar("neck_reach_deg", neck_reach_deg, positive=True, maximum=180.0))
-        gen = check_rng("rng", rng)
-        size = _image_size(image_size)
-        head = default_head() if chain is None else chain
-        if not isinstance(head, KinematicChain):
-            raise PerceptionError(f"chain must be a KinematicChain or None, got {type(chain).__name__}")
+        gen, size, head, degrade, noise, far = self._sweep_arguments(
+            rng, image_size, chain, miss_rate, false_rate, mask_jitter_px, min_pixels, depth_noise, max_range)
         for need in ("neck_yaw", "neck_pitch"):
             if need not in head.names:
                 raise PerceptionError(f"look needs a joint named {need!r}; the chain has {list(head.names)}")
         pitch = _pitch_pair(pitch_deg)
-        degrade = _Degrade(self.types, gen, real_scalar("miss_rate", miss_rate, minimum=0.0, maximum=1.0),
-                           real_scalar("false_rate", false_rate, minimum=0.0, maximum=1.0),
-                           integer("mask_jitter_px", mask_jitter_px, minimum=0, maximum=1000),
-                           integer("min_pixels", min_pixels, minimum=1))
-        noise = real_scalar("depth_noise", depth_noise, nonnegative=True)
-        far = real_scalar("max_range", max_range, positive=True)
         centres = self._centre_offset(centre_offset)
         fuse_min = integer("min_views", min_views, minimum=1, maximum=n)
         yaw_index, pitch_index = head.names.index("neck_yaw"), head.names.index("neck_pitch")
@@ -1419,6 +1415,12 @@ class _Degrade:
             dets.append(Detection(type=typ, mask=fake, score=1.0))
             truth.append(-1)
         return tuple(dets), tuple(truth), tuple(missed)
+
+
+def _sensor(value: Any) -> Sensor:
+    if not isinstance(value, str) or value not in SENSORS:
+        raise PerceptionError(f"sensor must be one of {SENSORS}, got {_short(value)}")
+    return "rgbd" if value == "rgbd" else "stereo"
 
 
 def _pitch_pair(value: Any) -> tuple[float, float]:

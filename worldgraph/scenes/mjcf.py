@@ -52,11 +52,6 @@ def _fmt(values: Any) -> str:
     return " ".join(f"{float(v):.6g}" for v in np.ravel(values))
 
 
-def _type_of(node: str, meta: dict[str, Any]) -> str:
-    t = meta.get("type") if isinstance(meta, dict) else None
-    return str(t) if t else node.rsplit("_", 1)[0]
-
-
 def _is_box(mesh: Any) -> bool:
     """A mesh of 8 vertices at the corners of its own axis-aligned bounding box."""
     v = np.asarray(mesh.vertices, dtype=np.float64)
@@ -134,7 +129,7 @@ def scene_mjcf(world: WorldModel | Any, *, seed: int = 0, model_name: str = "gau
         mesh = scene.geometry[geom_name]
         if not len(mesh.vertices):
             continue
-        kind = _type_of(node, scene.graph.transforms.node_data.get(node, {}).get("metadata", {}))
+        kind = str(node).rsplit("_", 1)[0]  # nodes are named f"{type}_{k:03d}" (worldgraph.scenes)
         T = np.asarray(T, dtype=np.float64)
         quat = Rotation.from_matrix(T[:3, :3]).as_quat(scalar_first=True)
         body = f'    <body name={quoteattr(str(node))} pos="{_fmt(T[:3, 3])}" quat="{_fmt(quat)}">'
