@@ -32,6 +32,13 @@ from .fusion import (
     mean_shift_modes,
     percept_bandwidths,
 )
+from .outline import (
+    DISPARITY_SD_PX,
+    DisparityError,
+    OutlineDisparity,
+    fit_disparity_errors,
+    outline_disparity,
+)
 from .percept import OBJECT_VIEW, Percept
 from .recognition import (
     GaussianClassifier,
@@ -57,8 +64,10 @@ __all__ = [
     "BehindCameraError",
     "Box",
     "CentreOffset",
+    "DISPARITY_SD_PX",
     "Detection",
     "DetectionPercepts",
+    "DisparityError",
     "Dropped",
     "FusionDrop",
     "FusionReport",
@@ -67,6 +76,7 @@ __all__ = [
     "KinematicChain",
     "MissingExtraError",
     "OBJECT_VIEW",
+    "OutlineDisparity",
     "Percept",
     "PerceptionError",
     "Rectification",
@@ -80,10 +90,12 @@ __all__ = [
     "detect",
     "depth_sigma",
     "disparity",
+    "fit_disparity_errors",
     "fuse_percepts",
     "fuse_percepts_report",
     "match_stereo",
     "mean_shift_modes",
+    "outline_disparity",
     "percept_bandwidths",
     "percept_covariance",
     "perception_depth",

@@ -54,6 +54,7 @@ from ._checks import boolean, integer, real_array, real_scalar, sequence
 from .chain import check_transform
 from .detection import Detection
 from .errors import PerceptionError
+from .outline import DisparityError, disparity_errors, outline_disparity
 from .percept import OBJECT_VIEW, Percept
 from .tolerances import DEPTH_COVARIANCE_FLOOR
 
@@ -708,18 +709,24 @@ def stereo_percepts(
     max_epipolar_px: float = 2.0,
     min_depth: float = MIN_STEREO_DEPTH,
     keep_cut_off: bool = False,
+    disparity_from: Literal["outline", "centroids"] = "centroids",
+    disparity_error: float | DisparityError | Mapping[str, float | DisparityError] | None = None,
 ) -> DetectionPercepts:
     """Percepts from detections in the two images of a stereo rig.
 
     Left and right detections are paired by type and the epipolar constraint
-    (:func:`perception.match_stereo`), their centroids triangulated (:meth:`StereoRig.triangulate`)
-    and moved along the viewing ray to the object's centre by its centre depth (module
-    docstring).  The covariance maps pixel errors through the triangulation Jacobian: each
-    centroid's own error ``pixel_sigma`` per coordinate (independent left and right: the
-    disparity error), and the offset of the centroid from the image of the object's centre,
-    :data:`CENTRE_OFFSET_SCALE` times the region's pixel spread, the same in both images and
-    shared by the object's views (id :data:`~perception.OBJECT_VIEW`) with the centre depth's
-    uncertainty.
+    (:func:`perception.match_stereo`).  Each pair's disparity comes from its two centroids (by
+    default) or from the outlines of its two masks (:func:`perception.outline_disparity`); the
+    left centroid (outline: the middle of the left mask's extent) is triangulated at that
+    disparity (:meth:`StereoRig.triangulate`) and moved along
+    the viewing ray to the object's centre by its centre depth (module docstring).  The
+    covariance maps pixel errors through the triangulation Jacobian: the left centroid's own
+    error ``pixel_sigma`` per coordinate; the disparity's error (outline: its standard error
+    and the type's :class:`~perception.DisparityError` in quadrature; centroids: ``pixel_sigma``
+    in each image, independent); and the offset of the centroid from the image of the object's
+    centre, :data:`CENTRE_OFFSET_SCALE` times the region's pixel spread, the same in both images
+    and shared by the object's views (id :data:`~perception.OBJECT_VIEW`) with the centre
+    depth's uncertainty.
 
     Parameters
     ----------
@@ -745,6 +752,16 @@ def stereo_percepts(
     keep_cut_off : bool
         Keep regions that touch the border of either image (their centre's offset then as
         uncertain as the region is wide).
+    disparity_from : {"centroids", "outline"}
+        ``"centroids"``: the centroids' difference, the paper's measurement; ``"outline"``: the
+        masks' row ends (pairs without masks, or sharing fewer than
+        :data:`perception.outline.MIN_OUTLINE_ROWS` rows, fall back to the centroids), robust to
+        an edge an occluder hides in one eye.
+    disparity_error : DisparityError, float, or mapping of str to DisparityError or float, optional
+        ``"outline"`` only: the outline disparity's error per type beyond its own standard error (a float: a
+        standard deviation in pixels); measure it for your rig with
+        :func:`perception.fit_disparity_errors`.  Default: :data:`perception.DISPARITY_SD_PX`,
+        no bias.
 
     Returns
     -------
@@ -768,6 +785,10 @@ def stereo_percepts(
     px = DISPARITY_STD_PX / np.sqrt(2.0) if pixel_sigma is None else real_scalar(
         "pixel_sigma", pixel_sigma, positive=True, maximum=1e3)
     offsets = _centre_offsets(centre_offset, {d.type for d in lefts})
+    if disparity_from not in ("outline", "centroids"):
+        raise PerceptionError(f"disparity_from must be 'outline' or 'centroids', got {disparity_from!r}")
+    errors = disparity_errors(disparity_error, {d.type for d in lefts})
+    rect = rig.rectify() if disparity_from == "outline" and lefts and rights else None
     w, h = rig.image_size
     _check_image_size("left", lefts, w, h)
     _check_image_size("right", rights, w, h)
@@ -804,14 +825,24 @@ def stereo_percepts(
             dropped.append(Dropped(i, dl.type, "occluded", differ))
             continue
         uv_l, uv_r = np.asarray(dl.centroid_uv)[None, :], np.asarray(dr.centroid_uv)[None, :]
+        outline = (None if rect is None or dl.mask is None or dr.mask is None
+                   else outline_disparity(rig, dl, dr, rect, at=_extent_middle(dl)))
+        if outline is not None:  # the left centroid's match at the outline's disparity, less the bias
+            uv_l = _extent_middle(dl)[None, :]
+            err = errors[dl.type]
+            uv_r = (outline.uv_right - err.bias_px * outline.duv_right)[None, :]
         try:
             X = np.asarray(rig.triangulate(uv_l, uv_r), dtype=np.float64)[0]
             J = triangulation_jacobian(rig, uv_l, uv_r)[0]  # (3, 4)
         except PerceptionError as exc:
             dropped.append(Dropped(i, dl.type, "behind_camera", str(exc)))
             continue
-        own = px * px * (J @ J.T)
         common = J[:, :2] + J[:, 2:]  # the same shift in both images
+        if outline is None:
+            own = px * px * (J @ J.T)
+        else:
+            along = J[:, 2:] @ outline.duv_right  # a disparity error moves the match along its epipolar line
+            own = px * px * (common @ common.T) + (outline.sd ** 2 + err.sd_px ** 2) * np.outer(along, along)
         shape = 0.5 * (np.asarray(dl.shape_covariance) + np.asarray(dr.shape_covariance))
         cut = (dl.box is not None and _touches_border(dl.box, w, h)) or (
             dr.box is not None and _touches_border(dr.box, w, h))
@@ -836,6 +867,12 @@ def stereo_percepts(
 #: :func:`stereo_percepts` notes swapped cameras when at least this many detections would match
 #: with the images swapped, and more than twice as many as match as given.
 SWAPPED_MIN_MATCHES = 3
+
+
+def _extent_middle(det: Detection) -> NDArray[np.float64]:
+    """The middle of a detection's extent in the image (its box's centre)."""
+    assert det.box is not None
+    return np.array([0.5 * (det.box[0] + det.box[2]), 0.5 * (det.box[1] + det.box[3])])
 
 
 def _check_image_size(name: str, dets: list[Detection], w: int, h: int) -> None:

@@ -167,6 +167,10 @@ RGBD_DETS = [pc.Detection("door", mask=_MASK, score=0.8), pc.Detection("knob", b
 STEREO_L = [pc.Detection("door", centroid_uv=uv, area=60.0) for uv in UV_L]
 STEREO_R = [pc.Detection("door", centroid_uv=uv, area=60.0) for uv in UV_R]
 
+_BLOCK = np.zeros((240, 320), dtype=bool)
+_BLOCK[80:160, 120:180] = True
+OUTLINE_L = pc.Detection("door", mask=_BLOCK)
+OUTLINE_R = pc.Detection("door", mask=np.roll(_BLOCK, -8, axis=1))
 CASES: dict[str, tuple[Callable[..., Any], dict[str, Any]]] = {
     "Percept": (pc.Percept, dict(type="door", position=[1.0, 2.0, 3.0], sigma=0.1, covariance=COV3, views=2)),
     "fuse_percepts": (pc.fuse_percepts, dict(percepts=PERCEPTS, bandwidth=0.2, min_views=2, max_iter=50,
@@ -239,7 +243,15 @@ CASES: dict[str, tuple[Callable[..., Any], dict[str, Any]]] = {
     "stereo_percepts": (pc.stereo_percepts, dict(left=STEREO_L, right=STEREO_R, rig=RIG, ego_from_camera=I4,
                                                  centre_offset={"door": 0.01}, depth_factor=None,
                                                  pixel_sigma=None, max_epipolar_px=2.0, min_depth=0.3,
-                                                 keep_cut_off=False)),
+                                                 keep_cut_off=False, disparity_from="outline",
+                                                 disparity_error={"door": 0.5})),
+    "DisparityError": (pc.DisparityError, dict(bias_px=0.1, sd_px=0.4)),
+    "outline_disparity": (pc.outline_disparity, dict(rig=RIG320, left=OUTLINE_L, right=OUTLINE_R,
+                                                     rectification=None, at=[150.0, 120.0])),
+    "fit_disparity_errors": (pc.fit_disparity_errors, dict(types=["door"] * 6,
+                                                           measured_px=[10.0, 11, 12, 10, 11, 12],
+                                                           true_px=[10.5] * 6, known_sd_px=[0.1] * 6,
+                                                           min_pairs=5)),
     "percept_bandwidths": (pc.percept_bandwidths, dict(percepts=PERCEPTS, n_sigma=3.0, minimum=0.02)),
     "CentreOffset": (pc.CentreOffset, dict(depth=0.01, depth_sd=0.005, lateral_sd=0.01)),
     "StereoMatch": (pc.StereoMatch, dict(left=0, right=1, epipolar_px=0.5)),
@@ -258,7 +270,8 @@ def test_every_public_entry_point_is_fuzzed() -> None:
     # result records and a constant take no input of their own
     names = {n for n in pc.__all__ if not n.endswith("Error")} - {"Rectification", "DetectionPercepts",
                                                                   "Dropped", "OBJECT_VIEW", "FusionDrop",
-                                                                  "FusionReport"}
+                                                                  "FusionReport", "OutlineDisparity",
+                                                                  "DISPARITY_SD_PX"}
     covered = {c.split(".")[0] for c in CASES} | {"train_classifier"}
     assert names <= covered, sorted(names - covered)
 
