@@ -715,18 +715,18 @@ def stereo_percepts(
     """Percepts from detections in the two images of a stereo rig.
 
     Left and right detections are paired by type and the epipolar constraint
-    (:func:`perception.match_stereo`).  Each pair's disparity comes from its two centroids (by
+    (:func:`perception.match_stereo`). Each pair's disparity comes from its two centroids (by
     default) or from the outlines of its two masks (:func:`perception.outline_disparity`); the
     left centroid (outline: the middle of the left mask's extent) is triangulated at that
-    disparity (:meth:`StereoRig.triangulate`) and moved along
-    the viewing ray to the object's centre by its centre depth (module docstring).  The
-    covariance maps pixel errors through the triangulation Jacobian: the left centroid's own
-    error ``pixel_sigma`` per coordinate; the disparity's error (outline: its standard error
-    and the type's :class:`~perception.DisparityError` in quadrature; centroids: ``pixel_sigma``
-    in each image, independent); and the offset of the centroid from the image of the object's
-    centre, :data:`CENTRE_OFFSET_SCALE` times the region's pixel spread, the same in both images
-    and shared by the object's views (id :data:`~perception.OBJECT_VIEW`) with the centre
-    depth's uncertainty.
+    disparity (:meth:`StereoRig.triangulate`) and moved along the viewing ray to the object's
+    centre by its centre depth (module docstring). The covariance maps pixel errors through the
+    triangulation Jacobian: the left centroid's own error ``pixel_sigma`` per coordinate; the
+    disparity's error (outline: its standard error and the type's
+    :class:`~perception.DisparityError` in quadrature; centroids: ``pixel_sigma`` in each image,
+    independent); and the offset of the centroid from the image of the object's centre,
+    :data:`CENTRE_OFFSET_SCALE` times the region's pixel spread, the same in both images and
+    shared by the object's views (id :data:`~perception.OBJECT_VIEW`) with the centre depth's
+    uncertainty.
 
     Parameters
     ----------
@@ -758,8 +758,8 @@ def stereo_percepts(
         :data:`perception.outline.MIN_OUTLINE_ROWS` rows, fall back to the centroids), robust to
         an edge an occluder hides in one eye.
     disparity_error : DisparityError, float, or mapping of str to DisparityError or float, optional
-        ``"outline"`` only: the outline disparity's error per type beyond its own standard error (a float: a
-        standard deviation in pixels); measure it for your rig with
+        ``"outline"`` only: the outline disparity's error per type beyond its own standard
+        error (a float: a standard deviation in pixels); measure it for your rig with
         :func:`perception.fit_disparity_errors`.  Default: :data:`perception.DISPARITY_SD_PX`,
         no bias.
 
@@ -825,10 +825,10 @@ def stereo_percepts(
             dropped.append(Dropped(i, dl.type, "occluded", differ))
             continue
         uv_l, uv_r = np.asarray(dl.centroid_uv)[None, :], np.asarray(dr.centroid_uv)[None, :]
-        outline = (None if rect is None or dl.mask is None or dr.mask is None
-                   else outline_disparity(rig, dl, dr, rect, at=_extent_middle(dl)))
-        if outline is not None:  # the left centroid's match at the outline's disparity, less the bias
-            uv_l = _extent_middle(dl)[None, :]
+        middle = None if rect is None or dl.mask is None or dr.mask is None else _extent_middle(dl)
+        outline = None if middle is None else outline_disparity(rig, dl, dr, rect, at=middle)
+        if outline is not None and middle is not None:  # the extent middle's match, less the bias
+            uv_l = middle[None, :]
             err = errors[dl.type]
             uv_r = (outline.uv_right - err.bias_px * outline.duv_right)[None, :]
         try:

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import real_array, real_scalar, sequence
+from ._checks import integer, real_array, real_scalar, sequence
 from .detection import MAX_PIXEL_COORDINATE, Detection
 from .errors import PerceptionError
 
@@ -165,7 +165,7 @@ def outline_disparity(rig: Any, left: Detection, right: Detection, rectification
     PerceptionError
         ``rig`` not a StereoRig, ``left`` or ``right`` not a Detection.
     """
-    from .stereo import StereoRig
+    from .stereo import Rectification, StereoRig
 
     if not isinstance(rig, StereoRig):
         raise PerceptionError(f"rig must be a perception.StereoRig, got {type(rig).__name__}")
@@ -174,8 +174,6 @@ def outline_disparity(rig: Any, left: Detection, right: Detection, rectification
             raise PerceptionError(f"{name} must be a perception.Detection, got {type(det).__name__}")
     if left.mask is None or right.mask is None:
         return None
-    from .stereo import Rectification
-
     if rectification is not None and not isinstance(rectification, Rectification):
         raise PerceptionError(f"rectification must be a perception.Rectification (rig.rectify()) or None, "
                               f"got {type(rectification).__name__}")
@@ -263,20 +261,16 @@ def fit_disparity_errors(types: Sequence[str], measured_px: ArrayLike, true_px: 
     PerceptionError
         Lengths that differ, values that are not finite, ``min_pairs`` < 1.
     """
-    from ._checks import integer
-
     names = [str(t) for t in sequence("types", types, str)]
     if not names:
         raise PerceptionError("types must name at least one pair's type, got an empty sequence")
     m = real_array("measured_px", measured_px, shape=(-1,))
     t = real_array("true_px", true_px, shape=(-1,))
-    for name, arr in (("measured_px", m), ("true_px", t)):
-        if arr.size != len(names):
-            raise PerceptionError(f"{name} has {arr.size} values but types has {len(names)}: one per pair")
     known = (np.zeros(len(names)) if known_sd_px is None
              else real_array("known_sd_px", known_sd_px, shape=(-1,)))
-    if known.size != len(names):
-        raise PerceptionError(f"known_sd_px has {known.size} values but types has {len(names)}: one per pair")
+    for name, arr in (("measured_px", m), ("true_px", t), ("known_sd_px", known)):
+        if arr.size != len(names):
+            raise PerceptionError(f"{name} has {arr.size} values but types has {len(names)}: one per pair")
     if np.any(known < 0):
         i = int(np.argmax(known < 0))
         raise PerceptionError(f"known_sd_px[{i}] must be >= 0, got {known[i]!r}")
