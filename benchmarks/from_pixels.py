@@ -140,6 +140,8 @@ def main() -> None:
         print(f"{path}: {len(world)} typed objects {sorted(set(world.types.tolist()))}", file=sys.stderr)
         t0 = time.perf_counter()
         scene.default_centre_offsets()  # measured once per scene, on poses of its own seed
+        if "stereo" in args.sensors:  # the outline's errors at the scan's size and jitter, likewise
+            scene.default_stereo_offsets((width, height), args.mask_jitter)
         print(f"centre offsets measured in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
         poses = scene.robot_poses(args.poses, np.random.default_rng(args.seed + 10 * k))
         if args.any_yaw:

@@ -33,6 +33,7 @@ from .fusion import (
     percept_bandwidths,
 )
 from .outline import (
+    DISPARITY_ENDS_FRACTION,
     DISPARITY_SD_PX,
     DisparityError,
     OutlineDisparity,
@@ -64,6 +65,7 @@ __all__ = [
     "BehindCameraError",
     "Box",
     "CentreOffset",
+    "DISPARITY_ENDS_FRACTION",
     "DISPARITY_SD_PX",
     "Detection",
     "DetectionPercepts",

@@ -50,7 +50,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import boolean, integer, real_array, real_scalar, sequence
+from ._checks import _short, boolean, integer, name_string, real_array, real_scalar, sequence
 from .chain import check_transform
 from .detection import Detection
 from .errors import PerceptionError
@@ -709,7 +709,7 @@ def stereo_percepts(
     max_epipolar_px: float = 2.0,
     min_depth: float = MIN_STEREO_DEPTH,
     keep_cut_off: bool = False,
-    disparity_from: Literal["outline", "centroids"] = "centroids",
+    disparity_from: DisparitySource | Mapping[str, DisparitySource] = "centroids",
     disparity_error: float | DisparityError | Mapping[str, float | DisparityError] | None = None,
 ) -> DetectionPercepts:
     """Percepts from detections in the two images of a stereo rig.
@@ -752,11 +752,13 @@ def stereo_percepts(
     keep_cut_off : bool
         Keep regions that touch the border of either image (their centre's offset then as
         uncertain as the region is wide).
-    disparity_from : {"centroids", "outline"}
+    disparity_from : {"centroids", "outline"} or mapping of str to either
         ``"centroids"``: the centroids' difference, the paper's measurement; ``"outline"``: the
-        masks' row ends (pairs without masks, or sharing fewer than
-        :data:`perception.outline.MIN_OUTLINE_ROWS` rows, fall back to the centroids), robust to
-        an edge an occluder hides in one eye.
+        masks' row ends (pairs without masks, sharing fewer than
+        :data:`perception.outline.MIN_OUTLINE_ROWS` rows or with a disparity that is not
+        positive fall back to the centroids), robust to an edge an occluder hides in one eye.
+        A mapping chooses per type (types it does not name: ``"centroids"``), as
+        :meth:`perception.mujoco.MujocoScene.default_stereo_offsets` measures which is better.
     disparity_error : DisparityError, float, or mapping of str to DisparityError or float, optional
         ``"outline"`` only: the outline disparity's error per type beyond its own standard
         error (a float: a standard deviation in pixels); measure it for your rig with
@@ -785,10 +787,10 @@ def stereo_percepts(
     px = DISPARITY_STD_PX / np.sqrt(2.0) if pixel_sigma is None else real_scalar(
         "pixel_sigma", pixel_sigma, positive=True, maximum=1e3)
     offsets = _centre_offsets(centre_offset, {d.type for d in lefts})
-    if disparity_from not in ("outline", "centroids"):
-        raise PerceptionError(f"disparity_from must be 'outline' or 'centroids', got {disparity_from!r}")
+    source = _disparity_sources(disparity_from, {d.type for d in lefts})
     errors = disparity_errors(disparity_error, {d.type for d in lefts})
-    rect = rig.rectify() if disparity_from == "outline" and lefts and rights else None
+    from_outline = {t for t, v in source.items() if v == "outline"}
+    rect = rig.rectify() if from_outline and rights else None
     w, h = rig.image_size
     _check_image_size("left", lefts, w, h)
     _check_image_size("right", rights, w, h)
@@ -825,8 +827,11 @@ def stereo_percepts(
             dropped.append(Dropped(i, dl.type, "occluded", differ))
             continue
         uv_l, uv_r = np.asarray(dl.centroid_uv)[None, :], np.asarray(dr.centroid_uv)[None, :]
-        middle = None if rect is None or dl.mask is None or dr.mask is None else _extent_middle(dl)
+        middle = (None if rect is None or dl.type not in from_outline or dl.mask is None or dr.mask is None
+                  else _extent_middle(dl))
         outline = None if middle is None else outline_disparity(rig, dl, dr, rect, at=middle)
+        if outline is not None and outline.disparity <= 0.0:
+            outline = None  # the outlines of a mismatched or far pair: the centroids say more
         if outline is not None and middle is not None:  # the extent middle's match, less the bias
             uv_l = middle[None, :]
             err = errors[dl.type]
@@ -842,7 +847,7 @@ def stereo_percepts(
             own = px * px * (J @ J.T)
         else:
             along = J[:, 2:] @ outline.duv_right  # a disparity error moves the match along its epipolar line
-            own = px * px * (common @ common.T) + (outline.sd ** 2 + err.sd_px ** 2) * np.outer(along, along)
+            own = px * px * (common @ common.T) + err.variance(outline) * np.outer(along, along)
         shape = 0.5 * (np.asarray(dl.shape_covariance) + np.asarray(dr.shape_covariance))
         cut = (dl.box is not None and _touches_border(dl.box, w, h)) or (
             dr.box is not None and _touches_border(dr.box, w, h))
@@ -867,6 +872,25 @@ def stereo_percepts(
 #: :func:`stereo_percepts` notes swapped cameras when at least this many detections would match
 #: with the images swapped, and more than twice as many as match as given.
 SWAPPED_MIN_MATCHES = 3
+
+
+#: Where a stereo pair's disparity comes from (:func:`stereo_percepts`).
+DisparitySource = Literal["centroids", "outline"]
+
+
+def _disparity_sources(value: object, types: set[str]) -> dict[str, str]:
+    """``disparity_from`` as the source of each of ``types`` (a mapping's missing types: the
+    centroids)."""
+    def one(name: str, v: object) -> str:
+        if not isinstance(v, str) or v not in ("outline", "centroids"):
+            raise PerceptionError(f"{name} must be 'outline' or 'centroids', got {_short(v)}")
+        return v
+
+    if isinstance(value, Mapping):
+        given = {name_string("disparity_from key", k): one(f"disparity_from[{k!r}]", v)
+                 for k, v in value.items()}
+        return {t: given.get(t, "centroids") for t in types}
+    return dict.fromkeys(types, one("disparity_from", value))
 
 
 def _extent_middle(det: Detection) -> NDArray[np.float64]:

@@ -56,6 +56,7 @@ from .errors import (
     RobotFileError,
 )
 from .frontend import DEPTH_CORRELATION_PX, DEPTH_NOISE, CentreOffset, _offset_of, rgbd_percepts
+from .outline import DisparityError
 from .percept import Percept
 from .simulate import scan_angles
 from .tolerances import ANGLE_SLACK
@@ -79,6 +80,7 @@ __all__ = [
     "MujocoScene",
     "RenderedView",
     "SceneObject",
+    "StereoCalibration",
     "ScanTimings",
     "ScanView",
     "body_meshes",
@@ -401,6 +403,30 @@ class RenderedView:
 
 
 @dataclass(frozen=True)
+class StereoCalibration:
+    """What :meth:`MujocoScene.stereo_offsets` measures: the stereo front end's settings per type.
+
+    Attributes
+    ----------
+    centre_offset : dict of str to CentreOffset
+        Where each type's centre lies from the triangulated point (its chosen source's).
+    disparity_error : dict of str to DisparityError
+        The outline disparity's error beyond its own (types whose source is the outline).
+    disparity_from : dict of str to str
+        ``"outline"`` or ``"centroids"``: the source that places the type better.
+    """
+
+    centre_offset: dict[str, CentreOffset]
+    disparity_error: dict[str, DisparityError]
+    disparity_from: dict[str, str]
+
+    def keywords(self) -> dict[str, Any]:
+        """The keyword arguments of :func:`perception.stereo_percepts` these settings are."""
+        return {"centre_offset": dict(self.centre_offset), "disparity_error": dict(self.disparity_error),
+                "disparity_from": dict(self.disparity_from)}
+
+
+@dataclass(frozen=True)
 class ScanView:
     """One view of a :class:`MujocoScan`.
 
@@ -534,6 +560,7 @@ def _image_size(value: Any) -> tuple[int, int]:
             integer("image_size[1] (height)", items[1], minimum=1, maximum=MAX_RENDER_SIDE))
 
 
+
 class MujocoScene:
     """A MuJoCo scene whose typed bodies a simulated head sees.
 
@@ -591,6 +618,7 @@ class MujocoScene:
                                  "pass type_of= to type them")
         self._renderers: dict[tuple[int, int], Any] = {}
         self._default_offsets: dict[str, CentreOffset] | None = None
+        self._default_stereo: dict[tuple[tuple[int, int], int], StereoCalibration] = {}
         self._camera = mujoco.MjvCamera()  # a free camera; its pose is overwritten per view
         mujoco.mjv_defaultFreeCamera(model, self._camera)
 
@@ -871,11 +899,7 @@ class MujocoScene:
         """
         from .frontend import CENTRE_DEPTH_FLOOR, DEPTH_NOISE, _depth_windows, _visible_anchor
 
-        poses = real_array("world_from_egos", world_from_egos)
-        if poses.shape[-2:] != (4, 4) or poses.ndim not in (2, 3) or poses.size == 0:
-            raise PerceptionError(f"world_from_egos must be a (4, 4) or (m, 4, 4) array, got shape "
-                                  f"{poses.shape}")
-        checked = [check_transform(f"world_from_egos[{i}]", T) for i, T in enumerate(poses.reshape(-1, 4, 4))]
+        checked = self._calibration_poses(world_from_egos)
         min_px = integer("min_pixels", min_pixels, minimum=1)
         along: dict[str, list[float]] = {}
         across: dict[str, list[float]] = {}
@@ -920,6 +944,150 @@ class MujocoScene:
             out[typ] = CentreOffset(median, max(depth_sd, CENTRE_DEPTH_FLOOR),
                                     max(lateral, CENTRE_LATERAL_FLOOR))
         return out
+
+    def default_stereo_offsets(self, image_size: Any = (640, 480), mask_jitter_px: int = 0
+                               ) -> StereoCalibration:
+        """The stereo front end's settings a stereo :meth:`scan` uses by default:
+        :meth:`stereo_offsets` measured from the poses :meth:`default_centre_offsets` uses (8 views
+        each) at the scan's image size and mask jitter (an outline's errors depend on both: the
+        analogue of measuring a detector's classes on its training objects), once per scene and
+        setting; types never measured take :meth:`default_centre_offsets` and the centroids."""
+        key = (_image_size(image_size), integer("mask_jitter_px", mask_jitter_px, minimum=0, maximum=1000))
+        if key not in self._default_stereo:
+            try:
+                poses = self.robot_poses(CALIBRATION_POSES, np.random.default_rng(CALIBRATION_SEED))
+            except PerceptionError as exc:
+                warnings.warn(f"stereo offsets not measured ({exc}); using default_centre_offsets()",
+                              stacklevel=2)
+                measured = StereoCalibration({}, {}, {})
+            else:
+                measured = self.stereo_offsets(poses, n_views=8, image_size=key[0], mask_jitter_px=key[1])
+            self._default_stereo[key] = StereoCalibration(
+                self.default_centre_offsets() | measured.centre_offset, measured.disparity_error,
+                measured.disparity_from)
+        return self._default_stereo[key]
+
+    def stereo_offsets(self, world_from_egos: Any, *, n_views: int = 20, image_size: Any = (320, 240),
+                       chain: KinematicChain | None = None, min_pixels: int = 20, mask_jitter_px: int = 0
+                       ) -> StereoCalibration:
+        """Measure on stereo renders, per type, where its centre lies from the point the stereo
+        front end triangulates, how the disparity errs, and which disparity (the centroids' or
+        the outline's) places it better.
+
+        Exact stereo scans from the given poses; every pair :func:`perception.stereo_percepts`
+        would keep (same object in both images, not cut off, extents that agree, an outline
+        disparity: :func:`perception.outline_disparity` at the middle of the left mask's extent)
+        gives, for each source, the offset ``o`` of the object's centre from the triangulated
+        point (outline: the extent's middle at the outline's disparity; centroids: the two
+        centroids), along the viewing ray and across it.  Per type and source: the centre
+        offset's ``depth`` is the median of ``o`` along the ray.  The residuals about it, in
+        pixels of disparity, beyond what the front end already models (outline: each pair's
+        standard error and :data:`~perception.DISPARITY_ENDS_FRACTION` times its ends'
+        difference; centroids: ``DISPARITY_STD_PX``), split into the part the views of one
+        object in one scan share (``depth_sd``, metres: it does not average out when the views
+        are fused) and the part that varies from view to view (the outline's
+        :class:`~perception.DisparityError` ``sd_px``; for the centroids it is counted as
+        shared), each the spread at which the residuals' mean squared standard score is 1; with
+        no object seen twice in a scan all of it is shared.  The ``lateral_sd`` is the root mean
+        square per axis of ``o`` across the ray.  The source whose views place the centre with the
+        smaller mean squared error (along the ray about the median, and across it) is the type's
+        ``disparity_from``.
+
+        Parameters and errors as :meth:`centre_offsets`; ``mask_jitter_px`` moves the masks' edges
+        as :meth:`scan` does (the detector the offsets are for), with a fixed seed.
+
+        Returns
+        -------
+        StereoCalibration
+            Per type measured in at least two views.
+        """
+        from .frontend import CENTRE_DEPTH_FLOOR, _extent_middle, _extents_differ, _touches_border
+        from .outline import _split_spread, outline_disparity
+        from .recognition import DISPARITY_STD_PX, match_stereo
+        from .stereo import StereoRig
+
+        checked = self._calibration_poses(world_from_egos)
+        min_px = integer("min_pixels", min_pixels, minimum=1)
+        # per type and source: (object-in-scan id, along, px per m, own sd px, ends px, across)
+        rows: dict[tuple[str, str], list[tuple[int, float, float, float, float, float]]] = {}
+        group = 0
+        for pose in checked:
+            scan = self.scan(pose, "stereo", n_views, rng=np.random.default_rng(0), image_size=image_size,
+                             chain=chain, percepts=False, max_range=1e6, mask_jitter_px=mask_jitter_px)
+            groups: dict[int, int] = {}
+            for view in scan.views:
+                assert view.ego_from_right_camera is not None
+                h, w = view.segmentation.shape
+                right_from_left = np.linalg.inv(view.ego_from_right_camera) @ view.ego_from_camera
+                rig = StereoRig(view.K, np.zeros(0), view.K, np.zeros(0), right_from_left[:3, :3],
+                                right_from_left[:3, 3], (w, h))
+                rect = rig.rectify()
+                camera_from_world = np.linalg.inv(pose @ view.ego_from_camera)
+                for m in match_stereo(rig, view.detections, view.right_detections, min_depth=0.3):
+                    dl, dr = view.detections[m.left], view.right_detections[m.right]
+                    k = view.truth[m.left]
+                    if (k < 0 or k != view.right_truth[m.right] or dl.box is None or dr.box is None
+                            or dl.area is None or dr.area is None or dl.area < min_px or dr.area < min_px
+                            or _touches_border(dl.box, w, h) or _touches_border(dr.box, w, h)
+                            or _extents_differ(dl, dr)):
+                        continue
+                    at = _extent_middle(dl)
+                    od = outline_disparity(rig, dl, dr, rect, at=at)
+                    if od is None or od.disparity <= 0.0:
+                        continue
+                    centre = camera_from_world[:3, :3] @ self._objects[k].position + camera_from_world[:3, 3]
+                    measured = []
+                    try:
+                        for source, uv_l, uv_r, duv, sd, ends in (
+                                ("outline", at, od.uv_right, od.duv_right, od.sd, od.ends_differ_px),
+                                ("centroids", np.asarray(dl.centroid_uv), np.asarray(dr.centroid_uv),
+                                 od.duv_right, DISPARITY_STD_PX, 0.0)):
+                            X = rig.triangulate(uv_l[None, :], uv_r[None, :])[0]
+                            # pixels of disparity per metre along the ray, at this depth
+                            X2 = rig.triangulate(uv_l[None, :], (uv_r + duv)[None, :])[0]
+                            measured.append((source, X, 1.0 / float(np.linalg.norm(X - X2)), sd, ends))
+                    except PerceptionError:  # at infinity: nothing to learn from this pair
+                        continue
+                    g = groups.setdefault(k, group + len(groups))
+                    for source, X, per_m, sd, ends in measured:
+                        ray = X / np.linalg.norm(X)
+                        offset = centre - X
+                        along = float(offset @ ray)
+                        rows.setdefault((self._objects[k].type, source), []).append(
+                            (g, along, per_m, sd, ends, float(np.linalg.norm(offset - along * ray))))
+            group += len(groups)
+        offsets: dict[str, CentreOffset] = {}
+        errors: dict[str, DisparityError] = {}
+        sources: dict[str, str] = {}
+        for typ in sorted({t for t, _ in rows}):
+            best = None
+            for source in ("outline", "centroids"):
+                r = np.array(rows[typ, source])
+                if len(r) < 2:
+                    continue
+                g, along, per_m, sd, ends, across = r.T
+                depth = float(np.median(along))
+                res_px = (along - depth) * per_m  # the sign does not matter for the spreads
+                sd_px, shared_px = _split_spread(g.astype(np.int64), res_px, sd, ends)
+                if source == "centroids":  # the front end adds nothing per view to the centroids
+                    sd_px, shared_px = 0.0, float(np.hypot(sd_px, shared_px))
+                depth_sd = max(shared_px / float(np.median(per_m)), CENTRE_DEPTH_FLOOR)
+                lateral = max(float(np.sqrt(np.mean(across ** 2) / 2.0)), CENTRE_LATERAL_FLOOR)
+                # the views' mean squared error about the centre, along the ray and across it
+                expected = float(np.mean((along - depth) ** 2 + across ** 2))
+                if best is None or expected < best[0]:
+                    best = (expected, source, CentreOffset(depth, depth_sd, lateral),
+                            DisparityError(0.0, sd_px))
+            if best is not None:
+                _, sources[typ], offsets[typ], errors[typ] = best
+        return StereoCalibration(offsets, errors, sources)
+
+    def _calibration_poses(self, world_from_egos: Any) -> list[NDArray[np.float64]]:
+        poses = real_array("world_from_egos", world_from_egos)
+        if poses.shape[-2:] != (4, 4) or poses.ndim not in (2, 3) or poses.size == 0:
+            raise PerceptionError(f"world_from_egos must be a (4, 4) or (m, 4, 4) array, got shape "
+                                  f"{poses.shape}")
+        return [check_transform(f"world_from_egos[{i}]", T) for i, T in enumerate(poses.reshape(-1, 4, 4))]
 
     # -- rendering -------------------------------------------------------------------------------
     def camera_matrix(self, image_size: Any = (640, 480)) -> NDArray[np.float64]:
@@ -1084,7 +1252,8 @@ class MujocoScene:
         centre_offset : mapping, optional
             Type -> :class:`~perception.CentreOffset` (or its depth in metres) for the front end:
             where an object's centre lies from its visible part; by default
-            :meth:`default_centre_offsets` (measured on renders from other poses); pass
+            :meth:`default_centre_offsets` (measured on renders from other poses; stereo:
+            :meth:`default_stereo_offsets`, with the outline's disparity errors); pass
             :meth:`centre_depths` (half the thinnest extent, as the map's
             :meth:`worldgraph.WorldModel.centre_depths`) to use the geometry's guess alone.
         yaw_deg, pitch_deg : (float, float)
@@ -1096,7 +1265,8 @@ class MujocoScene:
             :func:`perception.rgbd_percepts` on the detections and the noisy depth, or
             :func:`perception.stereo_percepts` on the left and right detections with the rig of
             the two cameras (``X_right = R X_left + T`` from ``inv(ego_from_right) @
-            ego_from_left``, both with ``K``, no distortion).
+            ego_from_left``, both with ``K``, no distortion), ``disparity_from="outline"`` and
+            the disparity errors :meth:`default_stereo_offsets` measures.
 
         Returns
         -------
@@ -1119,7 +1289,8 @@ class MujocoScene:
         gen, size, head, degrade, noise, far = self._sweep_arguments(
             rng, image_size, chain, miss_rate, false_rate, mask_jitter_px, min_pixels, depth_noise, max_range)
         run_front_end = boolean("percepts", percepts)
-        centres = self._centre_offset(centre_offset) if run_front_end or centre_offset is not None else {}
+        centres = (self._centre_offset(centre_offset, kind, size, degrade.jitter)
+                   if run_front_end or centre_offset is not None else StereoCalibration({}, {}, {}))
         Q = scan_angles(head, n, yaw_deg, pitch_deg)
         return self._sweep(pose, Q, head, kind, gen, size, degrade, noise, far, run_front_end, centres)
 
@@ -1217,7 +1388,7 @@ depth_noise, max_range, centre_offset
             if need not in head.names:
                 raise PerceptionError(f"look needs a joint named {need!r}; the chain has {list(head.names)}")
         pitch = _pitch_pair(pitch_deg)
-        centres = self._centre_offset(centre_offset)
+        centres = self._centre_offset(centre_offset, kind, size, degrade.jitter)
         fuse_min = integer("min_views", min_views, minimum=1, maximum=n)
         yaw_index, pitch_index = head.names.index("neck_yaw"), head.names.index("neck_pitch")
         lower, upper = head.limits[yaw_index]
@@ -1247,7 +1418,7 @@ depth_noise, max_range, centre_offset
 
     def _sweep(self, pose: NDArray[np.float64], Q: NDArray[np.float64], head: KinematicChain, sensor: Sensor,
                gen: np.random.Generator, size: tuple[int, int], degrade: _Degrade, noise: float, far: float,
-               run_front_end: bool, centres: dict[str, CentreOffset]) -> MujocoScan:
+               run_front_end: bool, centres: StereoCalibration) -> MujocoScan:
         """Render, detect and (with ``run_front_end``) perceive the views of head angles ``Q`` (one row
         per view) from the robot pose ``pose``; the arguments checked by the caller."""
         kind = sensor
@@ -1299,16 +1470,22 @@ depth_noise, max_range, centre_offset
         return MujocoScan(kind, tuple(views), tuple(out_percepts), tuple(out_views), tuple(out_truth),
                           tuple(dropped), ScanTimings(t_render, t_detect, t_percepts, n))
 
-    def _centre_offset(self, centre_offset: Mapping[str, Any] | None) -> dict[str, CentreOffset]:
+    def _centre_offset(self, centre_offset: Mapping[str, Any] | None, sensor: str, size: tuple[int, int],
+                       jitter: int) -> StereoCalibration:
+        """The front end's settings of a sweep: ``centre_offset`` (with the centroids, for stereo),
+        else those measured for the sensor (:meth:`default_centre_offsets`,
+        :meth:`default_stereo_offsets`)."""
         if centre_offset is None:
-            return self.default_centre_offsets()
+            if sensor == "stereo":
+                return self.default_stereo_offsets(size, jitter)
+            return StereoCalibration(self.default_centre_offsets(), {}, {})
         if not isinstance(centre_offset, Mapping):
             raise PerceptionError("centre_offset must be a mapping type -> CentreOffset or metres, or None, "
                                   f"got {_short(centre_offset)}")
-        return {name_string("centre_offset key", k): _offset_of(f"centre_offset[{k!r}]", v)
-                for k, v in centre_offset.items()}
+        return StereoCalibration({name_string("centre_offset key", k): _offset_of(f"centre_offset[{k!r}]", v)
+                                  for k, v in centre_offset.items()}, {}, {})
 
-    def _percepts(self, view: ScanView, sensor: str, size: tuple[int, int], centres: dict[str, CentreOffset],
+    def _percepts(self, view: ScanView, sensor: str, size: tuple[int, int], settings: StereoCalibration,
                   depth_noise: float) -> tuple[tuple[Any, ...], tuple[int, ...], tuple[Any, ...]]:
         """The front end on one view: ``(percepts, detection index of each, dropped)``."""
         from .frontend import DEPTH_NOISE, rgbd_percepts, stereo_percepts
@@ -1318,14 +1495,14 @@ depth_noise, max_range, centre_offset
             assert view.depth is not None
             out = rgbd_percepts(view.detections, view.depth, view.K, view.ego_from_camera,
                                 depth_noise=depth_noise if depth_noise > 0 else DEPTH_NOISE,
-                                centre_offset=centres)
+                                centre_offset=settings.centre_offset)
         else:
             assert view.ego_from_right_camera is not None
             right_from_left = np.linalg.inv(view.ego_from_right_camera) @ view.ego_from_camera
             rig = StereoRig(view.K, np.zeros(0), view.K, np.zeros(0), right_from_left[:3, :3],
                             right_from_left[:3, 3], size)
             out = stereo_percepts(view.detections, view.right_detections, rig, view.ego_from_camera,
-                                  centre_offset=centres)
+                                  **settings.keywords())
         return out.percepts, out.sources, out.dropped
 
 

@@ -30,6 +30,7 @@ from .detection import MAX_PIXEL_COORDINATE, Detection
 from .errors import PerceptionError
 
 __all__ = [
+    "DISPARITY_ENDS_FRACTION",
     "DISPARITY_SD_PX",
     "DisparityError",
     "OutlineDisparity",
@@ -51,6 +52,13 @@ OUTLINE_ROW_CORRELATION = 4.0
 #: The disparity error of a type with no measured :class:`DisparityError`, pixels: what the
 #: outline does not see, measured on rendered kitchens across doors, drawers, handles and knobs.
 DISPARITY_SD_PX = 0.5
+#: The fraction of an outline's end difference (:attr:`OutlineDisparity.ends_differ_px`) a type
+#: with no measured :class:`DisparityError` takes as a standard deviation: an end one eye sees cut
+#: by an occluder moves the disparity by half the difference (a slanted face differs as much,
+#: unharmed, so this is the cautious end).
+DISPARITY_ENDS_FRACTION = 0.5
+#: Largest ``ends_fraction`` of a :class:`DisparityError`.
+MAX_ENDS_FRACTION = 10.0
 #: Largest bias or standard deviation of a :class:`DisparityError`, pixels.
 MAX_DISPARITY_ERROR_PX = 1e3
 
@@ -65,15 +73,28 @@ class DisparityError:
         Mean measured minus true disparity; :func:`perception.stereo_percepts` subtracts it.
     sd_px : float
         Standard deviation about the bias, added in quadrature to the outline's standard error.
+    ends_fraction : float
+        Times the outline's :attr:`~OutlineDisparity.ends_differ_px`, a standard deviation added
+        in quadrature too: the error of a pair whose ends disagree (an end one eye sees cut).
+
+    The disparity's variance is ``sd^2 + sd_px^2 + (ends_fraction * ends_differ_px)^2``.
     """
 
     bias_px: float = 0.0
     sd_px: float = DISPARITY_SD_PX
+    ends_fraction: float = DISPARITY_ENDS_FRACTION
 
     def __post_init__(self) -> None:
         m = MAX_DISPARITY_ERROR_PX
         object.__setattr__(self, "bias_px", real_scalar("bias_px", self.bias_px, minimum=-m, maximum=m))
         object.__setattr__(self, "sd_px", real_scalar("sd_px", self.sd_px, nonnegative=True, maximum=m))
+        object.__setattr__(self, "ends_fraction", real_scalar("ends_fraction", self.ends_fraction,
+                                                              nonnegative=True, maximum=MAX_ENDS_FRACTION))
+
+    def variance(self, outline: OutlineDisparity) -> float:
+        """The variance (pixels squared) of ``outline``'s disparity: its own standard error, this
+        type's ``sd_px`` and ``ends_fraction`` times its ends' difference, in quadrature."""
+        return float(outline.sd ** 2 + self.sd_px ** 2 + (self.ends_fraction * outline.ends_differ_px) ** 2)
 
 
 @dataclass(frozen=True)
@@ -95,6 +116,10 @@ class OutlineDisparity:
         centroid along its epipolar line: the left centroid's match.
     duv_right : (2,) float
         Derivative of ``uv_right`` with respect to ``disparity``.
+    ends_differ_px : float
+        Mean disparity of the kept left ends minus that of the right ends: a slanted face, or an
+        end that one eye sees cut by an occluder (which ``sd`` does not see; see
+        :class:`DisparityError`).
     """
 
     disparity: float
@@ -103,6 +128,7 @@ class OutlineDisparity:
     kept_fraction: float
     uv_right: NDArray[np.float64]
     duv_right: NDArray[np.float64]
+    ends_differ_px: float = 0.0
 
 
 def _ends(mask: NDArray[np.bool_]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -200,7 +226,9 @@ def outline_disparity(rig: Any, left: Detection, right: Detection, rectification
     sl, sr = slice(lo_bin - b_l, hi_bin - b_l), slice(lo_bin - b_r, hi_bin - b_r)
     with np.errstate(invalid="ignore"):  # a row binned in one eye only: inf - inf
         d = np.concatenate([first_l[sl] - first_r[sr], last_l[sl] - last_r[sr]])
-    d = d[np.isfinite(d)]
+    is_left_end = np.arange(d.size) < d.size // 2
+    finite = np.isfinite(d)
+    d, is_left_end = d[finite], is_left_end[finite]
     n_rows = int(d.size // 2)
     if n_rows < MIN_OUTLINE_ROWS:
         return None
@@ -214,7 +242,13 @@ def outline_disparity(rig: Any, left: Detection, right: Detection, rectification
     if np.all(kept > 0):  # the depth, not the disparity, is what is linear across a slanted face
         centre = float(kept.size / np.sum(1.0 / kept))
     spread = max(float(np.std(kept)), OUTLINE_SCALE_FLOOR_PX / np.sqrt(3.0))
-    sd = spread / np.sqrt(max(1.0, kept.size / OUTLINE_ROW_CORRELATION))
+    standard_error = spread / np.sqrt(max(1.0, kept.size / OUTLINE_ROW_CORRELATION))
+    left_kept, right_kept = keep & is_left_end, keep & ~is_left_end
+    ends_differ = (float(np.mean(d[left_kept]) - np.mean(d[right_kept]))
+                   if left_kept.any() and right_kept.any() else 0.0)
+    # an end one eye sees cut by an occluder (a cabinet's side, the next door) moves every row's end
+    # alike, which the trim cannot see: DisparityError.ends_fraction turns the ends' difference
+    # into the error it may add
     if at is None:
         anchor = np.asarray(left.centroid_uv, dtype=np.float64)
     else:
@@ -225,13 +259,13 @@ def outline_disparity(rig: Any, left: Detection, right: Detection, rectification
     step = 0.5
     pair = _unrectified_right(rig, rect, np.array([[c[0] - centre, c[1]], [c[0] - centre - step, c[1]],
                                                    [c[0] - centre + step, c[1]]]))
-    return OutlineDisparity(centre, float(sd), n_rows, float(keep.mean()), pair[0],
-                            (pair[1] - pair[2]) / (2.0 * step))
+    return OutlineDisparity(centre, float(standard_error), n_rows, float(keep.mean()), pair[0],
+                            (pair[1] - pair[2]) / (2.0 * step), ends_differ)
 
 
 def fit_disparity_errors(types: Sequence[str], measured_px: ArrayLike, true_px: ArrayLike,
-                         known_sd_px: ArrayLike | None = None, *, min_pairs: int = 5
-                         ) -> dict[str, DisparityError]:
+                         known_sd_px: ArrayLike | None = None, *, ends_differ_px: ArrayLike | None = None,
+                         min_pairs: int = 5) -> dict[str, DisparityError]:
     """Per type, the :class:`DisparityError` of measured against true disparities.
 
     For a user's rig: match and measure pairs (:func:`outline_disparity`) in a scene whose object
@@ -247,14 +281,19 @@ def fit_disparity_errors(types: Sequence[str], measured_px: ArrayLike, true_px: 
     known_sd_px : (n,) float, optional
         Each pair's standard deviation already modelled (the outline's ``sd``); its mean square is
         taken off the measured variance so that it is not counted twice.
+    ends_differ_px : (n,) float, optional
+        Each pair's :attr:`OutlineDisparity.ends_differ_px`: then ``sd_px`` and ``ends_fraction``
+        are fitted together by maximum likelihood (pairs whose ends disagree err more); without
+        it ``ends_fraction`` is 0 and ``sd_px`` covers every pair alike.
     min_pairs : int
         Fewest pairs of a type to fit it; types with fewer are left out.
 
     Returns
     -------
     dict of str to DisparityError
-        ``bias_px`` the median error, ``sd_px`` the root mean square about it (tails included:
-        a model that covers every pair the front end keeps) less the known part, at least 0.
+        ``bias_px`` the median error; without ``ends_differ_px``, ``sd_px`` the root mean square
+        about it (tails included: a model that covers every pair the front end keeps) less the
+        known part, at least 0, and ``ends_fraction`` 0; with it, both by maximum likelihood.
 
     Raises
     ------
@@ -268,7 +307,10 @@ def fit_disparity_errors(types: Sequence[str], measured_px: ArrayLike, true_px: 
     t = real_array("true_px", true_px, shape=(-1,))
     known = (np.zeros(len(names)) if known_sd_px is None
              else real_array("known_sd_px", known_sd_px, shape=(-1,)))
-    for name, arr in (("measured_px", m), ("true_px", t), ("known_sd_px", known)):
+    ends = None if ends_differ_px is None else real_array("ends_differ_px", ends_differ_px, shape=(-1,))
+    for name, arr in (("measured_px", m), ("true_px", t), ("known_sd_px", known), ("ends_differ_px", ends)):
+        if arr is None:
+            continue
         if arr.size != len(names):
             raise PerceptionError(f"{name} has {arr.size} values but types has {len(names)}: one per pair")
     if np.any(known < 0):
@@ -282,8 +324,11 @@ def fit_disparity_errors(types: Sequence[str], measured_px: ArrayLike, true_px: 
         if int(sel.sum()) < k:
             continue
         bias = float(np.median(err[sel]))
-        var = float(np.mean(np.square(err[sel] - bias)) - np.mean(np.square(known[sel])))
-        out[typ] = DisparityError(bias, float(np.sqrt(max(var, 0.0))))
+        if ends is None:
+            var = float(np.mean(np.square(err[sel] - bias)) - np.mean(np.square(known[sel])))
+            out[typ] = DisparityError(bias, float(np.sqrt(max(var, 0.0))), 0.0)
+        else:
+            out[typ] = DisparityError(bias, *_fit_spread(err[sel] - bias, known[sel] ** 2, ends[sel]))
     return out
 
 
@@ -305,3 +350,70 @@ def disparity_errors(value: object, types: set[str]) -> dict[str, DisparityError
         given = {str(t): one(f"disparity_error[{t!r}]", v) for t, v in value.items()}
         return {t: given.get(t, DisparityError()) for t in types} | given
     return dict.fromkeys(types, one("disparity_error", value))
+
+
+def _mean_chi2(z2: NDArray[np.float64], scale: float, var: NDArray[np.float64],
+               extra: NDArray[np.float64]) -> float:
+    return float(np.mean(z2 / (var + extra * scale ** 2)))
+
+
+def _solve_spread(z2: NDArray[np.float64], var: NDArray[np.float64], extra: NDArray[np.float64]) -> float:
+    """The spread ``s`` (>= 0) at which the squared residuals ``z2`` over their variances
+    ``var + extra s^2`` have mean 1, a chi-square of one degree's (bisection; 0 when they are
+    already as small)."""
+    if z2.size == 0 or _mean_chi2(z2, 0.0, var, extra) <= 1.0:
+        return 0.0
+    lo, hi = 0.0, 1.0
+    while _mean_chi2(z2, hi, var, extra) > 1.0 and hi < MAX_DISPARITY_ERROR_PX:
+        lo, hi = hi, 2.0 * hi
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if _mean_chi2(z2, mid, var, extra) > 1.0 else (lo, mid)
+    return hi
+
+
+def _fit_spread(res: NDArray[np.float64], own_var: NDArray[np.float64], ends: NDArray[np.float64] | None
+                ) -> tuple[float, float]:
+    """Gaussian maximum likelihood of ``res ~ N(0, own_var + s^2 + (c ends)^2)``: ``(s, c)``, ``c``
+    0 without ``ends`` (bounded: ``s`` to :data:`MAX_DISPARITY_ERROR_PX`, ``c`` to
+    :data:`MAX_ENDS_FRACTION`)."""
+    from scipy.optimize import minimize
+
+    r2 = res ** 2
+    e2 = np.zeros_like(res) if ends is None else ends ** 2
+    floor = float(np.min(own_var)) if own_var.size and np.min(own_var) > 0 else 1.0 / MAX_DISPARITY_ERROR_PX
+
+    def nll(x: NDArray[np.float64]) -> float:
+        v = np.maximum(own_var + x[0] ** 2 + x[1] ** 2 * e2, floor)
+        return float(np.sum(np.log(v) + r2 / v))
+
+    start = np.array([float(np.sqrt(np.mean(r2))), 0.0 if ends is None else DISPARITY_ENDS_FRACTION])
+    bounds = [(0.0, MAX_DISPARITY_ERROR_PX), (0.0, 0.0 if ends is None else MAX_ENDS_FRACTION)]
+    best = min((minimize(nll, x0, method="L-BFGS-B", bounds=bounds) for x0 in (start, np.zeros(2))),
+               key=lambda r: r.fun)
+    return float(best.x[0]), float(best.x[1])
+
+
+def _split_spread(group: NDArray[np.int64], res: NDArray[np.float64], own_sd: NDArray[np.float64],
+                  ends: NDArray[np.float64], ends_fraction: float = DISPARITY_ENDS_FRACTION
+                  ) -> tuple[float, float]:
+    """The error model of residuals ``res`` (one per view; ``group`` the object and scan each
+    belongs to, ``own_sd`` its outline's standard error, ``ends`` its ends' difference):
+    ``res = b_group + e``, ``e ~ N(0, own_sd^2 + (ends_fraction ends)^2 + s^2)``, ``b ~ N(0,
+    t^2)``.  Returns ``(s, t)``: the total ``sqrt(s^2 + t^2)`` from all views, then ``s`` from
+    each view's residual about its object's weighted mean, ``t`` the rest, each by
+    :func:`_solve_spread`; with no object seen twice all of it is taken as shared (``s`` 0), the
+    cautious side for fusing views."""
+    v = own_sd ** 2 + (ends_fraction * ends) ** 2
+    total = _solve_spread(res ** 2, v, np.ones_like(res))
+    _, inv, count = np.unique(group, return_inverse=True, return_counts=True)
+    multi = count[inv] > 1
+    if not multi.any():
+        return 0.0, total
+    w = 1.0 / (v + total ** 2)
+    mean = np.bincount(inv, w * res) / np.bincount(inv, w)
+    share = w / np.bincount(inv, w)[inv]  # a view's weight in its object's mean
+    within = (res - mean[inv])[multi]
+    # var(res - mean) = (v + s^2) (1 - share) for views independent but for the shared part
+    s = min(_solve_spread(within ** 2, (v * (1.0 - share))[multi], (1.0 - share)[multi]), total)
+    return s, float(np.sqrt(total ** 2 - s ** 2))

@@ -245,13 +245,13 @@ CASES: dict[str, tuple[Callable[..., Any], dict[str, Any]]] = {
                                                  pixel_sigma=None, max_epipolar_px=2.0, min_depth=0.3,
                                                  keep_cut_off=False, disparity_from="outline",
                                                  disparity_error={"door": 0.5})),
-    "DisparityError": (pc.DisparityError, dict(bias_px=0.1, sd_px=0.4)),
+    "DisparityError": (pc.DisparityError, dict(bias_px=0.1, sd_px=0.4, ends_fraction=0.5)),
     "outline_disparity": (pc.outline_disparity, dict(rig=RIG320, left=OUTLINE_L, right=OUTLINE_R,
                                                      rectification=None, at=[150.0, 120.0])),
     "fit_disparity_errors": (pc.fit_disparity_errors, dict(types=["door"] * 6,
                                                            measured_px=[10.0, 11, 12, 10, 11, 12],
                                                            true_px=[10.5] * 6, known_sd_px=[0.1] * 6,
-                                                           min_pairs=5)),
+                                                           ends_differ_px=[0.0, 1, 2, 0, 1, 2], min_pairs=5)),
     "percept_bandwidths": (pc.percept_bandwidths, dict(percepts=PERCEPTS, n_sigma=3.0, minimum=0.02)),
     "CentreOffset": (pc.CentreOffset, dict(depth=0.01, depth_sd=0.005, lateral_sd=0.01)),
     "StereoMatch": (pc.StereoMatch, dict(left=0, right=1, epipolar_px=0.5)),
@@ -271,7 +271,8 @@ def test_every_public_entry_point_is_fuzzed() -> None:
     names = {n for n in pc.__all__ if not n.endswith("Error")} - {"Rectification", "DetectionPercepts",
                                                                   "Dropped", "OBJECT_VIEW", "FusionDrop",
                                                                   "FusionReport", "OutlineDisparity",
-                                                                  "DISPARITY_SD_PX"}
+                                                                  "DISPARITY_SD_PX",
+                                                                  "DISPARITY_ENDS_FRACTION"}
     covered = {c.split(".")[0] for c in CASES} | {"train_classifier"}
     assert names <= covered, sorted(names - covered)
 

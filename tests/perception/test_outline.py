@@ -58,6 +58,25 @@ def test_rows_an_occluder_moved_are_trimmed():
     assert abs((d_left.centroid_uv[0] - d_right.centroid_uv[0]) - 12.0) > 1.0
 
 
+
+def test_an_end_one_eye_sees_cut_is_reported_and_widens_the_default_error():
+    """A vertical occluder hides the left 4 columns of every row in the right eye: the trim cannot
+    see it (every row moves alike); the ends' difference (8 px against 12) is reported, and the
+    default error model takes half of it as a standard deviation, which covers the true 12 px."""
+    left = rectangle(100, 60, 180, 170)
+    right = rectangle(88, 60, 168, 170)
+    right[:, 88:92] = False  # the right mask's left end: 92 instead of 88
+    out = pc.outline_disparity(rig(), detection(left), detection(right))
+    assert out is not None and out.kept_fraction == 1.0
+    assert out.ends_differ_px == pytest.approx(8.0 - 12.0, abs=1e-9)
+    assert out.sd < 0.5  # the rows agree with each other
+    sd = np.sqrt(pc.DisparityError().variance(out))
+    assert sd >= 2.0  # half the ends' difference
+    assert abs(out.disparity - 12.0) <= 1.5 * sd
+    assert pc.DisparityError(0.0, 0.0, 0.0).variance(out) == pytest.approx(out.sd ** 2)
+    whole = pc.outline_disparity(rig(), detection(left), detection(rectangle(88, 60, 168, 170)))
+    assert whole is not None and whole.ends_differ_px == 0.0
+
 def test_plane_through_a_calibrated_rig_triangulates_to_its_depth():
     """A fronto-parallel rectangle 2.5 m away, projected through a rotated, distorted rig."""
     import cv2
@@ -156,8 +175,26 @@ def test_stereo_percepts_from_the_outline():
     assert biased.percepts[0].position[2] == pytest.approx(0.1 * 300.0 / 10.0, rel=1e-3)
 
 
+def test_stereo_percepts_choose_the_disparity_per_type():
+    """A mapping names the source per type; types it leaves out take the centroids."""
+    r = rig()
+    left, right = stereo_pair(True)
+    knob_l, knob_r = stereo_pair(True)  # the same masks, typed a knob
+    left.append(pc.Detection("knob", mask=knob_l[0].mask))
+    right.append(pc.Detection("knob", mask=knob_r[0].mask))
+    out = pc.stereo_percepts(left, right, r, np.eye(4), centre_offset=0.0, disparity_from={"door": "outline"})
+    depth = {p.type: p.position[2] for p in out.percepts}
+    assert depth["door"] == pytest.approx(2.5, rel=1e-3)  # the outline trims the hidden rows
+    assert abs(depth["knob"] - 2.5) > 0.1  # the centroids do not
+    both = pc.stereo_percepts(left, right, r, np.eye(4), centre_offset=0.0,
+                              disparity_from={"door": "outline", "knob": "outline"})
+    assert all(p.position[2] == pytest.approx(2.5, rel=1e-3) for p in both.percepts)
+
+
 @pytest.mark.parametrize(("kwargs", "match"), [
     (dict(disparity_from="dense"), "disparity_from"),
+    (dict(disparity_from={"door": "dense"}), r"disparity_from\['door'\]"),
+    (dict(disparity_from={"": "outline"}), "disparity_from key"),
     (dict(disparity_from="outline", disparity_error=-1.0), "disparity_error"),
     (dict(disparity_from="outline", disparity_error={"door": "wide"}), r"disparity_error\['door'\]"),
 ])
@@ -166,3 +203,81 @@ def test_stereo_percepts_refuse_bad_disparity_options(kwargs, match):
     with pytest.raises(pc.PerceptionError, match=match):
         pc.stereo_percepts(left, right, rig(), np.eye(4), **kwargs)
 
+
+
+def test_rendered_stereo_percepts_lie_within_their_covariance(tmp_path):
+    """Stereo percepts of a rendered room (the scan's defaults: the measured disparity source and
+    errors per type) against the bodies' true centres: the mean 3-D NEES (3 for an honest
+    covariance) of no type far above (over-confident), and of all together near 3."""
+    import os
+
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    pytest.importorskip("mujoco")
+    from perception.mujoco import MujocoScene
+
+    from .test_mujoco_look import robot, room_xml
+
+    path = tmp_path / "room.xml"
+    path.write_text(room_xml())
+    scene = MujocoScene(path)
+    try:
+        nees: dict[str, list[float]] = {}
+        rng = np.random.default_rng(5)
+        for pose in (robot(0.5, -0.5, 180.0), robot(0.0, 0.5, 150.0), robot(-0.5, 0.0, -120.0)):
+            scan = scene.scan(pose, "stereo", 8, rng=rng, image_size=(W, H), mask_jitter_px=1)
+            ego_from_world = np.linalg.inv(pose)
+            for p, k in zip(scan.percepts, scan.percept_truth, strict=True):
+                truth = ego_from_world[:3, :3] @ scene.positions[k] + ego_from_world[:3, 3]
+                e = np.asarray(p.position) - truth
+                nees.setdefault(p.type, []).append(float(e @ np.linalg.solve(p.covariance, e)))
+    finally:
+        scene.close()
+    means = {t: float(np.mean(v)) for t, v in nees.items() if len(v) >= 4}
+    pooled = float(np.mean([x for v in nees.values() for x in v]))
+    assert len(means) >= 2, nees
+    # no type over-confident (mean NEES of 3 dof at most 9); small parts sit on the centre offsets'
+    # floors (1 cm across, 5 mm along), so under-confidence is bounded over all types together
+    assert all(m <= 9.0 for m in means.values()), means
+    assert 0.6 <= pooled <= 6.0, (pooled, means)
+
+
+@pytest.mark.parametrize(("s_true", "c_true", "t_true"), [(0.4, 0.0, 0.0), (0.0, 0.5, 0.6), (0.3, 0.3, 0.5)])
+def test_split_spread_recovers_the_spreads_it_was_drawn_with(s_true, c_true, t_true):
+    """Residuals drawn as ``b_object + e`` with ``e ~ N(0, own^2 + s^2 + (c ends)^2)``, ``b ~ N(0,
+    t^2)``, views of unequal own errors and ends' differences (one in five 3 px, as an occluded
+    end gives): the split finds ``s``, ``c`` and ``t`` to within the sampling error of 400
+    objects seen 6 times."""
+    from perception.outline import _split_spread
+
+    rng = np.random.default_rng(11)
+    n_obj, per = 400, 6
+    group = np.repeat(np.arange(n_obj), per)
+    own = rng.uniform(0.05, 0.2, group.size)
+    ends = np.where(rng.random(group.size) < 0.2, 3.0, 0.1) * rng.choice([-1.0, 1.0], group.size)
+    sd = np.sqrt(own ** 2 + s_true ** 2 + (c_true * ends) ** 2)
+    res = rng.normal(0.0, t_true, n_obj)[group] + rng.normal(0.0, 1.0, group.size) * sd
+    s, t = _split_spread(group, res, own, ends, c_true)
+    assert s ** 2 == pytest.approx(s_true ** 2, abs=0.03)  # variances: a spread of 0 estimates above it
+    assert t ** 2 == pytest.approx(t_true ** 2, abs=0.06)
+
+
+def test_split_spread_of_objects_seen_once_takes_it_all_as_shared():
+    from perception.outline import _split_spread
+
+    rng = np.random.default_rng(12)
+    res = rng.normal(0.0, 0.5, 2000)
+    s, t = _split_spread(np.arange(2000), res, np.full(2000, 0.3), np.zeros(2000))
+    assert s == 0.0 and t == pytest.approx(0.4, abs=0.03)  # sqrt(0.5^2 - 0.3^2)
+
+
+def test_fit_disparity_errors_with_ends_fits_their_fraction():
+    rng = np.random.default_rng(13)
+    n = 3000
+    ends = rng.choice([0.0, 0.5, 4.0], n)
+    true = rng.uniform(10.0, 40.0, n)
+    measured = true + 0.2 + rng.normal(0.0, 1.0, n) * np.hypot(0.3, 0.4 * ends)
+    fit = pc.fit_disparity_errors(["door"] * n, measured, true, ends_differ_px=ends)["door"]
+    assert fit.bias_px == pytest.approx(0.2, abs=0.03)
+    assert fit.sd_px == pytest.approx(0.3, abs=0.03)
+    assert fit.ends_fraction == pytest.approx(0.4, abs=0.03)
+    assert pc.fit_disparity_errors(["door"] * n, measured, true)["door"].ends_fraction == 0.0
