@@ -68,7 +68,12 @@ def _box(value: object) -> NDArray[np.float64]:
 def _mask_moments(mask: NDArray[np.bool_]) -> tuple[NDArray[np.float64], float, NDArray[np.float64],
                                                      NDArray[np.float64]]:
     """Centroid (u, v), area, pixel covariance (second central moments + 1/12) and bounding box."""
-    v, u = np.nonzero(mask)
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size == 0:  # no pixel: as np.nonzero of the whole mask gives (the caller refuses it)
+        v, u = np.nonzero(mask)
+    else:  # the pixels of the mask's bounding box only, in the same (row-major) order
+        v, u = np.nonzero(mask[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1])
+        v, u = v + rows[0], u + cols[0]
     uv = np.column_stack([u, v]).astype(np.float64)
     centroid = uv.mean(axis=0)
     d = uv - centroid

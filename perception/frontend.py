@@ -762,8 +762,9 @@ def stereo_percepts(
     disparity_error : DisparityError, float, or mapping of str to DisparityError or float, optional
         ``"outline"`` only: the outline disparity's error per type beyond its own standard
         error (a float: a standard deviation in pixels); measure it for your rig with
-        :func:`perception.fit_disparity_errors`.  Default: :data:`perception.DISPARITY_SD_PX`,
-        no bias.
+        :func:`perception.fit_disparity_errors`.  Default: :class:`~perception.DisparityError`'s
+        defaults (:data:`perception.DISPARITY_SD_PX`, :data:`perception.DISPARITY_ENDS_FRACTION`
+        of the ends' difference, no bias).
 
     Returns
     -------

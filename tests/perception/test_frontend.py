@@ -382,3 +382,24 @@ def test_weighted_percentiles_equal_repeating_each_value_by_its_weight():
             want = [np.percentile(np.repeat(x[:, j], w.astype(int)), q, method="inverted_cdf")
                     for j in range(3)]
             np.testing.assert_array_equal(got, want)
+
+
+def test_mask_moments_match_all_the_pixels_of_the_whole_mask():
+    """A mask's centroid, area, second moments and box, read in its bounding box, equal those of
+    every pixel of the whole image (sparse random masks, at the borders too)."""
+    rng = np.random.default_rng(21)
+    for _ in range(20):
+        mask = np.zeros((48, 64), dtype=bool)
+        r0, c0 = rng.integers(0, 48), rng.integers(0, 64)
+        r1, c1 = rng.integers(r0, 48) + 1, rng.integers(c0, 64) + 1
+        mask[r0:r1, c0:c1] = rng.random((r1 - r0, c1 - c0)) < 0.4
+        mask[r0, c0] = True
+        det = pc.Detection("door", mask=mask)
+        v, u = np.nonzero(mask)
+        uv = np.column_stack([u, v]).astype(float)
+        c = uv.mean(axis=0)
+        np.testing.assert_array_equal(det.centroid_uv, c)
+        assert det.area == len(u)
+        np.testing.assert_allclose(det.shape_covariance, (uv - c).T @ (uv - c) / len(u) + np.eye(2) / 12.0,
+                                   rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(det.box, [u.min(), v.min(), u.max(), v.max()])

@@ -473,3 +473,55 @@ def test_default_centre_offsets_fall_back_to_the_geometry_where_no_robot_can_sta
         offsets = scene.default_centre_offsets()
     assert list(offsets) == ["knob"] and offsets["knob"].lateral_sd is None
     assert offsets["knob"].depth == pytest.approx(0.03, abs=1e-3)  # half the sphere's 6 cm extent
+
+
+def _reference_detections(types, seed, miss, false, jitter, min_pixels, objects):
+    """The detector model written the obvious way: every object's mask from the whole image."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    seen = np.unique(objects[objects >= 0]).tolist()
+    out, truth, missed, masks = [], [], [], {}
+    for k in seen:
+        mask = objects == k
+        if jitter:
+            step = int(rng.integers(-jitter, jitter + 1))
+            if step:
+                kernel = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+                img = mask.astype(np.uint8)
+                img = cv2.dilate(img, kernel, iterations=step) if step > 0 else cv2.erode(img, kernel,
+                                                                                         iterations=-step)
+                mask = img.astype(bool)
+        masks[k] = mask
+        if int(mask.sum()) < min_pixels or (miss > 0 and rng.random() < miss):
+            missed.append(k)
+            continue
+        out.append((types[k], mask))
+        truth.append(k)
+    return out, truth, missed, rng
+
+
+@pytest.mark.parametrize("jitter", [0, 1, 2])
+def test_detector_model_matches_the_whole_image_reference(jitter):
+    """Masks made in each object's padded box equal those made on the whole image: objects
+    touching the border and each other, one of a single pixel, one split in two."""
+    import cv2
+
+    from perception.mujoco import _Degrade
+
+    objects = np.full((60, 80), -1, dtype=np.int32)
+    objects[0:20, 0:15] = 0  # the image's corner
+    objects[10:30, 15:40] = 1  # touching object 0
+    cv2.ellipse(objects, (60, 40), (12, 8), 30.0, 0.0, 360.0, 2, -1)
+    objects[59, 79] = 3  # one pixel in the far corner
+    objects[45:55, 5:10] = 4
+    objects[45:55, 20:25] = 4  # the same object in two parts
+    objects[2:6, 70:80] = 5  # the right border
+    types = ("door", "handle", "knob", "knob", "drawer", "door")
+    for seed in range(5):
+        got = _Degrade(types, np.random.default_rng(seed), 0.2, 0.0, jitter, 3)(objects)
+        want, truth, missed, _ = _reference_detections(types, seed, 0.2, 0.0, jitter, 3, objects)
+        assert got[1] == tuple(truth) and got[2] == tuple(missed)
+        for det, (typ, mask) in zip(got[0], want, strict=True):
+            assert det.type == typ
+            np.testing.assert_array_equal(det.mask, mask)
