@@ -119,7 +119,8 @@ class OutlineDisparity:
     ends_differ_px : float
         Mean disparity of the kept left ends minus that of the right ends: a slanted face, or an
         end that one eye sees cut by an occluder (which ``sd`` does not see; see
-        :class:`DisparityError`).
+        :class:`DisparityError`).  Less what a mask one eye draws wider all round explains: when
+        its top and bottom rows lie ``dk`` rows outside the other's, ``2 dk``.
     """
 
     disparity: float
@@ -246,6 +247,11 @@ def outline_disparity(rig: Any, left: Detection, right: Detection, rectification
     left_kept, right_kept = keep & is_left_end, keep & ~is_left_end
     ends_differ = (float(np.mean(d[left_kept]) - np.mean(d[right_kept]))
                    if left_kept.any() and right_kept.any() else 0.0)
+    # a mask one eye draws wider all round (a detector's edge) moves its top and bottom rows apart
+    # as its left and right ends: 2 dk of the ends' difference that is no occluder's
+    top, bottom = b_l - b_r, (b_l + first_l.size) - (b_r + first_r.size)
+    dk = min(-top, bottom) if top < 0 < bottom else (-min(top, -bottom) if bottom < 0 < top else 0)
+    ends_differ += 2.0 * dk
     # an end one eye sees cut by an occluder (a cabinet's side, the next door) moves every row's end
     # alike, which the trim cannot see: DisparityError.ends_fraction turns the ends' difference
     # into the error it may add

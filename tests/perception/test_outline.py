@@ -77,6 +77,21 @@ def test_an_end_one_eye_sees_cut_is_reported_and_widens_the_default_error():
     whole = pc.outline_disparity(rig(), detection(left), detection(rectangle(88, 60, 168, 170)))
     assert whole is not None and whole.ends_differ_px == 0.0
 
+
+def test_a_mask_drawn_wider_all_round_is_no_cut_end():
+    """The right mask one pixel wider on every side (a detector's edge): the ends differ by 2 px
+    each way and the rows by one at top and bottom, which says it is no occluder: the ends'
+    difference is 0."""
+    left = rectangle(100, 60, 180, 170)
+    wider = rectangle(87, 59, 169, 171)
+    out = pc.outline_disparity(rig(), detection(left), detection(wider))
+    assert out is not None
+    assert out.ends_differ_px == pytest.approx(0.0, abs=1e-9)
+    # ends at 13 and 11 px: their harmonic mean (a slanted face's) 11.92, not 12
+    assert out.disparity == pytest.approx(2.0 / (1.0 / 13.0 + 1.0 / 11.0), abs=1e-9)
+    narrower = pc.outline_disparity(rig(), detection(left), detection(rectangle(89, 61, 167, 169)))
+    assert narrower is not None and narrower.ends_differ_px == pytest.approx(0.0, abs=1e-9)
+
 def test_plane_through_a_calibrated_rig_triangulates_to_its_depth():
     """A fronto-parallel rectangle 2.5 m away, projected through a rotated, distorted rig."""
     import cv2
