@@ -1004,7 +1004,6 @@ class MujocoScene:
         from .frontend import CENTRE_DEPTH_FLOOR, _extent_middle, _extents_differ, _touches_border
         from .outline import _split_spread, outline_disparity
         from .recognition import DISPARITY_STD_PX, match_stereo
-        from .stereo import StereoRig
 
         checked = self._calibration_poses(world_from_egos)
         min_px = integer("min_pixels", min_pixels, minimum=1)
@@ -1016,11 +1015,8 @@ class MujocoScene:
                              chain=chain, percepts=False, max_range=1e6, mask_jitter_px=mask_jitter_px)
             groups: dict[int, int] = {}
             for view in scan.views:
-                assert view.ego_from_right_camera is not None
                 h, w = view.segmentation.shape
-                right_from_left = np.linalg.inv(view.ego_from_right_camera) @ view.ego_from_camera
-                rig = StereoRig(view.K, np.zeros(0), view.K, np.zeros(0), right_from_left[:3, :3],
-                                right_from_left[:3, 3], (w, h))
+                rig = _view_rig(view)
                 rect = rig.rectify()
                 camera_from_world = np.linalg.inv(pose @ view.ego_from_camera)
                 for m in match_stereo(rig, view.detections, view.right_detections, min_depth=0.3):
@@ -1461,7 +1457,7 @@ depth_noise, max_range, centre_offset
         if run_front_end:
             t0 = time.perf_counter()
             for k, view in enumerate(views):
-                found, sources, lost = self._percepts(view, sensor, size, centres, noise)
+                found, sources, lost = self._percepts(view, sensor, centres, noise)
                 out_percepts.extend(found)
                 out_views.extend([k] * len(found))
                 out_truth.extend(view.truth[i] for i in sources)
@@ -1485,11 +1481,10 @@ depth_noise, max_range, centre_offset
         return StereoCalibration({name_string("centre_offset key", k): _offset_of(f"centre_offset[{k!r}]", v)
                                   for k, v in centre_offset.items()}, {}, {})
 
-    def _percepts(self, view: ScanView, sensor: str, size: tuple[int, int], settings: StereoCalibration,
-                  depth_noise: float) -> tuple[tuple[Any, ...], tuple[int, ...], tuple[Any, ...]]:
+    def _percepts(self, view: ScanView, sensor: str, settings: StereoCalibration, depth_noise: float
+                  ) -> tuple[tuple[Any, ...], tuple[int, ...], tuple[Any, ...]]:
         """The front end on one view: ``(percepts, detection index of each, dropped)``."""
         from .frontend import DEPTH_NOISE, rgbd_percepts, stereo_percepts
-        from .stereo import StereoRig
 
         if sensor == "rgbd":
             assert view.depth is not None
@@ -1497,14 +1492,22 @@ depth_noise, max_range, centre_offset
                                 depth_noise=depth_noise if depth_noise > 0 else DEPTH_NOISE,
                                 centre_offset=settings.centre_offset)
         else:
-            assert view.ego_from_right_camera is not None
-            right_from_left = np.linalg.inv(view.ego_from_right_camera) @ view.ego_from_camera
-            rig = StereoRig(view.K, np.zeros(0), view.K, np.zeros(0), right_from_left[:3, :3],
-                            right_from_left[:3, 3], size)
-            out = stereo_percepts(view.detections, view.right_detections, rig, view.ego_from_camera,
-                                  **settings.keywords())
+            out = stereo_percepts(view.detections, view.right_detections, _view_rig(view),
+                                  view.ego_from_camera, **settings.keywords())
         return out.percepts, out.sources, out.dropped
 
+
+
+def _view_rig(view: ScanView) -> Any:
+    """The stereo rig of a stereo view: both cameras with its ``K``, no distortion, the right one
+    where ``ego_from_right_camera`` puts it (``X_right = R X_left + T``), its image size."""
+    from .stereo import StereoRig
+
+    assert view.ego_from_right_camera is not None
+    right_from_left = np.linalg.inv(view.ego_from_right_camera) @ view.ego_from_camera
+    h, w = view.segmentation.shape
+    return StereoRig(view.K, np.zeros(0), view.K, np.zeros(0), right_from_left[:3, :3],
+                     right_from_left[:3, 3], (w, h))
 
 def _noisy_depth(z: NDArray[np.float64], c: float, max_range: float, rng: np.random.Generator
                  ) -> NDArray[np.float64]:
