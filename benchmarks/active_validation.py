@@ -6,7 +6,7 @@ Trials are drawn as in ``benchmarks/association.py``: a robot pose (x, y uniform
 the world's bounds, head at z = 1.5 m, uniform yaw, ego z up) sees ``n_percepts`` percepts:
 ``n_percepts - 1`` true ones drawn at random among the visible landmarks of the types door,
 handle, drawer, knob (within 8 m, all around) with eq.-6 noise ``sigma = rho^2 / depth_factor``
-from :func:`perception.simulate.simulate_percepts`, plus one false percept in the visible region.
+from :func:`perception.simulation.simulate.simulate_percepts`, plus one false percept in the visible region.
 ``localize`` runs with every default.
 
 Scenarios (``--scenarios DEPTH_FACTOR:DETECTION:CAP``) set the noise and what a look returns: a
@@ -48,7 +48,7 @@ import numpy as np
 from association import _judge as association_judge  # benchmarks/association.py
 from scipy.spatial.transform import Rotation
 
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 from worldgraph import active, scenes
 from worldgraph.active import active_localize, plan_view
 from worldgraph.association import discriminator

@@ -4,7 +4,7 @@ For every (n_percepts, n_false) row, N random robot poses inside the kitchen (x,
 0.5 m inside the walls, z = 1.5 m, yaw uniform, ego z up) each see ``n_percepts`` percepts:
 ``n_percepts - n_false`` true ones, drawn at random among the visible landmarks of the
 percept types (within ``max_range`` and the horizontal field of view), with
-``sigma = rho^2 / depth_factor`` (eq. 6) noise from :func:`perception.simulate.simulate_percepts`,
+``sigma = rho^2 / depth_factor`` (eq. 6) noise from :func:`perception.simulation.simulate.simulate_percepts`,
 plus ``n_false`` false percepts placed in the visible region.  A localisation is
 unique-and-correct when its status is "ok", the 6D NEES ``e^T C^-1 e <= 20.06`` (3 sigma of
 chi-square with 6 degrees of freedom, ``C`` the returned ``pose_covariance``) and the rotation error
@@ -26,7 +26,7 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 from worldgraph import scenes
 from worldgraph.association import AssociationTolerances, associate
 from worldgraph.localization import localize

@@ -72,7 +72,7 @@ def _verdict(res, pose: np.ndarray) -> str:
 
 
 def _robots(world, storeys: np.ndarray, rng: np.random.Generator, n: int) -> list:
-    from perception.simulate import simulate_percepts
+    from perception.simulation.simulate import simulate_percepts
 
     tables = np.flatnonzero(world.types == "table")
     out = []

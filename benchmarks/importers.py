@@ -19,7 +19,7 @@ translation.  The scene is written to a temporary directory as GLB and as OBJ, t
   trimesh scene);
 * ``associate`` / ``localize``: medians over ``--poses`` robot poses (0.8 m above a random
   table, yaw uniform, seeing the objects of its own storey within 8 m: 8 true percepts with
-  ``sigma = rho^2 / 1000`` from :func:`perception.simulate.simulate_percepts`), every world on
+  ``sigma = rho^2 / 1000`` from :func:`perception.simulation.simulate.simulate_percepts`), every world on
   the same percepts with ``tol=AssociationTolerances(gravity_aligned=True)``.
 
 It checks that the worlds agree (same ids, types, positions and sizes, same association pairs
@@ -48,7 +48,7 @@ import numpy as np
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 from worldgraph import AssociationTolerances, WorldModel, associate, localize
 from worldgraph.importers import write_scene
 

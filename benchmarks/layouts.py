@@ -2,7 +2,7 @@
 
 For every layout kind of :func:`worldgraph.scenes.kitchen_layout` (one-wall, galley, L, U,
 island; several seeds each) and the paper-sized kitchen, random robot poses see ``n_true`` true
-percepts and one false percept, simulated here independently of ``perception.simulate``:
+percepts and one false percept, simulated here independently of ``perception.simulation.simulate``:
 
 * the robot stands on the floor, in free space (at least ``--clearance`` m sideways from every
   object), its head (the ego origin) at 1.5 m, ego z up (REP 103), random yaw;

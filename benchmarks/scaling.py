@@ -76,7 +76,7 @@ from scipy.spatial.transform import Rotation
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import association as assoc_bench  # noqa: E402  (benchmarks/association.py: _draw, _judge, _pose)
 
-from perception.simulate import simulate_percepts  # noqa: E402
+from perception.simulation.simulate import simulate_percepts  # noqa: E402
 from worldgraph import scenes  # noqa: E402
 from worldgraph.active import active_localize  # noqa: E402
 from worldgraph.association import AssociationTolerances, associate  # noqa: E402

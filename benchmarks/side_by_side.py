@@ -25,7 +25,7 @@ import numpy as np
 from active_validation import MAX_RANGE, PERCEPT_TYPES, _looker, _pose  # benchmarks/active_validation.py
 
 import worldgraph as wg
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 
 DEPTH_FACTOR = 500.0
 

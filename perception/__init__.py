@@ -8,14 +8,6 @@ try:
 except _PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "0.1.0"  # keep equal to pyproject.toml's [project] version (a test checks)
 
-from .chain import (
-    Joint,
-    KinematicChain,
-    check_transform,
-    default_head,
-    percept_covariance,
-)
-from .detection import Detection
 from .errors import (
     BehindCameraError,
     MissingExtraError,
@@ -23,8 +15,9 @@ from .errors import (
     RobotFileError,
     TooManyNeighboursError,
 )
-from .frontend import CentreOffset, DetectionPercepts, Dropped, rgbd_percepts, stereo_percepts
-from .fusion import (
+from .frontend.detection import Detection
+from .frontend.detection_percepts import CentreOffset, DetectionPercepts, Dropped
+from .frontend.fusion import (
     FusionDrop,
     FusionReport,
     fuse_percepts,
@@ -32,7 +25,7 @@ from .fusion import (
     mean_shift_modes,
     percept_bandwidths,
 )
-from .outline import (
+from .frontend.outline import (
     DISPARITY_ENDS_FRACTION,
     DISPARITY_SD_PX,
     DisparityError,
@@ -40,19 +33,18 @@ from .outline import (
     fit_disparity_errors,
     outline_disparity,
 )
-from .percept import OBJECT_VIEW, Percept
-from .recognition import (
-    GaussianClassifier,
-    StereoMatch,
-    detect,
-    match_stereo,
-    recognize,
-    train_classifier,
+from .frontend.percept import OBJECT_VIEW, Percept
+from .frontend.rgbd import rgbd_percepts
+from .frontend.stereo_pairs import StereoMatch, match_stereo, stereo_percepts
+from .head.chain import (
+    Joint,
+    KinematicChain,
+    check_transform,
+    default_head,
+    percept_covariance,
 )
-from .render import Box, random_scene, render_stereo, scene_boxes
-from .simulate import simulate_percepts, simulate_scan
-from .stereo import Rectification, StereoRig
-from .uncertainty import (
+from .head.stereo import Rectification, StereoRig
+from .head.uncertainty import (
     class_bandwidth,
     depth_sigma,
     disparity,
@@ -60,6 +52,10 @@ from .uncertainty import (
     pixel_footprint,
     triangulation_covariance,
 )
+from .recognition.classifier import GaussianClassifier
+from .recognition.pipeline import detect, recognize, train_classifier
+from .simulation.render import Box, random_scene, render_stereo, scene_boxes
+from .simulation.simulate import simulate_percepts, simulate_scan
 
 __all__ = [
     "BehindCameraError",

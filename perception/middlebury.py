@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import MissingExtraError, PerceptionError
-from .uncertainty import depth_sigma
+from .head.uncertainty import depth_sigma
 
 FOCAL_PX = 994.978
 BASELINE_M = 0.193001

@@ -4,7 +4,7 @@ Fixed thresholds of the checks and iterations (symmetry and definiteness of cova
 rigidity of transforms, convergence, rounding), each with what it guards; functions that let a
 caller tune one take it as ``tol=`` with the constant as default.  They are named here so that
 they are found, not so that they are tuned.  Ranges of accepted input (sigmas in
-``[1e-150, 1e150]``, :data:`~perception.fusion.SIGMA_RANGE`) are limits of the domain, not
+``[1e-150, 1e150]``, :data:`~perception.frontend.fusion.SIGMA_RANGE`) are limits of the domain, not
 tolerances, and stay with their checks.
 """
 
@@ -41,6 +41,9 @@ QUERY_SLACK = 1e-9
 EIGENVALUE_FLOOR = 1e-12
 #: Triangulation: a 2x2 normal-equation determinant at most this is singular (parallel rays).
 PARALLEL_RAYS = 1e-15
+#: Nearest depth (m) in front of a camera that counts as in front of it (the renderer's near
+#: plane; a triangulated point nearer than this is behind the camera).
+NEAR_PLANE = 0.05
 #: Renderer: a vertex within this of a face's plane is on it (depth ordering).
 PLANE_EPS = 1e-9
 #: Iterative undistortion stops at a step below this (normalised image units).

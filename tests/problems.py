@@ -86,7 +86,7 @@ def robot_at_a_table(site, seed: int, n_true: int) -> tuple[np.ndarray, list]:
     false percept, shuffled: ``(world_from_ego, percepts)``."""
     from scipy.spatial.transform import Rotation
 
-    from perception.simulate import simulate_percepts
+    from perception.simulation.simulate import simulate_percepts
 
     rng = np.random.default_rng(seed)
     w = site.world

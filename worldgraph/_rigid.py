@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from perception.chain import rigid_defect
+from perception.head.chain import rigid_defect
 
 from ._checks import real_array
 from .errors import WorldGraphError

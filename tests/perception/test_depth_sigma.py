@@ -16,7 +16,7 @@ from perception import (
     simulate_percepts,
     simulate_scan,
 )
-from perception.simulate import scan_angles
+from perception.simulation.simulate import scan_angles
 from tests.worlds import yaw_pose
 
 

@@ -11,6 +11,7 @@ import pytest
 
 import perception as pc
 from perception import frontend
+from perception.frontend import detection_percepts
 
 K = np.array([[500.0, 0.0, 319.5], [0.0, 500.0, 239.5], [0.0, 0.0, 1.0]])
 SHAPE = (480, 640)
@@ -378,7 +379,7 @@ def test_weighted_percentiles_equal_repeating_each_value_by_its_weight():
         x = rng.normal(size=(n, 3)).round(1)  # ties included
         w = rng.integers(1, 6, size=n).astype(float)
         for q in (0.0, 1.0, 37.5, 50.0, 99.0, 100.0):
-            got = frontend._weighted_percentiles(x, w, q)
+            got = detection_percepts._weighted_percentiles(x, w, q)
             want = [np.percentile(np.repeat(x[:, j], w.astype(int)), q, method="inverted_cdf")
                     for j in range(3)]
             np.testing.assert_array_equal(got, want)

@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import perception as pc
-import perception.fusion as fusion_module
+import perception.frontend.fusion as fusion_module
 from perception import (
     Percept,
     PerceptionError,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import perception as pc
-import perception.fusion as fusion_module
+import perception.frontend.fusion as fusion_module
 from perception.errors import (
     TooManyNeighboursError,
 )

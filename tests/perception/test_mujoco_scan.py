@@ -507,7 +507,7 @@ def test_detector_model_matches_the_whole_image_reference(jitter):
     touching the border and each other, one of a single pixel, one split in two."""
     import cv2
 
-    from perception.mujoco import _Degrade
+    from perception.mujoco.detector import _Degrade
 
     objects = np.full((60, 80), -1, dtype=np.int32)
     objects[0:20, 0:15] = 0  # the image's corner

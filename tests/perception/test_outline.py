@@ -262,7 +262,7 @@ def test_split_spread_recovers_the_spreads_it_was_drawn_with(s_true, c_true, t_t
     t^2)``, views of unequal own errors and ends' differences (one in five 3 px, as an occluded
     end gives): the split finds ``s``, ``c`` and ``t`` to within the sampling error of 400
     objects seen 6 times."""
-    from perception.outline import _split_spread
+    from perception.frontend.outline import split_spread
 
     rng = np.random.default_rng(11)
     n_obj, per = 400, 6
@@ -271,17 +271,17 @@ def test_split_spread_recovers_the_spreads_it_was_drawn_with(s_true, c_true, t_t
     ends = np.where(rng.random(group.size) < 0.2, 3.0, 0.1) * rng.choice([-1.0, 1.0], group.size)
     sd = np.sqrt(own ** 2 + s_true ** 2 + (c_true * ends) ** 2)
     res = rng.normal(0.0, t_true, n_obj)[group] + rng.normal(0.0, 1.0, group.size) * sd
-    s, t = _split_spread(group, res, own, ends, c_true)
+    s, t = split_spread(group, res, own, ends, c_true)
     assert s ** 2 == pytest.approx(s_true ** 2, abs=0.03)  # variances: a spread of 0 estimates above it
     assert t ** 2 == pytest.approx(t_true ** 2, abs=0.06)
 
 
 def test_split_spread_of_objects_seen_once_takes_it_all_as_shared():
-    from perception.outline import _split_spread
+    from perception.frontend.outline import split_spread
 
     rng = np.random.default_rng(12)
     res = rng.normal(0.0, 0.5, 2000)
-    s, t = _split_spread(np.arange(2000), res, np.full(2000, 0.3), np.zeros(2000))
+    s, t = split_spread(np.arange(2000), res, np.full(2000, 0.3), np.zeros(2000))
     assert s == 0.0 and t == pytest.approx(0.4, abs=0.03)  # sqrt(0.5^2 - 0.3^2)
 
 

@@ -17,24 +17,19 @@ from scipy.stats import multivariate_normal
 from perception.errors import (
     PerceptionError,
 )
+from perception.frontend import Detection, match_stereo
+from perception.head.stereo import StereoRig
 from perception.recognition import (
     CENTROID_OFFSET_SCALE,
     COLOR_RANGES,
-    Box,
-    Detection,
     GaussianClassifier,
-    _percept_covariances,
     detect,
-    match_stereo,
-    random_scene,
     recognize,
     region_features,
-    render_labels,
-    render_stereo,
-    scene_boxes,
     train_classifier,
 )
-from perception.stereo import StereoRig
+from perception.recognition.pipeline import _percept_covariances
+from perception.simulation.render import Box, random_scene, render_labels, render_stereo, scene_boxes
 
 RIG = StereoRig.default()
 WIDTH, HEIGHT = RIG.image_size
@@ -564,18 +559,16 @@ def test_bad_boxes_and_parameters_raise_specific_errors(trained: GaussianClassif
         GaussianClassifier.fit(np.zeros((3, 2)) + np.arange(3)[:, None], ["a", "a", "b"])
 
 
-def test_renderer_names_stay_importable_from_recognition_and_the_package() -> None:
-    # The renderer lives in perception.render; code written against perception.recognition or
-    # the package root must keep getting the very same objects.
+def test_renderer_names_live_in_simulation_and_the_package_only() -> None:
+    # The renderer lives in perception.simulation.render; the package root gives the very same
+    # objects, and perception.recognition (the paper's recognition) no longer re-exports them.
     import perception
     import perception.recognition as recognition
-    import perception.render as render
+    import perception.simulation.render as render
 
-    moved = ["BOX_DEFAULTS", "DEFAULT_BACKGROUND", "MAX_COORD", "MAX_RENDER_PIXELS", "Box",
-             "random_scene", "render_labels", "render_stereo", "scene_boxes", "visible_mask"]
-    for name in moved:
-        assert getattr(recognition, name) is getattr(render, name), name
     for name in ["Box", "random_scene", "render_stereo", "scene_boxes"]:
         assert getattr(perception, name) is getattr(render, name), name
-    assert set(render.__all__) <= set(moved)
-    assert {"render_labels", "render_stereo", "visible_mask", "Box"} <= set(recognition.__all__)
+    for name in render.__all__:
+        assert not hasattr(recognition, name), name
+    assert {"render_labels", "render_stereo", "visible_mask", "Box"} <= set(render.__all__)
+    assert {"detect", "recognize", "train_classifier"} <= set(recognition.__all__)

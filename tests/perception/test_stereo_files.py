@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import perception as pc
-import perception.stereo as stereo_module
+import perception.head.stereo as stereo_module
 from perception.errors import (
     PerceptionError,
     RobotFileError,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import perception as pc
-import perception.uncertainty as uncertainty_module
+import perception.head.uncertainty as uncertainty_module
 from perception.errors import (
     BehindCameraError,
 )

@@ -19,7 +19,7 @@ from perception import (
     RobotFileError,
     default_head,
 )
-from perception.chain import TIP_FROM_OPENCV
+from perception.head.chain import TIP_FROM_OPENCV
 
 ICUB = str(icub_models.get_model_file("iCubGazeboV2_7"))
 HALF_BASELINE = 0.093 / 2.0

@@ -135,8 +135,9 @@ def test_every_module_is_read(package):
     assert any(name.startswith(package + ".") for name in _modules())
 
 
-# ---- the old module paths were removed (issue 35) -------------------------------------------------
-#: The 12 forwarding modules removed in issue 35, with the module that holds their code.
+# ---- the old module paths were removed ------------------------------------------------------------
+#: Module paths removed (the 12 forwarding modules of issue 35; perception's flat modules), with
+#: the module that holds their code.
 REMOVED_PATHS = {
     "worldgraph.cliques": "worldgraph.association.cliques",
     "worldgraph.consistency": "worldgraph.association.consistency",
@@ -150,6 +151,19 @@ REMOVED_PATHS = {
     "worldgraph.ring_join": "worldgraph.model.ring_join",
     "worldgraph.units": "worldgraph.model.units",
     "worldgraph.validation": "worldgraph.pose.validation",
+    # perception in subpackages by job
+    "perception.chain": "perception.head.chain",
+    "perception.classifier": "perception.recognition.classifier",
+    "perception.detection": "perception.frontend.detection",
+    "perception.fusion": "perception.frontend.fusion",
+    "perception.outline": "perception.frontend.outline",
+    "perception.percept": "perception.frontend.percept",
+    "perception.render": "perception.simulation.render",
+    "perception.segmentation": "perception.recognition.segmentation",
+    "perception.simulate": "perception.simulation.simulate",
+    "perception.stereo": "perception.head.stereo",
+    "perception.uncertainty": "perception.head.uncertainty",
+    "perception.urdf": "perception.head.urdf",
 }
 
 

@@ -42,8 +42,8 @@ def test_a_fault_inside_a_public_function_surfaces_as_itself(monkeypatch):
 
     import perception
     import worldgraph as wg
-    from perception import fusion
     from perception.errors import PerceptionError
+    from perception.frontend import fusion
     from tests.worlds import four_type_world
     from worldgraph.errors import WorldGraphError
     from worldgraph.localization import pipeline

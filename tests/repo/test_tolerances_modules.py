@@ -36,17 +36,17 @@ ALLOWED: dict[str, list[str]] = {
     # input ranges of pose weights and covariance eigenvalues (the messages quote them)
     "worldgraph/pose/frames.py": ["1e-150", "1e-100"],
     # input ranges of sigmas and variances
-    "perception/fusion.py": ["1e-150", "1e-300"],
+    "perception/frontend/fusion.py": ["1e-150", "1e-300"],
     # input range of covariance entries; the classifier's regularisation default (a user option)
-    "perception/classifier.py": ["1e-150", "1e-4"],
+    "perception/recognition/classifier.py": ["1e-150", "1e-4"],
     # input range of sigmas; physical min_sigma defaults (m)
-    "perception/simulate.py": ["1e-150", "1e-4", "1e-4"],
+    "perception/simulation/simulate.py": ["1e-150", "1e-4", "1e-4"],
     # the physical depth-noise default of a depth camera (1/m)
-    "perception/frontend.py": ["1.5e-3"],
+    "perception/frontend/detection_percepts.py": ["1.5e-3"],
     # input ranges of the field of view (degrees) and of the default rig's baseline (m)
-    "perception/stereo.py": ["1e-6", "1e-6"],
+    "perception/head/stereo.py": ["1e-6", "1e-6"],
     # the differentiation step default (pixels, a user-facing size) and its input range
-    "perception/uncertainty.py": ["1e-3", "1e-9"],
+    "perception/head/uncertainty.py": ["1e-3", "1e-9"],
 }
 #: Files another branch is rewriting while this one was written: not scanned.
 NOT_SCANNED: set[str] = set()

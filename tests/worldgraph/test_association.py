@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from perception import Percept
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 from worldgraph.association import associate
 from worldgraph.association.cliques import maximum_cliques
 from worldgraph.association.consistency import _Graph, _prune_by_pairs, _prune_vectorised

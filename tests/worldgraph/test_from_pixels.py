@@ -19,6 +19,7 @@ from scipy.spatial.transform import Rotation  # noqa: E402
 
 import perception as pc  # noqa: E402
 import worldgraph as wg  # noqa: E402
+from perception.frontend.detection_percepts import _percept  # noqa: E402
 
 mujoco = pytest.importorskip("mujoco")
 if importlib.util.find_spec("gymnasium_robotics") is None:  # the data package of the test set-up
@@ -118,8 +119,7 @@ def test_views_from_different_directions_keep_the_objects_offset_in_the_fused_co
         own = 1e-6 * np.eye(3)
         ego_from_camera = np.eye(4)
         ego_from_camera[:3, :3] = R
-        percepts.append(pc.frontend._percept(pc.Detection("door", centroid_uv=[1.0, 1.0], area=9.0),
-                                             R.T @ np.array([2.0, 0.0, 1.0]), own, R.T @ loading,
-                                             ego_from_camera, None))
+        percepts.append(_percept(pc.Detection("door", centroid_uv=[1.0, 1.0], area=9.0),
+                                 R.T @ np.array([2.0, 0.0, 1.0]), own, R.T @ loading, ego_from_camera, None))
     fused = pc.fuse_percepts(percepts, bandwidth=0.2)[0]
     assert np.all(np.linalg.eigvalsh(fused.covariance - offset) > -1e-9)  # at least the offset

@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 import perception as pc
 import worldgraph as wg
 from perception import Percept
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 from worldgraph import scenes
 from worldgraph.errors import WorldGraphError
 from worldgraph.pose import gravity as gr

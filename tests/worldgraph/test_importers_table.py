@@ -19,7 +19,7 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 import worldgraph as wg
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 from worldgraph.errors import WorldGraphError
 from worldgraph.model import ObjectModel, ObjectTable, room_from_trimesh
 from worldgraph.model.objects import _check_type_name

@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 import radialopt as ro
 from perception import Percept
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 from worldgraph.errors import WorldGraphError
 from worldgraph.localization import localize
 from worldgraph.model import WorldModel

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import radialopt as ro
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 from worldgraph import scenes
 from worldgraph.errors import WorldGraphError
 from worldgraph.localization import localize, match_spheres

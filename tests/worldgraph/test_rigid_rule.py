@@ -1,4 +1,4 @@
-"""One rigidity rule for the three packages: ``perception.chain.rotation_errors`` /
+"""One rigidity rule for the three packages: ``perception.head.chain.rotation_errors`` /
 ``rotation_defect`` / ``rigid_defect``, used by ``perception.check_transform`` and by worldgraph's
 transform and rotation checks.  Checked against a slow, obvious reference (a loop over the
 definition with SVD singular values) and for agreement of the two packages' checks."""
@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 import perception as pc
 import worldgraph as wg
-from perception.chain import rigid_defect, rotation_defect, rotation_errors
+from perception.head.chain import rigid_defect, rotation_defect, rotation_errors
 from perception.tolerances import RIGID_TOLERANCE
 from worldgraph._rigid import rigid_transform
 

@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 import worldgraph as wg
 from perception import Percept
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 from tests.problems import robot_at_a_table
 from worldgraph import scenes
 from worldgraph.errors import WorldGraphError

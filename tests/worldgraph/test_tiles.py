@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 import worldgraph as wg
 from perception import Percept
-from perception.simulate import simulate_percepts
+from perception.simulation.simulate import simulate_percepts
 from worldgraph import scenes
 from worldgraph.tiles import Tile, localize_tiled, split
 

@@ -34,7 +34,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from perception.chain import rotation_defect, rotation_errors
+from perception.head.chain import rotation_defect, rotation_errors
 
 from .. import _checks
 from ..errors import MalformedFileError, WorldGraphError

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from perception.chain import rotation_defect, rotation_errors
+from perception.head.chain import rotation_defect, rotation_errors
 
 from .. import _checks, _rigid
 from ..errors import (

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from perception.chain import rotation_errors
+from perception.head.chain import rotation_errors
 
 from .. import _checks
 from ..errors import (

@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import integer, real_array, real_scalar, sequence
+from .._checks import integer, real_array, real_scalar, sequence
+from ..errors import PerceptionError
 from .detection import MAX_PIXEL_COORDINATE, Detection
-from .errors import PerceptionError
 
 __all__ = [
     "DISPARITY_ENDS_FRACTION",
@@ -192,7 +192,7 @@ def outline_disparity(rig: Any, left: Detection, right: Detection, rectification
     PerceptionError
         ``rig`` not a StereoRig, ``left`` or ``right`` not a Detection.
     """
-    from .stereo import Rectification, StereoRig
+    from ..head.stereo import Rectification, StereoRig
 
     if not isinstance(rig, StereoRig):
         raise PerceptionError(f"rig must be a perception.StereoRig, got {type(rig).__name__}")
@@ -400,7 +400,7 @@ def _fit_spread(res: NDArray[np.float64], own_var: NDArray[np.float64], ends: ND
     return float(best.x[0]), float(best.x[1])
 
 
-def _split_spread(group: NDArray[np.int64], res: NDArray[np.float64], own_sd: NDArray[np.float64],
+def split_spread(group: NDArray[np.int64], res: NDArray[np.float64], own_sd: NDArray[np.float64],
                   ends: NDArray[np.float64], ends_fraction: float = DISPARITY_ENDS_FRACTION
                   ) -> tuple[float, float]:
     """The error model of residuals ``res`` (one per view; ``group`` the object and scan each

@@ -22,13 +22,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from ._checks import integer, real_array, real_scalar, spd
-from .errors import (
+from .._checks import integer, real_array, real_scalar, spd
+from ..errors import (
     PerceptionError,
     TooManyNeighboursError,
 )
+from ..tolerances import MEAN_SHIFT_TOL, QUERY_SLACK, TINY
 from .percept import Percept
-from .tolerances import MEAN_SHIFT_TOL, QUERY_SLACK, TINY
 
 DEFAULT_BANDWIDTH = 0.1
 """Default kernel radius, metres."""

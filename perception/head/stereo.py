@@ -10,18 +10,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import file_path, integer, real_array, real_scalar, rotation_defect
-from .errors import (
+from .._checks import file_path, integer, real_array, real_scalar, rotation_defect
+from ..errors import (
     BehindCameraError,
     PerceptionError,
     RobotFileError,
 )
-from .tolerances import RIG_ROUND_TRIP_RTOL, RIGID_TOLERANCE, UNDISTORT_EPS
+from ..tolerances import RIG_ROUND_TRIP_RTOL, RIGID_TOLERANCE, UNDISTORT_EPS
 
 _DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
 MAX_IMAGE_SIDE = 100_000
@@ -67,6 +67,14 @@ class Rectification(NamedTuple):
     P1: NDArray[np.float64]
     P2: NDArray[np.float64]
     Q: NDArray[np.float64]
+
+
+def as_stereo_rig(rig: Any) -> Any:
+    """``rig`` itself, which must be a :class:`StereoRig` (a :class:`PerceptionError` names what it is
+    otherwise)."""
+    if not isinstance(rig, StereoRig):
+        raise PerceptionError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    return rig
 
 
 def _matrix(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:

@@ -14,8 +14,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import integer, real_array, real_scalar
-from .errors import PerceptionError
+from .._checks import integer, real_array, real_scalar
+from ..errors import PerceptionError
 
 if TYPE_CHECKING:
     from .stereo import StereoRig
@@ -252,7 +252,7 @@ def triangulation_covariance(
         raise PerceptionError(f"pixel_sigma must be a scalar or shape (4,), got shape {s.shape}")
     if np.any(s > 1e100):
         raise PerceptionError(f"pixel_sigma must be at most 1e100 pixels, got {s.tolist()}")
-    from .errors import BehindCameraError
+    from ..errors import BehindCameraError
     from .stereo import _check_triangulated
 
     u1, u2 = _matched_pixels(rig, uv_left, uv_right)

@@ -1,6 +1,6 @@
 """Reading a URDF file's joint path (through the optional yourdfpy) for
-:meth:`perception.KinematicChain.from_urdf`: plain data, no chain (so that :mod:`perception.chain`
-reads URDF files without an import cycle; :mod:`perception.urdf` keeps the public function).
+:meth:`perception.KinematicChain.from_urdf`: plain data, no chain (so that :mod:`perception.head.chain`
+reads URDF files without an import cycle; :mod:`perception.head.urdf` keeps the public function).
 
 The URDF's joint tree is walked from the camera link up to the base link; the joints on that
 path, from the base down, become the chain's joints. Revolute and continuous joints are kept,
@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import check_transform, file_path, name_string
-from .errors import MissingExtraError, RobotFileError
-from .tolerances import AXIS_TOL
+from .._checks import check_transform, file_path, name_string
+from ..errors import MissingExtraError, RobotFileError
+from ..tolerances import AXIS_TOL
 
 _REVOLUTE = ("revolute", "continuous")
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import (
+from .._checks import (
     MAX_TRANSLATION,
     check_transform,
     name_string,
@@ -26,12 +26,12 @@ from ._checks import (
     rotation_errors,
     vector3,
 )
-from ._urdf import urdf_joint_specs
-from .errors import (
+from ..errors import (
     PerceptionError,
     RobotFileError,
 )
-from .tolerances import PSD_ATOL, SYM_RTOL, TINY
+from ..tolerances import PSD_ATOL, SYM_RTOL, TINY
+from ._urdf import urdf_joint_specs
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 MAX_ANGLE = 2.0 * np.pi

@@ -23,14 +23,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import generator as check_rng
-from ._checks import integer, name_string, real_array, real_scalar, rotation_defect, sequence
-from .chain import check_transform
-from .errors import (
+from .._checks import generator as check_rng
+from .._checks import integer, name_string, real_array, real_scalar, rotation_defect, sequence
+from ..errors import (
     PerceptionError,
 )
-from .stereo import _matrix as _as_float_array
-from .tolerances import PLANE_EPS, RIGID_TOLERANCE
+from ..head.chain import check_transform
+from ..head.stereo import as_stereo_rig
+from ..tolerances import NEAR_PLANE, PLANE_EPS, RIGID_TOLERANCE
 
 __all__ = [
     "BOX_DEFAULTS",
@@ -106,17 +106,17 @@ class Box:
     type: str
 
     def __post_init__(self) -> None:
-        center = _as_float_array("center", self.center, (3,))
-        size = _as_float_array("size", self.size, (3,))
+        center = real_array("center", self.center, (3,))
+        size = real_array("size", self.size, (3,))
         if np.any(size <= 0):
             raise PerceptionError(f"size must be > 0 along every axis, got {size.tolist()}")
         if np.any(np.abs(center) > MAX_COORD) or np.any(size > MAX_COORD):
             raise PerceptionError(
                 f"center and size must be at most {MAX_COORD:g} m, got {center.tolist()} and {size.tolist()}"
             )
-        rot = _as_float_array("rotation", self.rotation, (3, 3))
+        rot = real_array("rotation", self.rotation, (3, 3))
         _check_rotation("rotation", rot)
-        color = _as_float_array("color", self.color, (3,))
+        color = real_array("color", self.color, (3,))
         if np.any(color < 0) or np.any(color > 255):
             raise PerceptionError(f"color must be BGR values in [0, 255], got {color.tolist()}")
         name_string("type", self.type)
@@ -148,14 +148,6 @@ def _int_range(name: str, value: Any, low: int, high: int) -> tuple[int, int]:
     if a > b:
         raise PerceptionError(f"{name} must have {name}[0] <= {name}[1], got {value!r}")
     return a, b
-
-
-def _rig(rig: Any) -> Any:
-    from .stereo import StereoRig
-
-    if not isinstance(rig, StereoRig):
-        raise PerceptionError(f"rig must be a StereoRig, got {type(rig).__name__}")
-    return rig
 
 
 def scene_boxes(
@@ -190,11 +182,11 @@ def scene_boxes(
             f"positions must have one row per entry of types, shape ({n}, 3), got shape {pos.shape}"
         )
     rots = np.broadcast_to(np.eye(3), (n, 3, 3)) if rotations is None else rotations
-    rots = _as_float_array("rotations", rots, (n, 3, 3))
+    rots = real_array("rotations", rots, (n, 3, 3))
     if sizes is not None:
-        sizes = _as_float_array("sizes", sizes, (n, 3))
+        sizes = real_array("sizes", sizes, (n, 3))
     if colors is not None:
-        colors = _as_float_array("colors", colors, (n, 3))
+        colors = real_array("colors", colors, (n, 3))
     boxes = []
     for i, kind in enumerate(types):
         if (sizes is None or colors is None) and kind not in BOX_DEFAULTS:
@@ -328,7 +320,6 @@ def random_scene(
 # --------------------------------------------------------------------------------------------
 
 _SHIFT = 4  # fixed-point bits for cv2.fillConvexPoly (sub-pixel vertices)
-_NEAR = 0.05  # near plane, metres
 
 
 def _rig_views(rig: Any, camera_from_world: NDArray[np.float64]) -> list[tuple[Any, ...]]:
@@ -346,8 +337,9 @@ def _rig_views(rig: Any, camera_from_world: NDArray[np.float64]) -> list[tuple[A
     ]
 
 
-def _image_size(rig: Any) -> tuple[int, int]:
-    width, height = (int(v) for v in _rig(rig).image_size)
+def rig_render_size(rig: Any) -> tuple[int, int]:
+    """``rig.image_size`` as ``(width, height)``, refused when it is too large to render."""
+    width, height = (int(v) for v in as_stereo_rig(rig).image_size)
     if width * height > MAX_RENDER_PIXELS:
         raise PerceptionError(
             f"rig.image_size {rig.image_size} has more than {MAX_RENDER_PIXELS} pixels; too large to render"
@@ -421,7 +413,7 @@ def _visible_faces(
     verts = corners[:, _FACES]  # (m, 6, 4, 3)
     centers = verts.mean(axis=2)
     facing = np.einsum("mfc,mfc->mf", normals, centers) < 0
-    in_front = np.all(verts[..., 2] > _NEAR, axis=2)
+    in_front = np.all(verts[..., 2] > NEAR_PLANE, axis=2)
     keep = facing & in_front
     box_idx, face_idx = np.nonzero(keep)
     return verts[keep], normals[keep], box_idx, face_idx
@@ -509,12 +501,12 @@ def render_stereo(
     """
     pose = check_transform("camera_from_world", camera_from_world)
     boxes = sequence("boxes", boxes, Box)
-    width, height = _image_size(rig)
+    width, height = rig_render_size(rig)
     rng = check_rng("rng", rng)
     light_noise = real_scalar("light_noise", light_noise, nonnegative=True, maximum=1e6)
     pixel_noise = real_scalar("pixel_noise", pixel_noise, nonnegative=True, maximum=1e6)
     ambient = real_scalar("ambient", ambient, minimum=0.0, maximum=1.0)
-    light = _as_float_array("light_direction", light_direction, (3,))
+    light = real_array("light_direction", light_direction, (3,))
     norm = np.linalg.norm(light)
     if norm == 0:
         raise PerceptionError(f"light_direction must be non-zero, got {light.tolist()}")
@@ -527,7 +519,7 @@ def render_stereo(
         raise PerceptionError(f"background colour must lie in [0, 255], got {bg.tolist()}")
     if bg.shape == (3,):
         canvas0 = np.empty((height, width, 3), dtype=np.float32)
-        canvas0[:] = _as_float_array("background", bg, (3,))
+        canvas0[:] = real_array("background", bg, (3,))
     elif bg.shape == (height, width, 3) and bg.dtype == np.uint8:
         canvas0 = bg.astype(np.float32)
     else:
@@ -566,7 +558,7 @@ def render_labels(
     """
     pose = check_transform("camera_from_world", camera_from_world)
     boxes = sequence("boxes", boxes, Box)
-    width, height = _image_size(rig)
+    width, height = rig_render_size(rig)
     out = []
     for view_pose, K, D in _rig_views(rig, pose):
         canvas = np.full((height, width), -1, dtype=np.int32)
@@ -595,17 +587,17 @@ def visible_mask(
     pose = check_transform("camera_from_world", camera_from_world)
     boxes = sequence("boxes", boxes, Box)
     min_area = real_scalar("min_area", min_area, nonnegative=True)
-    _image_size(rig)
+    rig_render_size(rig)
     if not boxes:
         return np.zeros(0, dtype=bool)
-    width, height = _image_size(rig)
+    width, height = rig_render_size(rig)
     if labels is None:
         labels = render_labels(rig, pose, boxes)
     centers = np.stack([b.center for b in boxes])
     visible = np.ones(len(boxes), dtype=bool)
     for (view_pose, K, D), lab in zip(_rig_views(rig, pose), labels, strict=True):
         cam = centers @ view_pose[:3, :3].T + view_pose[:3, 3]
-        front = cam[:, 2] > _NEAR
+        front = cam[:, 2] > NEAR_PLANE
         uv, _ = cv2.projectPoints(cam.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)
         px = np.rint(uv.reshape(-1, 2)).astype(np.int64)
         inside = front & (px[:, 0] >= 0) & (px[:, 0] < width) & (px[:, 1] >= 0) & (px[:, 1] < height)

@@ -1,69 +1,28 @@
-"""Recognition from images: rendered box scenes, colour segmentation, Gaussian classification.
-
-The path from pixels to percepts that the paper's recognition components take (section 2,
-"Gaussian classification over characteristic feature spaces extracted from ... the
-eigenvectors from color-segmented regions in stereo images"):
-
-1. :func:`render_stereo` (module :mod:`perception.render`, re-exported here) draws a scene of
-   coloured boxes (doors, handles, clutter) into a stereo pair with OpenCV: corners projected
-   by ``cv2.projectPoints``, back faces culled, faces filled by ``cv2.fillConvexPoly`` far to
-   near (painter's algorithm with a plane-side ordering test), Lambertian shading and seeded
-   lighting noise.
-2. :func:`detect` segments each image by colour (``cv2.inRange`` in HSV), splits the masks
-   into connected regions (``cv2.connectedComponentsWithStats``), describes every region by
-   the eigen-decomposition of its pixel covariance (elongation, orientation), its area, fill
-   ratio and mean colour, and classifies it with a :class:`GaussianClassifier` that rejects
-   regions whose log-likelihood is below a per-class threshold (clutter).  The segmentation
-   and the features live in :mod:`perception.segmentation`, the classifier in
-   :mod:`perception.classifier`; their names are re-exported here.
-3. :func:`match_stereo` pairs left and right detections of the same type under the epipolar
-   constraint (fundamental matrix from the rig) with positive depth in both cameras.
-4. :func:`recognize` triangulates the pairs with ``rig.triangulate`` and attaches the eq. 6
-   deviation ``sigma = rho**2 / depth_factor`` (rho = depth along the left optical axis,
-   eq. 7) and a full covariance, returning :class:`~perception.percept.Percept` objects. The
-   covariance maps two pixel errors through the triangulation Jacobian: the centroid's
-   quantisation noise, independent per image (:data:`DISPARITY_STD_PX`), and the offset
-   between the region's centroid and the image of the object's centre, the same in both
-   images and proportional to the region's extent (:data:`CENTROID_OFFSET_SCALE`).
-
-Frames follow ``docs/conventions.md``: the scene (world) frame has z up; cameras are OpenCV
-(x right, y down, z forward); the stereo rig maps ``X_right = R X_left + T``.
-"""
+"""The paper's recognition: colour regions classified into typed detections (:func:`detect`,
+with a classifier from :func:`train_classifier`), and detections of a stereo pair to percepts
+(:func:`recognize`)."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any, cast
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import linear_sum_assignment
 
-from ._checks import boolean, integer, real_scalar, sequence
-from ._checks import generator as check_rng
-from .chain import check_transform
-from .classifier import GaussianClassifier
-from .detection import Detection
-from .errors import (
+from .._checks import boolean, integer, real_scalar
+from .._checks import generator as check_rng
+from ..errors import (
     PerceptionError,
 )
-from .percept import Percept
-from .render import (  # the renderer moved to render.py; its names stay importable from here
-    _NEAR,
-    BOX_DEFAULTS,
-    DEFAULT_BACKGROUND,
-    MAX_RENDER_PIXELS,
-    Box,
-    _image_size,
-    _rig,
-    random_scene,
-    render_labels,
-    render_stereo,
-    scene_boxes,
-    visible_mask,
-)
-from .render import MAX_COORD as MAX_COORD
+from ..frontend.detection import Detection
+from ..frontend.percept import Percept
+from ..frontend.stereo_pairs import DISPARITY_STD_PX, match_stereo
+from ..head.chain import check_transform
+from ..head.uncertainty import depth_sigma, triangulation_jacobian
+from ..simulation.render import MAX_RENDER_PIXELS, random_scene, render_labels, render_stereo, rig_render_size
+from ..tolerances import SIGMA_COVARIANCE_FACTOR
+from .classifier import GaussianClassifier
 from .segmentation import (
     COLOR_RANGES,
     FEATURE_NAMES,
@@ -72,37 +31,13 @@ from .segmentation import (
     _region_stats,
     region_features,
 )
-from .tolerances import PARALLEL_RAYS, SIGMA_COVARIANCE_FACTOR
-from .uncertainty import depth_sigma, triangulation_jacobian
 
-__all__ = [
-    "BOX_DEFAULTS",
-    "CENTROID_OFFSET_SCALE",
-    "COLOR_RANGES",
-    "DEFAULT_BACKGROUND",
-    "DISPARITY_STD_PX",
-    "FEATURE_NAMES",
-    "Box",
-    "ColorRange",
-    "Detection",
-    "GaussianClassifier",
-    "StereoMatch",
-    "detect",
-    "match_stereo",
-    "random_scene",
-    "recognize",
-    "region_features",
-    "render_labels",
-    "render_stereo",
-    "scene_boxes",
-    "train_classifier",
-    "visible_mask",
-]
+__all__ = ["CENTROID_OFFSET_SCALE", "detect", "recognize", "train_classifier"]
 
 
 # --------------------------------------------------------------------------------------------
-# Detection and classification (segmentation: perception.segmentation; classifier:
-# perception.classifier)
+# Detection and classification (segmentation: perception.recognition.segmentation; classifier:
+# perception.recognition.classifier)
 # --------------------------------------------------------------------------------------------
 
 
@@ -190,7 +125,7 @@ def train_classifier(
     **fit_kwargs
         Passed to :meth:`GaussianClassifier.fit`.
     """
-    _image_size(rig)
+    rig_render_size(rig)
     rng = check_rng("rng", rng)
     n_scenes = integer("n_scenes", n_scenes, minimum=1, maximum=100_000)
     min_area = integer("min_area", min_area, minimum=1, maximum=MAX_RENDER_PIXELS)
@@ -204,115 +139,8 @@ def train_classifier(
 
 
 # --------------------------------------------------------------------------------------------
-# Stereo matching and percepts
+# Percepts from matched pairs
 # --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class StereoMatch:
-    """A left/right detection pair: indices into the two lists and the epipolar distance (px)."""
-
-    left: int
-    right: int
-    epipolar_px: float
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "left", integer("left", self.left, minimum=0))
-        object.__setattr__(self, "right", integer("right", self.right, minimum=0))
-        epi = real_scalar("epipolar_px", self.epipolar_px, nonnegative=True)
-        object.__setattr__(self, "epipolar_px", epi)
-
-
-def _skew(t: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.array([[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]])
-
-
-def _undistort(
-    uv: NDArray[np.float64], K: NDArray[np.float64], D: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    import cv2
-    if len(uv) == 0 or not np.any(D):
-        return uv
-    # float64 in, float64 out (OpenCV's stubs type the result as any real dtype)
-    return cast(NDArray[np.float64], cv2.undistortPoints(uv.reshape(-1, 1, 2), K, D, P=K).reshape(-1, 2))
-
-
-def match_stereo(
-    rig: Any,
-    left_dets: Sequence[Detection],
-    right_dets: Sequence[Detection],
-    max_epipolar_px: float = 2.0,
-    *,
-    max_log_area_ratio: float = 1.0,
-    min_depth: float = 0.0,
-) -> list[StereoMatch]:
-    """Pair left and right detections of the same type.
-
-    A pair is admissible when both have the same type, the right centroid lies within
-    ``max_epipolar_px`` of the epipolar line ``F x_left`` (fundamental matrix
-    ``F = K2^-T [T]x R K1^-1``, on undistorted pixels), the triangulated point lies in front
-    of both cameras (for a rectified rig: positive disparity) and the areas differ by at most
-    ``exp(max_log_area_ratio)``; a pair whose point would lie nearer than ``min_depth`` (metres,
-    along the left optical axis) is not admissible either (two objects of one type side by side
-    pair up along the epipolar line at a far larger disparity).  Among admissible pairs a
-    one-to-one assignment minimising ``epipolar / max_epipolar_px + |log area ratio|`` is taken
-    per type.
-
-    Returns
-    -------
-    list of StereoMatch
-    """
-    _rig(rig)
-    max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True)
-    max_log_area_ratio = real_scalar("max_log_area_ratio", max_log_area_ratio, nonnegative=True)
-    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, maximum=1e6)
-    left_dets = sequence("left_dets", left_dets, Detection)
-    right_dets = sequence("right_dets", right_dets, Detection)
-    if not left_dets or not right_dets:
-        return []
-    K1, D1 = np.asarray(rig.K1, np.float64), np.asarray(rig.D1, np.float64)
-    K2, D2 = np.asarray(rig.K2, np.float64), np.asarray(rig.D2, np.float64)
-    R, T = np.asarray(rig.R, np.float64), np.asarray(rig.T, np.float64).reshape(3)
-    F = np.linalg.inv(K2).T @ _skew(T) @ R @ np.linalg.inv(K1)
-    uv_l = _undistort(np.array([d.centroid_uv for d in left_dets], dtype=np.float64), K1, D1)
-    uv_r = _undistort(np.array([d.centroid_uv for d in right_dets], dtype=np.float64), K2, D2)
-    hl = np.column_stack([uv_l, np.ones(len(uv_l))])
-    hr = np.column_stack([uv_r, np.ones(len(uv_r))])
-    lines = hl @ F.T  # (nl, 3): epipolar lines in the right image
-    epi = np.abs(hr @ lines.T).T / np.hypot(lines[:, 0], lines[:, 1])[:, None]  # (nl, nr)
-    area_l = np.array([d.area for d in left_dets])
-    area_r = np.array([d.area for d in right_dets])
-    log_ratio = np.abs(np.log(area_l[:, None] / area_r[None, :]))
-    same = np.array([[a.type == b.type for b in right_dets] for a in left_dets])
-    ok = same & (epi <= max_epipolar_px) & (log_ratio <= max_log_area_ratio)
-    il, ir = np.nonzero(ok)
-    if il.size:
-        # depth in both cameras by linear triangulation on normalised rays (cheirality)
-        xl = np.linalg.solve(K1, hl[il].T).T
-        xr = np.linalg.solve(K2, hr[ir].T).T
-        # X = a xl; R X + T = b xr -> a R xl - b xr = -T (least squares per pair)
-        A = np.stack([(R @ xl.T).T, -xr], axis=2)  # (p, 3, 2)
-        ata = np.einsum("pki,pkj->pij", A, A)
-        atb = np.einsum("pki,k->pi", A, -T)
-        det = ata[:, 0, 0] * ata[:, 1, 1] - ata[:, 0, 1] ** 2
-        good = det > PARALLEL_RAYS
-        a = np.where(good, (ata[:, 1, 1] * atb[:, 0] - ata[:, 0, 1] * atb[:, 1]) / np.where(good, det, 1), -1)
-        b = np.where(good, (ata[:, 0, 0] * atb[:, 1] - ata[:, 0, 1] * atb[:, 0]) / np.where(good, det, 1), -1)
-        front = (a > max(_NEAR, min_depth)) & (b > _NEAR)
-        ok[il[~front], ir[~front]] = False
-    cost = np.where(ok, epi / max_epipolar_px + log_ratio, np.inf)
-    matches: list[StereoMatch] = []
-    rows_all = np.flatnonzero(ok.any(axis=1))
-    if rows_all.size == 0:
-        return []
-    big = 1e6
-    finite = np.where(ok, cost, big)
-    rows, cols = linear_sum_assignment(finite[rows_all])
-    for r, c in zip(rows_all[rows], cols, strict=True):
-        if ok[r, c]:
-            matches.append(StereoMatch(left=int(r), right=int(c), epipolar_px=float(epi[r, c])))
-    matches.sort(key=lambda m: m.left)
-    return matches
 
 
 #: Standard deviation of the offset between a region's centroid and the projection of the
@@ -331,15 +159,6 @@ def match_stereo(
 #: depth bins).
 CENTROID_OFFSET_SCALE: float = 0.08
 
-#: Default disparity error of matched region centroids, pixels: ``1 / sqrt(12)``. Rendering
-#: (and any camera) quantises a region's outline to whole pixels; each of the two edges that
-#: bound the region along u is off by a uniform +-0.5 px error and moves the centroid by half
-#: of it, so a centroid coordinate has variance ``2 (1/12) / 4 = 1/24`` per image when the
-#: edges run along pixel rows or columns (less when slanted edges average it out), and the
-#: disparity, independent left and right, ``1/12``. Measured on the renders above: 0.30 px rms
-#: for handles (short vertical end edges), 0.14 px for doors; segmentation noise adds nothing
-#: measurable (72 % of regions have exactly the centroid of their noise-free label region).
-DISPARITY_STD_PX: float = float(1.0 / np.sqrt(12.0))
 
 
 def _percept_covariances(
@@ -438,7 +257,7 @@ def recognize(
         ``F =`` :data:`~perception.tolerances.SIGMA_COVARIANCE_FACTOR`, as :class:`Percept`
         checks): ``depth_factor`` and ``pixel_sigma`` that describe different depth errors.
     """
-    width, height = _image_size(rig)
+    width, height = rig_render_size(rig)
     if not isinstance(classifier, GaussianClassifier):
         raise PerceptionError(f"classifier must be a GaussianClassifier, got {type(classifier).__name__}")
     min_area = integer("min_area", min_area, minimum=1)

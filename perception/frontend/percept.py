@@ -7,9 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import integer, name_string, real_array, real_scalar, spd, vector3
-from .errors import PerceptionError
-from .tolerances import SHARED_RTOL, SIGMA_COVARIANCE_FACTOR
+from .._checks import integer, name_string, real_array, real_scalar, spd, vector3
+from ..errors import PerceptionError
+from ..tolerances import SHARED_RTOL, SIGMA_COVARIANCE_FACTOR
 
 #: Largest magnitude of a position component accepted, metres (as worldgraph/radialopt bound
 #: their coordinates); beyond it ranges and fused means overflow or lose all precision.

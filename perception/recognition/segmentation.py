@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import integer, real_array
-from .errors import PerceptionError
-from .render import MAX_RENDER_PIXELS
-from .tolerances import EIGENVALUE_FLOOR
+from .._checks import integer, real_array
+from ..errors import PerceptionError
+from ..simulation.render import MAX_RENDER_PIXELS
+from ..tolerances import EIGENVALUE_FLOOR
 
 __all__ = ["COLOR_RANGES", "FEATURE_NAMES", "ColorRange", "region_features"]
 

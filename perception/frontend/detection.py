@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import name_string, real_array, real_scalar, spd
-from .errors import PerceptionError
+from .._checks import name_string, real_array, real_scalar, spd
+from ..errors import PerceptionError
 
 __all__ = ["MAX_PIXEL_COORDINATE", "Detection"]
 

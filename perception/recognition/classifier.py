@@ -15,11 +15,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import real_array, real_scalar, sequence, spd
-from .errors import (
+from .._checks import real_array, real_scalar, sequence, spd
+from ..errors import (
     PerceptionError,
 )
-from .stereo import _matrix as _as_float_array
 
 __all__ = ["GaussianClassifier"]
 
@@ -93,7 +92,7 @@ class GaussianClassifier:
         covs = np.stack([spd(f"covariances[{i}]", covs_in[i], d) for i in range(k)])
         if np.any(np.abs(covs) > 1e150) or np.any(np.abs(covs) < 1e-150 * (covs != 0)):
             raise PerceptionError("covariances entries must lie within [1e-150, 1e150] in magnitude")
-        log_priors = _as_float_array("log_priors", self.log_priors, (k,))
+        log_priors = real_array("log_priors", self.log_priors, (k,))
         thresholds = _thresholds(self.thresholds, k)
         try:
             chol = np.linalg.cholesky(covs)

@@ -11,14 +11,14 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import boolean, integer, name_string, real_array, real_scalar, sequence
-from ._checks import generator as check_rng
-from .chain import KinematicChain, check_transform, default_head
-from .errors import PerceptionError
-from .percept import Percept
-from .stereo import StereoRig
-from .tolerances import TINY
-from .uncertainty import depth_sigma
+from .._checks import boolean, integer, name_string, real_array, real_scalar, sequence
+from .._checks import generator as check_rng
+from ..errors import PerceptionError
+from ..frontend.percept import Percept
+from ..head.chain import KinematicChain, check_transform, default_head
+from ..head.stereo import StereoRig
+from ..head.uncertainty import depth_sigma
+from ..tolerances import TINY
 
 MAX_COORD = 1e150
 """Largest world coordinate accepted, metres."""
@@ -94,8 +94,8 @@ def _simulated_sigmas(rho: NDArray[np.float64], depth_factor: float, min_sigma: 
 
 
 def _bounded_positions(pos: NDArray[np.float64]) -> None:
-    """Simulated positions must respect :data:`perception.percept.MAX_COORDINATE`."""
-    from .percept import MAX_COORDINATE
+    """Simulated positions must respect :data:`perception.frontend.percept.MAX_COORDINATE`."""
+    from ..frontend.percept import MAX_COORDINATE
 
     bad = np.flatnonzero(np.any(~(np.abs(pos) <= MAX_COORDINATE), axis=1)) if pos.size else np.zeros(0, int)
     if bad.size:
