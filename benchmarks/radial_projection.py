@@ -34,16 +34,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import radialopt as ro  # noqa: E402
 from perception import depth_sigma  # noqa: E402
 from radialopt._dual_active_set import _ldp_pairs, _pair_rows  # noqa: E402
+from radialopt._projection_types import _Problem  # noqa: E402
+from radialopt.polytope import pair_pattern  # noqa: E402
 from radialopt.projection import (  # noqa: E402
     SMALL_CORE_SPHERES,
-    _Problem,
-    _project_radii_batch_reference,
     fresh_cvxpy_problem,
     least_distance,
-    pair_pattern,
     project_radii_unchecked,
     solver_options,
 )
+from radialopt.projection.batch import _project_radii_batch_reference  # noqa: E402
 from radialopt.vertices import enumerate_vertices  # noqa: E402
 
 

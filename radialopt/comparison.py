@@ -23,8 +23,9 @@ from typing import Any, Literal, get_args
 
 import numpy as np
 
+from ._projection_types import _Problem
 from .errors import RadialError
-from .projection import RadialStatus, _Problem, installed_cvxpy_solvers, project_radii
+from .projection import RadialStatus, installed_cvxpy_solvers, project_radii
 from .spheres import TOLERANCES, GaussianSphere, make_spheres
 from .tolerances import COMPARISON_VIOLATION
 

@@ -32,18 +32,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ._checks import MAX_LENGTH, instance, integer, real_array, real_scalar
+from ._projection_types import _CVXPY_STATUS, _Problem
 from .errors import (
     RadialError,
     SolverError,
 )
 from .polytope import pair_pattern
-from .projection import (
-    _CVXPY_STATUS,
-    RadialSolution,
-    _Problem,
-    installed_cvxpy_solvers,
-    solver_options,
-)
+from .projection import RadialSolution, installed_cvxpy_solvers, solver_options
 from .spheres import TOLERANCES, GaussianSphere, Tolerances
 
 #: Objectives accepted by :class:`RadialProblem`.

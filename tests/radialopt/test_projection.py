@@ -310,9 +310,9 @@ def test_clarabel_stays_exact_over_many_hard_instances():
 
 def test_uncertified_answer_is_not_called_optimal(monkeypatch):
     """If the polish cannot certify the solver's answer, the status is optimal_inaccurate."""
-    import radialopt.projection as proj
+    import radialopt.projection.backends as backends
 
-    monkeypatch.setattr(proj, "_polish_certified", lambda G, h, z, s: (z, False))
+    monkeypatch.setattr(backends, "_polish_certified", lambda G, h, z, s: (z, False))
     sol = ro.project_radii(hard_spheres(26), method="cvxpy")
     assert sol.status == "optimal_inaccurate"
 

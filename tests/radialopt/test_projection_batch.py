@@ -8,7 +8,10 @@ from hypothesis import strategies as st
 
 import radialopt as ro
 import radialopt.projection as proj
-from radialopt.projection import _batch_dual_active_set, _project_radii_batch_reference, pair_pattern
+import radialopt.projection.batch as batch_module
+from radialopt._projection_types import _Problem
+from radialopt.polytope import pair_pattern
+from radialopt.projection.batch import _batch_dual_active_set, _project_radii_batch_reference
 from tests.problems import sphere_sets
 
 
@@ -76,7 +79,7 @@ def test_instances_the_core_leaves_go_through_the_single_route(monkeypatch):
     def nothing_certified(A, sg, h):
         return np.full(sg.shape, np.nan), np.zeros(len(sg), dtype=bool)
 
-    monkeypatch.setattr(proj, "_batch_dual_active_set", nothing_certified)
+    monkeypatch.setattr(batch_module, "_batch_dual_active_set", nothing_certified)
     out = ro.project_radii_batch(C, R, S)
     np.testing.assert_allclose(out.radii, _project_radii_batch_reference(C, R, S), rtol=0, atol=0)
 
@@ -98,7 +101,7 @@ def test_batch_agrees_with_cvxpy_on_a_sample():
         cvx = ro.project_radii(centers=C[k], radii=R[k], sigmas=S[k], method="cvxpy")
         np.testing.assert_allclose(out.radii[k], cvx.radii, rtol=0, atol=1e-9)
         # the raw interior-point answer, before the exact polish, agrees to its own accuracy
-        p = proj._Problem.from_arrays(C[k], R[k], S[k], ro.TOLERANCES)
+        p = _Problem.from_arrays(C[k], R[k], S[k], ro.TOLERANCES)
         prob, z = proj.fresh_cvxpy_problem(p.G, p.h)
         prob.solve(solver="CLARABEL", **proj.solver_options("CLARABEL"))
         np.testing.assert_allclose(out.radii[k], R[k] + S[k] * z.value, rtol=0, atol=1e-5)

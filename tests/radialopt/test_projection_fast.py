@@ -8,8 +8,10 @@ from hypothesis import strategies as st
 
 import radialopt as ro
 import radialopt.projection as proj
+import radialopt.projection.project as project_module
 from radialopt._ldp import _least_distance_dense
-from radialopt.projection import _Problem, project_radii_unchecked
+from radialopt._projection_types import _Problem
+from radialopt.projection import project_radii_unchecked
 from tests.problems import sphere_arrays, sphere_sets
 
 
@@ -64,11 +66,12 @@ def test_small_core_is_the_route_taken_and_its_fallback_gives_the_same_answer(mo
         if not ro.RestrictionPolytope.from_centers(c).contains(r):
             cases.append(ro.make_spheres(c, r, s))
     calls = []
-    real = proj._ldp_pairs
-    monkeypatch.setattr(proj, "_ldp_pairs", lambda rows, n, *setup: calls.append(n) or real(rows, n, *setup))
+    real = project_module._ldp_pairs
+    monkeypatch.setattr(project_module, "_ldp_pairs",
+                        lambda rows, n, *setup: calls.append(n) or real(rows, n, *setup))
     fast = [ro.project_radii(sp) for sp in cases]
     assert len(calls) == len(cases)
-    monkeypatch.setattr(proj, "_ldp_pairs", lambda rows, n, *setup: None)  # never certifies
+    monkeypatch.setattr(project_module, "_ldp_pairs", lambda rows, n, *setup: None)  # never certifies
     for sp, f in zip(cases, fast, strict=True):
         slow = ro.project_radii(sp)
         np.testing.assert_allclose(f.radii, slow.radii, rtol=0, atol=1e-10)

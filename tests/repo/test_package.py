@@ -166,6 +166,10 @@ def _returned_statuses(path):
 _LOCALIZE_FILES = sorted(p.relative_to(ROOT).as_posix()
                          for p in (ROOT / "worldgraph" / "localization").glob("*.py"))
 _TILES_FILES = sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "worldgraph" / "tiles").glob("*.py"))
+#: The modules of the radial projection: the package and the types its methods share.
+_PROJECTION_FILES = sorted([*(p.relative_to(ROOT).as_posix()
+                              for p in (ROOT / "radialopt" / "projection").glob("*.py")),
+                            "radialopt/_projection_types.py"])
 
 
 def _status_sets():
@@ -182,7 +186,7 @@ def _status_sets():
         **{path: localize_module.LOCALIZE_STATUSES for path in _TILES_FILES},
         "worldgraph/active/plan.py": worldgraph.active.VIEW_STATUSES,
         "radialopt/position.py": radialopt.POSITION_STATUSES,
-        "radialopt/projection.py": radialopt.STATUSES,
+        **{path: radialopt.STATUSES for path in _PROJECTION_FILES},
         "radialopt/_ldp.py": radialopt.STATUSES,
         "radialopt/_dual_active_set.py": radialopt.STATUSES,
         "radialopt/formulation.py": radialopt.STATUSES,
@@ -204,8 +208,8 @@ def test_status_collector_finds_known_statuses():
         *(_returned_statuses(path) for path in _LOCALIZE_FILES))
     assert {"too_few_spheres", "not_converged", "outside_region", "ambiguous"} <= set(
         _returned_statuses("radialopt/position.py"))
-    assert {"optimal", "optimal_inaccurate", "infeasible", "error"} <= set(
-        _returned_statuses("radialopt/projection.py"))
+    assert {"optimal", "optimal_inaccurate", "infeasible", "error"} <= set().union(
+        *(_returned_statuses(path) for path in _PROJECTION_FILES))
 
 
 def test_status_subsets_derive_from_their_literals():

@@ -157,7 +157,7 @@ def test_every_returned_hypothesis_carries_its_radial_solution(kitchen_case, met
 
 
 def test_check_true_verifies_the_validated_hypotheses_and_solves_the_others(monkeypatch) -> None:
-    import radialopt.projection as proj
+    import radialopt.projection.project as proj
 
     world, views = _kitchen_views(1, seed=3)
     verified = []
@@ -174,7 +174,7 @@ def test_localize_solves_through_the_unchecked_route(monkeypatch) -> None:
     """localize's radial solutions do not re-validate the spheres: radialopt's checking entry
     (project_radii -> sphere_arrays) is never reached, the unchecked route is."""
 
-    import radialopt.projection as proj
+    import radialopt.projection.project as proj
     from worldgraph.localization import radial as loc
     world, views = _kitchen_views(2, seed=5)
     checks, trusted = [], []

@@ -80,6 +80,9 @@ non-empty); a problem is a :class:`~worldgraph.errors.MalformedFileError` naming
 Where things live (the names are importable from here, as before):
 
 * :mod:`worldgraph.model.world`: :class:`WorldModel`;
+* :mod:`worldgraph.model.construction`: how a :class:`WorldModel` is made (the checks of a new
+  world, the bodies of :meth:`WorldModel.from_arrays`, :meth:`WorldModel.from_trimesh` and
+  :meth:`WorldModel.from_file`);
 * :mod:`worldgraph.model.objects`: :class:`ObjectModel`, :class:`ObjectTable`,
   :func:`box_vertices`, :data:`DEFAULT_SIZE`, :data:`MAX_COORDINATE` and the value checks;
 * :mod:`worldgraph.model.scene_nodes`: reading a :class:`trimesh.Scene`'s nodes into objects and
