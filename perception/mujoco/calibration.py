@@ -55,8 +55,8 @@ def centre_offsets(self: Any,
     Exact scans (no noise, no degradation) from the given robot poses; for every object
     the depth front end keeps (:func:`perception.rgbd_percepts`: not cut off by the image
     border, not occluded, at least ``min_pixels`` pixels with depth), the visible part is its
-    pixels back-projected with their depth, and the offset
-    is the object's centre (:attr:`objects <perception.mujoco.MujocoScene.objects>`) minus the part's centroid, split as the front
+    pixels back-projected with their depth, and the offset is the object's centre
+    (:attr:`objects <perception.mujoco.MujocoScene.objects>`) minus the part's centroid, split as the front
     ends split it (:mod:`perception.frontend`): along the direction away from the camera
     (the visible surface's normal when it is flat, its smallest variance below
     :data:`~perception.frontend.detection_percepts.FLAT_RATIO` times the middle one, else the viewing ray)
