@@ -23,12 +23,9 @@ PSD_ATOL = 1e-12
 #: zero by rounding.
 SHARED_RTOL = 1e-9
 #: A percept's ``sigma`` given with a ``covariance`` must lie within this factor (either way)
-#: of the range standard deviation the covariance gives, ``sqrt(u^T C u)``.  Measured on what
-#: the library builds: fusion and :func:`~perception.simulate_scan` give a ratio of exactly 1;
-#: :func:`~perception.recognize` (sigma from eq. 6, covariance from the triangulation Jacobian
-#: and the centroid offset) 0.89-1.0 with its defaults, 0.64-0.71 with ``depth_factor=250``,
-#: 0.46-0.51 with ``pixel_sigma=0.4`` (30 rendered scenes, 90 percepts each).  5 passes those
-#: and fails a sigma 10 times off (the issue's case: 5 mm 3-sigma bounds around a 28 mm error).
+#: of the range standard deviation the covariance gives, ``sqrt(u^T C u)``: wide enough for
+#: what the library's own front ends build, narrow enough to refuse a sigma 10 times off
+#: (docs/design.md#defaults).
 SIGMA_COVARIANCE_FACTOR = 5.0
 #: Largest ``|R^T R - I|`` entry (and ``|det R - 1|``) of a rotation or rigid transform.
 RIGID_TOLERANCE = 1e-6

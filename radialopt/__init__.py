@@ -127,7 +127,7 @@ from .vertices import (  # noqa: E402
 __all__ += ["MAX_VERTEX_SPHERES", "VertexEnumeration", "certify_projection", "enumerate_vertices",
             "project_vform"]
 
-# --- certificates of global optimality of the ML position (issue 11) ---
+# --- certificates of global optimality of the ML position ---
 from .certificates import CERTIFICATE_METHODS, Certificate, certify_position  # noqa: E402
 
 __all__ += ["CERTIFICATE_METHODS", "Certificate", "certify_position"]

@@ -18,10 +18,8 @@ from .spheres import Tolerances, check_distinct_centers
 from .tolerances import RANK_RTOL, ROUNDING_RTOL
 
 #: Most spheres the pure-Python dual active-set core (``_ldp_pairs``) handles; beyond it the
-#: NNLS route (:func:`least_distance`) runs.  At these sizes numpy's per-call cost (1-10 us per
-#: operation on arrays of 4-84 numbers) outweighs the arithmetic, a few hundred flops (measured
-#: on a loaded 2-core machine, unchecked route, median of 15 instances: 65 against 174 us at
-#: n = 7, 104 against 125 us at n = 8, 173 against 187 us at n = 10, 439 against 347 us at 12).
+#: NNLS route (:func:`least_distance`) runs.  At these sizes numpy's per-call cost outweighs the
+#: arithmetic, a few hundred flops (docs/design.md#defaults).
 SMALL_CORE_SPHERES = 8
 
 _Q = float(_SQRT_HALF)  # a Python float: numpy scalars are slow in plain arithmetic

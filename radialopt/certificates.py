@@ -1,4 +1,4 @@
-"""Certificates of global optimality for the range-only ML position (issue 11).
+"""Certificates of global optimality for the range-only ML position.
 
 The ML position minimises the cost of :func:`radialopt.estimate_position` (``method="ml"``)::
 

@@ -1,4 +1,4 @@
-"""A reusable cvxpy formulation of the radial projection for research code (issue 11).
+"""A reusable cvxpy formulation of the radial projection for research code.
 
 :class:`RadialProblem` builds, once per sphere count n, the design card's problem as a DPP
 (disciplined parametrised) cvxpy problem::

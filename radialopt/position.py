@@ -12,7 +12,7 @@ point, :func:`estimate_position`:
     Its density is never below the paper's (the paper's estimate is one of the candidates).
     The best few LM results are then polished by a trust-region least-squares solve
     (:func:`scipy.optimize.least_squares`, ``"trf"``, ``x_scale="jac"``) in a chart about the
-    centre of the most precise sphere, where its thin curved valley is straight (issue 12, D3);
+    centre of the most precise sphere, where its thin curved valley is straight;
     the chosen point is polished once more and the status is ``"not_converged"`` when that
     solve stops at its evaluation cap instead of a tolerance.
 ``"srls"``
@@ -349,8 +349,8 @@ def _chart_polish(x0: NDArray, c: NDArray, r: NDArray, s: NDArray, opts: Estimat
 
     A sphere much more precise than the others confines the optimum to a thin curved shell
     around its centre; in Cartesian coordinates every step along the shell leaves it by a
-    quadratic amount that the precise sphere's weight punishes, so LM crawls (issue 12, D3:
-    at a sigma ratio of 1e5 it stopped at its cap 6.5 cm off).  Here the position is
+    quadratic amount that the precise sphere's weight punishes, so LM crawls (at
+    a sigma ratio of 1e5 it stopped at its cap 6.5 cm off).  Here the position is
     ``x = c_p + rho (e0 + a e1 + b e2) / |e0 + a e1 + b e2|`` about the centre ``c_p`` of the
     most precise sphere (a gnomonic chart centred on the start direction ``e0``), in which the
     precise sphere's residual ``(rho - r_p) / sigma_p`` is linear and the shell is flat;

@@ -71,10 +71,9 @@ AUTO_BRUTEFORCE_MAX_SUBSETS = 4000
 POLYTOPE_MAX = 1e150
 
 #: Largest number of spheres whose restriction polytope (``3 C(n, 2)`` rows in ``n`` dimensions)
-#: :func:`enumerate_vertices` accepts.  Measured on random centres in a 10 m cube (one core):
-#: 6 spheres 0.04-0.12 s, 7 spheres 0.4-1.1 s, 8 spheres 18-34 s, 10 spheres > 120 s (the vertex
-#: count grows combinatorially).  Beyond it :class:`~radialopt.errors.RadialError` names
-#: the count; ``project_radii(..., check=False)`` (the exact active-set projection) or
+#: :func:`enumerate_vertices` accepts: the vertex count grows combinatorially, and 8 spheres
+#: take tens of seconds (docs/design.md#defaults).  Beyond it :class:`~radialopt.errors.RadialError`
+#: names the count; ``project_radii(..., check=False)`` (the exact active-set projection) or
 #: ``method="cvxpy"`` handle any size.  Plain ``(A, b)`` pairs are not limited.
 MAX_VERTEX_SPHERES = 7
 

@@ -66,10 +66,9 @@ def real_array(name: str, value: Any, shape: tuple[int | None, ...] | None = Non
                max_abs: float | None = None, min_size: int = 0) -> NDArray[np.float64]:
     """``value`` as a new finite float64 array of ``shape`` (``None`` entries: any length).
 
-    Raises :class:`WorldGraphError` (None, str, bool, complex or non-numeric elements),
-    :class:`WorldGraphError` (ragged input or wrong shape, fewer than ``min_size`` elements),
-    :class:`WorldGraphError` (NaN/inf, naming the first bad index and value) and
-    :class:`WorldGraphError` (an element with ``|x| > max_abs``).
+    Raises :class:`WorldGraphError` for None, str, bool, complex or non-numeric elements, ragged
+    input, a wrong shape, fewer than ``min_size`` elements, NaN or inf (naming the first bad
+    index and value) and an element with ``|x| > max_abs``.
     """
     if value is None or isinstance(value, str | bytes):
         raise WorldGraphError(f"{name} must be an array of real numbers, got {_short(value)}")

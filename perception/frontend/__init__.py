@@ -12,8 +12,7 @@ A detector (any: a segmentation network, a box detector, :func:`perception.detec
 **What a percept's position means.** A world model places an object at the centre of its
 visual geometry (:meth:`worldgraph.WorldModel.from_file`), but a camera sees its front surface:
 a door's front lies half its thickness before that centre, a cylindrical handle's visible
-half about two thirds of its radius.  Measured on rendered kitchens, 15 mm (door and drawer
-fronts) to 30 mm (handles): enough, uncorrected, to break the association.  Both front ends
+half about two thirds of its radius: enough, uncorrected, to break the association.  Both front ends
 therefore refer each percept to the object's centre, ``centre = anchor + d n``, with the anchor
 the visible part's centroid along ``n`` and the middle of its extent across ``n`` (RGB-D: on
 gravity-aligned axes, as a box around the visible part is centred; stereo: the centroid), ``n``
@@ -22,8 +21,7 @@ viewing ray) and ``d`` the *centre offset* of the object's type, a prior with it
 (:class:`CentreOffset`; ``centre_offset={type: CentreOffset(...)}`` or ``{type: d}``): from the
 map (:meth:`worldgraph.WorldModel.centre_depths`, half the thinnest extent), measured for your
 detector's classes, or measured on renders (:meth:`perception.mujoco.MujocoScene.centre_offsets`).
-Measured on the Franka kitchen, doors with their protruding handles have their centre 1.7 cm
-*in front* of the visible leaf, knobs 0.8 cm and switches 2.4 cm behind what is seen.  Types
+A door with a protruding handle has its centre *in front* of the visible leaf.  Types
 without a prior use the visible surface's own depth relief (exact for rounded objects, zero for
 a flat front) with :data:`CENTRE_DEPTH_SIGMA` of uncertainty.
 

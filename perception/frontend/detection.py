@@ -59,9 +59,8 @@ def _box(value: object) -> NDArray[np.float64]:
         i = int(np.argmax(np.abs(box)))
         raise PerceptionError(f"box[{i}] = {float(box[i])!r} must be at most {MAX_PIXEL_COORDINATE:g} px")
     if box[2] < box[0] or box[3] < box[1]:
-        raise PerceptionError(f"box must be (u_min, v_min, u_max, v_max) with u_min <= u_max and v_min <= "
-                              f"v_max, "
-                         f"got {box.tolist()}")
+        raise PerceptionError("box must be (u_min, v_min, u_max, v_max) with u_min <= u_max and "
+                              f"v_min <= v_max, got {box.tolist()}")
     return box
 
 
@@ -130,7 +129,7 @@ class Detection:
     Raises
     ------
     PerceptionError
-        (a subclass) naming the field and the bad value: an empty or non-boolean mask, a box
+        Naming the field and the bad value: an empty or non-boolean mask, a box
         with ``u_max < u_min``, a centroid or box corner beyond :data:`MAX_PIXEL_COORDINATE`,
         no position at all, a score outside [0, 1].
     """

@@ -136,14 +136,12 @@ class DetectionPercepts:
 def _camera_matrix(value: ArrayLike) -> NDArray[np.float64]:
     K = real_array("K", value, (3, 3))
     if not (K[0, 0] > 0 and K[1, 1] > 0) or not np.allclose(K[2], [0.0, 0.0, 1.0]) or K[1, 0] != 0:
-        raise PerceptionError(f"K must be a camera matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, "
-                              f"fy > 0, "
-                         f"got {K.tolist()}")
+        raise PerceptionError("K must be a camera matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with "
+                              f"fx, fy > 0, got {K.tolist()}")
     if not (MIN_FOCAL_PX <= K[0, 0] <= MAX_FOCAL_PX and MIN_FOCAL_PX <= K[1, 1] <= MAX_FOCAL_PX) or \
             np.any(np.abs(K[:2, 1:]) > MAX_FOCAL_PX):
         raise PerceptionError(f"K: focal lengths must lie in [{MIN_FOCAL_PX:g}, {MAX_FOCAL_PX:g}] px and "
-                              f"the skew "
-                         f"and principal point within {MAX_FOCAL_PX:g} px, got {K.tolist()}")
+                              f"the skew and principal point within {MAX_FOCAL_PX:g} px, got {K.tolist()}")
     return K
 
 

@@ -61,9 +61,8 @@ iteration on, the strided-sample estimate of the next iteration's pairs is multi
 iterations the run still needs at the rate its cost shrank by in the last one (at most
 ``min(_AHEAD, max_iter) - k``; ``1 / (1 - r)`` when the cost fell by the factor ``r < 1``), and
 the product must fit in what is left of :data:`MAX_KERNEL_PAIRS`.  A run that collapses onto its
-modes (cost falling fast) goes on; one whose cost stays flat -- thousands of points per kernel,
-say 50,000 normal points at bandwidth 0.3, 2 to 6 million pairs an iteration for more than 14
-iterations -- is refused after its first iteration instead of after many."""
+modes (cost falling fast) goes on; one whose cost stays flat (thousands of points per kernel) is
+refused after its first iteration instead of after many (docs/design.md#defaults)."""
 
 
 def _bandwidth_factor(name: str, value: Any, d: int) -> NDArray[np.float64] | float:

@@ -72,7 +72,7 @@ class Percept:
         - Neither ``sigma`` nor ``covariance`` given, or a ``sigma`` that contradicts the
           covariance (ratio outside ``[1/F, F]``, ``F =``
           :data:`~perception.tolerances.SIGMA_COVARIANCE_FACTOR`).
-        - (a subclass) naming the field and the bad value.
+        - Any other bad field, naming it and its value.
 
     Notes
     -----

@@ -55,8 +55,8 @@ def _region(det: Detection, shape: tuple[int, int], index: int) -> tuple[NDArray
     box = det.box
     if box is None:
         raise PerceptionError(f"detections[{index}] has neither a mask nor a box: the depth front end "
-                              f"needs the "
-                         "object's pixels (a centroid alone does not say which depths are the object's)")
+                              "needs the object's pixels (a centroid alone does not say which depths are "
+                              "the object's)")
     if box[2] < 0 or box[3] < 0 or box[0] > w - 1 or box[1] > h - 1:
         raise PerceptionError(f"detections[{index}].box = {box.tolist()} lies outside the {w} x {h} depth "
                               f"image")

@@ -89,7 +89,7 @@ def centre_offsets(self: Any,
     ------
     PerceptionError
         - A pose that is not a rigid transform.
-        - (a subclass) a bad ``n_views``, ``image_size``, ``chain`` or ``min_pixels``.
+        - A bad ``n_views``, ``image_size``, ``chain`` or ``min_pixels``.
     """
     from ..frontend.detection_percepts import CENTRE_DEPTH_FLOOR, DEPTH_NOISE, visible_anchor
     from ..frontend.rgbd import depth_windows

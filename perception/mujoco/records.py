@@ -45,8 +45,7 @@ _FAR_FRACTION = 0.999
 
 #: Smallest ``lateral_sd`` (m) :meth:`MujocoScene.centre_offsets` reports: exact renders place
 #: objects across the view to a few millimetres, a detector's masks do not (an edge a pixel or
-#: two off moves the extent of a door seen at 2-3 m by 0.5-1 cm; measured on the Franka kitchen
-#: with 1 px of mask jitter, a 5 mm floor left doors' percept NEES at 34 in the 90th percentile).
+#: two off moves the extent of a door seen at 2-3 m by 0.5-1 cm; docs/design.md#defaults).
 CENTRE_LATERAL_FLOOR = 0.01
 #: Poses and seed of the renders :meth:`MujocoScene.default_centre_offsets` measures on.
 CALIBRATION_POSES = 12

@@ -134,7 +134,7 @@ def scan(self: Any, world_from_ego: ArrayLike, sensor: str = "rgbd", n_views: in
     PerceptionError
         - ``world_from_ego`` is not a rigid transform.
         - An unknown ``sensor``.
-        - (a subclass) naming the argument: ``n_views`` < 1, a bad ``image_size``, a rate
+        - A bad argument, named: ``n_views`` < 1, a bad ``image_size``, a rate
           outside [0, 1], a negative ``mask_jitter_px``, ``min_pixels`` < 1, a negative
           ``depth_noise``, a non-positive ``max_range``, ``rng`` not a Generator.
     """

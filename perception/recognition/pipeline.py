@@ -148,15 +148,10 @@ def train_classifier(
 #: its pixel covariance). The silhouette centroid is not the image of the box centre: the
 #: image of an obliquely viewed face is compressed on its far side, so its centroid lies
 #: towards the near side (perspective foreshortening: doors seen with the camera pitched by a
-#: few degrees are 2.2 px off vertically on average), side faces of the box's depth extent
+#: few degrees), side faces of the box's depth extent
 #: are seen or not, and nearer objects occlude parts of it -- offsets that scale with the
 #: region's extent and shift the centroid in the left and the right image alike (a lateral
-#: offset of the 3D point, not a disparity error). Measured on :func:`random_scene` renders
-#: of the default rig (240 scenes, seeds 1000 and 2000, 587 matched percepts): the rms of
-#: the mean left/right centroid offset over ``sqrt(u^T S u)`` (S the region's pixel
-#: covariance) is 0.072 for doors (region sd 33 x 77 px, offsets 3.0 x 4.2 px rms) and 0.083
-#: for handles (7 x 2 px, offsets 0.66 x 0.12 px), independent of depth (0.07-0.10 in 1 m
-#: depth bins).
+#: offset of the 3D point, not a disparity error; measured: docs/design.md#defaults).
 CENTROID_OFFSET_SCALE: float = 0.08
 
 

@@ -32,7 +32,7 @@ which is a least-distance problem.  Four methods, one entry point :func:`project
     the cells or ridges" suggest; only when no flat of violated rows is feasible does it try
     flats of any rows.  Why violated rows only: the optimum lies on a face of violated rows
     in practice, while projecting onto a hyperplane the radii already satisfy can land on a
-    feasible but far point (issue 12, D2: centres (4,3,0), (2,1,0), (2,3,2), radii (2,5,5),
+    feasible but far point (centres (4,3,0), (2,1,0), (2,3,2), radii (2,5,5),
     sigma 1 gave cost 25.7 against the optimum 0.0196).  A feasible single violated-
     hyperplane projection is provably optimal (its distance is a lower bound on every
     feasible point's); on a ridge the rule can lose, and then reports

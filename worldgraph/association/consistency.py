@@ -312,10 +312,8 @@ def _members(world: WorldModel, idx: NDArray[np.intp]) -> NDArray[np.bool_]:
 #: compiled ring join (:mod:`worldgraph.model.ring_join`, against the types' kept grids) when numba is
 #: installed (the ``fast`` extra); smaller ones, and every one without numba, through the k-d
 #: trees of ``_tree_pairs``, which give the same pairs (the tests run both).  ``None`` turns
-#: the ring join off.  On the 1M campus (12 views, A/B in one process) the associate median went
-#: from 1.43 to 1.21 s and the mean from 1.97 to 1.49 s; on denser layouts the query itself is
-#: 2-4x faster at 50-180 k-d tree hits per row (the ring keeps a few percent of the disk).
-#: Below 1M pairs the k-d trees are cheap and numba is not loaded.
+#: the ring join off.  Below 1M pairs the k-d trees are cheap and numba is not loaded
+#: (docs/design.md#defaults).
 RING_JOIN_MIN_PAIRS: int | None = 1_000_000
 
 

@@ -326,7 +326,6 @@ def _first_box(g: _Geom) -> bool:
     return g.kind == "box" and g.index == 0
 
 
-#: (body-name regex, geom predicate, type): the first matching rule types a geom.
 #: The Franka kitchen's bodies as typed objects, a ``type_of`` mapping (regex on the body name ->
 #: type) for :meth:`WorldModel.from_file <worldgraph.WorldModel.from_file>` and
 #: :class:`perception.mujoco.MujocoScene` on ``kitchen_env_model.xml`` itself (MuJoCo compiles the
@@ -345,6 +344,7 @@ FRANKA_BODY_TYPES: dict[str, str] = {
     r"^kettle$": "kettle",
 }
 
+#: (body-name regex, geom predicate, type): the first matching rule types a geom.
 FRANKA_TYPE_RULES: tuple[tuple[str, Callable[[_Geom], bool], str], ...] = (
     (r"hinge(left|right)door|slidelink", lambda g: g.kind == "box", "door"),
     (r"hinge(left|right)door|slidelink", lambda g: g.kind == "cylinder" and not g.rotated, "handle"),

@@ -343,8 +343,8 @@ def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
     finite transformation under "degenerate")."""
     status = result.status
     if status not in LOCALIZE_STATUSES:
-        result = replace(result, status="degenerate", message=f"{result.message}; internal status {status!r} "
-                         "is not a localisation status".lstrip("; "))
+        note = f"{result.message}; internal status {status!r} is not a localisation status"
+        result = replace(result, status="degenerate", message=note.lstrip("; "))
     elif status in POSE_STATUSES:
         T = result.transformation
         finite = bool(np.all(np.isfinite(T)) and np.all(np.isfinite(result.pose_covariance))

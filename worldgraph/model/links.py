@@ -55,8 +55,7 @@ class LinkTable:
         length = _checks.real_array("LinkTable length", self.length, (None,))
         if not (i.shape == j.shape == length.shape):
             raise WorldGraphError(f"LinkTable i, j, length must have one shape (k,), got {i.shape}, "
-                                  f"{j.shape}, "
-                             f"{length.shape}")
+                                  f"{j.shape}, {length.shape}")
         if (length < 0).any():
             k = int(np.argmax(length < 0))
             raise WorldGraphError(f"LinkTable length[{k}] must be >= 0, got {float(length[k])!r}")

@@ -384,7 +384,7 @@ def _ring_cell(h_lo: float, h_hi: float, z_lo: float, z_hi: float,
                cell: float | None) -> tuple[float, float]:
     if cell is None:
         # cost per row ~ (binary searches ~ h_hi / cell) + (candidates ~ h_hi * (width + cell));
-        # measured on the campus benchmark (module docstring): about h_hi / 4 wins for thin rings
+        # about h_hi / 4 wins for thin rings (docs/design.md#defaults)
         cell = max(h_hi / 4.0, 2.0 * (h_hi - h_lo))
     return cell, max(z_hi - z_lo, cell / 8.0)
 
@@ -460,9 +460,8 @@ def _ring_join(kernel: Callable[..., Any], pa: NDArray[np.float64], a_order: NDA
 _NO_MASK = np.zeros(1, dtype=bool)
 
 #: Cell sizes (m) of the grids kept with a world (:meth:`WorldModel.type_grid`): 2 m columns
-#: suit rings of 5-16 m (6-17 columns per point), 0.5 m bands the height bands of 0.1-0.7 m.
-#: Measured on the campus (11 views, twice each, in one process): 0.25 m bands 13 % slower than
-#: 0.5 m; 1.5-4 m columns and 0.5-1 m bands within the noise of each other.
+#: suit rings of 5-16 m (6-17 columns per point), 0.5 m bands the height bands of 0.1-0.7 m
+#: (docs/design.md#defaults).
 KEPT_GRID_CELL = 2.0
 KEPT_GRID_ZCELL = 0.5
 

@@ -122,8 +122,7 @@ def _check_up_axis(up_axis: object) -> str:
         if text in UP_AXES:
             return text
     raise WorldGraphError(f"up_axis must be None (the format's convention) or one of {UP_AXES} (the file "
-                          f"axis "
-                      f"that points up), got {_checks._short(up_axis)}")
+                          f"axis that points up), got {_checks._short(up_axis)}")
 
 
 def z_up_from(up_axis: str) -> NDArray[np.float64]:

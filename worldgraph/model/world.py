@@ -390,11 +390,8 @@ class WorldModel:
         flipped view's copy of ``dz`` (types checked by the caller).  ``lazy`` (the
         association): only an index already built (by :meth:`far_pairs` or
         :meth:`build_far_pairs`), else None: the association then takes the compiled ring join
-        or the k-d trees, and no call pays for building an index (measured on worlds from
-        arrays, 20 views each: 100k building, median associate 150 ms with no index built on
-        the way against 266 ms building those up to 2M pairs on first use (116 ms once all were
-        built); 1M campus, 1.2 s against 2.1 s, first call 1.9 s against 3.4 s, 27 s building
-        every index on first use)."""
+        or the k-d trees, and no call pays for building an index
+        (docs/design.md#defaults)."""
         return _world_far_pair_index(self, type_a, type_b, gravity, lazy)
 
     @cached_property

@@ -66,9 +66,8 @@ GRAVITY_MODES = ("auto",)
 #: ``associate``: the best hypothesis' inliers) are at least this
 #: fraction of the percepts of known types (rounded up; and at least ``min_clique_size``): a
 #: robot tilted beyond the allowance breaks most pair gates, so the gravity pass then explains
-#: few percepts.  At 0.5 a kitchen robot tilted by 15 degrees got a level pose 0.8 m off, "ok",
-#: from 5 of its 9 percepts (repeated cabinet runs); a level one explains all but its false
-#: percepts (8 of 9 in the benchmarks).
+#: few percepts, while a level one explains all but its false percepts
+#: (docs/design.md#defaults).
 MIN_GRAVITY_SUPPORT = 0.75
 #: ... and when its pose tilts the ego up vector at most ``tilt_allowance`` plus this (rad) from
 #: the world z axis: the fitted rotation's own error (a pose from 3-8 percepts a few metres away

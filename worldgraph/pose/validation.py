@@ -423,7 +423,7 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
     for i, (p, o) in enumerate(pairs):
         if not (0 <= p < len(ego) and 0 <= o < len(world)):
             raise WorldGraphError(f"pairs[{i}] = {(p, o)} is out of range ({len(ego)} percepts, "
-                                       f"{len(world)} objects)")
+                                  f"{len(world)} objects)")
     current = tuple(sorted(pairs))
     fit: PoseFit | None = None
     for _ in range(max_rounds):

@@ -13,6 +13,7 @@ from ..errors import WorldGraphError
 from .ranking import _run_tile, _TileAnswer
 from .tiling import Tile, _check_tiles
 
+#: Tiles handed to forked worker processes by reference (no pickling of the worlds): a
 #: :class:`TilePool` registers them under a token before it forks and removes them on close.
 _SHARED: dict[int, tuple[Tile, ...]] = {}
 

@@ -32,6 +32,7 @@ from ..pose.validation import (
 from ..tolerances import AssociationTolerances
 from .tiling import Tile
 
+#: Failure statuses from the most to the least informative: when no tile has a pose, the
 #: result of the first tile with the earliest status in this order is returned.
 FAILURE_ORDER = ("outside_region", "inconsistent", "degenerate_coplanar", "degenerate_collinear",
                  "degenerate", "not_converged", "no_association", "too_few_percepts")
@@ -84,9 +85,6 @@ def _run_tile(world: WorldModel, percepts: list[Percept], world_types: frozenset
     n_missing = sum(1 for p in percepts if p.type in world_types and p.type not in world.type_index)
     cost, cov = _fit_cost(world, percepts, result, n_missing)
     return _TileAnswer(result, None, cost, cov)
-
-
-#: Tiles handed to forked worker processes by reference (no pickling of the worlds): a
 
 
 # ----------------------------------------------------------------------------------------------

@@ -16,7 +16,6 @@ from ..tolerances import HALO_SLACK
 
 #: Most tiles :func:`split` makes.
 MAX_TILES = 100_000
-#: Failure statuses from the most to the least informative: when no tile has a pose, the
 
 
 @dataclass(frozen=True, eq=False)
