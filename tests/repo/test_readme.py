@@ -170,3 +170,23 @@ def test_readme_setup_commands_are_what_ci_runs() -> None:
 
 def test_ci_run_is_executable() -> None:
     assert os.access(CI_RUN, os.X_OK)
+
+
+def test_where_things_live_names_every_public_module() -> None:
+    """The README's map of the tree names each documented module by its file (``world.py``) or,
+    for a package, its folder (``tiles/``), so a newcomer finds every room from it."""
+    from tests.public_api import PACKAGES, modules
+
+    text = README.read_text(encoding="utf-8")
+    start = text.index("## Where things live")
+    block = text[start:text.index("\n## ", start + 1)]
+    missing = []
+    for name in modules():
+        if name in PACKAGES:
+            continue
+        leaf = name.rpartition(".")[2]
+        is_package = (ROOT / Path(*name.split("."))).is_dir()
+        ending = "/" if is_package else r"\.py"
+        if not re.search(r"(?<![\w/])" + re.escape(leaf) + ending, block):
+            missing.append(name)
+    assert missing == []
