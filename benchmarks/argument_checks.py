@@ -1,4 +1,4 @@
-"""Lines of argument checking (issue 35): the three ``_checks.py``, ``worldgraph/_rigid.py`` and the
+"""Lines of argument checking: the three ``_checks.py``, ``worldgraph/_rigid.py`` and the
 three ``errors.py`` at one or more git revisions, as lines, code lines (no docstrings, comments or
 blank lines) and the code lines' share of all code lines of the three packages.
 

@@ -1,4 +1,4 @@
-"""Benchmark: certificates of global optimality of the range-only ML position (issue 11).
+"""Benchmark: certificates of global optimality of the range-only ML position.
 
 Random scenes like tests/radialopt/test_certificates.py: ``n`` landmarks uniform in a 10 m room, the robot
 uniform inside, ``sigma = rho^2 / depth_factor`` with ``depth_factor`` log-uniform in [100, 1000].

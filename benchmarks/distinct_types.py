@@ -1,4 +1,4 @@
-"""Worlds of one object per type (issue 34): ``WorldModel.from_arrays`` of N objects of N distinct
+"""Worlds of one object per type: ``WorldModel.from_arrays`` of N objects of N distinct
 types, all at one point or spread out, and ``localize`` on them.
 
 A GLB whose nodes are uniquely named gives such a world (one type per node); packed in one
@@ -19,7 +19,7 @@ landmarks: no pose can be fixed, so a failure status, never a pose).
 Prints a Markdown table: the median build time of ``--repeat`` builds in this process.
 
 Measured (``--repeat 3``, 2 shared cores: build times of 12.5M links vary between about 0.5 and
-2.5 s from run to run with the machine's load; the code before issue 34 took 4.0-4.5 s at 5,000
+2.5 s from run to run with the machine's load; an earlier version took 4.0-4.5 s at 5,000
 types at one point)::
 
     | layout | objects = types | links | build s | pair search s | localize | localize s |

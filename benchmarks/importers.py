@@ -1,4 +1,4 @@
-"""Benchmark: a multi-storey map read from a GLB or OBJ file against the same objects as arrays (issue 24).
+"""Benchmark: a multi-storey map read from a GLB or OBJ file against the same objects as arrays.
 
 For every ``--n`` (default 20,000 and 100,000 objects) it lays out a building of ``--storeys``
 storeys (3.5 m apart) of 4 m x 5 m rooms, each with a door, a switch, a socket, a window, a

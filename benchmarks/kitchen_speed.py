@@ -1,4 +1,4 @@
-"""Benchmark: the kitchen case of issue 34 against TEASER++'s time, before and after a change.
+"""Benchmark: the kitchen case against TEASER++'s time, before and after a change.
 
 The kitchen of ``benchmarks/scaling.py`` (``scenes.kitchen``, 753 objects) and its views: a robot
 at 1.5 m, 8 true percepts of doors, handles, drawers and knobs within 8 m and 1 false one,
@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-TEASER_ASSOCIATE_MS = 3.6  # TEASER++'s time on this association task (issue 34)
+TEASER_ASSOCIATE_MS = 3.6  # TEASER++'s time on this association task
 TARGET_LOCALIZE_MS = 8.0
 STAGES = ("association", "validation", "radial", "position")
 

@@ -1,4 +1,4 @@
-"""Memory at scale: each input that once blew up, at 10x the size that failed (issue 12).
+"""Memory at scale: each input that once blew up, at 10x the size that failed.
 
 Every case runs in its own subprocess under an address-space cap (default 3 GiB, as the audit
 used), so a blow-up is a recorded failure and not a dead benchmark. The table gives the outcome
@@ -83,7 +83,7 @@ result = f"{len(world.objects)} objects"
     ),
     "from_arrays part types": (
         5_000,
-        "(issue 25, at the failing size) 5,000 types, one per object (CAD node names) in a 50 m cube: "
+        "(at the size that once failed) 5,000 types, one per object (CAD node names) in a 50 m cube: "
         "12.5M link tables, 42.6 s and 1.2 GB",
         """
 import numpy as np, worldgraph as wg
@@ -95,7 +95,7 @@ result = f"{len(world.type_index)} types, {len(world.links)} link tables"
     ),
     "build_far_pairs part types": (
         5_000,
-        "(issue 25, at the failing size) the 5,000-type world above: every one of 12.5M type pairs "
+        "(at the size that once failed) the 5,000-type world above: every one of 12.5M type pairs "
         "estimated, and the held pairs summed at each build",
         """
 import numpy as np, worldgraph as wg

@@ -12,7 +12,7 @@ the active-set path.  The paper's rule reports "over budget" when an instance ne
 ``PAPER_MAX_FLATS`` flats.
 Instances are infeasible (the projection does work), seeded, shared by every method.
 
-First (issue 34), at n = 4: the public call from spheres and from arrays
+First, at n = 4: the public call from spheres and from arrays
 (``project_radii(centers=, radii=, sigmas=)``), building the spheres, one ``GaussianSphere``,
 ``project_radii_batch`` per instance over ``--batch`` instances and the loop of single solves
 it is tested against, each with its ratio to a fresh cvxpy + Clarabel problem of the same run.
@@ -110,7 +110,7 @@ def batch_instances(rng: np.random.Generator, n: int, count: int):
 
 
 def issue34_table(rng: np.random.Generator, n: int, count: int, batch: int, repeat: int) -> None:
-    """The rows of issue 34 at one n, every ratio against a fresh cvxpy problem of this run."""
+    """The rows at one n, every ratio against a fresh cvxpy problem of this run."""
     items = instances(rng, n, count)
     arrays = [(np.array([s.center for s in b]), np.array([s.radius for s in b]),
                np.array([s.sigma for s in b])) for b in items]
@@ -161,7 +161,7 @@ def main() -> None:
                     help="largest n for the vertex-enumeration columns")
     ap.add_argument("--batch", type=int, default=10_000, help="instances of the batch row")
     ap.add_argument("--issue34-only", action="store_true",
-                    help="print only the table of issue 34 (n = 4) and the batch throughput")
+                    help="print only the table at n = 4 and the batch throughput")
     args = ap.parse_args()
     rng = np.random.default_rng(2026)
 

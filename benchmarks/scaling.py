@@ -1,5 +1,5 @@
 """Benchmark: how association and localisation scale from the kitchen to a 1M-object campus, with
-every default and tuned, level and tilted (issues 13 and 24).
+every default and tuned, level and tilted.
 
 Worlds (``--worlds``, default all): ``kitchen`` (scenes.kitchen, 753 objects), ``floor``
 (scenes.floor(20000)), ``building`` (scenes.building_site: 5 storeys, 100k objects) and ``campus``

@@ -1,4 +1,4 @@
-"""Same outputs before and after a change that should not alter them (a restructuring, issue 26).
+"""Same outputs before and after a change that should not alter them (a restructuring).
 
 Writes, as sorted JSON, the ``to_dict()`` output of ``localize`` (methods "ml" and "paper"),
 the direction of ``plan_view`` and every result of ``active_localize`` (two looks of at most 4
@@ -77,9 +77,9 @@ def outputs() -> dict:
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "kitchen.glb"
         write = getattr(getattr(wg, "importers", None), "write_scene", None)
-        if write is not None:  # +Y up, as glTF is and from_file reads it (issue 31)
+        if write is not None:  # +Y up, as glTF is and from_file reads it
             write(wg.scenes.kitchen_scene(seed=2), path)
-        else:  # a checkout from before issue 31: z-up GLB files, read as they are
+        else:  # an older checkout, before GLB files were Y-up: z-up GLB files, read as they are
             wg.scenes.kitchen_scene(seed=2).export(path)
         out["from_file"] = _digest(wg.WorldModel.from_file(path).to_dict())
     kitchen = worlds["kitchen0"]

@@ -1,4 +1,4 @@
-"""Benchmark: the own vertex enumeration against pycddlib, float and exact (issue 35).
+"""Benchmark: the own vertex enumeration against pycddlib, float and exact.
 
 For n = 3..7 Gaussian spheres (the restriction polytope of their radial space: ``C(n, 2) * 3``
 inequalities in n dimensions), seeded instances in general position (random centres and radii)

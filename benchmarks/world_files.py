@@ -1,9 +1,9 @@
-"""World files: JSON against the binary ``.npz`` format of ``WorldModel.save``/``load`` (issue 33).
+"""World files: JSON against the binary ``.npz`` format of ``WorldModel.save``/``load``.
 
 Builds ``wg.scenes.campus_site(buildings=4, n_objects=N)`` worlds, saves each in the formats and
 loads it again in a fresh child process (so the built world's memory does not slow the load),
 ``--repeat`` times, printing the median.  JSON is measured at ``--json-objects`` only: at 1M
-objects it takes minutes (issue 33 measured 8.8 s to load 50k).  The row "npz, no link tables"
+objects it takes minutes (8.8 s to load 50k, measured once).  The row "npz, no link tables"
 is the binary file without its stored link tables: the load then searches and sorts the links
 itself, which is where the time of a load went before they were stored.
 

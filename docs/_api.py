@@ -109,7 +109,7 @@ def write_pages(out: Path) -> None:
 
 def class_aliases() -> dict[str, str]:
     """Short name -> package path of every class the three packages export (names two packages
-    share would be left out, as a bare name could not say which one it means; since issue 35
+    share would be left out, as a bare name could not say which one it means;
     there are none, a test checks)"""
     found: dict[str, set[str]] = {}
     for package in PACKAGES:

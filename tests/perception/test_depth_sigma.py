@@ -1,7 +1,7 @@
 """Eq. 6 in one place: ``perception.depth_sigma`` (arrays, the ``min_sigma`` floor) and its callers.
 
 Every expected value here is the formula ``max(min_sigma, rho^2 / depth_factor)`` written out
-independently of the code under test (issue 15: the formula used to be written inline four times).
+independently of the code under test (the formula used to be written inline four times).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Fuzz every public entry point of :mod:`perception` with nasty arguments (issue 12).
+"""Fuzz every public entry point of :mod:`perception` with nasty arguments.
 
 For each entry point, one argument at a time is replaced by a value hypothesis draws from a
 pool of nasty values (NaN, inf, +-1e308, 1e-300, negative, zero, huge ints, bool, None, str,

@@ -48,7 +48,7 @@ def test_depth_sigma_eq6(rho: float, df: float) -> None:
 
 @pytest.mark.parametrize("rho", [-2.0, 0.0, -1e-300, [1.0, -0.5]])
 def test_depth_sigma_rejects_non_positive_depth(rho) -> None:
-    # issue 12: depth_sigma(-2.0, 1000) returned 0.004; a depth must be > 0
+    # depth_sigma(-2.0, 1000) once returned 0.004; a depth must be > 0
     with pytest.raises(PerceptionError, match="rho"):
         depth_sigma(rho, 1000.0)
 

@@ -1,4 +1,4 @@
-"""Certificates of global optimality of the ML position (issue 11).
+"""Certificates of global optimality of the ML position.
 
 The reference is an independent brute force: batched Levenberg-Marquardt from a 6^3 grid of
 starts (216 >= 200) over [-3, 13]^3 for every scene, Newton-polished; no radialopt code.

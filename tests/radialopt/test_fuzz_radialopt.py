@@ -1,4 +1,4 @@
-"""Fuzz every public entry point of radialopt with nasty inputs (issue 12).
+"""Fuzz every public entry point of radialopt with nasty inputs.
 
 For each entry point a valid baseline call is corrupted in one argument: the whole argument
 is replaced by a nasty value (NaN, inf, +-1e308, 1e-300, negative, zero, huge ints, bool,

@@ -51,7 +51,7 @@ def test_every_citation_points_at_an_existing_section() -> None:
     found = anchors()
     cites = citations(SCANNED)
     in_packages = [c for c in cites if c[0].split("/")[0] in PACKAGES]
-    assert len(in_packages) >= 10  # the code does cite the notes (issue 15 counted 16 references)
+    assert len(in_packages) >= 10  # the code does cite the notes
     missing = [c for c in cites if c[2] is not None and c[2] not in found]
     assert not missing, f"citations of sections docs/design.md does not have: {missing}"
     bare = [c for c in in_packages if c[2] is None]

@@ -30,7 +30,7 @@ def test_example_runs_in_smoke_mode(script, tmp_path):
         out = tmp_path / name
         assert out.exists() and out.stat().st_size > 100, name
     if script.startswith("05"):
-        # the solvers' own console output stays out of the example's (issue 15)
+        # the solvers' own console output stays out of the example's
         assert "Running HiGHS" not in done.stdout
         assert "Solution may be inaccurate" not in done.stderr
 

@@ -1,4 +1,4 @@
-"""The modules of the three packages import each other without a cycle (issue 26).
+"""The modules of the three packages import each other without a cycle.
 
 Every ``import`` and ``from ... import`` statement counts, wherever it stands: at the top, inside
 a function (a lazy import) or under ``if TYPE_CHECKING:``, as ``farm-studio look`` counts them.
@@ -136,7 +136,7 @@ def test_every_module_is_read(package):
 
 
 # ---- the old module paths were removed ------------------------------------------------------------
-#: Module paths removed (the 12 forwarding modules of issue 35; perception's flat modules), with
+#: Module paths removed (12 forwarding modules of worldgraph; perception's flat modules), with
 #: the module that holds their code.
 REMOVED_PATHS = {
     "worldgraph.cliques": "worldgraph.association.cliques",

@@ -1,4 +1,4 @@
-"""A built distribution holds every package and subpackage of the source tree (issue 26: the
+"""A built distribution holds every package and subpackage of the source tree (the
 subpackages of worldgraph would be left out of a wheel by a fixed package list)."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""README.md runs as written: every ```python block, in order, in one namespace (issue 15), and so
-does the tour of the API in docs/tour.md (issue 26: moved there from the README); the README's two
+"""README.md runs as written: every ```python block, in order, in one namespace, and so
+does the tour of the API in docs/tour.md (moved there from the README); the README's two
 set-up commands and its documentation command are the ones .ci/run runs."""
 
 from __future__ import annotations

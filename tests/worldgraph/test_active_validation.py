@@ -1,4 +1,4 @@
-"""Active validation (issue 14): plan_view, gaze_angles, view_scores, active_localize.
+"""Active validation: plan_view, gaze_angles, view_scores, active_localize.
 
 The two-room world: room 1 at the world origin (robot pose A = identity), room 2 at pose B (yaw
 180 deg, 20 m away), each holding the same ego layout of four handles in front and a knob

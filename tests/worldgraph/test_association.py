@@ -229,7 +229,7 @@ def test_true_association_survives_and_wins_noise_free(seed: int, k: int) -> Non
 @settings(max_examples=8)
 @given(seeds)
 def test_clutter_with_a_type_per_object_associates_as_one_clutter_type(seed: int) -> None:
-    """Issue 25: objects no percept names may each have their own type (CAD node names, a link
+    """Objects no percept names may each have their own type (CAD node names, a link
     table only for the type pairs with links); association answers as on the same world with
     those types merged into one (reference), since it matches percepts by type only."""
     rng = np.random.default_rng(seed)

@@ -1,4 +1,4 @@
-"""Frame and gravity mistakes get messages, never "ok"/"weak" at a wrong pose (issue 31):
+"""Frame and gravity mistakes get messages, never "ok"/"weak" at a wrong pose:
 percepts in a camera frame instead of the ego frame, and a gravity vector passed where the up
 vector is meant."""
 

@@ -1,4 +1,4 @@
-"""Fuzz tests (issue 12) of worldgraph's association, pose and localisation entry points.
+"""Fuzz tests of worldgraph's association, pose and localisation entry points.
 
 For each public entry point hypothesis draws nasty values (NaN, inf, +-1e308, 1e-300, negative,
 zero, huge ints, bool, None, str, complex, wrong shapes, empty arrays, non-symmetric or indefinite
@@ -161,7 +161,7 @@ def test_localize_region_pair_and_generator_are_accepted() -> None:
 
 @pytest.mark.parametrize("method", wg.LOCALIZE_METHODS)
 def test_percepts_a_million_metres_off_are_no_success(method) -> None:
-    """Issue 12: percepts shifted by 1e6 m must not give an ok/weak/ambiguous pose 1e6 m away."""
+    """Percepts shifted by 1e6 m must not give an ok/weak/ambiguous pose 1e6 m away."""
     shifted = _clean_percepts(shift=np.array([1e6, 0.0, 0.0]))
     res = _call(wg.localize, ("percepts",), WORLD, shifted, method)
     if res is not None:

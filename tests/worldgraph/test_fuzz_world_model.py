@@ -1,4 +1,4 @@
-"""Fuzz and hardening tests of the world model (issue 12): worldgraph.model, scenes, franka.
+"""Fuzz and hardening tests of the world model: worldgraph.model, scenes, franka.
 
 Every public entry point gets nasty values (NaN, inf, +-1e308, 1e-300, negative, zero, huge
 ints, bool, None, str, complex, wrong shapes, empty arrays, non-rigid poses, broken files) and

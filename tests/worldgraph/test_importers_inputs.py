@@ -1,6 +1,6 @@
 """WorldModel.from_trimesh and the file loaders: node names, unusable paths, skipped geometry.
 
-From the second adversarial audit of worldgraph (issue 12): each case raised something else than
+From the second adversarial audit of worldgraph: each case raised something else than
 the package's error, or was accepted silently.
 """
 

@@ -1,4 +1,4 @@
-"""Tests of the compact world of ``WorldModel.from_file`` / ``from_trimesh`` (issue 24).
+"""Tests of the compact world of ``WorldModel.from_file`` / ``from_trimesh``.
 
 A multi-storey map read from a GLB or an OBJ file gives the world ``from_arrays`` gives for the
 same objects (an :class:`~worldgraph.ObjectTable` behind both) with the same association

@@ -190,7 +190,7 @@ def test_to_dict_of_a_failed_result_has_no_numbers_for_the_pose():
     assert d["correspondences"] == [] and d["n_near_best"] == 0
 
 
-# -- the status contract of every method (issue 34) ----------------------------------------------
+# -- the status contract of every method ----------------------------------------------
 _POSELESS = ("degenerate", "degenerate_collinear", "no_association", "too_few_percepts")
 _METHODS = ("ml", "spheres", "paper", "srls", "gradient")
 
@@ -215,7 +215,7 @@ def _check_status_contract(res: LocalizationResult) -> None:
 
 
 def test_gradient_degenerate_returns_no_pose() -> None:
-    """Issue 34 (adversarial harness): three coplanar landmarks with the robot 5 cm below their
+    """An adversarial case: three coplanar landmarks with the robot 5 cm below their
     plane.  The gradient ascent's position is resolved to its mirror candidate by the validated
     3D pose, where the range-only CRLB is singular: an infinite covariance, so "weak", which the
     final check turns into "degenerate" -- and that result still carried the finite pose."""

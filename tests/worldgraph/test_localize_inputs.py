@@ -1,6 +1,6 @@
 """localize: a rotation gate in degrees, check=True beyond the vertex-enumeration limit.
 
-From the second adversarial audit of worldgraph (issue 12): each case raised something else than
+From the second adversarial audit of worldgraph: each case raised something else than
 the package's error, or was accepted silently.
 """
 

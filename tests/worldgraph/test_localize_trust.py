@@ -1,4 +1,4 @@
-"""Never confidently wrong: the four causes of issue 10, each on a world built for it.
+"""Never confidently wrong: four causes of a confident wrong answer, each on a world built for it.
 
 1. the default region must not reject a pose its percepts support (one-wall kitchen, 3 m away);
 2. a false percept that fits the true matches' pairwise distances must not hide them;
@@ -109,7 +109,7 @@ def test_an_explicit_region_still_rejects_and_bad_regions_raise() -> None:
     far = ro.Region([50.0, 50.0, 0.0], [60.0, 60.0, 3.0])
     res = localize(world, percepts_of(world, pose, idx), region=far)
     assert res.status in ("outside_region", "ambiguous")
-    # a (lower, upper) pair is the same box as a Region (issue 12: it raised AttributeError)
+    # a (lower, upper) pair is the same box as a Region (it raised AttributeError)
     pair = localize(world, percepts_of(world, pose, idx), region=(far.lower, far.upper))
     assert pair.status == res.status
     for bad in ("box", (np.zeros(3),), (np.zeros(2), np.ones(2)), (np.ones(3), np.zeros(3)),

@@ -1,4 +1,4 @@
-"""Issue 25, second round: needle-shaped covariances in the inlier and rank tests.
+"""Needle-shaped covariances in the inlier and rank tests.
 
 A percept whose covariance has variances (1e-8, 1e-6, 1e4) m^2 constrains two directions, not
 three.  The tests here build such percepts with random orientations and check what ``localize``

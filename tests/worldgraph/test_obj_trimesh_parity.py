@@ -1,4 +1,4 @@
-"""Can trimesh's OBJ reader replace worldgraph's own (issue 35)?  Not with trimesh 5.2: no option
+"""Can trimesh's OBJ reader replace worldgraph's own?  Not with trimesh 5.2: no option
 set reads every file below into the parts ``_obj_scene`` reads.
 
 Each OBJ file the importer tests read (the kitchen fixture, the ``file_format`` file, the

@@ -1,4 +1,4 @@
-"""The array-backed object table of large worlds (issue 13: no Python object per landmark)."""
+"""The array-backed object table of large worlds (no Python object per landmark)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Monte-Carlo calibration of ``LocalizationResult.pose_covariance`` (issue 10).
+"""Monte-Carlo calibration of ``LocalizationResult.pose_covariance``.
 
 The reference is the sampling distribution, never a number taken from the code under test:
 percepts of known landmarks are drawn around the truth, the pose is estimated, and the errors

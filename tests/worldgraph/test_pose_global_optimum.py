@@ -1,4 +1,4 @@
-"""Issue 12, D5: ``refine_pose`` must reach the global ML optimum, not a local one.
+"""``refine_pose`` must reach the global ML optimum, not a local one.
 
 Built from the issue's numbers: needle-shaped covariances (100 m long axis) where the Kabsch
 start ends in a local minimum (cost ~1e3-1e8 instead of ~10), and 3 points with 1-3 m noise

@@ -1,5 +1,5 @@
 """Errors shared by the percepts of one view (head encoders): perception carries them as
-loadings, fusion propagates them, and the pose covariance counts them (issue 12)."""
+loadings, fusion propagates them, and the pose covariance counts them."""
 
 from __future__ import annotations
 

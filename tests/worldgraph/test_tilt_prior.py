@@ -1,4 +1,4 @@
-"""Gravity in the pose fit (issue 32): the tilt prior (worldgraph.pose.gravity.TiltPrior), the ML pose
+"""Gravity in the pose fit: the tilt prior (worldgraph.pose.gravity.TiltPrior), the ML pose
 with it (refine_pose(tilt_prior=), checked against scipy's least squares on the same residuals),
 localize's up_sigma, and "ambiguous" only for a rival the gravity search can stand for."""
 

@@ -1,6 +1,6 @@
 """AssociationTolerances: pair_tolerance's sigmas and broadcasting, min_clique_size.
 
-From the second adversarial audit of worldgraph (issue 12): each case raised something else than
+From the second adversarial audit of worldgraph: each case raised something else than
 the package's error, or was accepted silently.
 """
 

@@ -1,4 +1,4 @@
-"""Millimetre hints (issue 15): localize says when percepts or the world look like millimetres."""
+"""Millimetre hints: localize says when percepts or the world look like millimetres."""
 
 from __future__ import annotations
 

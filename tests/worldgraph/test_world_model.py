@@ -84,7 +84,7 @@ def test_links_equal_brute_force(world):
 
 
 def test_many_types_store_exactly_the_linked_type_pairs():
-    """A world of many distinct types (issue 25: one per CAD node) stores a table for each type
+    """A world of many distinct types (one per CAD node) stores a table for each type
     pair with a link and for no other (a table per type pair was 12.5M tables at 5,000 types);
     every other sorted pair reads as an empty table, an unsorted or unknown pair is a KeyError.
     Reference: the pair-by-pair brute force."""
@@ -827,7 +827,7 @@ def _lexsort_tables(types: list[str], pos: np.ndarray, radius: float):
                                   "packed, repeated types", "packed, one object per type",
                                   "five points, repeated types"])
 def test_dense_links_equal_the_pair_search_and_the_reference(case: str) -> None:
-    """Issue 34: objects packed in one place (every pair within reach) take the enumeration of
+    """Objects packed in one place (every pair within reach) take the enumeration of
     all pairs (_dense_links) instead of the k-d tree's pair search.  Both paths give the same
     arrays, row for row, as the lexsort of all pairs (ties in length at one point, equal type
     pairs, coincident objects of distinct types, pairs just beyond reach when packed)."""
@@ -867,7 +867,7 @@ def test_dense_links_equal_the_pair_search_and_the_reference(case: str) -> None:
 
 
 def test_distinct_types_at_one_point_build_or_refuse_before_the_work() -> None:
-    """Issue 34: 2,000 objects of 2,000 distinct types at one point are a world of 1,999,000
+    """2,000 objects of 2,000 distinct types at one point are a world of 1,999,000
     links, one per type pair (each of length 0); 10,000 such objects would be 49,995,000 links,
     beyond MAX_LINKS: refused by the sample estimate with the argument and the numbers named."""
     from worldgraph.model.links import MAX_LINKS

@@ -1,6 +1,6 @@
 """WorldModel: bad objects, scene or source; a link table beyond its budget.
 
-From the second adversarial audit of worldgraph (issue 12): each case raised something else than
+From the second adversarial audit of worldgraph: each case raised something else than
 the package's error, or was accepted silently.
 """
 
