@@ -217,10 +217,9 @@ def triangulation_jacobian(
 def _matched_pixels(rig: object, uv_left: ArrayLike, uv_right: ArrayLike
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(N, 2)`` left and right pixels of ``rig`` (a StereoRig), checked and of equal shape."""
-    from .stereo import StereoRig, _points
+    from .stereo import _points, as_stereo_rig
 
-    if not isinstance(rig, StereoRig):
-        raise PerceptionError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    as_stereo_rig(rig)
     u1 = _points("uv_left", uv_left, 2)
     u2 = _points("uv_right", uv_right, 2)
     if u1.shape != u2.shape:

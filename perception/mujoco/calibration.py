@@ -17,9 +17,16 @@ from .._checks import (
 from ..errors import (
     PerceptionError,
 )
-from ..frontend.detection_percepts import CentreOffset
-from ..frontend.outline import DisparityError
-from ..frontend.rgbd import rgbd_percepts
+from ..frontend.detection_percepts import (
+    CENTRE_DEPTH_FLOOR,
+    DEPTH_NOISE,
+    CentreOffset,
+    touches_border,
+    visible_anchor,
+)
+from ..frontend.outline import DisparityError, outline_disparity, split_spread
+from ..frontend.rgbd import depth_windows, rgbd_percepts
+from ..frontend.stereo_pairs import DISPARITY_STD_PX, extent_middle, extents_differ, match_stereo
 from ..head.chain import KinematicChain
 from .records import CALIBRATION_POSES, CALIBRATION_SEED, CENTRE_LATERAL_FLOOR, StereoCalibration, _image_size
 from .scanning import _view_rig
@@ -91,9 +98,6 @@ def centre_offsets(self: Any,
         - A pose that is not a rigid transform.
         - A bad ``n_views``, ``image_size``, ``chain`` or ``min_pixels``.
     """
-    from ..frontend.detection_percepts import CENTRE_DEPTH_FLOOR, DEPTH_NOISE, visible_anchor
-    from ..frontend.rgbd import depth_windows
-
     checked = self._calibration_poses(world_from_egos)
     min_px = integer("min_pixels", min_pixels, minimum=1)
     along: dict[str, list[float]] = {}
@@ -199,10 +203,6 @@ def stereo_offsets(self: Any,
     StereoCalibration
         Per type measured in at least two views.
     """
-    from ..frontend.detection_percepts import CENTRE_DEPTH_FLOOR, touches_border
-    from ..frontend.outline import outline_disparity, split_spread
-    from ..frontend.stereo_pairs import DISPARITY_STD_PX, extent_middle, extents_differ, match_stereo
-
     checked = self._calibration_poses(world_from_egos)
     min_px = integer("min_pixels", min_pixels, minimum=1)
     # per type and source: (object-in-scan id, along, px per m, own sd px, ends px, across)

@@ -26,9 +26,13 @@ from ..errors import (
     PerceptionError,
 )
 from ..frontend.detection import Detection
-from ..frontend.detection_percepts import centre_offset_of
+from ..frontend.detection_percepts import DEPTH_NOISE, centre_offset_of
+from ..frontend.fusion import fuse_percepts, percept_bandwidths
 from ..frontend.percept import Percept
+from ..frontend.rgbd import rgbd_percepts
+from ..frontend.stereo_pairs import stereo_percepts
 from ..head.chain import KinematicChain, default_head
+from ..head.stereo import StereoRig
 from ..simulation.simulate import scan_angles
 from ..tolerances import ANGLE_SLACK
 from .detector import _Degrade, _noisy_depth
@@ -270,8 +274,6 @@ depth_noise, max_range, centre_offset
     raw = [_rotated(p, turn[:3, :3]) for p in seen.percepts] if base != 0.0 else list(seen.percepts)
     if not raw:
         return []
-    from ..frontend.fusion import fuse_percepts, percept_bandwidths
-
     return list(fuse_percepts(raw, bandwidth=percept_bandwidths(raw), min_views=fuse_min))
 
 
@@ -352,10 +354,6 @@ def _centre_offset(self: Any,
 def _percepts(self: Any, view: ScanView, sensor: str, settings: StereoCalibration, depth_noise: float
               ) -> tuple[tuple[Any, ...], tuple[int, ...], tuple[Any, ...]]:
     """The front end on one view: ``(percepts, detection index of each, dropped)``."""
-    from ..frontend.detection_percepts import DEPTH_NOISE
-    from ..frontend.rgbd import rgbd_percepts
-    from ..frontend.stereo_pairs import stereo_percepts
-
     if sensor == "rgbd":
         assert view.depth is not None
         out = rgbd_percepts(view.detections, view.depth, view.K, view.ego_from_camera,
@@ -370,8 +368,6 @@ def _percepts(self: Any, view: ScanView, sensor: str, settings: StereoCalibratio
 def _view_rig(view: ScanView) -> Any:
     """The stereo rig of a stereo view: both cameras with its ``K``, no distortion, the right one
     where ``ego_from_right_camera`` puts it (``X_right = R X_left + T``), its image size."""
-    from ..head.stereo import StereoRig
-
     assert view.ego_from_right_camera is not None
     right_from_left = np.linalg.inv(view.ego_from_right_camera) @ view.ego_from_camera
     h, w = view.segmentation.shape
