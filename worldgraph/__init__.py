@@ -21,7 +21,7 @@ from .errors import (
     WorldGraphError,
 )
 from .importers.franka import franka_kitchen_path, load_franka_kitchen
-from .localization import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, localize
+from .localization import LOCALIZE_METHODS, LOCALIZE_STATUSES, LocalizationResult, LocalizeSettings, localize
 from .model import LinkTable, ObjectModel, ObjectTable, WorldModel, box_vertices
 from .pose.frames import percept_frame, pose_from_frames, weighted_kabsch
 from .tiles import Tile, TilePool, localize_tiled
@@ -55,6 +55,7 @@ __all__ += [
     "LOCALIZE_METHODS",
     "LOCALIZE_STATUSES",
     "LocalizationResult",
+    "LocalizeSettings",
     "associate",
     "discriminator",
     "localize",

@@ -28,6 +28,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from perception import Percept
+
 from .errors import (
     WorldGraphError,
 )
@@ -261,3 +263,14 @@ def as_list(name: str, value: Any, what: str, *, exclude: tuple[type, ...] = ())
     except TypeError as exc:
         raise WorldGraphError(f"{name} must be a sequence of {what}, got {type(value).__name__} "
                               f"{_short(value, 80)}") from exc
+
+
+def percept_list(name: str, value: Any) -> list[Any]:
+    """A sequence of :class:`perception.Percept` as a list; :class:`WorldGraphError` naming
+    ``name`` (a lone Percept, not a sequence) or ``name[i]`` (an element that is no Percept)."""
+    items = as_list(name, value, "perception.Percept", exclude=(Percept,))
+    for k, p in enumerate(items):
+        if not isinstance(p, Percept):
+            raise WorldGraphError(f"{name}[{k}] must be a perception.Percept, "
+                                  f"got {type(p).__name__} {_short(p, 80)}")
+    return items

@@ -197,7 +197,7 @@ def test_bad_input_names_the_argument():
     cases = [
         ({"world": "kitchen"}, WorldGraphError, r"world must be a WorldModel, got 'kitchen'"),
         ({"world": world, "percepts": [ok, (1.0, 2.0, 3.0)]}, WorldGraphError,
-         r"percepts\[1\] must be a perception.Percept, got \(1.0, 2.0, 3.0\)"),
+         r"percepts\[1\] must be a perception.Percept, got tuple \(1.0, 2.0, 3.0\)"),
         ({"world": world, "percepts": ok}, WorldGraphError, r"percepts must be a sequence"),
         ({"world": world, "result": {"status": "ok"}}, WorldGraphError,
          r"result must be a LocalizationResult"),

@@ -18,7 +18,7 @@ from perception import Percept
 from worldgraph.errors import WorldGraphError
 from worldgraph.localization import localize, validate
 from worldgraph.pose import refine_pose
-from worldgraph.pose.gravity import FREE_SEARCH, TILT_GATE, SearchPlan, TiltPrior
+from worldgraph.pose.gravity import FREE_SEARCH, TILT_GATE, TiltPrior
 from worldgraph.pose.validation import PoseFit
 from worldgraph.tolerances import ASSOCIATION_TOLERANCES
 
@@ -188,8 +188,9 @@ def _fit(pose: np.ndarray, cost: float) -> PoseFit:
                    np.arange(4), cost)
 
 
-def _ctx(plan: SearchPlan) -> SimpleNamespace:
-    settings = SimpleNamespace(tol=ASSOCIATION_TOLERANCES, pos_tol=0.25, rot_tol=math.radians(5.0), plan=plan)
+def _ctx(gravity: object) -> SimpleNamespace:
+    settings = wg.LocalizeSettings(max_position_3sigma=0.25, max_rotation_3sigma=math.radians(5.0),
+                                   gravity=gravity)
     return SimpleNamespace(region=ro.Region(np.full(3, -50.0), np.full(3, 50.0)), explicit_region=False,
                            settings=settings, notes=[])
 
@@ -199,11 +200,14 @@ def test_a_rival_tilted_beyond_the_allowance_does_not_make_a_gravity_answer_ambi
     on_its_side = _pose(30.0, tilt_deg=90.0)
     on_its_side[:3, 3] += [1.0, 2.0, 0.0]
     rival = _fit(on_its_side, 11.0)
-    gravity = SearchPlan(EZ.copy(), None, True)
+    gravity = "auto"
+    plan = _ctx(gravity).settings.plan  # the premise: the gravity search about +z
+    assert np.array_equal(plan.up, EZ) and plan.fallback
+    assert _ctx(None).settings.plan is FREE_SEARCH
     chosen, choice = validate._choose_step(_ctx(gravity), [(best, 0), (rival, 1)], False)
     assert chosen is best and not choice.ambiguous
     # the free search knows no up: the same rival is a rival
-    _, choice = validate._choose_step(_ctx(FREE_SEARCH), [(best, 0), (rival, 1)], False)
+    _, choice = validate._choose_step(_ctx(None), [(best, 0), (rival, 1)], False)
     assert choice.ambiguous
     # and a level rival is one for the gravity search too
     level = _pose(30.0)

@@ -12,16 +12,16 @@ from numpy.typing import NDArray
 
 from perception import KinematicChain, Percept
 
-from .._checks import as_list, integer, real_array, real_scalar
+from .._checks import as_list, integer, percept_list, real_array, real_scalar
 from ..association.consistency import check_world_and_percepts
 from ..errors import WorldGraphError
 from ..localization.pipeline import localize
 from ..localization.result import LocalizationResult, PoseStatus
+from ..localization.settings import LocalizeSettings, settings_of
 from ..model import WorldModel
-from ..pose.gravity import Gravity, check_gravity, check_up_sigma
+from ..pose.gravity import Gravity
 from ..tolerances import (
     AssociationTolerances,
-    _resolved_tol,
 )
 from .plan import ViewPlan, _depth_factor, plan_view
 from .predict import DEFAULT_DEPTH_FACTOR, MERGE_FLOOR, MERGE_SIGMAS, _repeats
@@ -186,7 +186,8 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                     goal_rotation_3sigma: float | None = GOAL_ROTATION_3SIGMA, gravity: Gravity = "auto",
                     up_sigma: float | None = None, depth_factor: float | None = None, detection: float = 0.9,
                     max_sights: int | None = None, explore_while: Sequence[str] = EXPLORE_STATUSES,
-                    scanned_yaw_deg: tuple[float, float] | None = SCANNED_YAW_DEG) -> ActiveLocalization:
+                    scanned_yaw_deg: tuple[float, float] | None = SCANNED_YAW_DEG,
+                    settings: LocalizeSettings | None = None) -> ActiveLocalization:
     """Localise; while looks remain and there is no pose yet (a status in ``explore_while``) look
     where the robot has not looked (:func:`explore_direction`); while the status is in
     ``look_while`` (default ``"ambiguous"`` and ``"weak"``) plan a view from the pose and look;
@@ -239,6 +240,10 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         The neck yaws (degrees) the percepts passed in were swept over (default
         :data:`SCANNED_YAW_DEG`, the default scan's); exploring looks go elsewhere first.
         ``None``: nothing has been looked at yet.
+    settings : LocalizeSettings, optional
+        Every setting of :func:`~worldgraph.localize` in one object, used by every localisation
+        of the loop; ``method``, ``tol``, ``gravity`` and ``up_sigma`` given with values other
+        than their defaults replace its fields.
 
     Returns
     -------
@@ -277,10 +282,9 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
     else:
         scanned = None
     fov_deg = real_scalar("fov_deg", fov_deg, positive=True, maximum=360.0)
-    tol = _resolved_tol(tol)
+    # checked once, before the first look (a bad gravity or up_sigma fails here)
+    settings = settings_of(settings, method=method, tol=tol, gravity=gravity, up_sigma=up_sigma)
     current = check_world_and_percepts(world, percepts)
-    check_gravity(gravity, tol)  # a bad gravity (or up_sigma) fails before the first look
-    check_up_sigma(up_sigma, tol)
     learn_cap = max_sights is None
     cap = None if max_sights is None else integer("max_sights", max_sights, minimum=1, maximum=10**9)
     detection = real_scalar("detection", detection, positive=True, maximum=1.0)
@@ -289,7 +293,7 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         depth_factor = depth_factor_of(current)
     else:
         depth_factor = _depth_factor(depth_factor)
-    result = localize(world, current, method, tol=tol, gravity=gravity, up_sigma=up_sigma)
+    result = localize(world, current, settings=settings)
     results, plans = [result], []
     directions: list[NDArray[np.float64]] = []
     reasons: list[LookReason] = []
@@ -316,18 +320,14 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
                 d = d / np.linalg.norm(d)
         else:
             break
-        new = as_list("look(direction)", look(d.copy()), "perception.Percept", exclude=(Percept,))
-        for i, p in enumerate(new):
-            if not isinstance(p, Percept):
-                raise WorldGraphError(f"look(direction)[{i}] must be a perception.Percept, "
-                                      f"got {type(p).__name__}")
+        new = percept_list("look(direction)", look(d.copy()))
         directions.append(d)
         if planner is None and learn_cap and isinstance(plan, ViewPlan):
             cap = _learned_cap(cap, plan, len(new), detection)
         current = merge_percepts(current, new)
         if reasons[-1] == "explore" and explicit_factor is None and new:
             depth_factor = depth_factor_of(current)
-        result = localize(world, current, method, tol=tol, gravity=gravity, up_sigma=up_sigma)
+        result = localize(world, current, settings=settings)
         results.append(result)
     return ActiveLocalization(result=result, results=tuple(results), plans=tuple(plans),
                               directions=tuple(directions), percepts=tuple(current), looks=len(directions),

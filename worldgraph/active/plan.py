@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from perception import KinematicChain, Percept
 
-from .._checks import as_list, generator, integer, real_array, real_scalar
+from .._checks import generator, integer, percept_list, real_array, real_scalar
 from ..errors import WorldGraphError
 from ..localization.result import LocalizationResult
 from ..model import WorldModel
@@ -200,11 +200,7 @@ def _view_values(world: object, result: object, directions: object, fov_deg: obj
 def _percepts_in_hand(percepts: object) -> list[Percept]:
     if percepts is None:
         return []
-    out = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
-    for i, p in enumerate(out):
-        if not isinstance(p, Percept):
-            raise WorldGraphError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
-    return out
+    return percept_list("percepts", percepts)
 
 
 def view_scores(world: WorldModel, result: LocalizationResult, directions: object, *, fov_deg: float = 60.0,

@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 
 from perception import Percept
 
-from .._checks import as_list
+from .._checks import percept_list
 from ..errors import (
     WorldGraphError,
 )
@@ -44,11 +44,17 @@ def check_world_and_percepts(world: WorldModel, percepts: Sequence[Percept]) -> 
         raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
     if len(world) == 0:
         raise WorldGraphError("the world model has no objects")
-    percepts = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
+    return check_percepts(percepts)
+
+
+def check_percepts(percepts: Sequence[Percept], name: str = "percepts") -> list[Percept]:
+    """A sequence of Percepts whose scales the fits can handle, as a list.
+
+    Raises :class:`~worldgraph.errors.WorldGraphError` naming ``name`` or ``name[i]`` (the index
+    of a wrong element, its sigma, position or covariance scale).
+    """
+    percepts = percept_list(name, percepts)
     lo, hi = SIGMA_RANGE
-    for k, p in enumerate(percepts):
-        if not isinstance(p, Percept):
-            raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {type(p).__name__}")
     if not percepts:
         return percepts
     # one vectorised pass (a Percept is already validated: finite, SPD); loops only to name
@@ -56,21 +62,21 @@ def check_world_and_percepts(world: WorldModel, percepts: Sequence[Percept]) -> 
     bad = np.flatnonzero(~((sig >= lo) & (sig <= hi)))
     if bad.size:
         k = int(bad[0])
-        raise WorldGraphError(f"percepts[{k}].sigma = {sig[k]:.3g} m is outside [{lo:g}, {hi:g}] m, the "
+        raise WorldGraphError(f"{name}[{k}].sigma = {sig[k]:.3g} m is outside [{lo:g}, {hi:g}] m, the "
                               "range the association and pose fits can handle (covariance scale "
                               f"{sig[k] ** 2:.3g} m^2)")
     pos = np.array([p.position for p in percepts], dtype=np.float64)
     bad = np.flatnonzero(~np.all(np.abs(pos) <= MAX_COORDINATE, axis=1))
     if bad.size:
         k = int(bad[0])
-        raise WorldGraphError(f"percepts[{k}].position = {pos[k].tolist()} exceeds {MAX_COORDINATE:g} m")
+        raise WorldGraphError(f"{name}[{k}].position = {pos[k].tolist()} exceeds {MAX_COORDINATE:g} m")
     with_cov = [k for k, p in enumerate(percepts) if p.covariance is not None]
     if with_cov:
         ev = np.linalg.eigvalsh(np.array([percepts[k].covariance for k in with_cov], dtype=np.float64))
         bad = np.flatnonzero(~((ev[:, 0] >= lo * lo) & (ev[:, -1] <= hi * hi)))
         if bad.size:
             k, e = with_cov[int(bad[0])], ev[int(bad[0])]
-            raise WorldGraphError(f"percepts[{k}].covariance has eigenvalues {e[0]:.3g}..{e[-1]:.3g} "
+            raise WorldGraphError(f"{name}[{k}].covariance has eigenvalues {e[0]:.3g}..{e[-1]:.3g} "
                                   f"m^2, outside [{lo * lo:g}, {hi * hi:g}] m^2 (the range the fits "
                                   "can handle)")
     return percepts

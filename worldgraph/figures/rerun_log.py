@@ -41,7 +41,7 @@ from scipy.spatial.transform import Rotation
 
 from perception import Percept
 
-from .._checks import _short, as_list, name_string, real_scalar
+from .._checks import _short, name_string, percept_list, real_scalar
 from .._rigid import rigid_transform
 from ..errors import ImporterError, WorldGraphError
 from ..localization import LocalizationResult
@@ -96,11 +96,7 @@ def _prefix_path(prefix: Any) -> str:
 
 
 def _percepts(percepts: Any) -> list[Percept]:
-    items = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
-    for i, p in enumerate(items):
-        if not isinstance(p, Percept):
-            raise WorldGraphError(f"percepts[{i}] must be a perception.Percept, got {_short(p)}")
-    return items
+    return percept_list("percepts", percepts)
 
 
 def _ellipsoid(covariance: NDArray[np.float64], n_sigma: float) -> tuple[NDArray[np.float64],

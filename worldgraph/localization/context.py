@@ -1,4 +1,4 @@
-"""One :func:`~worldgraph.localize` call as its steps see it: the checked settings, the
+"""One :func:`~worldgraph.localize` call as its steps see it: its settings and generator, the
 percepts of known types, the measurements the steps share, and what a pose step hands on
 (``_Answer``, ``_Choice``)."""
 
@@ -17,10 +17,10 @@ from perception import Percept
 
 from ..association.hypotheses import AssociationHypothesis
 from ..model import WorldModel
-from ..pose.gravity import SearchPlan, TiltPrior
+from ..pose.gravity import TiltPrior
 from ..pose.validation import NearestObjects
-from ..tolerances import AssociationTolerances
 from .result import LocalizationResult, LocalizeStatus, poseless_result
+from .settings import LocalizeSettings
 
 
 def _remap(h: AssociationHypothesis, idx: NDArray[np.intp]) -> AssociationHypothesis:
@@ -30,38 +30,13 @@ def _remap(h: AssociationHypothesis, idx: NDArray[np.intp]) -> AssociationHypoth
         inliers=h.inliers, complete=h.complete)
 
 
-@dataclass(frozen=True)
-class _Settings:
-    """The checked arguments of one :func:`~worldgraph.localize` call (all but the world
-    and the percepts)."""
-
-    method: str
-    tol: AssociationTolerances
-    region: ro.Region | None  # the caller's region; None: the default region
-    rng: np.random.Generator | None
-    pos_tol: float  # max_position_3sigma, metres
-    rot_tol: float  # max_rotation_3sigma, radians
-    solver: str  # "active_set" or an installed cvxpy solver's name, upper case
-    check: bool
-    certify: bool
-    plan: SearchPlan  # the search: gravity (about which up vector) or free, and whether "auto" may fall back
-    tilt_sd: float = math.inf  # the tilt prior's standard deviation (rad) for the gravity search; inf: none
-
-    @property
-    def tilt_prior(self) -> TiltPrior | None:
-        """Gravity as a prior of the ML pose: only when the gravity search answers (not the free
-        search) and the caller's ``up_sigma`` is finite."""
-        if self.plan.up is None or not math.isfinite(self.tilt_sd):
-            return None
-        return TiltPrior(self.plan.up, self.tilt_sd)
-
-
 @dataclass
 class _Call:
     """One call's settings, its percepts of known types and what it has noted and timed so far."""
 
     world: WorldModel
-    settings: _Settings
+    settings: LocalizeSettings
+    rng: np.random.Generator | None  # passed to the position estimator (extra random seeds)
     used: list[Percept]
     idx: NDArray[np.intp]               # used -> index in the percepts passed in
     n_all: int

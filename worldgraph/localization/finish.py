@@ -112,12 +112,12 @@ def _status_step(ctx: _Context, answer: _Answer, status: str, n_inl: int, n_dir:
             ctx.notes.append("the matched landmarks do not determine the pose (infinite covariance)")
         else:
             pos3, rot3 = _worst_3sigma(cov6[:3, :3]), _worst_3sigma(cov6[3:, 3:])
-            if pos3 > ctx.settings.pos_tol or rot3 > ctx.settings.rot_tol:
+            if pos3 > ctx.settings.max_position_3sigma or rot3 > ctx.settings.max_rotation_3sigma:
                 status = "weak"
                 ctx.notes.append(f"weakly determined: 3-sigma bounds {pos3:.3g} m (tolerance "
-                                 f"{ctx.settings.pos_tol:.3g})"
+                                 f"{ctx.settings.max_position_3sigma:.3g})"
                                  f" and {math.degrees(rot3):.3g} deg (tolerance "
-                                 f"{math.degrees(ctx.settings.rot_tol):.3g})")
+                                 f"{math.degrees(ctx.settings.max_rotation_3sigma):.3g})")
     return status
 
 

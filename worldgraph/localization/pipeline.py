@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import fields, replace
 
 import numpy as np
@@ -51,7 +51,7 @@ import numpy as np
 import radialopt as ro
 from perception import Percept
 
-from .._checks import generator, real_array, real_scalar
+from .._checks import generator
 from ..association.consistency import MAX_COORDINATE, check_world_and_percepts
 from ..association.hypotheses import AssociationHypothesis
 from ..association.matching import associate_searched
@@ -59,51 +59,32 @@ from ..errors import WorldGraphError
 from ..model import WorldModel
 from ..model.units import units_hint
 from ..pose.gravity import (
-    FREE_SEARCH,
     Gravity,
     SearchKind,
     SearchPlan,
-    check_gravity,
-    check_up_sigma,
     tilt_contradiction,
     unsupported_reason,
 )
 from ..pose.validation import CHI2_3_GATE, NearestObjects, percept_covariances
-from ..tolerances import RIGID_TOLERANCE, AssociationTolerances, _resolved_tol
-from .context import _Call, _Context, _Settings
+from ..tolerances import RIGID_TOLERANCE, AssociationTolerances
+from .context import _Call, _Context
 from .paper import _paper
 from .result import _POSELESS_STATUSES, LOCALIZE_STATUSES, POSE_STATUSES, LocalizationResult, _without_pose
+from .settings import MAX_POSITION_3SIGMA, MAX_ROTATION_3SIGMA, LocalizeSettings, settings_of
 from .validate import ASSOCIATION_CANDIDATES, _validated
 
 __all__ = [
-    "LOCALIZE_METHODS",
-    "MAX_POSITION_3SIGMA",
-    "MAX_ROTATION_3SIGMA",
     "MIN_ROOM_SIZE",
     "REGION_MARGIN",
     "default_region",
     "localize",
 ]
 
-#: ``"ml"``: the maximum-likelihood 6D pose from the full 3D percepts (their covariances);
-#: ``"spheres"``: the range-only maximum-likelihood position of the Gaussian spheres
-#: (``radialopt`` method ``"ml"``), then the rotation; ``"paper"``: the paper's association and
-#: its radial-projection position; ``"srls"``, ``"gradient"``: other range-only estimators.
-LOCALIZE_METHODS = ("ml", "spheres", "paper", "srls", "gradient")
 #: Metres added above and below the objects' bounds by the default region (sideways it grows by
 #: the largest percept range).
 REGION_MARGIN = 1.0
 #: A room narrower than this (m) in x or y is no room (a lone wall node, a floor tile).
 MIN_ROOM_SIZE = 1.5
-#: Default largest 3-sigma position bound (m, along the worst direction) of an "ok" pose, and ...
-MAX_POSITION_3SIGMA = 0.25
-#: ... of the rotation (rad, about the worst axis).  Chosen for a mobile manipulator's global
-#: localisation: good enough to drive to a cabinet and turn the head to the handle it wants
-#: (5 degrees move a handle 2 m away by 17 cm, which the head camera then finds and servoes on);
-#: tighten both for grasping from the global pose alone.
-MAX_ROTATION_3SIGMA = math.radians(5.0)
-
-
 def default_region(world: WorldModel, percepts: Sequence[Percept]) -> ro.Region:
     """Where the robot could stand and see ``percepts``: ``world.room`` when it is a plausible
     room (at least :data:`MIN_ROOM_SIZE` wide both ways and holding the objects' positions to
@@ -128,7 +109,7 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
              rng: np.random.Generator | None = None, max_position_3sigma: float = MAX_POSITION_3SIGMA,
              max_rotation_3sigma: float = MAX_ROTATION_3SIGMA, solver: str = "active_set",
              check: bool = False, certify: bool = False, gravity: Gravity = "auto",
-             up_sigma: float | None = None) -> LocalizationResult:
+             up_sigma: float | None = None, settings: LocalizeSettings | None = None) -> LocalizationResult:
     """Pose of the robot (``world_from_ego``) from percepts of known world objects.
 
     Parameters
@@ -208,6 +189,10 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         6D fit of the percepts alone.  When the percepts' own tilt contradicts the prior (squared
         Mahalanobis distance above :data:`~worldgraph.pose.gravity.TILT_GATE`, 2 degrees of
         freedom) the 6D fit stands and the gravity checks above judge its tilt.
+    settings : LocalizeSettings, optional
+        All of the settings above in one checked object (a robot's, made once).  A keyword given
+        with a value other than its default replaces that field for this call; one left at its
+        default keeps the settings' value (``dataclasses.replace`` sets a field back).
 
     Returns
     -------
@@ -230,16 +215,52 @@ def localize(world: WorldModel, percepts: Sequence[Percept], method: str = "ml",
         solver fault, not bad input: it is not converted into a :class:`WorldGraphError`).
     """
     t_start = time.perf_counter()
-    percepts, settings = _check_arguments(world, percepts, method, tol, region, rng,
-                                          max_position_3sigma, max_rotation_3sigma, solver, check, certify,
-                                          gravity, up_sigma)
-    result = _localize(world, percepts, settings, t_start)
-    n_used = sum(1 for p in percepts if p.type in world.type_index)
-    why = gravity_unsupported(result, settings.plan, settings.tol, settings.method, n_used)
-    if why:
-        free = _localize(world, percepts, replace(settings, plan=FREE_SEARCH), t_start)
-        result = answered_by_free_search(free, result, why)
-    return tilt_checked(_sane(result, len(percepts)), settings.plan, settings.tol)
+    settings = settings_of(settings, method=method, tol=tol, region=region,
+                           max_position_3sigma=max_position_3sigma, max_rotation_3sigma=max_rotation_3sigma,
+                           solver=solver, check=check, certify=certify, gravity=gravity, up_sigma=up_sigma)
+    checked = check_world_and_percepts(world, percepts)
+    gen = None if rng is None else generator("rng", rng)
+    check_world_scale(world)
+    n_used = sum(1 for p in checked if p.type in world.type_index)
+    return searched(lambda s, _: [one_search(world, checked, s, gen, t_start)], settings, [n_used])[0]
+
+
+def searched(run: Callable[[LocalizeSettings, list[int]], list[LocalizationResult]],
+             settings: LocalizeSettings, n_used: Sequence[int]) -> list[LocalizationResult]:
+    """The answers to ``len(n_used)`` queries of one localisation's ``settings``: the search the
+    settings ask for, then, for each query whose gravity pass ``"auto"`` does not keep
+    (:func:`gravity_unsupported`), the free 3D search (:func:`answered_by_free_search`), and
+    every answer's tilt checked against the gravity given (:func:`tilt_checked`).
+
+    ``run(settings, queries)`` answers the queries numbered ``queries`` with one search each (no
+    fall-back of its own): one world, local tiles or a cluster's; ``n_used[q]`` is the number of
+    query ``q``'s percepts of the world's types."""
+    out = run(settings, list(range(len(n_used))))
+    again = []
+    for q, res in enumerate(out):
+        why = gravity_unsupported(res, settings.plan, settings.tol, settings.method, n_used[q])
+        if why:
+            again.append((q, why))
+    if again:
+        free = run(settings.free_search(), [q for q, _ in again])
+        for (q, why), res in zip(again, free, strict=True):
+            out[q] = answered_by_free_search(res, out[q], why)
+    return [tilt_checked(r, settings.plan, settings.tol) for r in out]
+
+
+def one_search(world: WorldModel, percepts: list[Percept], settings: LocalizeSettings,
+               rng: np.random.Generator | None, t_start: float) -> LocalizationResult:
+    """The pipeline's answer from one search (the settings' plan; no fall-back), on checked
+    percepts; a success status only with a finite rigid pose (``_sane``)."""
+    return _sane(_localize(world, percepts, settings, rng, t_start), len(percepts))
+
+
+def check_world_scale(world: WorldModel) -> None:
+    """WorldGraphError when the world's coordinates are beyond what the fits handle."""
+    big = float(np.max(np.abs(world.positions)))
+    if not big <= MAX_COORDINATE:
+        raise WorldGraphError(f"world positions reach {big:.3g} m; localize handles coordinates up to "
+                              f"{MAX_COORDINATE:g} m (shift the world's origin)")
 
 
 def tilt_checked(result: LocalizationResult, plan: SearchPlan,
@@ -282,58 +303,6 @@ def answered_by_free_search(free: LocalizationResult, gravity_pass: Localization
     timings = dict(free.timings)
     timings["gravity_pass"] = gravity_pass.timings.get("total", math.nan)
     return replace(free, message="; ".join(m for m in (note, free.message) if m), timings=timings)
-
-
-def _check_arguments(world: WorldModel, percepts: Sequence[Percept], method: str,
-                     tol: object, region: object, rng: object,
-                     max_position_3sigma: float, max_rotation_3sigma: float, solver: object, check: object,
-                     certify: object, gravity: object = "auto", up_sigma: object = None
-                     ) -> tuple[list[Percept], _Settings]:
-    """Step 1: every argument of :func:`localize` checked (specific errors), as the percepts and
-    the call's settings."""
-    if not isinstance(method, str) or method not in LOCALIZE_METHODS:
-        raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
-    checked = check_world_and_percepts(world, percepts)
-    tol = _resolved_tol(tol)
-    box = _check_region(region)
-    gen = None if rng is None else generator("rng", rng)
-    if not isinstance(solver, str):
-        raise WorldGraphError(f"solver must be 'active_set' or a cvxpy solver name, got {solver!r}")
-    solver_name = solver if solver == "active_set" else solver.upper()
-    if solver_name != "active_set" and solver_name not in ro.installed_cvxpy_solvers():
-        raise WorldGraphError(f"solver {solver!r} is neither 'active_set' nor an installed cvxpy solver "
-                              f"({', '.join(ro.installed_cvxpy_solvers())})")
-    if not isinstance(check, bool | np.bool_):
-        raise WorldGraphError(f"check must be a bool, got {check!r}")
-    if not isinstance(certify, bool | np.bool_):
-        raise WorldGraphError(f"certify must be a bool, got {certify!r}")
-    pos_tol = real_scalar("max_position_3sigma", max_position_3sigma, positive=True)
-    rot_tol = real_scalar("max_rotation_3sigma", max_rotation_3sigma, positive=True)
-    if rot_tol > math.pi:
-        raise WorldGraphError(f"max_rotation_3sigma = {rot_tol!r} is an angle in radians and must be <= pi; "
-                              f"did you mean degrees? np.radians({rot_tol:g}) = {math.radians(rot_tol):.4g}")
-    big = float(np.max(np.abs(world.positions)))
-    if not big <= MAX_COORDINATE:
-        raise WorldGraphError(f"world positions reach {big:.3g} m; localize handles coordinates up to "
-                              f"{MAX_COORDINATE:g} m (shift the world's origin)")
-    plan = check_gravity(gravity, tol)
-    return checked, _Settings(method, tol, box, gen, pos_tol, rot_tol, solver_name, bool(check),
-                              bool(certify), plan, check_up_sigma(up_sigma, tol))
-
-
-def _check_region(region: object) -> ro.Region | None:
-    """None, a radialopt.Region, or a ``(lower, upper)`` pair of 3-vectors (metres)."""
-    if region is None or isinstance(region, ro.Region):
-        return region
-    if isinstance(region, tuple | list) and len(region) == 2:
-        lo = real_array("region[0]", region[0], (3,))
-        hi = real_array("region[1]", region[1], (3,))
-        try:
-            return ro.Region(lo, hi)
-        except ro.RadialError as exc:
-            raise WorldGraphError(f"region (lower, upper) is not a box: {exc}") from exc
-    raise WorldGraphError(f"region must be None, a radialopt.Region or a (lower, upper) pair of 3-vectors, "
-                          f"got {type(region).__name__}")
 
 
 def _sane(result: LocalizationResult, n: int) -> LocalizationResult:
@@ -404,11 +373,11 @@ def _units_hints(world: WorldModel, used: list[Percept]) -> list[str]:
     return [hint] if hint else []
 
 
-def _localize(world: WorldModel, percepts: list[Percept], settings: _Settings, t_start: float
-              ) -> LocalizationResult:
+def _localize(world: WorldModel, percepts: list[Percept], settings: LocalizeSettings,
+              rng: np.random.Generator | None, t_start: float) -> LocalizationResult:
     """The pipeline on checked arguments: known percepts, association, measurements, then the
     validated pose (or the paper's)."""
-    call = _known_percepts_step(world, percepts, settings, t_start)
+    call = _known_percepts_step(world, percepts, settings, rng, t_start)
     need = max(3, settings.tol.min_clique_size)
     if len(call.used) < need:
         return call.failed("too_few_percepts", f"localisation needs at least {need} percepts of known types, "
@@ -425,8 +394,8 @@ def _localize(world: WorldModel, percepts: list[Percept], settings: _Settings, t
     return replace(_validated(ctx, hyps_local), search=search)
 
 
-def _known_percepts_step(world: WorldModel, percepts: list[Percept], settings: _Settings, t_start: float
-                         ) -> _Call:
+def _known_percepts_step(world: WorldModel, percepts: list[Percept], settings: LocalizeSettings,
+                         rng: np.random.Generator | None, t_start: float) -> _Call:
     """Step 2: the percepts of types the world has (the others are named in a note)."""
     known = np.array([p.type in world.type_index for p in percepts], dtype=bool)
     unknown = sorted({p.type for p, ok in zip(percepts, known, strict=True) if not ok})
@@ -440,7 +409,7 @@ def _known_percepts_step(world: WorldModel, percepts: list[Percept], settings: _
     raw = unfused_hint(used)
     notes += [raw] if raw else []
     timings = {"association": 0.0, "validation": 0.0, "radial": 0.0, "position": 0.0, "orientation": 0.0}
-    return _Call(world, settings, used, idx, len(percepts), notes, timings, t_start)
+    return _Call(world, settings, rng, used, idx, len(percepts), notes, timings, t_start)
 
 
 def _associate_step(call: _Call) -> list[AssociationHypothesis]:

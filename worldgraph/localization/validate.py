@@ -31,10 +31,11 @@ from ..pose.validation import (
     shared_view_covariance,
 )
 from ..tolerances import COST_ROUNDING, REFINE_TOL
-from .context import _Answer, _Choice, _Context, _remap, _Settings
+from .context import _Answer, _Choice, _Context, _remap
 from .finish import _finish, _in_region
 from .radial import _radial, _radial_score, _range_consistent, _sphere_position
 from .result import LocalizationResult, LocalizeStatus
+from .settings import LocalizeSettings
 
 #: Range-only position estimator of ``radialopt.estimate_position`` behind each method.
 _SPHERE_ESTIMATOR = {"spheres": "ml", "paper": "paper", "srls": "srls", "gradient": "gradient"}
@@ -202,7 +203,7 @@ def _level_enough(ctx: _Context, fits: list[PoseFit]) -> list[PoseFit]:
     return kept
 
 
-def _same_pose(a: NDArray, b: NDArray, settings: _Settings) -> bool:
+def _same_pose(a: NDArray, b: NDArray, settings: LocalizeSettings) -> bool:
     """Whether two poses are one answer, as fits are that differ only in which of two
     neighbouring objects of its type a percept matched: closer than a third of the tolerances
     (``max_position_3sigma``, ``max_rotation_3sigma``; their likelihood-weighted spread then adds
@@ -211,8 +212,8 @@ def _same_pose(a: NDArray, b: NDArray, settings: _Settings) -> bool:
     (so lenient tolerances never merge two places into one wide answer)."""
     e = pose_difference(a, b)
     tol = settings.tol
-    return bool(np.linalg.norm(e[:3]) < min(settings.pos_tol / 3.0, tol.distinct_translation)
-                and np.linalg.norm(e[3:]) < min(settings.rot_tol / 3.0, tol.distinct_angle))
+    return bool(np.linalg.norm(e[:3]) < min(settings.max_position_3sigma / 3.0, tol.distinct_translation)
+                and np.linalg.norm(e[3:]) < min(settings.max_rotation_3sigma / 3.0, tol.distinct_angle))
 
 
 def _same_pose_spread(best: PoseFit, same: list[PoseFit]) -> NDArray[np.float64] | None:
@@ -284,7 +285,7 @@ def _range_only_pose_step(ctx: _Context, best: PoseFit) -> _Answer:
     degenerate: ``status_hint`` says so)."""
     pairs = best.pairs
     estimator = _SPHERE_ESTIMATOR[ctx.settings.method]
-    sph = _sphere_position(ctx, pairs, estimator, best.world_from_ego[:3, 3], ctx.settings.rng)
+    sph = _sphere_position(ctx, pairs, estimator, best.world_from_ego[:3, 3], ctx.rng)
     sp, s_centers, sig, est, position, status, pos_cov = sph
     if status in ("degenerate", "degenerate_collinear"):
         nan = np.full((4, 4), np.nan)

@@ -44,7 +44,7 @@ from scipy.stats import chi2
 
 from perception import OBJECT_VIEW, Percept
 
-from .._checks import as_list, integer, real_array, real_scalar
+from .._checks import as_list, integer, percept_list, real_array, real_scalar
 from .._rigid import rigid_transform
 from ..errors import PoseError, WorldGraphError
 from ..model import WorldModel
@@ -148,10 +148,7 @@ def _covariance_or_unknown(name: str, value: object, n: int) -> NDArray[np.float
 
 def percept_covariances(percepts: list[Percept]) -> NDArray[np.float64]:
     """``(k, 3, 3)`` ego-frame covariances (m^2): ``covariance`` when given, else ``sigma^2 I``."""
-    percepts = as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
-    for i, p in enumerate(percepts):
-        if not isinstance(p, Percept):
-            raise WorldGraphError(f"percepts[{i}] must be a perception.Percept, got {type(p).__name__}")
+    percepts = percept_list("percepts", percepts)
     out = np.empty((len(percepts), 3, 3))
     for k, p in enumerate(percepts):
         if p.covariance is None and not p.sigma < 1e150:

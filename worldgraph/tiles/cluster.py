@@ -24,28 +24,25 @@ import numpy as np
 from perception import Percept
 
 from .. import _checks
+from ..association.consistency import check_percepts
 from ..errors import MalformedFileError, WorldGraphError
-from ..localization.pipeline import (
-    LOCALIZE_METHODS,
-    answered_by_free_search,
-    gravity_unsupported,
-    tilt_checked,
-)
+from ..localization.pipeline import searched
 from ..localization.result import LocalizationResult, LocalizeStatus, poseless_result
-from ..pose.gravity import Gravity, check_gravity, check_up_sigma
-from ..tolerances import AssociationTolerances, _resolved_tol
+from ..localization.settings import LocalizeSettings, settings_of
+from ..pose.gravity import Gravity
+from ..tolerances import AssociationTolerances
 from .dispatch import _client
 from .files import TileIndex, load_tile, read_index
 from .prefilter import TileVisit, tiles_to_visit
-from .ranking import _combine, _globalised_answer, _run_tile, _TileAnswer
+from .ranking import _combine, _globalised_answer, _run_tile, _TileAnswer, _TileQuery
 from .tiling import Tile
 
 __all__ = ["ClusterTiles"]
 
 
-def _answer(tile: Tile, *args: Any) -> _TileAnswer:
+def _answer(tile: Tile, query: _TileQuery) -> _TileAnswer:
     """One tile's answer on the worker that holds it, its indices mapped to the whole map's."""
-    return _globalised_answer(_run_tile(tile.world, *args), tile)
+    return _globalised_answer(_run_tile(tile.world, query), tile)
 
 
 def _visited_note(visits: Sequence[TileVisit]) -> str:
@@ -127,73 +124,57 @@ class ClusterTiles:
     def localize(self, percepts: Sequence[Percept], method: str = "ml", *,
                  tol: AssociationTolerances | None = None, region: Any = None, gravity: Gravity = "auto",
                  up_sigma: float | None = None, near: Any = None, radius: float | None = None,
-                 timeout: float | None = None) -> LocalizationResult:
+                 timeout: float | None = None, settings: LocalizeSettings | None = None
+                 ) -> LocalizationResult:
         """:func:`~worldgraph.localize` on the tiles that can answer, ranked together.
 
-        ``method``, ``tol``, ``region``, ``gravity`` and ``up_sigma`` are those of
+        ``method``, ``tol``, ``region``, ``gravity``, ``up_sigma`` and ``settings`` are those of
         :func:`~worldgraph.tiles.localize_tiled`; ``near`` and ``radius`` a position prior for
         the pre-filter (world frame, metres); ``timeout`` seconds to wait for the workers (None:
         as long as it takes; Dask re-runs the tasks of a worker that dies).  The message says
         how many tiles were visited and why the others were skipped.
         """
         return self.localize_many([percepts], method, tol=tol, region=region, gravity=gravity,
-                                  up_sigma=up_sigma, near=near, radius=radius, timeout=timeout)[0]
+                                  up_sigma=up_sigma, near=near, radius=radius, timeout=timeout,
+                                  settings=settings)[0]
 
     def localize_many(self, queries: Sequence[Sequence[Percept]], method: str = "ml", *,
                       tol: AssociationTolerances | None = None, region: Any = None, gravity: Gravity = "auto",
                       up_sigma: float | None = None, near: Any = None, radius: float | None = None,
-                      timeout: float | None = None) -> list[LocalizationResult]:
+                      timeout: float | None = None, settings: LocalizeSettings | None = None
+                      ) -> list[LocalizationResult]:
         """:meth:`localize` of many robots' percepts at once (every query's tile tasks are
         submitted before any is awaited, so the workers share the batch).  ``near`` is one (3,)
         prior for all queries or ``(len(queries), 3)``, one per query (rows of NaN: no prior);
         ``radius`` one value or one per query."""
         if self._closed:
             raise WorldGraphError("ClusterTiles is closed (close was called): make a new ClusterTiles")
-        if not isinstance(method, str) or method not in LOCALIZE_METHODS:
-            raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
-        tol = _resolved_tol(tol)
-        plan = check_gravity(gravity, tol)
-        sigma = check_up_sigma(up_sigma, tol)
+        settings = settings_of(settings, method=method, tol=tol, region=region, gravity=gravity,
+                               up_sigma=up_sigma)
         if timeout is not None:
             timeout = _checks.real_scalar("timeout", timeout, positive=True)
         items = _checks.as_list("queries", queries, "sequences of perception.Percept")
         t_start = time.perf_counter()
-        lists = []
-        for q, percepts in enumerate(items):
-            plist = _checks.as_list(f"queries[{q}]", percepts, "perception.Percept", exclude=(Percept,))
-            for k, p in enumerate(plist):
-                if not isinstance(p, Percept):
-                    raise WorldGraphError(f"queries[{q}][{k}] must be a perception.Percept, "
-                                          f"got {_checks._short(p)}")
-            lists.append(plist)
+        lists = [check_percepts(percepts, f"queries[{q}]") for q, percepts in enumerate(items)]
         nears, radii = _per_query(near, radius, len(lists))
-        visits = [self.plan(p, tol=tol, near=n, radius=r)
+        visits = [self.plan(p, tol=settings.tol, near=n, radius=r)
                   for p, n, r in zip(lists, nears, radii, strict=True)]
-        up = None if plan.up is None else plan.up.copy()
-        first = self._run(lists, visits, [up] * len(lists), method, tol, region, sigma, timeout, t_start)
-        out: list[LocalizationResult] = list(first)
-        again = []
-        for q, (res, plist) in enumerate(zip(first, lists, strict=True)):
-            n_used = sum(1 for p in plist if p.type in self._types)
-            why = gravity_unsupported(res, plan, tol, method, n_used)
-            if why:
-                again.append((q, why))
-        if again:
-            free = self._run([lists[q] for q, _ in again], [visits[q] for q, _ in again], [None] * len(again),
-                             method, tol, region, sigma, timeout, t_start)
-            for (q, why), res in zip(again, free, strict=True):
-                out[q] = answered_by_free_search(res, out[q], why)
-        return [tilt_checked(r, plan, tol) for r in out]
 
-    def _run(self, lists: list[list[Percept]], visits: list[tuple[TileVisit, ...]], ups: list[Any],
-             method: str, tol: AssociationTolerances, region: Any, sigma: float, timeout: float | None,
-             t_start: float) -> list[LocalizationResult]:
-        """Submit every query's tile tasks, then gather and rank each query's answers."""
+        def run(one: LocalizeSettings, qs: list[int]) -> list[LocalizationResult]:
+            return self._run([lists[q] for q in qs], [visits[q] for q in qs], one, timeout, t_start)
+
+        n_used = [sum(1 for p in plist if p.type in self._types) for plist in lists]
+        return searched(run, settings, n_used)
+
+    def _run(self, lists: list[list[Percept]], visits: list[tuple[TileVisit, ...]],
+             settings: LocalizeSettings, timeout: float | None, t_start: float) -> list[LocalizationResult]:
+        """Submit every query's tile tasks (one search of ``settings``), then gather and rank each
+        query's answers."""
         jobs = []
-        for plist, visit, up in zip(lists, visits, ups, strict=True):
+        for plist, visit in zip(lists, visits, strict=True):
             ks = [k for k, v in enumerate(visit) if v.visit]
-            futures = [self._client.submit(_answer, self._futures[k], plist, self._types, method, tol, region,
-                                           None, up, sigma, pure=False) for k in ks]
+            query = _TileQuery(plist, self._types, settings)
+            futures = [self._client.submit(_answer, self._futures[k], query, pure=False) for k in ks]
             jobs.append((ks, futures))
         out = []
         for (ks, futures), plist, visit in zip(jobs, lists, visits, strict=True):
@@ -207,7 +188,7 @@ class ClusterTiles:
                 continue
             answers = self._gather(futures, timeout)
             labels = [self.index.tiles[k].label for k in ks]
-            out.append(_noted(_combine(labels, answers, tol, t_start), note))
+            out.append(_noted(_combine(labels, answers, settings.tol, t_start), note))
         return out
 
     def _gather(self, futures: list[Any], timeout: float | None) -> list[_TileAnswer]:

@@ -16,18 +16,15 @@ import numpy as np
 from perception import Percept
 
 from .. import _checks
+from ..association.consistency import check_percepts
 from ..errors import WorldGraphError
-from ..localization.pipeline import (
-    LOCALIZE_METHODS,
-    answered_by_free_search,
-    gravity_unsupported,
-    tilt_checked,
-)
+from ..localization.pipeline import searched
 from ..localization.result import LocalizationResult
-from ..pose.gravity import Gravity, check_gravity, check_up_sigma
-from ..tolerances import AssociationTolerances, _resolved_tol
+from ..localization.settings import LocalizeSettings, settings_of
+from ..pose.gravity import Gravity
+from ..tolerances import AssociationTolerances
 from .pool import TilePool
-from .ranking import _combine, _globalised_answer, _run_tile
+from .ranking import _combine, _globalised_answer, _run_tile, _TileQuery
 from .tiling import Tile, _check_tiles
 
 
@@ -51,8 +48,8 @@ def _client(scheduler: object, name: str = "scheduler", what: str = "None, ") ->
 def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: str = "ml", *,
                    scheduler: Any = None, workers: int | None = None, pool: TilePool | None = None,
                    tol: AssociationTolerances | None = None, rng: np.random.Generator | None = None,
-                   region: Any = None, gravity: Gravity = "auto", up_sigma: float | None = None
-                   ) -> LocalizationResult:
+                   region: Any = None, gravity: Gravity = "auto", up_sigma: float | None = None,
+                   settings: LocalizeSettings | None = None) -> LocalizationResult:
     """:func:`~worldgraph.localize` on every tile in parallel, the answers ranked together.
 
     Parameters
@@ -93,6 +90,10 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         pose, too few inliers or a tilted pose do all tiles run the free search.
     up_sigma : float, optional
         Gravity's tilt prior of the pose (radians), as in :func:`~worldgraph.localize`.
+    settings : LocalizeSettings, optional
+        Every setting of :func:`~worldgraph.localize` in one object (also those this function
+        has no keyword for, such as ``max_position_3sigma``); a keyword given with a value other
+        than its default replaces that field.
 
     Returns
     -------
@@ -112,13 +113,9 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
     """
     t_start = time.perf_counter()
     tiles = _check_tiles(tiles)
-    if not isinstance(method, str) or method not in LOCALIZE_METHODS:
-        raise WorldGraphError(f"method must be one of {LOCALIZE_METHODS}, got {method!r}")
-    percepts = _checks.as_list("percepts", percepts, "perception.Percept")
-    for k, p in enumerate(percepts):
-        if not isinstance(p, Percept):
-            raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {_checks._short(p)}")
-    tol = _resolved_tol(tol)
+    settings = settings_of(settings, method=method, tol=tol, region=region, gravity=gravity,
+                           up_sigma=up_sigma)
+    percepts = check_percepts(percepts)
     if workers is not None:
         workers = _checks.integer("workers", workers, minimum=1, maximum=1024)
     if pool is not None:
@@ -129,24 +126,19 @@ def localize_tiled(tiles: Sequence[Tile], percepts: Sequence[Percept], method: s
         if not pool.serves(tiles):
             raise WorldGraphError(f"pool serves other tiles ({len(pool.tiles)} tiles) than the {len(tiles)} "
                                   "given: make a TilePool of these tiles")
-    plan = check_gravity(gravity, tol)
-    sigma = check_up_sigma(up_sigma, tol)
     rngs: list[np.random.Generator | None] = [None] * len(tiles)
     if rng is not None:
         rngs = list(_checks.generator("rng", rng).spawn(len(tiles)))
     world_types = frozenset(t for tile in tiles for t in tile.world.type_names)
-    # the tiles run one search each (an explicit up vector or None): "auto" decides on the
-    # combined answer, not per tile (the tiles without the robot find nothing in either search)
-    up = None if plan.up is None else plan.up.copy()
-    answer = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, up, sigma) for r in rngs],
-                        scheduler, workers, pool, tol, t_start)
     n_used = sum(1 for p in percepts if p.type in world_types)
-    why = gravity_unsupported(answer, plan, tol, method, n_used)
-    if why:
-        free = _run_tiles(tiles, [(percepts, world_types, method, tol, region, r, None, sigma) for r in rngs],
-                          scheduler, workers, pool, tol, t_start)
-        answer = answered_by_free_search(free, answer, why)
-    return tilt_checked(answer, plan, tol)
+
+    def run(one: LocalizeSettings, _: list[int]) -> list[LocalizationResult]:
+        # every tile runs the same one search: "auto" decides on the combined answer, not per
+        # tile (the tiles without the robot find nothing in either search)
+        queries = [_TileQuery(percepts, world_types, one, r) for r in rngs]
+        return [_run_tiles(tiles, queries, scheduler, workers, pool, one.tol, t_start)]
+
+    return searched(run, settings, [n_used])[0]
 
 
 #: The worlds of tiles scattered to a cluster by :func:`localize_tiled`, kept while the Tile lives:
@@ -173,17 +165,18 @@ def _on_cluster(client: Any, tiles: tuple[Tile, ...]) -> list[Any]:
     return [_SCATTERED[t][key] for t in tiles]
 
 
-def _run_tiles(tiles: tuple[Tile, ...], args: list[tuple[Any, ...]], scheduler: Any, workers: int | None,
+def _run_tiles(tiles: tuple[Tile, ...], queries: list[_TileQuery], scheduler: Any, workers: int | None,
                pool: TilePool | None, tol: AssociationTolerances, t_start: float) -> LocalizationResult:
-    """Every tile's ``_run_tile`` with its ``args`` (on the pool, the cluster or local
-    processes), combined."""
+    """Every tile's ``_run_tile`` of its query (on the pool, the cluster or local processes),
+    combined."""
     if pool is not None:
-        answers = pool._map(args)
+        answers = pool._map(queries)
     elif scheduler is not None:
         client, opened = _client(scheduler)
         try:
             remote = _on_cluster(client, tiles)
-            futures = [client.submit(_run_tile, w, *a, pure=False) for w, a in zip(remote, args, strict=True)]
+            futures = [client.submit(_run_tile, w, q, pure=False)
+                       for w, q in zip(remote, queries, strict=True)]
             answers = client.gather(futures)
         finally:
             if opened:
@@ -191,12 +184,12 @@ def _run_tiles(tiles: tuple[Tile, ...], args: list[tuple[Any, ...]], scheduler: 
     else:
         n_workers = min(len(tiles), workers or os.cpu_count() or 1)
         if n_workers == 1:
-            answers = [_run_tile(t.world, *a) for t, a in zip(tiles, args, strict=True)]
+            answers = [_run_tile(t.world, q) for t, q in zip(tiles, queries, strict=True)]
         elif "fork" in multiprocessing.get_all_start_methods():
             with TilePool(tiles, n_workers) as one_call:  # forked for this call only
-                answers = one_call._map(args)
+                answers = one_call._map(queries)
         else:  # pragma: no cover - spawn-only platforms pickle the tiles
             with ProcessPoolExecutor(n_workers) as ex:
-                answers = list(ex.map(_run_tile, [t.world for t in tiles], *zip(*args, strict=True)))
+                answers = list(ex.map(_run_tile, [t.world for t in tiles], queries))
     answers = [_globalised_answer(a, t) for a, t in zip(answers, tiles, strict=True)]
     return _combine([t.label for t in tiles], answers, tol, t_start)

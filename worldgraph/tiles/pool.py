@@ -6,11 +6,10 @@ import multiprocessing
 import os
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
-from typing import Any
 
 from .. import _checks
 from ..errors import WorldGraphError
-from .ranking import _run_tile, _TileAnswer
+from .ranking import _run_tile, _TileAnswer, _TileQuery
 from .tiling import Tile, _check_tiles
 
 #: Tiles handed to forked worker processes by reference (no pickling of the worlds): a
@@ -18,8 +17,8 @@ from .tiling import Tile, _check_tiles
 _SHARED: dict[int, tuple[Tile, ...]] = {}
 
 
-def _run_shared(token: int, k: int, *args: Any) -> _TileAnswer:
-    return _run_tile(_SHARED[token][k].world, *args)
+def _run_shared(token: int, k: int, query: _TileQuery) -> _TileAnswer:
+    return _run_tile(_SHARED[token][k].world, query)
 
 
 class TilePool:
@@ -72,11 +71,12 @@ class TilePool:
         """True after :meth:`close`."""
         return self._executor is None
 
-    def _map(self, args: list[tuple[Any, ...]]) -> list[_TileAnswer]:
+    def _map(self, queries: list[_TileQuery]) -> list[_TileAnswer]:
+        """Tile ``k``'s answer to ``queries[k]``, for every tile."""
         if self._executor is None:
             raise WorldGraphError("pool is closed (TilePool.close was called): make a new TilePool")
         return list(self._executor.map(_run_shared, [self._token] * len(self.tiles), range(len(self.tiles)),
-                                       *zip(*args, strict=True)))
+                                       queries))
 
     def close(self) -> None:
         """Stop the workers (idempotent)."""

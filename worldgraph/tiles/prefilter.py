@@ -172,10 +172,7 @@ def tiles_to_visit(summaries: Sequence[TileSummary], percepts: Sequence[Percept]
     for k, s in enumerate(items):
         if not isinstance(s, TileSummary):
             raise WorldGraphError(f"summaries[{k}] must be a TileSummary, got {_checks._short(s)}")
-    plist = _checks.as_list("percepts", percepts, "perception.Percept", exclude=(Percept,))
-    for k, p in enumerate(plist):
-        if not isinstance(p, Percept):
-            raise WorldGraphError(f"percepts[{k}] must be a perception.Percept, got {_checks._short(p)}")
+    plist = _checks.percept_list("percepts", percepts)
     tol = _resolved_tol(tol)
     prior = None
     if near is not None or radius is not None:

@@ -7,7 +7,6 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -16,10 +15,9 @@ from perception import Percept
 
 from ..association.hypotheses import AssociationHypothesis
 from ..errors import WorldGraphError
-from ..localization.pipeline import (
-    localize,
-)
+from ..localization.pipeline import check_world_scale, one_search, tilt_checked
 from ..localization.result import POSE_STATUSES, UNIQUE_STATUSES, LocalizationResult
+from ..localization.settings import LocalizeSettings
 from ..model import WorldModel
 from ..pose.validation import (
     CHI2_3_GATE,
@@ -71,18 +69,31 @@ def _fit_cost(world: WorldModel, percepts: list[Percept], result: LocalizationRe
     return float(fit.cost) + n_missing * CHI2_3_GATE, fit.pose_covariance
 
 
-def _run_tile(world: WorldModel, percepts: list[Percept], world_types: frozenset[str], method: str,
-              tol: AssociationTolerances, region: Any, rng: np.random.Generator | None,
-              gravity: NDArray[np.float64] | None, up_sigma: float | None = None) -> _TileAnswer:
+@dataclass(frozen=True)
+class _TileQuery:
+    """What a worker needs besides its tile to answer one query: the checked percepts, the whole
+    map's types (a percept of a map type the tile lacks costs the ranking its cap), one search's
+    settings and the tile's own generator."""
+
+    percepts: list[Percept]
+    world_types: frozenset[str]
+    settings: LocalizeSettings
+    rng: np.random.Generator | None = None
+
+
+def _run_tile(world: WorldModel, query: _TileQuery) -> _TileAnswer:
+    """One tile's answer to ``query`` (one search, its tilt checked; object indices of the tile)."""
+    percepts, settings = query.percepts, query.settings
     if percepts and not any(p.type in world.type_index for p in percepts):  # nothing to match here
         return _TileAnswer(None, WorldGraphError(
             f"no percept type is in the tile: percept types {sorted({p.type for p in percepts})}, "
             f"tile types {list(world.type_index)}"))
-    result = localize(world, percepts, method, tol=tol, region=region, rng=rng, gravity=gravity,
-                      up_sigma=up_sigma)
+    check_world_scale(world)
+    result = one_search(world, percepts, settings, query.rng, time.perf_counter())
+    result = tilt_checked(result, settings.plan, settings.tol)
     if result.status not in _WITH_POSE:
         return _TileAnswer(result, None)
-    n_missing = sum(1 for p in percepts if p.type in world_types and p.type not in world.type_index)
+    n_missing = sum(1 for p in percepts if p.type in query.world_types and p.type not in world.type_index)
     cost, cov = _fit_cost(world, percepts, result, n_missing)
     return _TileAnswer(result, None, cost, cov)
 
