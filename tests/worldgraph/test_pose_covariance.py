@@ -34,7 +34,6 @@ Bands (``N`` draws; one NEES is chi-square(6) when the covariance is right: mean
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
@@ -169,7 +168,6 @@ class Draws:
     widened: int            # draws where laplace_inflate changed the covariance
 
 
-@functools.cache
 def ml_draws(name: str, n: int = N_DRAWS, seed: int = 10) -> Draws:
     """``n`` draws of the "ml" estimation layer of localize for one geometry."""
     geo = GEOMETRIES[name]
@@ -210,9 +208,7 @@ CURVED = {"cabinet_run"}
 NEES_CASES = ["cabinet_run", "three_walls", "wall_grid", "three_walls_anisotropic", "wall_grid_anisotropic"]
 
 
-@pytest.mark.parametrize("name", NEES_CASES)
-def test_ml_nees_is_chi_square_6(name: str) -> None:
-    d = ml_draws(name)
+def _nees_is_chi_square_6(name: str, d: Draws) -> None:
     q = nees(d.errors, d.returned)
     lo, hi = nees_band(len(q))
     if name in CURVED:
@@ -222,9 +218,7 @@ def test_ml_nees_is_chi_square_6(name: str) -> None:
     assert coverage >= 0.985, f"{name}: {coverage:.4f} of the NEES inside the 3-sigma gate {GATE_6:.2f}"
 
 
-@pytest.mark.parametrize("name", list(GEOMETRIES))
-def test_ml_second_moments_match_the_mean_covariance(name: str) -> None:
-    d = ml_draws(name)
+def _second_moments_match_the_mean_covariance(name: str, d: Draws) -> None:
     second = d.errors.T @ d.errors / len(d.errors)      # about the truth: a bias counts too
     mean_cov = d.returned.mean(axis=0)
     ratio = np.diag(second) / np.diag(mean_cov)
@@ -232,9 +226,7 @@ def test_ml_second_moments_match_the_mean_covariance(name: str) -> None:
     assert np.all((ratio >= low) & (ratio <= 1.2)), f"{name}: empirical / returned variances {ratio}"
 
 
-@pytest.mark.parametrize("name", list(GEOMETRIES))
-def test_ml_translation_rotation_cross_covariance_sign(name: str) -> None:
-    d = ml_draws(name)
+def _translation_rotation_cross_covariance_sign(name: str, d: Draws) -> None:
     second = d.errors.T @ d.errors / len(d.errors)
     mean_cov = d.returned.mean(axis=0)
     corr_emp = (second / np.sqrt(np.outer(np.diag(second), np.diag(second))))[:3, 3:]
@@ -249,13 +241,24 @@ def test_ml_translation_rotation_cross_covariance_sign(name: str) -> None:
         f"{name}: cross correlations differ\nempirical\n{corr_emp}\nreturned\n{corr_ret}"
 
 
-@pytest.mark.parametrize("name", list(GEOMETRIES))
-def test_laplace_widening_never_narrows(name: str) -> None:
-    d = ml_draws(name)
+def _laplace_widening_never_narrows(name: str, d: Draws) -> None:
     q_ret, q_fisher = nees(d.errors, d.laplace), nees(d.errors, d.fisher)
     assert np.all(q_ret <= q_fisher * (1 + 1e-9) + 1e-12)
     assert np.all(np.linalg.eigvalsh(d.laplace - d.fisher)
                   >= -1e-9 * np.linalg.eigvalsh(d.fisher)[:, -1:])
+
+
+@pytest.mark.parametrize("name", list(GEOMETRIES))
+def test_ml_covariance_is_calibrated(name: str) -> None:
+    """One geometry's draws (computed once, on one worker) against every check: the NEES is
+    chi-square(6), the second moments match the mean covariance, the translation-rotation
+    cross-correlations agree, and the Laplace widening never narrows."""
+    d = ml_draws(name)
+    if name in NEES_CASES:
+        _nees_is_chi_square_6(name, d)
+    _second_moments_match_the_mean_covariance(name, d)
+    _translation_rotation_cross_covariance_sign(name, d)
+    _laplace_widening_never_narrows(name, d)
 
 
 # --- end to end through localize ---------------------------------------------------------------
