@@ -8,7 +8,7 @@ try:
 except _PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "0.1.0"  # keep equal to pyproject.toml's [project] version (a test checks)
 
-from .errors import RadialError, SolverError, VerificationError
+from .errors import RadialArgumentError, RadialError, SolverError, VerificationError
 from .polytope import RestrictionPolytope, common_point_exists
 from .projection import (
     METHODS,
@@ -45,6 +45,7 @@ __all__ = [
     "project_radii",
     "project_radii_batch",
     "GaussianSphere",
+    "RadialArgumentError",
     "RadialError",
     "SolverError",
     "Tolerances",

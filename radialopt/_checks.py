@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import RadialError
+from .errors import RadialArgumentError
 
 #: Largest magnitude (metres) of a coordinate, radius or sigma radialopt accepts: beyond it
 #: squared distances lose every significant digit of the ranges (and overflow near 1e154).
@@ -48,17 +48,17 @@ def real_array(name: str, value: Any, shape: tuple[int | str | None, ...] | None
     sequences, NaN, infinities and magnitudes above ``max_abs`` raise :class:`RadialError`.
     """
     if value is None or isinstance(value, (str, bytes)):
-        raise RadialError(f"{name} must be an array of real numbers, got {value!r}")
+        raise RadialArgumentError(f"{name} must be an array of real numbers, got {value!r}")
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise RadialError(f"{name} must be an array of real numbers, got {value!r:.200}") from exc
+        raise RadialArgumentError(f"{name} must be an array of real numbers, got {value!r:.200}") from exc
     if raw.dtype.kind == "b":
-        raise RadialError(f"{name} must hold real numbers, not booleans, got {raw.tolist()!r:.200}")
+        raise RadialArgumentError(f"{name} must hold real numbers, not booleans, got {raw.tolist()!r:.200}")
     if raw.dtype.kind == "c":
         bad = np.argwhere(np.imag(raw) != 0)
         where = _index(tuple(bad[0])) if len(bad) else ""
-        raise RadialError(f"{name}{where} must be real, got complex values {raw.tolist()!r:.200}")
+        raise RadialArgumentError(f"{name}{where} must be real, got complex values {raw.tolist()!r:.200}")
     if raw.dtype.kind not in "iuf":
         if raw.dtype.kind == "O":
             flat = list(raw.reshape(-1))
@@ -66,31 +66,31 @@ def real_array(name: str, value: Any, shape: tuple[int | str | None, ...] | None
                 if isinstance(v, (bool, np.bool_, complex, str, bytes)) or v is None or \
                         not isinstance(v, numbers.Real):
                     where = _index(np.unravel_index(k, raw.shape)) if raw.ndim else ""
-                    raise RadialError(f"{name}{where} must be a real number, got {v!r:.100}")
+                    raise RadialArgumentError(f"{name}{where} must be a real number, got {v!r:.100}")
         else:
-            raise RadialError(f"{name} must be an array of real numbers, got dtype {raw.dtype} "
-                              f"({value!r:.200})")
+            raise RadialArgumentError(f"{name} must be an array of real numbers, got dtype {raw.dtype} "
+                                      f"({value!r:.200})")
     try:
         arr = np.array(raw, dtype=np.float64)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise RadialError(f"{name} must be an array of real numbers, got {value!r:.200}") from exc
+        raise RadialArgumentError(f"{name} must be an array of real numbers, got {value!r:.200}") from exc
     if ndim is not None and arr.ndim not in ndim:
-        raise RadialError(f"{name} must have {' or '.join(map(str, ndim))} dimension(s), got shape "
-                          f"{arr.shape}")
+        raise RadialArgumentError(f"{name} must have {' or '.join(map(str, ndim))} dimension(s), got shape "
+                                  f"{arr.shape}")
     if shape is not None and (arr.ndim != len(shape) or any(
             isinstance(want, int) and got != want for got, want in zip(arr.shape, shape, strict=True))):
         want_s = "(" + ", ".join("n" if w is None else str(w) for w in shape) + ("," if len(shape) == 1
                                                                                   else "") + ")"
-        raise RadialError(f"{name} must have shape {want_s}{f' like {like}' if like else ''}, "
-                          f"got shape {arr.shape}")
+        raise RadialArgumentError(f"{name} must have shape {want_s}{f' like {like}' if like else ''}, "
+                                  f"got shape {arr.shape}")
     finite = np.isfinite(arr)
     if not np.all(finite):
         idx = tuple(np.argwhere(~finite)[0])
-        raise RadialError(f"{name}{_index(idx)} = {float(arr[idx])!r} must be finite")
+        raise RadialArgumentError(f"{name}{_index(idx)} = {float(arr[idx])!r} must be finite")
     if max_abs is not None and arr.size and float(np.max(np.abs(arr))) > max_abs:
         idx = tuple(np.argwhere(np.abs(arr) > max_abs)[0])
-        raise RadialError(f"{name}{_index(idx)} = {arr[idx]:.6g} exceeds the usable magnitude "
-                          f"{max_abs:g} (metres)")
+        raise RadialArgumentError(f"{name}{_index(idx)} = {arr[idx]:.6g} exceeds the usable magnitude "
+                                  f"{max_abs:g} (metres)")
     return arr
 
 
@@ -100,37 +100,37 @@ def real_scalar(name: str, value: Any, *, minimum: float | None = None, maximum:
     (either bound may be None) and at most ``max_abs`` in magnitude."""
     if isinstance(value, (bool, np.bool_)) or value is None or isinstance(value, (str, bytes, complex)) \
             or not isinstance(value, (numbers.Real, np.ndarray)):
-        raise RadialError(f"{name} must be a real number, got {value!r:.100}")
+        raise RadialArgumentError(f"{name} must be a real number, got {value!r:.100}")
     if isinstance(value, np.ndarray):
         if value.shape != () or value.dtype.kind not in "iuf":
-            raise RadialError(f"{name} must be a real number, got {value!r:.100}")
+            raise RadialArgumentError(f"{name} must be a real number, got {value!r:.100}")
     try:
         out = float(value)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise RadialError(f"{name} must be a real number representable as a float, got "
-                          f"{value!r:.100}") from exc
+        raise RadialArgumentError(f"{name} must be a real number representable as a float, got "
+                                  f"{value!r:.100}") from exc
     if not np.isfinite(out):
-        raise RadialError(f"{name} = {out!r} must be finite")
+        raise RadialArgumentError(f"{name} = {out!r} must be finite")
     if positive and out <= 0:
-        raise RadialError(f"{name} = {out!r} must be > 0")
+        raise RadialArgumentError(f"{name} = {out!r} must be > 0")
     if minimum is not None and out < minimum:
-        raise RadialError(f"{name} = {out!r} must be >= {minimum:g}")
+        raise RadialArgumentError(f"{name} = {out!r} must be >= {minimum:g}")
     if maximum is not None and out > maximum:
-        raise RadialError(f"{name} = {out!r} must be <= {maximum:g}")
+        raise RadialArgumentError(f"{name} = {out!r} must be <= {maximum:g}")
     if max_abs is not None and abs(out) > max_abs:
-        raise RadialError(f"{name} = {out:.6g} exceeds the usable magnitude {max_abs:g}")
+        raise RadialArgumentError(f"{name} = {out:.6g} exceeds the usable magnitude {max_abs:g}")
     return out
 
 
 def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
     """``value`` as a Python int in ``[minimum, maximum]``; bools, floats (even 3.0), None, str rejected."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
-        raise RadialError(f"{name} must be an integer, got {value!r:.100} ({type(value).__name__})")
+        raise RadialArgumentError(f"{name} must be an integer, got {value!r:.100} ({type(value).__name__})")
     out = operator.index(value)
     if minimum is not None and out < minimum:
-        raise RadialError(f"{name} = {out!r} must be >= {minimum}")
+        raise RadialArgumentError(f"{name} = {out!r} must be >= {minimum}")
     if maximum is not None and out > maximum:
-        raise RadialError(f"{name} = {out!r} must be <= {maximum}")
+        raise RadialArgumentError(f"{name} = {out!r} must be <= {maximum}")
     return out
 
 
@@ -145,13 +145,13 @@ def sigma_range(name: str, sigmas: NDArray[np.float64], length_scale: float) -> 
     s = np.asarray(sigmas, dtype=np.float64).reshape(-1)
     bad = np.flatnonzero(~(s > 0))
     if bad.size:
-        raise RadialError(f"{name}[{bad[0]}] = {float(s[bad[0]])!r} must be > 0")
+        raise RadialArgumentError(f"{name}[{bad[0]}] = {float(s[bad[0]])!r} must be > 0")
     scale = max(float(length_scale), 1.0)
     floor, ceiling = MIN_SIGMA_RELATIVE * scale, scale / MIN_SIGMA_RELATIVE
     bad = np.flatnonzero((s < floor) | (s > ceiling))
     if bad.size:
         k = int(bad[0])
-        raise RadialError(
+        raise RadialArgumentError(
             f"{name}[{k}] = {s[k]:.6g} is outside the usable range [{floor:.3g}, {ceiling:.3g}] m "
             f"({MIN_SIGMA_RELATIVE:g} to {1 / MIN_SIGMA_RELATIVE:g} times the length scale {scale:.3g} m "
             "of the centres and radii)")
@@ -161,7 +161,7 @@ def instance(name: str, value: Any, cls: type | tuple[type, ...]) -> Any:
     """``value`` if it is an instance of ``cls``, else a :class:`RadialError` naming both."""
     if not isinstance(value, cls):
         names = cls.__name__ if isinstance(cls, type) else " or ".join(c.__name__ for c in cls)
-        raise RadialError(f"{name} must be a {names}, got {type(value).__name__} ({value!r:.100})")
+        raise RadialArgumentError(f"{name} must be a {names}, got {type(value).__name__} ({value!r:.100})")
     return value
 
 

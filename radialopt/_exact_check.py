@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from fractions import Fraction
 
-from .errors import RadialError, VerificationError
+from .errors import RadialArgumentError, VerificationError
 
 
 def _cdd_gmp():  # noqa: ANN202 - returns (cdd, cdd.gmp)
@@ -18,7 +18,7 @@ def _cdd_gmp():  # noqa: ANN202 - returns (cdd, cdd.gmp)
         import cdd
         import cdd.gmp as gmp
     except ImportError as exc:
-        raise RadialError(
+        raise RadialArgumentError(
             "check='exact' needs pycddlib's exact rational mode (the module cdd.gmp), which is "
             "not installed here; install a pycddlib built with GMP (e.g. `pip install pycddlib` "
             "with libcdd and libgmp present), or use check=True (float vertex check)"

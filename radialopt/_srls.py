@@ -16,7 +16,7 @@ from scipy.optimize import brentq
 
 from ._checks import MAX_SIGMA, real_array, real_scalar, sigma_range
 from ._estimator_options import ESTIMATOR_OPTIONS
-from .errors import RadialError
+from .errors import RadialArgumentError
 from .tolerances import POLE_OFFSET, RANK_RTOL, ROOT_XTOL
 
 
@@ -121,7 +121,7 @@ def srls(centers: ArrayLike, radii: ArrayLike, sigmas: ArrayLike,
     rank_tol = real_scalar("rank_tol", rank_tol, minimum=0.0, maximum=1.0)
     bad = np.flatnonzero(r < 0)
     if bad.size:
-        raise RadialError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
+        raise RadialArgumentError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
     if len(c):
         sigma_range("sigmas", s, max(float(np.abs(c).max()), float(r.max())))
     if len(c) < 3:

@@ -24,7 +24,7 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from ._projection_types import _Problem
-from .errors import RadialError
+from .errors import RadialArgumentError, RadialError
 from .projection import RadialStatus, installed_cvxpy_solvers, project_radii
 from .spheres import TOLERANCES, GaussianSphere, make_spheres
 from .tolerances import COMPARISON_VIOLATION
@@ -161,7 +161,7 @@ def solve_with(name: str, spheres: Sequence[GaussianSphere]):  # noqa: ANN201
         return _formulation(name.split(":", 1)[1], len(spheres)).solve(spheres, solver="CLARABEL")
     if name in ("active_set", "vertices", "paper"):
         return project_radii(spheres, method=name)
-    raise RadialError(f"unknown solver {name!r}; choose from {available_solvers()}")
+    raise RadialArgumentError(f"unknown solver {name!r}; choose from {available_solvers()}")
 
 
 def run_one(solver: str, problem: Problem, max_vertices_n: int = 6) -> Run:
@@ -239,7 +239,7 @@ def compare_solvers(
     names = list(solvers) if solvers is not None else available_solvers()
     for s in names:
         if not _known(s):
-            raise RadialError(f"unknown solver {s!r}; choose from {available_solvers()}")
+            raise RadialArgumentError(f"unknown solver {s!r}; choose from {available_solvers()}")
     tasks = [(s, list(problems[i:i + chunk])) for s in names for i in range(0, len(problems), chunk)]
     report = _progress_reporter(progress, len(tasks))
     results: list[list[Run]] = [[] for _ in tasks]
@@ -247,7 +247,7 @@ def compare_solvers(
         try:
             from distributed import Client, as_completed
         except ImportError as exc:
-            raise RadialError(
+            raise RadialArgumentError(
                 "scheduler_address needs Dask distributed: pip install distributed") from exc
         with Client(scheduler_address) as client:
             futures = {client.submit(_run_batch, t, pure=False): i for i, t in enumerate(tasks)}
@@ -275,7 +275,7 @@ def _progress_reporter(progress: bool | Callable[[int, int], None], total: int):
     try:
         from tqdm import tqdm
     except ImportError as exc:
-        raise RadialError("progress=True needs tqdm: pip install tqdm") from exc
+        raise RadialArgumentError("progress=True needs tqdm: pip install tqdm") from exc
     bar = tqdm(total=total, unit="batch")
 
     def update(done: int | None) -> None:

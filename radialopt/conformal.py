@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._checks import MAX_LENGTH, instance, real_array
 from .errors import (
-    RadialError,
+    RadialArgumentError,
 )
 from .spheres import CONFORMAL_MAX, GaussianSphere
 from .tolerances import E0_RELATIVE, MEET_TOLERANCES, TINY, MeetTolerances
@@ -108,17 +108,17 @@ def as_conformal(sphere: GaussianSphere | ArrayLike, name: str = "sphere"
         return np.array(sphere.center, dtype=np.float64), sphere.radius**2
     v = real_array(name, sphere, max_abs=CONFORMAL_MAX)
     if v.shape != (5,):
-        raise RadialError(f"{name} must be a GaussianSphere or a conformal 5-vector, got shape "
-                          f"{v.shape}: {v!r:.200}")
+        raise RadialArgumentError(f"{name} must be a GaussianSphere or a conformal 5-vector, got shape "
+                                  f"{v.shape}: {v!r:.200}")
     w0 = v[3]
     if abs(w0) <= TINY or abs(w0) <= E0_RELATIVE * np.max(np.abs(v)):
-        raise RadialError(f"{name} = conformal vector {v.tolist()} has e0 coefficient {w0!r}: a plane "
-                          "or the point at infinity, not a sphere")
+        raise RadialArgumentError(f"{name} = conformal vector {v.tolist()} has e0 coefficient {w0!r}: "
+                                  "a plane or the point at infinity, not a sphere")
     center = v[:3] / w0
     radius_sq = float(center @ center - 2.0 * v[4] / w0)
     if not (np.all(np.abs(center) <= MAX_LENGTH) and abs(radius_sq) <= MAX_LENGTH**2):
-        raise RadialError(f"{name} = {v.tolist()} has centre {center.tolist()} and squared radius "
-                          f"{radius_sq:.3g} beyond the usable magnitude {MAX_LENGTH:g} m")
+        raise RadialArgumentError(f"{name} = {v.tolist()} has centre {center.tolist()} and squared radius "
+                                  f"{radius_sq:.3g} beyond the usable magnitude {MAX_LENGTH:g} m")
     return center, radius_sq
 
 
@@ -249,8 +249,8 @@ def _check_batch(centers: ArrayLike, radii_sq: ArrayLike, m: int) -> tuple[NDArr
     r2 = real_array("radii_sq", radii_sq, shape=c.shape[:2], max_abs=MAX_LENGTH**2)
     for name, arr in (("centers", c), ("radii_sq", r2)):
         if not np.all(np.isfinite(arr)):
-            raise RadialError(f"{name} must be finite; first bad index "
-                              f"{np.argwhere(~np.isfinite(arr))[0].tolist()}")
+            raise RadialArgumentError(f"{name} must be finite; first bad index "
+                                      f"{np.argwhere(~np.isfinite(arr))[0].tolist()}")
     return c, r2
 
 
@@ -495,9 +495,9 @@ def meet(*spheres: GaussianSphere | ArrayLike,
     """
     instance("tol", tol, MeetTolerances)
     if len(spheres) < 2:
-        raise RadialError(f"the meet needs 2 to 4 spheres, got {len(spheres)}")
+        raise RadialArgumentError(f"the meet needs 2 to 4 spheres, got {len(spheres)}")
     if len(spheres) > 4:
-        raise RadialError(f"the meet takes 2 to 4 spheres, got {len(spheres)}")
+        raise RadialArgumentError(f"the meet takes 2 to 4 spheres, got {len(spheres)}")
     parts = [as_conformal(s, f"spheres[{i}]") for i, s in enumerate(spheres)]
     c = np.stack([p[0] for p in parts])[None]
     r2 = np.array([p[1] for p in parts])[None]

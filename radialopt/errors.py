@@ -1,28 +1,33 @@
 """Exceptions of :mod:`radialopt`: a base and the few subclasses a caller acts on.
 
-Every error :mod:`radialopt` raises is a :class:`RadialError`, which is a :class:`ValueError`.
-A bad argument (a wrong shape, NaN, a non-positive sigma, a negative radius, coincident centres,
-too few or too many spheres, an unknown method, an empty region, a polyhedron without vertices,
-...) raises the base itself, with a message that names the argument, the index and the value.
-A subclass exists only where a caller does something different:
+Every error :mod:`radialopt` raises is a :class:`RadialError`. A bad argument (a wrong shape,
+NaN, a non-positive sigma, a negative radius, coincident centres, too few or too many spheres, an
+unknown method, an empty region, a polyhedron without vertices, ...) raises
+:class:`RadialArgumentError`, which is also a :class:`ValueError`, with a message that names the
+argument, the index and the value. The other subclasses are failures on valid arguments, and none
+of them is a :class:`ValueError`:
 
 - :class:`SolverError` (also a :class:`RuntimeError`): the solver failed, no answer is trusted;
 - :class:`VerificationError`: ``check=True`` found a disagreement with the reference;
 - :class:`SingularFisherError`: some direction of the position is unobservable (no covariance).
 
 The classes that 0.1 had for each kind of bad argument (``ShapeError``, ``NonFiniteError``,
-...) are deprecated names of :class:`RadialError`; see :data:`DEPRECATED_NAMES`.
+...) are deprecated names of :class:`RadialArgumentError`; see :data:`DEPRECATED_NAMES`.
 """
 
 from __future__ import annotations
 
 import warnings
 
-__all__ = ["RadialError", "SingularFisherError", "SolverError", "VerificationError"]
+__all__ = ["RadialArgumentError", "RadialError", "SingularFisherError", "SolverError", "VerificationError"]
 
 
-class RadialError(ValueError):
-    """Base of every error raised by :mod:`radialopt`, and the error of a bad argument."""
+class RadialError(Exception):
+    """Base of every error raised by :mod:`radialopt`."""
+
+
+class RadialArgumentError(RadialError, ValueError):
+    """A bad argument: a wrong type, shape or value, or an instance beyond a method's limits."""
 
 
 class SolverError(RadialError, RuntimeError):
@@ -34,7 +39,10 @@ class VerificationError(SolverError):
 
 
 class SingularFisherError(RadialError):
-    """The Fisher information is singular: some direction of the position is unobservable."""
+    """The Fisher information is singular: some direction of the position is unobservable.
+
+    The arguments are well formed; the geometry they describe has no finite covariance.
+    """
 
 
 #: Names of 0.1's error classes, deprecated in 0.2 and removed in 0.3, and the class each now
@@ -44,7 +52,7 @@ DEPRECATED_NAMES: dict[str, type[RadialError]] = dict.fromkeys(
      "CoincidentCentersError", "TooFewSpheresError", "UnknownMethodError", "NotASphereError",
      "TooManySpheresError", "InvalidRegionError", "OutOfRangeError", "NotPointedError",
      "TooLargeError", "EmptyPolyhedronError"],
-    RadialError,
+    RadialArgumentError,
 )
 
 

@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._checks import MAX_SIGMA, point3, real_array, real_scalar, sigma_range
 from ._estimator_options import ESTIMATOR_OPTIONS
-from .errors import RadialError, SingularFisherError
+from .errors import RadialArgumentError, SingularFisherError
 from .tolerances import FISHER_SINGULAR, ON_CENTRE_RTOL
 
 __all__ = ["crlb", "fisher_information"]
@@ -22,7 +22,7 @@ def _check_crlb_input(centers: ArrayLike, sigmas: ArrayLike, position: ArrayLike
                       ) -> tuple[NDArray, NDArray, NDArray]:
     c = real_array("centers", centers, shape=(None, 3))
     if len(c) == 0:
-        raise RadialError("centers must hold at least one centre, got shape (0, 3)")
+        raise RadialArgumentError("centers must hold at least one centre, got shape (0, 3)")
     s = real_array("sigmas", sigmas, shape=(len(c),), max_abs=MAX_SIGMA, like="centers")
     x = point3("position", position)
     sigma_range("sigmas", s, max(float(np.abs(c).max()), float(np.abs(x).max())))

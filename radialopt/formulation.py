@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike
 from ._checks import MAX_LENGTH, instance, integer, real_array, real_scalar
 from ._projection_types import _CVXPY_STATUS, _Problem
 from .errors import (
+    RadialArgumentError,
     RadialError,
     SolverError,
 )
@@ -79,12 +80,12 @@ class RadialProblem:
 
         n = integer("n", n)
         if n < 2:
-            raise RadialError(f"n must be >= 2 spheres, got n={n}")
+            raise RadialArgumentError(f"n must be >= 2 spheres, got n={n}")
         if n > MAX_SPHERES:
-            raise RadialError(f"n = {n} spheres: the formulation has 3 C(n, 2) rows; at most "
-                              f"{MAX_SPHERES} spheres are accepted")
+            raise RadialArgumentError(f"n = {n} spheres: the formulation has 3 C(n, 2) rows; at most "
+                                      f"{MAX_SPHERES} spheres are accepted")
         if not isinstance(objective, str) or objective not in OBJECTIVES:
-            raise RadialError(
+            raise RadialArgumentError(
                 f"unknown objective={objective!r:.100}; choose one of {', '.join(OBJECTIVES)}")
         delta = real_scalar("huber_delta", huber_delta, positive=True, maximum=MAX_LENGTH)
         self.n = int(n)
@@ -122,8 +123,8 @@ class RadialProblem:
             constraints += _as_constraints(fn(x))
         self.problem = cp.Problem(cp.Minimize(cost), constraints)
         if not self.problem.is_dpp():
-            raise RadialError("the added constraints make the problem not DPP (parameters may "
-                              "only enter affinely); build them from constants and the variable")
+            raise RadialArgumentError("the added constraints make the problem not DPP (parameters may "
+                                      "only enter affinely); build them from constants and the variable")
         self.compilations += 1
 
     @property
@@ -135,16 +136,18 @@ class RadialProblem:
         """Add the constraints ``fn(radii_variable)`` (one constraint or a list); rebuilds the
         problem once.  Returns self, so calls chain."""
         if not callable(fn):
-            raise RadialError(f"fn must be a callable of the radius variable, got {type(fn).__name__}")
+            raise RadialArgumentError(
+                f"fn must be a callable of the radius variable, got {type(fn).__name__}")
         try:
             out = fn(self.variables["radii"])
         except RadialError:
             raise
         except Exception as exc:  # the caller's callable: its failure is a bad fn argument
-            raise RadialError(f"fn raised {type(exc).__name__} on the radius variable: {exc}") from exc
+            raise RadialArgumentError(
+                f"fn raised {type(exc).__name__} on the radius variable: {exc}") from exc
         cons = _as_constraints(out)
         if not cons:
-            raise RadialError("fn returned no cvxpy constraint")
+            raise RadialArgumentError("fn returned no cvxpy constraint")
         name = getattr(fn, "__name__", type(fn).__name__)
         return self._add(fn, f"add_constraint #{len(self._extra) + 1} ({name})")
 
@@ -168,7 +171,7 @@ class RadialProblem:
         hi_a = self._vector(hi, "hi")
         if np.any(lo_a > hi_a):
             k = int(np.argmax(lo_a > hi_a))
-            raise RadialError(f"lo must be <= hi; lo[{k}]={lo_a[k]!r} > hi[{k}]={hi_a[k]!r}")
+            raise RadialArgumentError(f"lo must be <= hi; lo[{k}]={lo_a[k]!r} > hi[{k}]={hi_a[k]!r}")
         lo_i, hi_i = np.flatnonzero(np.isfinite(lo_a)), np.flatnonzero(np.isfinite(hi_a))
 
         def bounds(x: Any) -> list:
@@ -180,7 +183,7 @@ class RadialProblem:
             return out
 
         if lo_i.size == 0 and hi_i.size == 0:
-            raise RadialError("bound_radii with lo=-inf and hi=inf adds nothing")
+            raise RadialArgumentError("bound_radii with lo=-inf and hi=inf adds nothing")
 
         def show(a: np.ndarray) -> str:
             return repr(float(a[0])) if np.all(a == a[0]) else repr(a.tolist())
@@ -191,7 +194,7 @@ class RadialProblem:
         """Constrain ``radii[i] == value`` (metres)."""
         i = integer("i", i)
         if not 0 <= i < self.n:  # no wrap-around: i = -1 is a caller's bug, not the last sphere
-            raise RadialError(f"i = {i!r} must be a sphere index in [0, {self.n})")
+            raise RadialArgumentError(f"i = {i!r} must be a sphere index in [0, {self.n})")
         v = real_scalar("value", value, minimum=0.0, max_abs=MAX_LENGTH)  # a radius, metres
         return self._add(lambda x: [x[i] == v], f"fix_radius(i={i}, value={v!r})")
 
@@ -208,7 +211,7 @@ class RadialProblem:
         else:
             arr = real_array(name, v, ndim=(0, 1))
         if arr.ndim == 1 and arr.shape != (self.n,):
-            raise RadialError(f"{name} must be a scalar or shape ({self.n},), got shape {arr.shape}")
+            raise RadialArgumentError(f"{name} must be a scalar or shape ({self.n},), got shape {arr.shape}")
         return np.broadcast_to(arr, (self.n,)).copy()
 
     # ------------------------------------------------------------------------ solving
@@ -217,7 +220,7 @@ class RadialProblem:
         :func:`project_radii` (centres, radii, sigmas)."""
         if not isinstance(spheres, Sequence) or len(spheres) != self.n:
             got = len(spheres) if isinstance(spheres, Sequence) else type(spheres).__name__
-            raise RadialError(f"spheres must be a sequence of {self.n} GaussianSphere, got {got}")
+            raise RadialArgumentError(f"spheres must be a sequence of {self.n} GaussianSphere, got {got}")
         inst = _Problem.build(spheres, tol)
         self.parameters["b"].value = inst.b
         self.parameters["inv_sigma"].value = 1.0 / inst.sigmas
@@ -246,11 +249,11 @@ class RadialProblem:
         import cvxpy as cp
 
         if not isinstance(solver, str):
-            raise RadialError(f"solver must be a cvxpy solver name, got {solver!r:.100}")
+            raise RadialArgumentError(f"solver must be a cvxpy solver name, got {solver!r:.100}")
         instance("tol", tol, Tolerances)
         name = solver.upper()
         if name not in installed_cvxpy_solvers():
-            raise RadialError(
+            raise RadialArgumentError(
                 f"solver={solver!r} is not an installed cvxpy solver; installed: "
                 f"{', '.join(installed_cvxpy_solvers())}")
         inst = self.set_parameters(spheres, tol)
@@ -290,5 +293,5 @@ def _as_constraints(out: Any) -> list:
     items = list(out) if isinstance(out, (list, tuple)) else [out]
     for c in items:
         if not isinstance(c, cp.constraints.constraint.Constraint):
-            raise RadialError(f"fn must return cvxpy constraints, got {type(c).__name__}")
+            raise RadialArgumentError(f"fn must return cvxpy constraints, got {type(c).__name__}")
     return items

@@ -35,7 +35,7 @@ from .conformal import (
     meet3_batch,
     meet4_batch,
 )
-from .errors import RadialError
+from .errors import RadialArgumentError
 from .spheres import GaussianSphere, as_points, sphere_arrays
 from .tolerances import REGION_SLACK
 
@@ -62,8 +62,8 @@ class Region:
         lo = point3("Region.lower", self.lower)
         hi = point3("Region.upper", self.upper)
         if np.any(lo > hi):
-            raise RadialError(f"Region lower {lo.tolist()} must be <= upper {hi.tolist()} "
-                              "in every coordinate")
+            raise RadialArgumentError(f"Region lower {lo.tolist()} must be <= upper {hi.tolist()} "
+                                      "in every coordinate")
         lo.setflags(write=False)
         hi.setflags(write=False)
         object.__setattr__(self, "lower", lo)
@@ -207,11 +207,11 @@ def generate_hypotheses(
     if region is not None:
         instance("region", region, Region)
     if not isinstance(keep_imaginary, (bool, np.bool_)):
-        raise RadialError(f"keep_imaginary must be a bool, got {keep_imaginary!r:.100}")
+        raise RadialArgumentError(f"keep_imaginary must be a bool, got {keep_imaginary!r:.100}")
     instance("tol", tol, MeetTolerances)
     centers, radii, sigmas = sphere_arrays(spheres, min_count=1)
     if len(centers) > MAX_HYPOTHESIS_SPHERES:
-        raise RadialError(
+        raise RadialArgumentError(
             f"spheres: n = {len(centers)} spheres; the level sets grow as C(n, 4) meets, at most "
             f"MAX_HYPOTHESIS_SPHERES = {MAX_HYPOTHESIS_SPHERES} are accepted (the paper uses <= 6)")
     n = len(centers)

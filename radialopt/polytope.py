@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._checks import MAX_SIGMA, instance, integer, real_array, real_scalar, sigma_range
-from .errors import RadialError
+from .errors import RadialArgumentError
 from .spheres import TOLERANCES, GaussianSphere, Tolerances, sphere_arrays
 from .tolerances import COMMON_POINT_TOL, DEGENERATE_CENTRES, RANK_RTOL, ROUNDING_RTOL, TINY
 
@@ -83,11 +83,11 @@ class RestrictionPolytope:
         object.__setattr__(self, "pairs", pairs)
         m, n = self.A.shape
         if self.b.shape != (m,) or len(self.kinds) != m or pairs.shape != (m, 2):
-            raise RadialError(f"inconsistent polytope shapes: A {self.A.shape}, b {self.b.shape}")
+            raise RadialArgumentError(f"inconsistent polytope shapes: A {self.A.shape}, b {self.b.shape}")
         if self.sigmas.shape != (n,):
-            raise RadialError(f"sigmas must have shape ({n},), got {self.sigmas.shape}")
+            raise RadialArgumentError(f"sigmas must have shape ({n},), got {self.sigmas.shape}")
         if self.space not in ("S", "Sd"):
-            raise RadialError(f"space must be 'S' or 'Sd', got {self.space!r}")
+            raise RadialArgumentError(f"space must be 'S' or 'Sd', got {self.space!r}")
 
     @property
     def dim(self) -> int:
@@ -114,7 +114,7 @@ class RestrictionPolytope:
         instance("tol", tol, Tolerances)
         c = real_array("centers", centers, shape=(None, 3))
         if c.shape[0] < 2:
-            raise RadialError(f"centers must have shape (n, 3) with n >= 2, got shape {c.shape}")
+            raise RadialArgumentError(f"centers must have shape (n, 3) with n >= 2, got shape {c.shape}")
         n = c.shape[0]
         s = np.ones(n) if sigmas is None else real_array("sigmas", sigmas, shape=(n,), max_abs=MAX_SIGMA)
         sigma_range("sigmas", s, float(np.abs(c).max()))
@@ -157,7 +157,7 @@ class RestrictionPolytope:
         """``b - A x`` for a point (n,) or points (k, n) in this polytope's space."""
         arr = real_array("x", x, ndim=(1, 2), max_abs=None)
         if arr.shape[-1:] != (self.dim,):
-            raise RadialError(f"x must have shape ({self.dim},) or (k, {self.dim}), got {arr.shape}")
+            raise RadialArgumentError(f"x must have shape ({self.dim},) or (k, {self.dim}), got {arr.shape}")
         return self.b - arr @ self.A.T
 
     def contains(self, x: ArrayLike, tol: float = TOLERANCES.feasibility) -> bool | NDArray[np.bool_]:
@@ -192,7 +192,7 @@ def pair_pattern(n: int) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[
 
     Raises :class:`RadialError` beyond :data:`MAX_POLYTOPE_SPHERES` spheres."""
     if n > MAX_POLYTOPE_SPHERES:
-        raise RadialError(
+        raise RadialArgumentError(
             f"n = {n} spheres: the restriction polytope has 3 C(n, 2) = {3 * n * (n - 1) // 2} dense "
             f"rows; at most MAX_POLYTOPE_SPHERES = {MAX_POLYTOPE_SPHERES} spheres are accepted")
     iu, ju = np.triu_indices(n, k=1)
@@ -218,7 +218,7 @@ def _raise_if_coincident(
     bad = np.flatnonzero(d <= tol.coincident)
     if bad.size:
         i, j = int(iu[bad[0]]), int(ju[bad[0]])
-        raise RadialError(
+        raise RadialArgumentError(
             f"centers[{i}] = {c[i].tolist()} and centers[{j}] = {c[j].tolist()} coincide (distance "
             f"{d[bad[0]]:.3g} <= {tol.coincident:g})"
         )

@@ -62,7 +62,7 @@ from ._srls import _Frame, srls
 from .certificates import Certificate, certify_arrays
 from .conformal import MeetStatus, meet3_batch
 from .errors import (
-    RadialError,
+    RadialArgumentError,
     SingularFisherError,
     SolverError,
 )
@@ -482,16 +482,16 @@ def estimate_position(
             spheres, Iterable):
         spheres = list(spheres)  # a generator is read once; every method reads the spheres twice
     if not isinstance(method, str) or method not in _METHODS:
-        raise RadialError(f"unknown position method {method!r:.100}; choose one of "
-                          f"{', '.join(POSITION_METHODS)}")
+        raise RadialArgumentError(f"unknown position method {method!r:.100}; choose one of "
+                                  f"{', '.join(POSITION_METHODS)}")
     if region is not None and not isinstance(region, Region):
-        raise RadialError(f"region must be a radialopt Region or None, got {type(region).__name__}")
+        raise RadialArgumentError(f"region must be a radialopt Region or None, got {type(region).__name__}")
     if rng is not None and not isinstance(rng, np.random.Generator):
-        raise RadialError(f"rng must be a numpy.random.Generator or None, got {type(rng).__name__} "
-                          f"({rng!r:.100})")
+        raise RadialArgumentError(f"rng must be a numpy.random.Generator or None, got {type(rng).__name__} "
+                                  f"({rng!r:.100})")
     instance("options", options, EstimatorOptions)
     if not isinstance(certify, (bool, np.bool_)):
-        raise RadialError(f"certify must be a bool, got {certify!r:.100}")
+        raise RadialArgumentError(f"certify must be a bool, got {certify!r:.100}")
     if certify:
         est = estimate_position(spheres, method, region, rng, options, certify=False)
         c, r, s = sphere_arrays(list(spheres), min_count=0, check_centers=False)

@@ -27,7 +27,7 @@ from ._checks import (
     sigma_range,
 )
 from .errors import (
-    RadialError,
+    RadialArgumentError,
 )
 from .tolerances import TOLERANCES as TOLERANCES  # re-exported: radialopt.spheres.TOLERANCES
 from .tolerances import Tolerances as Tolerances
@@ -80,9 +80,9 @@ class GaussianSphere:
         radius = real_scalar("radius", self.radius)
         sigma = real_scalar("sigma", self.sigma)
         if radius < 0:
-            raise RadialError(f"radius = {radius!r} must be >= 0")
+            raise RadialArgumentError(f"radius = {radius!r} must be >= 0")
         if sigma <= 0:
-            raise RadialError(f"sigma = {sigma!r} must be > 0")
+            raise RadialArgumentError(f"sigma = {sigma!r} must be > 0")
         radius = real_scalar("radius", radius, max_abs=MAX_LENGTH)
         sigma = real_scalar("sigma", sigma, max_abs=MAX_SIGMA)
         center.setflags(write=False)
@@ -121,7 +121,7 @@ def as_points(x: ArrayLike, name: str = "x") -> tuple[NDArray[np.float64], bool]
     single = arr.ndim == 1
     pts = arr.reshape(1, -1) if single else arr
     if pts.shape[1] != 3 or pts.shape[0] == 0:
-        raise RadialError(f"{name} must have shape (3,) or (k, 3) with k >= 1, got shape {arr.shape}")
+        raise RadialArgumentError(f"{name} must have shape (3,) or (k, 3) with k >= 1, got shape {arr.shape}")
     return pts, single
 
 
@@ -142,13 +142,14 @@ def sphere_arrays(
     """
     if (isinstance(spheres, (str, bytes, GaussianSphere)) or not isinstance(spheres, Iterable)
             or (isinstance(spheres, np.ndarray) and spheres.ndim == 0)):
-        raise RadialError(f"spheres must be a sequence of GaussianSphere, got {type(spheres).__name__}")
+        raise RadialArgumentError(
+            f"spheres must be a sequence of GaussianSphere, got {type(spheres).__name__}")
     spheres = list(spheres)
     for i, s in enumerate(spheres):
         if not isinstance(s, GaussianSphere):
-            raise RadialError(f"spheres[{i}] must be a GaussianSphere, got {type(s).__name__}")
+            raise RadialArgumentError(f"spheres[{i}] must be a GaussianSphere, got {type(s).__name__}")
     if len(spheres) < min_count:
-        raise RadialError(f"need at least {min_count} spheres, got {len(spheres)}")
+        raise RadialArgumentError(f"need at least {min_count} spheres, got {len(spheres)}")
     centers = np.array([s.center for s in spheres], dtype=np.float64).reshape(-1, 3)
     radius_list = [s.radius for s in spheres]
     sigma_list = [s.sigma for s in spheres]
@@ -200,17 +201,17 @@ def checked_arrays(
                 return centers, radii, s
     c = real_array("centers", centers, shape=(None, 3))
     if len(c) < min_count:
-        raise RadialError(f"centers: need at least {min_count} spheres (rows), got {len(c)}")
+        raise RadialArgumentError(f"centers: need at least {min_count} spheres (rows), got {len(c)}")
     r = real_array("radii", radii, shape=(len(c),), like="centers")
     s = real_array("sigmas", sigmas, ndim=(0, 1), max_abs=MAX_SIGMA)
     if s.ndim == 0:
         s = np.full(len(c), float(s))
     if s.shape != r.shape:
-        raise RadialError(f"sigmas must be a scalar or have shape ({len(c)},) like centers, got shape "
-                          f"{s.shape}")
+        raise RadialArgumentError(f"sigmas must be a scalar or have shape ({len(c)},) like centers, got "
+                                  f"shape {s.shape}")
     bad = np.flatnonzero(r < 0)
     if bad.size:
-        raise RadialError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
+        raise RadialArgumentError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
     sigma_range("sigmas", s, max(float(np.abs(c).max(initial=0.0)), float(r.max(initial=0.0))))
     return c, r, s
 
@@ -231,7 +232,7 @@ def check_distinct_centers(centers: NDArray[np.float64], tol: Tolerances = TOLER
     if len(pairs):
         i, j = (int(v) for v in pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))][0])
         dist = float(np.linalg.norm(centers[i] - centers[j]))
-        raise RadialError(
+        raise RadialArgumentError(
             f"centres {i} and {j} coincide (centers[{i}] = {centers[i].tolist()}, centers[{j}] = "
             f"{centers[j].tolist()}, distance "
             f"{dist:.3g} <= {tol.coincident:g})"
@@ -247,13 +248,13 @@ def make_spheres(
     s = real_array("sigmas", sigmas, ndim=(0, 1), max_abs=MAX_SIGMA)
     s = np.broadcast_to(s, r.shape) if s.ndim == 0 else s
     if s.shape != r.shape:
-        raise RadialError(f"sigmas must be a scalar or have shape ({len(c)},), got shape {s.shape}")
+        raise RadialArgumentError(f"sigmas must be a scalar or have shape ({len(c)},), got shape {s.shape}")
     bad = np.flatnonzero(r < 0)
     if bad.size:
-        raise RadialError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
+        raise RadialArgumentError(f"radii[{bad[0]}] = {float(r[bad[0]])!r} must be >= 0")
     bad = np.flatnonzero(s <= 0)
     if bad.size:
-        raise RadialError(f"sigmas[{bad[0]}] = {float(s[bad[0]])!r} must be > 0")
+        raise RadialArgumentError(f"sigmas[{bad[0]}] = {float(s[bad[0]])!r} must be > 0")
     return [GaussianSphere(ci, float(ri), float(si)) for ci, ri, si in zip(c, r, s, strict=True)]
 
 
@@ -324,8 +325,8 @@ def conformal_sphere(center: ArrayLike, radius: float) -> NDArray[np.float64]:
     x = point3("center", center)
     rad = real_scalar("radius", radius, max_abs=MAX_LENGTH)
     if rad < 0:
-        raise RadialError(f"radius = {rad!r} must be >= 0 (an imaginary sphere goes through "
-                          "conformal_sphere_sq with a negative squared radius)")
+        raise RadialArgumentError(f"radius = {rad!r} must be >= 0 (an imaginary sphere goes through "
+                                  "conformal_sphere_sq with a negative squared radius)")
     return conformal_sphere_sq(x, rad**2)
 
 
@@ -341,10 +342,10 @@ def conformal_inner(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64] | float:
     b = real_array("b", b, max_abs=CONFORMAL_MAX)
     for name, arr in (("a", a), ("b", b)):
         if arr.ndim == 0 or arr.shape[-1] != 5:
-            raise RadialError(f"{name} must have a last axis of length 5, got shape {arr.shape}")
+            raise RadialArgumentError(f"{name} must have a last axis of length 5, got shape {arr.shape}")
     try:
         np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
     except ValueError as exc:
-        raise RadialError(f"a and b do not broadcast: shapes {a.shape} and {b.shape}") from exc
+        raise RadialArgumentError(f"a and b do not broadcast: shapes {a.shape} and {b.shape}") from exc
     out = np.einsum("...i,ij,...j->...", a, CONFORMAL_METRIC, b)
     return float(out) if np.ndim(out) == 0 else out

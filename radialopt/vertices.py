@@ -36,6 +36,7 @@ from scipy.spatial import cKDTree
 from ._checks import MAX_SIGMA, instance, integer, real_array, real_scalar, sigma_range
 from ._dd_adjacency import _adjacent_combinations, _unpack_bits
 from .errors import (
+    RadialArgumentError,
     RadialError,
     SolverError,
 )
@@ -111,12 +112,12 @@ class VertexEnumeration:
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
         if self.vertices.ndim != 2 or self.rays.ndim != 2 or self.vertices.shape[1] != self.rays.shape[1]:
-            raise RadialError(
+            raise RadialArgumentError(
                 f"vertices (k, n) and rays (l, n) must agree in n, got {self.vertices.shape} "
                 f"and {self.rays.shape}"
             )
         if self.vertex_active.ndim != 2 or self.vertex_active.shape[0] != self.vertices.shape[0]:
-            raise RadialError(
+            raise RadialArgumentError(
                 f"vertex_active must have shape ({self.vertices.shape[0]}, m), got "
                 f"{self.vertex_active.shape}"
             )
@@ -134,19 +135,20 @@ class VertexEnumeration:
 def _read_inequalities(polytope: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(A, b)`` from a RestrictionPolytope-like object (``.A``, ``.b``) or a pair ``(A, b)``."""
     if isinstance(polytope, (str, bytes)) or polytope is None:
-        raise RadialError(f"polytope must be a RestrictionPolytope or a pair (A, b), got {polytope!r:.100}")
+        raise RadialArgumentError(
+            f"polytope must be a RestrictionPolytope or a pair (A, b), got {polytope!r:.100}")
     if hasattr(polytope, "A") and hasattr(polytope, "b"):
         A_in, b_in = polytope.A, polytope.b
     elif isinstance(polytope, tuple) and len(polytope) == 2:
         A_in, b_in = polytope
     else:
-        raise RadialError(
+        raise RadialArgumentError(
             f"polytope must be a RestrictionPolytope or a pair (A (m, n), b (m,)), got "
             f"{type(polytope).__name__}"
         )
     A = real_array("polytope.A", A_in, shape=("m", "n"), max_abs=POLYTOPE_MAX)
     if A.shape[0] < 1 or A.shape[1] < 1:
-        raise RadialError(f"polytope.A must have shape (m, n) with m, n >= 1, got shape {A.shape}")
+        raise RadialArgumentError(f"polytope.A must have shape (m, n) with m, n >= 1, got shape {A.shape}")
     b = real_array("polytope.b", b_in, shape=(A.shape[0],), max_abs=POLYTOPE_MAX)
     return A, b
 
@@ -171,7 +173,7 @@ def _normalize(A: NDArray[np.float64], b: NDArray[np.float64], tol: VertexTolera
     An = A[keep] / norms[keep, None]
     bn = b[keep] / norms[keep]
     if An.shape[0] == 0 or np.linalg.matrix_rank(An) < n:
-        raise RadialError(
+        raise RadialArgumentError(
             f"the polyhedron {{x : A x <= b}} with A of shape {A.shape} and rank "
             f"{np.linalg.matrix_rank(A) if m else 0} < n = {n} contains a line, so it has no vertices"
         )
@@ -214,7 +216,7 @@ def enumerate_vertices(
         - ``method`` is not one of ``ENUMERATION_METHODS``.
     """
     if not isinstance(method, str) or method not in ENUMERATION_METHODS:
-        raise RadialError(f"unknown method {method!r:.100}; choose one of {ENUMERATION_METHODS}")
+        raise RadialArgumentError(f"unknown method {method!r:.100}; choose one of {ENUMERATION_METHODS}")
     instance("tol", tol, VertexTolerances)
     A, b = _read_inequalities(polytope)
     m, n = A.shape
@@ -242,7 +244,7 @@ def enumerate_vertices(
 def check_vertex_spheres(n: int, name: str) -> None:
     """Raise :class:`RadialError` when ``n`` spheres exceed :data:`MAX_VERTEX_SPHERES`."""
     if n > MAX_VERTEX_SPHERES:
-        raise RadialError(
+        raise RadialArgumentError(
             f"{name} has {n} spheres; vertex enumeration accepts at most MAX_VERTEX_SPHERES = "
             f"{MAX_VERTEX_SPHERES} (its time grows combinatorially: 8 spheres take about 20-35 s); "
             "use project_radii(..., check=False) (exact active-set projection) or method='cvxpy' instead")
@@ -269,7 +271,7 @@ def _bruteforce(
     m, n = A.shape
     count = math.comb(m, n)
     if count > BRUTEFORCE_MAX_SUBSETS:
-        raise RadialError(
+        raise RadialArgumentError(
             f"brute force needs C({m}, {n}) = {count} subsets (> {BRUTEFORCE_MAX_SUBSETS}); "
             "use method='double_description'"
         )
@@ -378,7 +380,7 @@ def _double_description(
     eps = tol.zero
     basis = _initial_basis(H, eps)
     if len(basis) < d:  # cannot happen after the rank check; keep the error explicit
-        raise RadialError(f"homogenised system has rank {len(basis)} < {d}")
+        raise SolverError(f"homogenised system has rank {len(basis)} < {d}")
     R = np.linalg.inv(H[basis]).T  # rows: extreme rays of the simplicial cone H[basis] y >= 0
     R /= np.linalg.norm(R, axis=1)[:, None]
     words = (m + 1 + 63) // 64
@@ -502,14 +504,15 @@ def _merge_representatives(points: NDArray[np.float64], radius: float) -> NDArra
 def _check_target(enumeration: VertexEnumeration, target: ArrayLike, sigmas: ArrayLike
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     if not isinstance(enumeration, VertexEnumeration):
-        raise RadialError(f"enumeration must be a VertexEnumeration, got {type(enumeration).__name__}")
+        raise RadialArgumentError(
+            f"enumeration must be a VertexEnumeration, got {type(enumeration).__name__}")
     n = enumeration.dim
     t = real_array("target", target, shape=(n,))
     s = real_array("sigmas", sigmas, shape=(n,), max_abs=MAX_SIGMA)
     scale = max(float(np.abs(t).max(initial=0.0)), float(np.abs(enumeration.vertices).max(initial=0.0)))
     sigma_range("sigmas", s, scale)
     if enumeration.vertices.shape[0] == 0:
-        raise RadialError("the polyhedron is empty: there is nothing to project onto")
+        raise RadialArgumentError("the polyhedron is empty: there is nothing to project onto")
     return t, s
 
 
@@ -687,7 +690,7 @@ def certify_projection(
     A, b = _read_inequalities(polytope)
     n = enumeration.dim
     if A.shape[1] != n:
-        raise RadialError(f"polytope has dimension {A.shape[1]}, enumeration has {n}")
+        raise RadialArgumentError(f"polytope has dimension {A.shape[1]}, enumeration has {n}")
     x = real_array("point", point, shape=(n,))
     tol = real_scalar("tol", tol, minimum=0.0, maximum=1.0)
     row_norm = np.linalg.norm(A, axis=1)
@@ -726,8 +729,8 @@ def certify_projection(
 
 def __getattr__(name: str) -> type[RadialError]:
     """0.1 exported ``EmptyPolyhedronError``, ``NotPointedError`` and ``TooLargeError`` here:
-    deprecated names of :class:`~radialopt.errors.RadialError` (with a warning)."""
+    deprecated names of :class:`~radialopt.errors.RadialArgumentError` (with a warning)."""
     from . import errors
 
     return errors._deprecated(__name__, name, dict.fromkeys(
-        ("EmptyPolyhedronError", "NotPointedError", "TooLargeError"), RadialError))
+        ("EmptyPolyhedronError", "NotPointedError", "TooLargeError"), RadialArgumentError))

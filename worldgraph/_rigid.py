@@ -42,12 +42,3 @@ def rigid_transform(name: str, value: Any, *, tol: float | None = None,
                                   f"|translation| must be <= {max_translation:g}")
     return m
 
-
-def quat_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Rotation matrix of a quaternion ``(w, x, y, z)`` (MuJoCo's order; normalised here)."""
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])

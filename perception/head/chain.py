@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 from .._checks import (
     MAX_TRANSLATION,
@@ -71,15 +72,10 @@ TIP_FROM_OPENCV = np.array(
 
 
 def rotation(axis: str, angle: float) -> NDArray[np.float64]:
-    """4x4 rotation by ``angle`` (radians) about the ``axis`` ('x', 'y' or 'z') of the frame."""
-    c, s = np.cos(angle), np.sin(angle)
-    i = _AXES[axis]
-    j, k = (i + 1) % 3, (i + 2) % 3
+    """4x4 rotation by ``angle`` (radians) about the ``axis`` ('x', 'y' or 'z') of the frame
+    (right-handed: a positive angle turns the next axis towards the one after it)."""
     M = np.eye(4)
-    M[j, j] = c
-    M[j, k] = -s
-    M[k, j] = s
-    M[k, k] = c
+    M[:3, :3] = Rotation.from_euler("xyz"[_AXES[axis]], angle).as_matrix()
     return M
 
 
@@ -301,10 +297,16 @@ class KinematicChain:
     def joint_frames(self, angles: Mapping[str, float] | ArrayLike) -> NDArray[np.float64]:
         """``ego_from_joint_i`` (after the joint rotation) for every serial joint, shape (n, 4, 4)."""
         q = self.angle_vector(angles)
-        out = np.empty((len(self.joints), 4, 4))
+        n = len(self.joints)
+        # every joint's Rot(axis, q_i) in one call (the angles are checked by angle_vector)
+        turns = np.zeros((n, 4, 4))
+        turns[:, 3, 3] = 1.0
+        axes = np.eye(3)[[_AXES[j.axis] for j in self.joints]]
+        turns[:, :3, :3] = Rotation.from_rotvec(q[:n, None] * axes).as_matrix()
+        out = np.empty((n, 4, 4))
         M = self.ego_from_base
         for i, j in enumerate(self.joints):
-            M = M @ j.transform(q[i])
+            M = M @ (j.origin @ turns[i])
             out[i] = M
         return out
 

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 from ..errors import (
     MissingExtraError,
@@ -48,16 +49,6 @@ def import_mujoco() -> Any:
     except ImportError as exc:
         raise MissingExtraError(f"perception.mujoco needs the mujoco package: {_PIP}") from exc
     return mujoco
-
-
-def _quat_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Rotation matrix of a quaternion ``(w, x, y, z)`` (MuJoCo's order; normalised here)."""
-    w, x, y, z = np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
 
 
 # ----------------------------------------------------------------------------------------------
@@ -200,7 +191,7 @@ def geom_mesh(model: Any, g: int) -> tuple[trimesh.Trimesh, NDArray[np.float64]]
         geom_from_mesh = np.eye(4)
         if hasattr(model, "mesh_pos") and hasattr(model, "mesh_quat"):
             # MuJoCo stores vertices in the mesh's inertia frame: asset = R @ stored + pos
-            rot = _quat_matrix(model.mesh_quat[k])
+            rot = Rotation.from_quat(model.mesh_quat[k], scalar_first=True).as_matrix()  # (w, x, y, z)
             pos = np.asarray(model.mesh_pos[k], dtype=np.float64)
             verts = verts @ rot.T + pos
             geom_from_mesh[:3, :3] = rot.T

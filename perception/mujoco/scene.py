@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 from .._checks import (
     boolean,
@@ -269,7 +270,8 @@ class MujocoScene:
         floor, lo, hi = self._floor()
         boxes = self._obstacle_boxes()
         pos = self.positions
-        out = np.zeros((n, 4, 4))
+        out = np.tile(np.eye(4), (n, 1, 1))
+        yaws = np.zeros(n)
         k = tries = 0
         while k < n:
             tries += 1
@@ -287,10 +289,10 @@ class MujocoScene:
                     & (boxes[:, 0, 2] < head + clearance) & (boxes[:, 1, 2] > floor + 0.05))
             if near.any() or not self._sees(np.array([xy[0], xy[1], head]), target):
                 continue
-            yaw = np.arctan2(target[1] - xy[1], target[0] - xy[0]) + gen.uniform(-spread, spread)
-            c, s_ = np.cos(yaw), np.sin(yaw)
-            out[k] = [[c, -s_, 0.0, xy[0]], [s_, c, 0.0, xy[1]], [0.0, 0.0, 1.0, head], [0.0, 0.0, 0.0, 1.0]]
+            yaws[k] = np.arctan2(target[1] - xy[1], target[0] - xy[0]) + gen.uniform(-spread, spread)
+            out[k, :3, 3] = (xy[0], xy[1], head)
             k += 1
+        out[:, :3, :3] = Rotation.from_euler("z", yaws[:, None]).as_matrix()
         return out
 
     def _sees(self, eye: NDArray[np.float64], target: NDArray[np.float64]) -> bool:

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 from .._checks import generator as check_rng
 from .._checks import integer, name_string, real_array, real_scalar, rotation_defect, sequence
@@ -204,8 +205,8 @@ def scene_boxes(
 
 
 def _rot_z(angle: float) -> NDArray[np.float64]:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    """The 3x3 rotation by ``angle`` (radians) about z."""
+    return Rotation.from_euler("z", angle).as_matrix()
 
 
 def _camera_from_world_look(position: NDArray[np.float64], yaw: float, pitch: float) -> NDArray[np.float64]:

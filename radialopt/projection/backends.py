@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from .._ldp import _polish_certified, least_distance
 from .._projection_types import _CVXPY_STATUS, _Problem
-from ..errors import RadialError, SolverError
+from ..errors import RadialArgumentError, SolverError
 from ..spheres import Tolerances
 from ..tolerances import (
     ACTIVE_SLACK,
@@ -101,7 +101,7 @@ def _solve_cvxpy(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
 
     name = "CLARABEL" if solver is None else solver.upper()
     if name not in installed_cvxpy_solvers():
-        raise RadialError(
+        raise RadialArgumentError(
             f"solver = {solver!r} is not an installed cvxpy solver; installed: "
             f"{', '.join(installed_cvxpy_solvers())}. Install e.g. `pip install osqp scs ecos`."
         )
@@ -167,7 +167,7 @@ def _solve_paper(p: _Problem, solver: str | None, tol: Tolerances) -> tuple[NDAr
         for k in range(1, min(n, len(rows)) + 1):
             count = comb(len(rows), k)
             if count > budget[0]:
-                raise RadialError(
+                raise RadialArgumentError(
                     f"method 'paper' with n = {n} spheres: {len(violated)} of {len(hn)} rows are "
                     f"violated and no flat of fewer than {k} rows is feasible; the next stage has "
                     f"{count} flats, beyond the budget PAPER_MAX_FLATS = {PAPER_MAX_FLATS}. Use "

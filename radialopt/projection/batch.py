@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._checks import MAX_SIGMA, MIN_SIGMA_RELATIVE, instance, real_array, sigma_range
 from .._dual_active_set import SMALL_CORE_SPHERES
-from ..errors import RadialError, SolverError
+from ..errors import RadialArgumentError, SolverError
 from ..polytope import pair_pattern
 from ..spheres import TOLERANCES, Tolerances, check_distinct_centers
 from ..tolerances import RANK_RTOL, ROUNDING_RTOL
@@ -61,14 +61,14 @@ def project_radii_batch(
     instance("tol", tol, Tolerances)
     c = real_array("centers", centers, shape=("B", "n", 3))
     if c.shape[1] < 2:
-        raise RadialError(f"centers must have shape (B, n, 3) with n >= 2, got shape {c.shape}")
+        raise RadialArgumentError(f"centers must have shape (B, n, 3) with n >= 2, got shape {c.shape}")
     r = real_array("radii", radii, shape=c.shape[:2])
     sg = real_array("sigmas", sigmas, shape=c.shape[:2], max_abs=MAX_SIGMA)
     if np.any(sg <= 0):
-        raise RadialError(f"sigmas{np.argwhere(sg <= 0)[0].tolist()} = {float(sg[sg <= 0][0])!r} "
-                          "must be > 0")
+        raise RadialArgumentError(f"sigmas{np.argwhere(sg <= 0)[0].tolist()} = {float(sg[sg <= 0][0])!r} "
+                                  "must be > 0")
     if np.any(r < 0):
-        raise RadialError(
+        raise RadialArgumentError(
             f"radii{np.argwhere(r < 0)[0].tolist()} = {float(r[r < 0][0])!r} must be >= 0")
     if c.shape[0]:
         scale = np.maximum(np.maximum(np.abs(c).max(axis=(1, 2)), r.max(axis=1)), 1.0)[:, None]

@@ -17,7 +17,7 @@ from .._dual_active_set import SMALL_CORE_SPHERES, _dot, _ldp_pairs, _pair_setup
 from .._exact_check import _cdd_gmp
 from .._ldp import least_distance
 from .._projection_types import RadialSolution, _Problem, _status_of
-from ..errors import RadialError, SolverError
+from ..errors import RadialArgumentError, SolverError
 from ..spheres import (
     TOLERANCES,
     GaussianSphere,
@@ -92,17 +92,17 @@ def project_radii(
         _check_arguments(method, solver, check, tol)  # the defaults need no check
     if centers is not None or radii is not None or sigmas is not None:
         if spheres is not None:
-            raise RadialError("pass either spheres or centers=, radii=, sigmas=, not both (got spheres "
-                              f"of type {type(spheres).__name__} and arrays)")
+            raise RadialArgumentError("pass either spheres or centers=, radii=, sigmas=, not both (got "
+                                      f"spheres of type {type(spheres).__name__} and arrays)")
         if centers is None or radii is None or sigmas is None:
             missing = [k for k, v in (("centers", centers), ("radii", radii), ("sigmas", sigmas))
                        if v is None]
-            raise RadialError("the array form needs centers=, radii= and sigmas=; missing "
-                              f"{', '.join(missing)}")
+            raise RadialArgumentError("the array form needs centers=, radii= and sigmas=; missing "
+                                      f"{', '.join(missing)}")
         c, r, sg = checked_arrays(centers, radii, sigmas, min_count=2)
         return _project_arrays(c, r, sg, method, solver, check, tol)
     if spheres is None:
-        raise RadialError("project_radii needs spheres, or centers=, radii= and sigmas= arrays")
+        raise RadialArgumentError("project_radii needs spheres, or centers=, radii= and sigmas= arrays")
     if not isinstance(spheres, (Sequence, str, bytes, GaussianSphere, np.ndarray)) and isinstance(
             spheres, Iterable):
         spheres = list(spheres)  # a generator is read once; check=True reads the spheres again
@@ -113,13 +113,13 @@ def project_radii(
 def _check_arguments(method: object, solver: object, check: object, tol: object) -> None:
     """The checks of :func:`project_radii`'s arguments other than the spheres."""
     if not isinstance(method, str) or method not in _BACKENDS:
-        raise RadialError(f"unknown method {method!r:.100}; choose one of {', '.join(METHODS)}")
+        raise RadialArgumentError(f"unknown method {method!r:.100}; choose one of {', '.join(METHODS)}")
     if solver is not None and not isinstance(solver, str):
-        raise RadialError(f"solver must be a cvxpy solver name or None, got {solver!r:.100}")
+        raise RadialArgumentError(f"solver must be a cvxpy solver name or None, got {solver!r:.100}")
     if solver is not None and method != "cvxpy":
-        raise RadialError(f"solver={solver!r} only applies to method='cvxpy', not {method!r}")
+        raise RadialArgumentError(f"solver={solver!r} only applies to method='cvxpy', not {method!r}")
     if not (check is False or check is True or (isinstance(check, str) and check == "exact")):
-        raise RadialError(f"check must be False, True or 'exact', got check={check!r:.100}")
+        raise RadialArgumentError(f"check must be False, True or 'exact', got check={check!r:.100}")
     instance("tol", tol, Tolerances)
     if check == "exact":
         _cdd_gmp()  # fail before solving when the exact mode is missing

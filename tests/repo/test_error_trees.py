@@ -19,6 +19,9 @@ import worldgraph as wg
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = {"perception": pc.PerceptionError, "worldgraph": wg.WorldGraphError, "radialopt": ro.RadialError}
+#: The class each package raises for a bad argument, a ValueError in all three.
+ARGUMENT_ERRORS = {"perception": pc.PerceptionError, "worldgraph": wg.WorldGraphError,
+                   "radialopt": ro.RadialArgumentError}
 MAX_SUBCLASSES = 5  # "a base and the few subclasses users catch"
 
 
@@ -32,7 +35,8 @@ def _error_classes(package: str) -> dict[str, type]:
 def test_each_tree_is_a_base_and_a_few_subclasses(package: str) -> None:
     classes = _error_classes(package)
     base = PACKAGES[package]
-    assert issubclass(base, ValueError)
+    assert issubclass(ARGUMENT_ERRORS[package], ValueError)
+    assert ARGUMENT_ERRORS[package] is base or ARGUMENT_ERRORS[package] in classes.values()
     assert set(classes) == set(importlib.import_module(f"{package}.errors").__all__)
     subclasses = {n for n, c in classes.items() if c is not base}
     assert all(issubclass(classes[n], base) for n in subclasses)
@@ -83,7 +87,8 @@ def test_a_deprecated_name_warns_and_gives_the_class_that_replaced_it(package: s
 
 
 @pytest.mark.parametrize("module, names, cls", [
-    ("radialopt.vertices", ["EmptyPolyhedronError", "NotPointedError", "TooLargeError"], ro.RadialError),
+    ("radialopt.vertices", ["EmptyPolyhedronError", "NotPointedError", "TooLargeError"],
+     ro.RadialArgumentError),
     ("perception.middlebury", ["MissingDataError"], pc.MissingExtraError),
 ])
 def test_error_names_other_modules_exported_are_deprecated_there_too(module: str, names: list[str],

@@ -196,6 +196,15 @@ def test_truncated_and_corrupt_files(saved, tmp_path):
     _refused(tmp_path / "magic_only.npz", "npz")
 
 
+def test_a_file_that_is_no_zip_archive_is_named_not_read_as_a_pickle(saved, tmp_path):
+    from worldgraph.model.binary_files import read_entries
+
+    (tmp_path / "text.npz").write_bytes(b"{}")
+    with pytest.raises(MalformedFileError, match="zip") as info:
+        read_entries(str(tmp_path / "text.npz"))
+    assert str(tmp_path / "text.npz") in str(info.value) and "pickle" not in str(info.value)
+
+
 def test_missing_entry(saved, tmp_path):
     for key in ("positions", "codes", "class_vertices", "version"):
         _rewrite(saved, tmp_path / "m.npz", **{key: None})

@@ -60,9 +60,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
 from .. import _checks
-from .._rigid import quat_matrix as _quat_matrix
 from ..errors import ImporterError, MalformedFileError, WorldGraphError
 from ..model import WorldModel
 from ..tolerances import NORM_FLOOR, SIZE_MATCH, UPRIGHT_TOL
@@ -100,19 +100,24 @@ def franka_kitchen_path() -> pathlib.Path:
 # ----------------------------------------------------------------------------------------------
 # rotations (MuJoCo conventions)
 # ----------------------------------------------------------------------------------------------
-def _axis_rotation(axis: str, angle: float) -> NDArray[np.float64]:
-    c, s = math.cos(angle), math.sin(angle)
-    if axis == "x":
-        return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
-    if axis == "y":
-        return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+def _quat_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrix of a quaternion ``(w, x, y, z)``, normalised; a zero one is a ValueError."""
+    return Rotation.from_quat(q, scalar_first=True).as_matrix()
 
 
-def _rodrigues(axis: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
-    a = axis / np.linalg.norm(axis)
-    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * (k @ k)
+def _euler_matrix(seq: str, angles: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrix of MuJoCo's ``euler`` with ``compiler eulerseq = seq``.
+
+    A lower-case sequence turns about the moving axes (intrinsic), any other about the fixed axes
+    of the parent (extrinsic, its letters read as lower case); a sequence that is not three of
+    x, y, z with no axis twice in a row is a ValueError.
+    """
+    return Rotation.from_euler(seq.upper() if seq.islower() else seq.lower(), angles).as_matrix()
+
+
+def _axis_angle_matrix(axis: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
+    """Rotation matrix of the turn by ``angle`` (radians) about ``axis`` (normalised here)."""
+    return Rotation.from_rotvec(angle * (axis / np.linalg.norm(axis))).as_matrix()
 
 
 @dataclass
@@ -143,19 +148,10 @@ def _local_transform(el: ET.Element, comp: _Compiler, what: str) -> NDArray[np.f
     if el.get("quat") is not None:
         m[:3, :3] = _quat_matrix(_floats(el.get("quat"), 4, f"{what} quat"))
     elif el.get("euler") is not None:
-        angles = _floats(el.get("euler"), 3, f"{what} euler") * unit
-        rot = np.eye(3)
-        seq = comp.eulerseq
-        if seq.islower():  # intrinsic: rotate about the moving axes, compose on the right
-            for ax, ang in zip(seq, angles, strict=True):
-                rot = rot @ _axis_rotation(ax, ang)
-        else:  # extrinsic (upper case): fixed axes, compose on the left
-            for ax, ang in zip(seq.lower(), angles, strict=True):
-                rot = _axis_rotation(ax, ang) @ rot
-        m[:3, :3] = rot
+        m[:3, :3] = _euler_matrix(comp.eulerseq, _floats(el.get("euler"), 3, f"{what} euler") * unit)
     elif el.get("axisangle") is not None:
         v = _floats(el.get("axisangle"), 4, f"{what} axisangle")
-        m[:3, :3] = _rodrigues(v[:3], v[3] * unit)
+        m[:3, :3] = _axis_angle_matrix(v[:3], v[3] * unit)
     elif el.get("zaxis") is not None:
         z = _floats(el.get("zaxis"), 3, f"{what} zaxis")
         z = z / np.linalg.norm(z)
@@ -164,7 +160,7 @@ def _local_transform(el: ET.Element, comp: _Compiler, what: str) -> NDArray[np.f
         if np.linalg.norm(axis) < NORM_FLOOR:
             m[:3, :3] = np.eye(3) if z[2] > 0 else np.diag([1.0, -1.0, -1.0])
         else:
-            m[:3, :3] = _rodrigues(axis, math.acos(float(np.clip(z[2], -1.0, 1.0))))
+            m[:3, :3] = _axis_angle_matrix(axis, math.acos(float(np.clip(z[2], -1.0, 1.0))))
     elif el.get("xyaxes") is not None:
         v = _floats(el.get("xyaxes"), 6, f"{what} xyaxes")
         x = v[:3] / np.linalg.norm(v[:3])
@@ -307,7 +303,8 @@ def _walk(body: ET.Element, world_from_body: NDArray[np.float64], name: str, chi
             ez = np.array([0.0, 0.0, 1.0])
             rot_axis = np.cross(ez, axis)
             if np.linalg.norm(rot_axis) > NORM_FLOOR:
-                local[:3, :3] = _rodrigues(rot_axis, math.acos(float(np.clip(axis[2] / length, -1, 1))))
+                turn = math.acos(float(np.clip(axis[2] / length, -1, 1)))
+                local[:3, :3] = _axis_angle_matrix(rot_axis, turn)
             size = np.array([size[0], length / 2])
         rotated = any(geom.get(a) is not None for a in ("quat", "euler", "axisangle", "zaxis", "xyaxes"))
         world_from_geom = world_from_body @ local
