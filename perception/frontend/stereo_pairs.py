@@ -50,7 +50,7 @@ class StereoMatch:
     def __post_init__(self) -> None:
         object.__setattr__(self, "left", integer("left", self.left, minimum=0))
         object.__setattr__(self, "right", integer("right", self.right, minimum=0))
-        epi = real_scalar("epipolar_px", self.epipolar_px, nonnegative=True)
+        epi = real_scalar("epipolar_px", self.epipolar_px, minimum=0.0)
         object.__setattr__(self, "epipolar_px", epi)
 
 
@@ -95,8 +95,8 @@ def match_stereo(
     """
     as_stereo_rig(rig)
     max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True)
-    max_log_area_ratio = real_scalar("max_log_area_ratio", max_log_area_ratio, nonnegative=True)
-    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, maximum=1e6)
+    max_log_area_ratio = real_scalar("max_log_area_ratio", max_log_area_ratio, minimum=0.0)
+    min_depth = real_scalar("min_depth", min_depth, minimum=0.0, maximum=1e6)
     left_dets = sequence("left_dets", left_dets, Detection)
     right_dets = sequence("right_dets", right_dets, Detection)
     if not left_dets or not right_dets:
@@ -262,7 +262,7 @@ def stereo_percepts(
     T = check_transform("ego_from_camera", ego_from_camera)
     keep_cut_off = boolean("keep_cut_off", keep_cut_off)
     max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True, maximum=1e6)
-    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, maximum=1e6)
+    min_depth = real_scalar("min_depth", min_depth, minimum=0.0, maximum=1e6)
     if depth_factor is not None:
         depth_factor = real_scalar("depth_factor", depth_factor, positive=True, maximum=1e150)
     px = DISPARITY_STD_PX / np.sqrt(2.0) if pixel_sigma is None else real_scalar(

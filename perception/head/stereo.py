@@ -115,7 +115,7 @@ def _camera_matrix(name: str, value: ArrayLike) -> NDArray[np.float64]:
 
 
 def _points(name: str, value: ArrayLike, width: int) -> NDArray[np.float64]:
-    arr = real_array(name, value, (-1, width))
+    arr = real_array(name, value, (None, width))
     big = np.flatnonzero(np.any(np.abs(arr) > MAX_COORD, axis=1))
     if big.size:
         i = int(big[0])

@@ -46,7 +46,7 @@ def _types(types: Sequence[str], n: int) -> list[str]:
 def _positions(world_positions: ArrayLike) -> NDArray[np.float64]:
     if isinstance(world_positions, (list, tuple)) and len(world_positions) == 0:
         return np.zeros((0, 3))
-    X = real_array("world_positions", world_positions, (-1, 3))
+    X = real_array("world_positions", world_positions, (None, 3))
     big = np.flatnonzero(np.any(np.abs(X) > MAX_COORD, axis=1))
     if big.size:
         raise PerceptionError(f"world_positions[{big[0]}] = {X[big[0]].tolist()} exceeds {MAX_COORD:g} m")
