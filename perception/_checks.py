@@ -14,6 +14,7 @@ the offending value.
 signatures, rules and messages as their namesakes in ``worldgraph._checks`` and
 ``radialopt._checks`` (only the error class differs); ``tests/repo/test_checks_parity.py`` holds
 the three to that.
+* :func:`image_size` -- ``(width, height)`` in pixels.
 * :func:`boolean`, :func:`generator`, :func:`name_string`, :func:`file_path`, :func:`sequence`.
 * :func:`check_transform` and the rotation rule (:func:`rotation_errors`, :func:`rigid_defect`).
 """
@@ -165,6 +166,20 @@ def generator(name: str, value: Any) -> np.random.Generator:
         raise PerceptionError(f"{name} must be a numpy.random.Generator, "
                     f"got {_short(value)} ({type(value).__name__})")
     return value
+
+
+def image_size(value: Any, maximum: int) -> tuple[int, int]:
+    """``value`` (a pair) as ``(width, height)``, two integers in ``[1, maximum]`` pixels."""
+    if value is None or isinstance(value, (str, bytes)):
+        raise PerceptionError(f"image_size must be (width, height), got {_short(value)}")
+    try:
+        items = list(value)
+    except TypeError as exc:
+        raise PerceptionError(f"image_size must be (width, height), got {_short(value)}") from exc
+    if len(items) != 2:
+        raise PerceptionError(f"image_size must be two integers (width, height), got {_short(value)}")
+    return (integer("image_size[0] (width)", items[0], minimum=1, maximum=maximum),
+            integer("image_size[1] (height)", items[1], minimum=1, maximum=maximum))
 
 
 def boolean(name: str, value: Any) -> bool:

@@ -192,10 +192,9 @@ def outline_disparity(rig: Any, left: Detection, right: Detection, rectification
     PerceptionError
         ``rig`` not a StereoRig, ``left`` or ``right`` not a Detection.
     """
-    from ..head.stereo import Rectification, StereoRig
+    from ..head.stereo import Rectification, as_stereo_rig
 
-    if not isinstance(rig, StereoRig):
-        raise PerceptionError(f"rig must be a perception.StereoRig, got {type(rig).__name__}")
+    rig = as_stereo_rig(rig)
     for name, det in (("left", left), ("right", right)):
         if not isinstance(det, Detection):
             raise PerceptionError(f"{name} must be a perception.Detection, got {type(det).__name__}")

@@ -14,7 +14,7 @@ from scipy.optimize import linear_sum_assignment
 from .._checks import _short, boolean, integer, name_string, real_scalar, sequence
 from ..errors import PerceptionError
 from ..head.chain import check_transform
-from ..head.stereo import StereoRig, as_stereo_rig
+from ..head.stereo import as_stereo_rig
 from ..head.uncertainty import depth_sigma, triangulation_jacobian
 from ..tolerances import NEAR_PLANE, PARALLEL_RAYS
 from .detection import Detection
@@ -255,8 +255,7 @@ def stereo_percepts(
     DetectionPercepts
         ``sources`` and ``dropped`` index the left detections.
     """
-    if not isinstance(rig, StereoRig):
-        raise PerceptionError(f"rig must be a perception.StereoRig, got {type(rig).__name__}")
+    rig = as_stereo_rig(rig)
     lefts = _detections("left", left)
     rights = _detections("right", right)
     T = check_transform("ego_from_camera", ego_from_camera)
