@@ -4,10 +4,17 @@ Every helper takes the argument name first and raises a :class:`~perception.erro
 subclass whose message names the argument, the index of a bad element (where there is one) and
 the offending value.
 
-* :func:`real_array`, :func:`vector3`, :func:`spd` -- finite float64 arrays (any, (3,), SPD).
+* :func:`real_array`, :func:`vector3`, :func:`spd` -- finite float64 arrays (any, (3,), SPD);
+  ``None`` in a shape is any length.
 * :func:`real_scalar` -- a finite real scalar as ``float``: ``minimum`` / ``maximum``
-  (inclusive), ``positive`` (``> 0``), ``max_abs``, and perception's ``nonnegative`` (``>= 0``).
+  (inclusive), ``positive`` (``> 0``), ``max_abs``.
 * :func:`integer` -- an int (not bool or float) in ``[minimum, maximum]``.
+
+:func:`real_array`, :func:`real_scalar`, :func:`integer` and :func:`generator` have the same
+signatures, rules and messages as their namesakes in ``worldgraph._checks`` and
+``radialopt._checks`` (only the error class differs); ``tests/repo/test_checks_parity.py`` holds
+the three to that.
+* :func:`image_size` -- ``(width, height)`` in pixels.
 * :func:`boolean`, :func:`generator`, :func:`name_string`, :func:`file_path`, :func:`sequence`.
 * :func:`check_transform` and the rotation rule (:func:`rotation_errors`, :func:`rigid_defect`).
 """
@@ -15,6 +22,7 @@ the offending value.
 from __future__ import annotations
 
 import numbers
+import operator
 from typing import Any, Literal
 
 import numpy as np
@@ -26,98 +34,152 @@ from .errors import (
 from .tolerances import RIGID_TOLERANCE, SPD_RTOL, SYM_RTOL
 
 
-def _short(value: Any) -> str:
+def _short(value: Any, limit: int = 200) -> str:
     text = repr(value)
-    return text if len(text) <= 200 else text[:200] + "..."
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def _index(idx: tuple[int, ...]) -> str:
+def _index(idx: tuple[int | np.integer, ...]) -> str:
     return "[" + ", ".join(str(int(i)) for i in idx) + "]" if idx else ""  # a 0-d array: no index
 
 
-def real_array(name: str, value: Any, shape: tuple[int, ...] | None = None) -> NDArray[np.float64]:
-    """``value`` as a finite float64 array of ``shape`` (``-1`` matches any length).
+def _shape_ok(shape: tuple[int, ...], want: tuple[int | str | None, ...]) -> bool:
+    return len(shape) == len(want) and all(w is None or isinstance(w, str) or w == s
+                                           for s, w in zip(shape, want, strict=True))
 
-    Rejects None, strings, booleans, complex numbers, ragged sequences, wrong shapes and
-    NaN/inf, naming the index of the first bad element.
+
+def _shape_text(want: tuple[int | str | None, ...]) -> str:
+    dims = ", ".join("n" if w is None else str(w) for w in want)
+    return f"({dims},)" if len(want) == 1 else f"({dims})"
+
+
+def real_array(name: str, value: Any, shape: tuple[int | str | None, ...] | None = None, *,
+               ndim: tuple[int, ...] | None = None, max_abs: float | None = None, min_size: int = 0,
+               like: str = "") -> NDArray[np.float64]:
+    """``value`` as a new finite float64 array.
+
+    ``shape`` entries are lengths, or ``None`` (shown as ``n``) or a label such as ``"k"`` for
+    any length; ``like`` names the argument the expected shape comes from (for the message);
+    ``ndim`` lists accepted dimension counts; ``min_size`` is the least number of elements and
+    ``max_abs`` bounds every element's magnitude.  Raises :class:`PerceptionError`
+    for None, str, bool, complex or non-numeric elements, ragged input, a wrong shape, NaN or
+    inf, naming the index and value of the first bad element.
     """
     if value is None or isinstance(value, (str, bytes)):
-        raise PerceptionError(f"{name} must be a real float array, got {_short(value)}")
+        raise PerceptionError(f"{name} must be an array of real numbers, got {_short(value)}")
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise PerceptionError(f"{name} must be a real float array (not ragged), got {_short(value)}") from exc
-    if raw.dtype.kind in "cbUSVMm" or (
-        raw.dtype.kind == "O"
-        and any(isinstance(v, (str, bytes, bool, np.bool_, complex, np.complexfloating)) or v is None
-                for v in raw.ravel().tolist())
-    ):
-        raise PerceptionError(f"{name} must hold real numbers, got dtype {raw.dtype}: {_short(value)}")
+        raise PerceptionError(f"{name} must be a rectangular array of real numbers, "
+                    f"got {_short(value)}") from exc
+    if raw.dtype.kind == "b":
+        raise PerceptionError(f"{name} must hold real numbers, not booleans, got {_short(value)}")
+    if raw.dtype.kind == "c":
+        imaginary = np.argwhere(np.imag(raw) != 0)
+        where = _index(tuple(imaginary[0])) if len(imaginary) and raw.ndim else ""
+        raise PerceptionError(f"{name}{where} must be real, got complex values {_short(value)}")
+    if raw.dtype.kind not in "iufO":
+        raise PerceptionError(f"{name} must be an array of real numbers, got dtype {raw.dtype} "
+                    f"{_short(value)}")
+    if raw.dtype.kind == "O":
+        for k, item in enumerate(raw.reshape(-1)):
+            idx = np.unravel_index(k, raw.shape) if raw.ndim else ()
+            if isinstance(item, (bool, np.bool_, complex)) or not isinstance(item, numbers.Real):
+                raise PerceptionError(f"{name}{_index(idx)} must be a real number, got {_short(item)}")
+            try:
+                float(item)
+            except OverflowError as exc:
+                raise PerceptionError(f"{name}{_index(idx)} = {_short(item)} does not fit a float64") from exc
     try:
         arr = np.array(raw, dtype=np.float64)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise PerceptionError(f"{name} must hold real numbers, got {_short(value)}") from exc
-    if shape is not None:
-        ok = arr.ndim == len(shape) and all(s < 0 or s == a for s, a in zip(shape, arr.shape, strict=False))
-        if not ok:
-            dims = ", ".join("N" if s < 0 else str(s) for s in shape)
-            want = f"({dims},)" if len(shape) == 1 else f"({dims})"
-            raise PerceptionError(f"{name} must have shape {want}, got shape {arr.shape}")
-    finite = np.isfinite(arr)
-    if not np.all(finite):
-        idx = np.argwhere(~finite)[0]
-        where = _index(tuple(idx)) if arr.ndim else ""
-        raise PerceptionError(f"{name}{where} must be finite, got {arr[tuple(idx)]!r}")
+        raise PerceptionError(f"{name} must hold real numbers representable as float64, "
+                    f"got {_short(value)}") from exc
+    if ndim is not None and arr.ndim not in ndim:
+        raise PerceptionError(f"{name} must have {' or '.join(map(str, ndim))} dimension(s), "
+                    f"got shape {arr.shape}")
+    if shape is not None and not _shape_ok(arr.shape, shape):
+        like_text = f" like {like}" if like else ""
+        raise PerceptionError(f"{name} must have shape {_shape_text(shape)}{like_text}, "
+                    f"got shape {arr.shape}")
+    if arr.size < min_size:
+        raise PerceptionError(f"{name} must hold at least {min_size} element(s), got shape {arr.shape}")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        idx = tuple(np.argwhere(bad)[0]) if arr.ndim else ()
+        raise PerceptionError(f"{name}{_index(idx)} must be finite, got {float(arr[idx])!r}")
+    if max_abs is not None:
+        over = np.abs(arr) > max_abs
+        if over.any():
+            idx = tuple(np.argwhere(over)[0]) if arr.ndim else ()
+            raise PerceptionError(f"{name}{_index(idx)} must be <= {max_abs:g} in magnitude, "
+                        f"got {float(arr[idx])!r}")
     return arr
 
 
-def real_scalar(
-    name: str,
-    value: Any,
-    *,
-    minimum: float | None = None,
-    maximum: float | None = None,
-    positive: bool = False,
-    max_abs: float | None = None,
-    nonnegative: bool = False,
-) -> float:
-    """``value`` as a finite Python float (not bool/str/None/complex), optionally range-checked.
-
-    ``positive`` (``> 0``) and ``nonnegative`` (``>= 0``) raise :class:`PerceptionError`;
-    ``minimum`` / ``maximum`` (inclusive) and ``max_abs`` (``|value| <=``) raise
-    :class:`PerceptionError`.  ``nonnegative`` is perception's own addition to the signature the
-    three packages share: it is not ``minimum=0.0``, whose violation is a range error.
+def real_scalar(name: str, value: Any, *, minimum: float | None = None, maximum: float | None = None,
+                positive: bool = False, max_abs: float | None = None) -> float:
+    """``value`` (a real number or a 0-d real array; not bool, complex, str or None) as a finite
+    Python float: ``> 0`` with ``positive``, in ``[minimum, maximum]`` (inclusive; either may be
+    None) and at most ``max_abs`` in magnitude, else :class:`PerceptionError`.
     """
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        if not (isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "fiu"):
-            raise PerceptionError(f"{name} must be a real number, got {type(value).__name__} {_short(value)}")
+    if isinstance(value, np.ndarray):
+        ok = value.shape == () and value.dtype.kind in "iuf"
+    else:
+        ok = isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+    if not ok:
+        raise PerceptionError(f"{name} must be a real number, got {_short(value)} ({type(value).__name__})")
     try:
-        v = float(value)
-    except (TypeError, ValueError, OverflowError) as exc:
-        raise PerceptionError(f"{name} must be a finite real number, got {_short(value)}") from exc
-    if not np.isfinite(v):
-        raise PerceptionError(f"{name} must be finite, got {v!r}")
-    if positive and v <= 0:
-        raise PerceptionError(f"{name} must be > 0, got {v!r}")
-    if nonnegative and v < 0:
-        raise PerceptionError(f"{name} must be >= 0, got {v!r}")
-    if (minimum is not None and v < minimum) or (maximum is not None and v > maximum):
-        raise PerceptionError(f"{name} must lie in [{minimum}, {maximum}], got {v!r}")
-    if max_abs is not None and abs(v) > max_abs:
-        raise PerceptionError(f"{name} must satisfy |{name}| <= {max_abs:g}, got {v!r}")
-    return v
+        x = float(value)
+    except (TypeError, ValueError, OverflowError) as exc:  # a Python int above ~1.8e308
+        raise PerceptionError(f"{name} = {_short(value)} does not fit a float64") from exc
+    if not np.isfinite(x):
+        raise PerceptionError(f"{name} must be finite, got {x!r}")
+    if positive and x <= 0:
+        raise PerceptionError(f"{name} must be > 0, got {x!r}")
+    if minimum is not None and x < minimum:
+        raise PerceptionError(f"{name} must be >= {minimum:g}, got {x!r}")
+    if maximum is not None and x > maximum:
+        raise PerceptionError(f"{name} must be <= {maximum:g}, got {x!r}")
+    if max_abs is not None and abs(x) > max_abs:
+        raise PerceptionError(f"{name} must be <= {max_abs:g} in magnitude, got {x!r}")
+    return x
 
 
 def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
-    """``value`` as a Python int: rejects bool, float (even 2.0), NaN, None, str and out-of-range."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise PerceptionError(f"{name} must be an integer, got {type(value).__name__} {_short(value)}")
-    v = int(value)
-    if minimum is not None and v < minimum:
-        raise PerceptionError(f"{name} must be >= {minimum}, got {v!r}")
-    if maximum is not None and v > maximum:
-        raise PerceptionError(f"{name} must be <= {maximum}, got {v!r}")
-    return v
+    """``value`` (a Python or numpy integer; not bool, float (even 2.0), None or str) as a Python
+    int in ``[minimum, maximum]`` (inclusive; either may be None), else :class:`PerceptionError`."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
+        raise PerceptionError(f"{name} must be an integer, got {_short(value)} ({type(value).__name__})")
+    n = operator.index(value)
+    if minimum is not None and n < minimum:
+        raise PerceptionError(f"{name} must be >= {minimum}, got {n}")
+    if maximum is not None and n > maximum:
+        raise PerceptionError(f"{name} must be <= {maximum}, got {n}")
+    return n
+
+
+def generator(name: str, value: Any) -> np.random.Generator:
+    """``value`` if it is a :class:`numpy.random.Generator` (seeds, strings and the legacy
+    ``RandomState`` are refused), else :class:`PerceptionError`."""
+    if not isinstance(value, np.random.Generator):
+        raise PerceptionError(f"{name} must be a numpy.random.Generator, "
+                    f"got {_short(value)} ({type(value).__name__})")
+    return value
+
+
+def image_size(value: Any, maximum: int) -> tuple[int, int]:
+    """``value`` (a pair) as ``(width, height)``, two integers in ``[1, maximum]`` pixels."""
+    if value is None or isinstance(value, (str, bytes)):
+        raise PerceptionError(f"image_size must be (width, height), got {_short(value)}")
+    try:
+        items = list(value)
+    except TypeError as exc:
+        raise PerceptionError(f"image_size must be (width, height), got {_short(value)}") from exc
+    if len(items) != 2:
+        raise PerceptionError(f"image_size must be two integers (width, height), got {_short(value)}")
+    return (integer("image_size[0] (width)", items[0], minimum=1, maximum=maximum),
+            integer("image_size[1] (height)", items[1], minimum=1, maximum=maximum))
 
 
 def boolean(name: str, value: Any) -> bool:
@@ -156,16 +218,6 @@ def spd(name: str, value: Any, size: int = 3) -> NDArray[np.float64]:
             f"{eig[-1]:.3g}), got {S.tolist()}"
         )
     return S
-
-
-def generator(name: str, value: Any) -> np.random.Generator:
-    """A ``numpy.random.Generator`` (seeds, strings and legacy RandomState are refused)."""
-    if not isinstance(value, np.random.Generator):
-        raise PerceptionError(
-            f"{name} must be a numpy.random.Generator (e.g. numpy.random.default_rng(0)), got "
-            f"{type(value).__name__} {_short(value)}"
-        )
-    return value
 
 
 def name_string(name: str, value: Any, error: type[PerceptionError] = PerceptionError) -> str:

@@ -7,6 +7,7 @@ a float64 array, a :class:`numpy.random.Generator`).
 
 * :func:`real_array` -- real, finite float64 array of a given shape (``None`` = any length),
   optionally bounded by ``max_abs``; complex, bool, str, None, ragged input rejected.
+* :func:`int_array` -- an ``intp`` array of a given shape.
 * :func:`real_scalar` -- a finite real scalar (int or float, not bool) as ``float``, with
   ``minimum`` / ``maximum`` (inclusive), ``positive`` (``> 0``) and ``max_abs`` bounds;
   :func:`real_float` -- a real scalar that may be infinite (not NaN), without bounds.
@@ -17,12 +18,18 @@ a float64 array, a :class:`numpy.random.Generator`).
   because its default tolerance lives in :mod:`worldgraph.tolerances`, which uses these checks.
 * :func:`generator`, :func:`rng_from_seed` -- a :class:`numpy.random.Generator`, or a seed.
 * :func:`name_string` -- a non-empty ``str`` without NUL characters.
+
+:func:`real_array`, :func:`real_scalar`, :func:`integer` and :func:`generator` have the same
+signatures, rules and messages as their namesakes in ``perception._checks`` and
+``radialopt._checks`` (only the error class differs); ``tests/repo/test_checks_parity.py`` holds
+the three to that.
 """
 
 from __future__ import annotations
 
 import math
 import numbers
+import operator
 from typing import Any
 
 import numpy as np
@@ -56,55 +63,65 @@ def _index(idx: tuple[int | np.integer, ...]) -> str:
     return "[" + ", ".join(str(int(i)) for i in idx) + "]" if idx else ""  # a 0-d array: no index
 
 
-def _shape_ok(shape: tuple[int, ...], want: tuple[int | None, ...]) -> bool:
-    return len(shape) == len(want) and all(w is None or w == s for s, w in zip(shape, want, strict=True))
+def _shape_ok(shape: tuple[int, ...], want: tuple[int | str | None, ...]) -> bool:
+    return len(shape) == len(want) and all(w is None or isinstance(w, str) or w == s
+                                           for s, w in zip(shape, want, strict=True))
 
 
-def _shape_text(want: tuple[int | None, ...]) -> str:
-    return "(" + ", ".join("k" if w is None else str(w) for w in want) + ("," if len(want) == 1 else "") + ")"
+def _shape_text(want: tuple[int | str | None, ...]) -> str:
+    dims = ", ".join("n" if w is None else str(w) for w in want)
+    return f"({dims},)" if len(want) == 1 else f"({dims})"
 
 
-def real_array(name: str, value: Any, shape: tuple[int | None, ...] | None = None, *,
-               max_abs: float | None = None, min_size: int = 0) -> NDArray[np.float64]:
-    """``value`` as a new finite float64 array of ``shape`` (``None`` entries: any length).
+def real_array(name: str, value: Any, shape: tuple[int | str | None, ...] | None = None, *,
+               ndim: tuple[int, ...] | None = None, max_abs: float | None = None, min_size: int = 0,
+               like: str = "") -> NDArray[np.float64]:
+    """``value`` as a new finite float64 array.
 
-    Raises :class:`WorldGraphError` for None, str, bool, complex or non-numeric elements, ragged
-    input, a wrong shape, fewer than ``min_size`` elements, NaN or inf (naming the first bad
-    index and value) and an element with ``|x| > max_abs``.
+    ``shape`` entries are lengths, or ``None`` (shown as ``n``) or a label such as ``"k"`` for
+    any length; ``like`` names the argument the expected shape comes from (for the message);
+    ``ndim`` lists accepted dimension counts; ``min_size`` is the least number of elements and
+    ``max_abs`` bounds every element's magnitude.  Raises :class:`WorldGraphError`
+    for None, str, bool, complex or non-numeric elements, ragged input, a wrong shape, NaN or
+    inf, naming the index and value of the first bad element.
     """
-    if value is None or isinstance(value, str | bytes):
+    if value is None or isinstance(value, (str, bytes)):
         raise WorldGraphError(f"{name} must be an array of real numbers, got {_short(value)}")
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError, OverflowError) as exc:
         raise WorldGraphError(f"{name} must be a rectangular array of real numbers, "
-                              f"got {_short(value)}") from exc
-    if raw.dtype.kind == "c":
-        raise WorldGraphError(f"{name} must be real, got complex values {_short(value)}")
+                    f"got {_short(value)}") from exc
     if raw.dtype.kind == "b":
-        raise WorldGraphError(f"{name} must be real numbers, got booleans {_short(value)}")
-    if raw.dtype.kind not in "fiuO":
+        raise WorldGraphError(f"{name} must hold real numbers, not booleans, got {_short(value)}")
+    if raw.dtype.kind == "c":
+        imaginary = np.argwhere(np.imag(raw) != 0)
+        where = _index(tuple(imaginary[0])) if len(imaginary) and raw.ndim else ""
+        raise WorldGraphError(f"{name}{where} must be real, got complex values {_short(value)}")
+    if raw.dtype.kind not in "iufO":
         raise WorldGraphError(f"{name} must be an array of real numbers, got dtype {raw.dtype} "
-                              f"{_short(value)}")
+                    f"{_short(value)}")
     if raw.dtype.kind == "O":
-        flat = raw.reshape(-1)
-        for k, item in enumerate(flat):
-            if (isinstance(item, bool | np.bool_) or not isinstance(item, numbers.Real)
-                    or isinstance(item, complex)):
-                idx = np.unravel_index(k, raw.shape) if raw.ndim else ()
+        for k, item in enumerate(raw.reshape(-1)):
+            idx = np.unravel_index(k, raw.shape) if raw.ndim else ()
+            if isinstance(item, (bool, np.bool_, complex)) or not isinstance(item, numbers.Real):
                 raise WorldGraphError(f"{name}{_index(idx)} must be a real number, got {_short(item)}")
             try:
                 float(item)
             except OverflowError as exc:
-                idx = np.unravel_index(k, raw.shape) if raw.ndim else ()
                 raise WorldGraphError(f"{name}{_index(idx)} = {_short(item)} does not fit a float64") from exc
     try:
         arr = np.array(raw, dtype=np.float64)
     except (TypeError, ValueError, OverflowError) as exc:
         raise WorldGraphError(f"{name} must hold real numbers representable as float64, "
-                              f"got {_short(value)}") from exc
+                    f"got {_short(value)}") from exc
+    if ndim is not None and arr.ndim not in ndim:
+        raise WorldGraphError(f"{name} must have {' or '.join(map(str, ndim))} dimension(s), "
+                    f"got shape {arr.shape}")
     if shape is not None and not _shape_ok(arr.shape, shape):
-        raise WorldGraphError(f"{name} must have shape {_shape_text(shape)}, got shape {arr.shape}")
+        like_text = f" like {like}" if like else ""
+        raise WorldGraphError(f"{name} must have shape {_shape_text(shape)}{like_text}, "
+                    f"got shape {arr.shape}")
     if arr.size < min_size:
         raise WorldGraphError(f"{name} must hold at least {min_size} element(s), got shape {arr.shape}")
     bad = ~np.isfinite(arr)
@@ -115,14 +132,65 @@ def real_array(name: str, value: Any, shape: tuple[int | None, ...] | None = Non
         over = np.abs(arr) > max_abs
         if over.any():
             idx = tuple(np.argwhere(over)[0]) if arr.ndim else ()
-            raise WorldGraphError(f"{name}{_index(idx)} = {float(arr[idx])!r} is out of range: "
-                                  f"|value| must be <= {max_abs:g}")
+            raise WorldGraphError(f"{name}{_index(idx)} must be <= {max_abs:g} in magnitude, "
+                        f"got {float(arr[idx])!r}")
     return arr
+
+
+def real_scalar(name: str, value: Any, *, minimum: float | None = None, maximum: float | None = None,
+                positive: bool = False, max_abs: float | None = None) -> float:
+    """``value`` (a real number or a 0-d real array; not bool, complex, str or None) as a finite
+    Python float: ``> 0`` with ``positive``, in ``[minimum, maximum]`` (inclusive; either may be
+    None) and at most ``max_abs`` in magnitude, else :class:`WorldGraphError`.
+    """
+    if isinstance(value, np.ndarray):
+        ok = value.shape == () and value.dtype.kind in "iuf"
+    else:
+        ok = isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+    if not ok:
+        raise WorldGraphError(f"{name} must be a real number, got {_short(value)} ({type(value).__name__})")
+    try:
+        x = float(value)
+    except (TypeError, ValueError, OverflowError) as exc:  # a Python int above ~1.8e308
+        raise WorldGraphError(f"{name} = {_short(value)} does not fit a float64") from exc
+    if not np.isfinite(x):
+        raise WorldGraphError(f"{name} must be finite, got {x!r}")
+    if positive and x <= 0:
+        raise WorldGraphError(f"{name} must be > 0, got {x!r}")
+    if minimum is not None and x < minimum:
+        raise WorldGraphError(f"{name} must be >= {minimum:g}, got {x!r}")
+    if maximum is not None and x > maximum:
+        raise WorldGraphError(f"{name} must be <= {maximum:g}, got {x!r}")
+    if max_abs is not None and abs(x) > max_abs:
+        raise WorldGraphError(f"{name} must be <= {max_abs:g} in magnitude, got {x!r}")
+    return x
+
+
+def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
+    """``value`` (a Python or numpy integer; not bool, float (even 2.0), None or str) as a Python
+    int in ``[minimum, maximum]`` (inclusive; either may be None), else :class:`WorldGraphError`."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
+        raise WorldGraphError(f"{name} must be an integer, got {_short(value)} ({type(value).__name__})")
+    n = operator.index(value)
+    if minimum is not None and n < minimum:
+        raise WorldGraphError(f"{name} must be >= {minimum}, got {n}")
+    if maximum is not None and n > maximum:
+        raise WorldGraphError(f"{name} must be <= {maximum}, got {n}")
+    return n
+
+
+def generator(name: str, value: Any) -> np.random.Generator:
+    """``value`` if it is a :class:`numpy.random.Generator` (seeds, strings and the legacy
+    ``RandomState`` are refused), else :class:`WorldGraphError`."""
+    if not isinstance(value, np.random.Generator):
+        raise WorldGraphError(f"{name} must be a numpy.random.Generator, "
+                    f"got {_short(value)} ({type(value).__name__})")
+    return value
 
 
 def _real_scalar(name: str, value: Any) -> float:
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-        raise WorldGraphError(f"{name} must be a real number, got {_short(value)}")
+        raise WorldGraphError(f"{name} must be a real number, got {_short(value)} ({type(value).__name__})")
     try:
         return float(value)
     except OverflowError as exc:  # a Python int above ~1.8e308
@@ -161,48 +229,6 @@ def real_float(name: str, value: Any) -> float:
     if math.isnan(x):
         raise WorldGraphError(f"{name} must not be NaN, got {x!r}")
     return x
-
-
-def real_scalar(name: str, value: Any, *, minimum: float | None = None, maximum: float | None = None,
-                positive: bool = False, max_abs: float | None = None) -> float:
-    """A finite real scalar as ``float`` (bool, complex, str, None rejected), range-checked.
-
-    ``positive``: ``> 0``; ``minimum`` / ``maximum``: inclusive bounds; ``max_abs``: ``|value| <=
-    max_abs``.  Below zero is :class:`WorldGraphError`, any other bound :class:`WorldGraphError`.
-    """
-    x = _real_scalar(name, value)
-    if not math.isfinite(x):
-        raise WorldGraphError(f"{name} must be finite, got {x!r}")
-    if positive and x <= 0:
-        raise WorldGraphError(f"{name} must be > 0, got {x!r}")
-    if minimum is not None and x < minimum:
-        if minimum == 0:
-            raise WorldGraphError(f"{name} must be >= 0, got {x!r}")
-        raise WorldGraphError(f"{name} = {x!r} is out of range: must be >= {minimum:g}")
-    if maximum is not None and x > maximum:
-        raise WorldGraphError(f"{name} = {x!r} is out of range: must be <= {maximum:g}")
-    if max_abs is not None and abs(x) > max_abs:
-        raise WorldGraphError(f"{name} = {x!r} is out of range: |value| must be <= {max_abs:g}")
-    return x
-
-
-def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
-    """An integer (``int`` or numpy integer; not bool, float, NaN, None, str) in ``[minimum, maximum]``."""
-    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
-        raise WorldGraphError(f"{name} must be an integer, got {_short(value)}")
-    n = int(value)
-    if minimum is not None and n < minimum:
-        raise WorldGraphError(f"{name} must be >= {minimum}, got {n}")
-    if maximum is not None and n > maximum:
-        raise WorldGraphError(f"{name} must be <= {maximum}, got {n}")
-    return n
-
-
-def generator(name: str, value: Any) -> np.random.Generator:
-    """``value`` if it is a :class:`numpy.random.Generator`, else :class:`WorldGraphError`."""
-    if not isinstance(value, np.random.Generator):
-        raise WorldGraphError(f"{name} must be a numpy.random.Generator, got {_short(value)}")
-    return value
 
 
 def rng_from_seed(name: str, value: Any) -> np.random.Generator:

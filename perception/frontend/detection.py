@@ -181,7 +181,7 @@ class Detection:
             shape = np.diag([w * w / 12.0, h * h / 12.0])
         else:
             shape = np.eye(2) * (area / 12.0)
-        feats = np.zeros(0) if self.features is None else real_array("features", self.features, (-1,))
+        feats = np.zeros(0) if self.features is None else real_array("features", self.features, (None,))
         ll = self.log_likelihood
         if not (isinstance(ll, float) and np.isnan(ll)):
             ll = real_scalar("log_likelihood", ll)

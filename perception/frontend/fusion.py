@@ -256,7 +256,7 @@ def mean_shift_modes(
     labels : (n,) int
         Mode index of each point.
     """
-    X = real_array("points", points, (-1, -1))
+    X = real_array("points", points, (None, None))
     n, d = X.shape
     if d < 1:
         raise PerceptionError(f"points must have at least one column, got shape {X.shape}")

@@ -87,9 +87,9 @@ class DisparityError:
     def __post_init__(self) -> None:
         m = MAX_DISPARITY_ERROR_PX
         object.__setattr__(self, "bias_px", real_scalar("bias_px", self.bias_px, minimum=-m, maximum=m))
-        object.__setattr__(self, "sd_px", real_scalar("sd_px", self.sd_px, nonnegative=True, maximum=m))
+        object.__setattr__(self, "sd_px", real_scalar("sd_px", self.sd_px, minimum=0.0, maximum=m))
         object.__setattr__(self, "ends_fraction", real_scalar("ends_fraction", self.ends_fraction,
-                                                              nonnegative=True, maximum=MAX_ENDS_FRACTION))
+                                                              minimum=0.0, maximum=MAX_ENDS_FRACTION))
 
     def variance(self, outline: OutlineDisparity) -> float:
         """The variance (pixels squared) of ``outline``'s disparity: its own standard error, this
@@ -192,10 +192,9 @@ def outline_disparity(rig: Any, left: Detection, right: Detection, rectification
     PerceptionError
         ``rig`` not a StereoRig, ``left`` or ``right`` not a Detection.
     """
-    from ..head.stereo import Rectification, StereoRig
+    from ..head.stereo import Rectification, as_stereo_rig
 
-    if not isinstance(rig, StereoRig):
-        raise PerceptionError(f"rig must be a perception.StereoRig, got {type(rig).__name__}")
+    rig = as_stereo_rig(rig)
     for name, det in (("left", left), ("right", right)):
         if not isinstance(det, Detection):
             raise PerceptionError(f"{name} must be a perception.Detection, got {type(det).__name__}")
@@ -309,11 +308,11 @@ def fit_disparity_errors(types: Sequence[str], measured_px: ArrayLike, true_px: 
     names = [str(t) for t in sequence("types", types, str)]
     if not names:
         raise PerceptionError("types must name at least one pair's type, got an empty sequence")
-    m = real_array("measured_px", measured_px, shape=(-1,))
-    t = real_array("true_px", true_px, shape=(-1,))
+    m = real_array("measured_px", measured_px, shape=(None,))
+    t = real_array("true_px", true_px, shape=(None,))
     known = (np.zeros(len(names)) if known_sd_px is None
-             else real_array("known_sd_px", known_sd_px, shape=(-1,)))
-    ends = None if ends_differ_px is None else real_array("ends_differ_px", ends_differ_px, shape=(-1,))
+             else real_array("known_sd_px", known_sd_px, shape=(None,)))
+    ends = None if ends_differ_px is None else real_array("ends_differ_px", ends_differ_px, shape=(None,))
     for name, arr in (("measured_px", m), ("true_px", t), ("known_sd_px", known), ("ends_differ_px", ends)):
         if arr is None:
             continue
@@ -345,7 +344,7 @@ def disparity_errors(value: object, types: set[str]) -> dict[str, DisparityError
         if isinstance(v, DisparityError):
             return v
         try:
-            return DisparityError(0.0, real_scalar(name, v, nonnegative=True, maximum=MAX_DISPARITY_ERROR_PX))
+            return DisparityError(0.0, real_scalar(name, v, minimum=0.0, maximum=MAX_DISPARITY_ERROR_PX))
         except PerceptionError as exc:
             raise type(exc)(f"{name} must be a DisparityError or a standard deviation in pixels: "
                             f"{exc}") from exc

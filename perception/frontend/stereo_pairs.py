@@ -14,7 +14,7 @@ from scipy.optimize import linear_sum_assignment
 from .._checks import _short, boolean, integer, name_string, real_scalar, sequence
 from ..errors import PerceptionError
 from ..head.chain import check_transform
-from ..head.stereo import StereoRig, as_stereo_rig
+from ..head.stereo import as_stereo_rig
 from ..head.uncertainty import depth_sigma, triangulation_jacobian
 from ..tolerances import NEAR_PLANE, PARALLEL_RAYS
 from .detection import Detection
@@ -50,7 +50,7 @@ class StereoMatch:
     def __post_init__(self) -> None:
         object.__setattr__(self, "left", integer("left", self.left, minimum=0))
         object.__setattr__(self, "right", integer("right", self.right, minimum=0))
-        epi = real_scalar("epipolar_px", self.epipolar_px, nonnegative=True)
+        epi = real_scalar("epipolar_px", self.epipolar_px, minimum=0.0)
         object.__setattr__(self, "epipolar_px", epi)
 
 
@@ -95,8 +95,8 @@ def match_stereo(
     """
     as_stereo_rig(rig)
     max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True)
-    max_log_area_ratio = real_scalar("max_log_area_ratio", max_log_area_ratio, nonnegative=True)
-    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, maximum=1e6)
+    max_log_area_ratio = real_scalar("max_log_area_ratio", max_log_area_ratio, minimum=0.0)
+    min_depth = real_scalar("min_depth", min_depth, minimum=0.0, maximum=1e6)
     left_dets = sequence("left_dets", left_dets, Detection)
     right_dets = sequence("right_dets", right_dets, Detection)
     if not left_dets or not right_dets:
@@ -255,14 +255,13 @@ def stereo_percepts(
     DetectionPercepts
         ``sources`` and ``dropped`` index the left detections.
     """
-    if not isinstance(rig, StereoRig):
-        raise PerceptionError(f"rig must be a perception.StereoRig, got {type(rig).__name__}")
+    rig = as_stereo_rig(rig)
     lefts = _detections("left", left)
     rights = _detections("right", right)
     T = check_transform("ego_from_camera", ego_from_camera)
     keep_cut_off = boolean("keep_cut_off", keep_cut_off)
     max_epipolar_px = real_scalar("max_epipolar_px", max_epipolar_px, positive=True, maximum=1e6)
-    min_depth = real_scalar("min_depth", min_depth, nonnegative=True, maximum=1e6)
+    min_depth = real_scalar("min_depth", min_depth, minimum=0.0, maximum=1e6)
     if depth_factor is not None:
         depth_factor = real_scalar("depth_factor", depth_factor, positive=True, maximum=1e150)
     px = DISPARITY_STD_PX / np.sqrt(2.0) if pixel_sigma is None else real_scalar(

@@ -373,7 +373,7 @@ class KinematicChain:
         PerceptionError
             If ``points_camera`` is not a finite (n, 3) array.
         """
-        x = real_array("points_camera", points_camera, shape=(-1, 3))
+        x = real_array("points_camera", points_camera, shape=(None, 3))
         frames = self.joint_frames(angles)
         camera = frames[-1] @ self.tip_from_camera
         X = x @ camera[:3, :3].T + camera[:3, 3]

@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._checks import file_path, integer, real_array, real_scalar, rotation_defect
+from .._checks import file_path, image_size, real_array, real_scalar, rotation_defect
 from ..errors import (
     BehindCameraError,
     PerceptionError,
@@ -73,7 +73,7 @@ def as_stereo_rig(rig: Any) -> Any:
     """``rig`` itself, which must be a :class:`StereoRig` (a :class:`PerceptionError` names what it is
     otherwise)."""
     if not isinstance(rig, StereoRig):
-        raise PerceptionError(f"rig must be a StereoRig, got {type(rig).__name__}")
+        raise PerceptionError(f"rig must be a perception.StereoRig, got {type(rig).__name__}")
     return rig
 
 
@@ -115,7 +115,7 @@ def _camera_matrix(name: str, value: ArrayLike) -> NDArray[np.float64]:
 
 
 def _points(name: str, value: ArrayLike, width: int) -> NDArray[np.float64]:
-    arr = real_array(name, value, (-1, width))
+    arr = real_array(name, value, (None, width))
     big = np.flatnonzero(np.any(np.abs(arr) > MAX_COORD, axis=1))
     if big.size:
         i = int(big[0])
@@ -124,18 +124,7 @@ def _points(name: str, value: ArrayLike, width: int) -> NDArray[np.float64]:
 
 
 def _image_size(value: object) -> tuple[int, int]:
-    if value is None or isinstance(value, (str, bytes)):
-        raise PerceptionError(f"image_size must be (width, height), got {value!r}")
-    try:
-        items = list(value)  # type: ignore[call-overload]
-    except TypeError as exc:
-        raise PerceptionError(f"image_size must be (width, height), got {value!r}") from exc
-    if len(items) != 2:
-        raise PerceptionError(f"image_size must be two integers (width, height), got {value!r}")
-    return (
-        integer("image_size[0] (width)", items[0], minimum=1, maximum=MAX_IMAGE_SIDE),
-        integer("image_size[1] (height)", items[1], minimum=1, maximum=MAX_IMAGE_SIDE),
-    )
+    return image_size(value, MAX_IMAGE_SIDE)
 
 
 def _path(path: object) -> Path:

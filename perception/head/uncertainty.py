@@ -132,7 +132,7 @@ def depth_sigma(
           a negative ``min_sigma``.
         - A NaN or infinite input, or ``rho^2 / depth_factor`` that overflows.
     """
-    floor = real_scalar("min_sigma", min_sigma, nonnegative=True)
+    floor = real_scalar("min_sigma", min_sigma, minimum=0.0)
     if floor > 0:
         r = _scalar_or_vector("rho", _non_negative("rho", rho))
     else:
@@ -298,7 +298,7 @@ def class_bandwidth(vertices: ArrayLike) -> NDArray[np.float64]:
     (3, 3) float
         ``(V - mean)^T (V - mean) / k``.
     """
-    V = real_array("vertices", vertices, (-1, 3))
+    V = real_array("vertices", vertices, (None, 3))
     if V.shape[0] < 2:
         raise PerceptionError(f"vertices must have shape (k, 3) with k >= 2, got shape {V.shape}")
     big = np.flatnonzero(np.any(np.abs(V) > 1e150, axis=1))

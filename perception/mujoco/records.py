@@ -10,11 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._checks import (
-    _short,
-    integer,
-)
-from ..errors import (
-    PerceptionError,
+    image_size,
 )
 from ..frontend.detection import Detection
 from ..frontend.detection_percepts import DEPTH_CORRELATION_PX, DEPTH_NOISE, CentreOffset
@@ -248,13 +244,4 @@ class MujocoScan:
 
 
 def _image_size(value: Any) -> tuple[int, int]:
-    if value is None or isinstance(value, (str, bytes)):
-        raise PerceptionError(f"image_size must be (width, height), got {_short(value)}")
-    try:
-        items = list(value)
-    except TypeError as exc:
-        raise PerceptionError(f"image_size must be (width, height), got {_short(value)}") from exc
-    if len(items) != 2:
-        raise PerceptionError(f"image_size must be two integers (width, height), got {_short(value)}")
-    return (integer("image_size[0] (width)", items[0], minimum=1, maximum=MAX_RENDER_SIDE),
-            integer("image_size[1] (height)", items[1], minimum=1, maximum=MAX_RENDER_SIDE))
+    return image_size(value, MAX_RENDER_SIDE)

@@ -170,7 +170,7 @@ def _sweep_arguments(self: Any,
                        real_scalar("false_rate", false_rate, minimum=0.0, maximum=1.0),
                        integer("mask_jitter_px", mask_jitter_px, minimum=0, maximum=1000),
                        integer("min_pixels", min_pixels, minimum=1))
-    noise = real_scalar("depth_noise", depth_noise, nonnegative=True)
+    noise = real_scalar("depth_noise", depth_noise, minimum=0.0)
     far = real_scalar("max_range", max_range, positive=True)
     return gen, size, head, degrade, noise, far
 
@@ -242,7 +242,7 @@ depth_noise, max_range, centre_offset
         raise PerceptionError(f"direction must be a non-zero ego-frame vector, got {d.tolist()}")
     kind = _sensor(sensor)
     n = integer("n_views", n_views, minimum=1, maximum=1000)
-    spread = math.radians(real_scalar("spread_deg", spread_deg, nonnegative=True, maximum=180.0))
+    spread = math.radians(real_scalar("spread_deg", spread_deg, minimum=0.0, maximum=180.0))
     reach = math.radians(real_scalar("neck_reach_deg", neck_reach_deg, positive=True, maximum=180.0))
     gen, size, head, degrade, noise, far = self._sweep_arguments(
         rng, image_size, chain, miss_rate, false_rate, mask_jitter_px, min_pixels, depth_noise, max_range)

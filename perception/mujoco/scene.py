@@ -262,7 +262,7 @@ class MujocoScene:
         gen = check_rng("rng", rng)
         clearance = real_scalar("clearance", clearance, positive=True, maximum=100.0)
         max_distance = real_scalar("max_distance", max_distance, positive=True, maximum=1e3)
-        spread = np.radians(real_scalar("yaw_spread_deg", yaw_spread_deg, nonnegative=True, maximum=180.0))
+        spread = np.radians(real_scalar("yaw_spread_deg", yaw_spread_deg, minimum=0.0, maximum=180.0))
         heights = real_array("head_height", head_height, (2,))
         if not 0 < heights[0] <= heights[1] <= 100.0:
             raise PerceptionError(f"head_height must be (low, high) with 0 < low <= high <= 100 m, got "

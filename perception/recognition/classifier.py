@@ -141,7 +141,7 @@ class GaussianClassifier:
         GaussianClassifier
             Priors are the class frequencies.
         """
-        x = real_array("features", features, (-1, -1))
+        x = real_array("features", features, (None, None))
         if x.shape[1] < 1:
             raise PerceptionError(f"features must have shape (n, d) with d >= 1, got shape {x.shape}")
         big = np.argwhere(np.abs(x) > 1e100)
@@ -155,9 +155,9 @@ class GaussianClassifier:
             )
         if x.shape[0] == 0:
             raise PerceptionError("features must hold at least one sample per class, got none")
-        regularization = real_scalar("regularization", regularization, nonnegative=True, maximum=1e100)
+        regularization = real_scalar("regularization", regularization, minimum=0.0, maximum=1e100)
         reject_quantile = real_scalar("reject_quantile", reject_quantile, minimum=0.0, maximum=1.0)
-        threshold_margin = real_scalar("threshold_margin", threshold_margin, nonnegative=True, maximum=1e100)
+        threshold_margin = real_scalar("threshold_margin", threshold_margin, minimum=0.0, maximum=1e100)
         classes = tuple(sorted({str(v) for v in y}))
         d = x.shape[1]
         means, covs, counts = [], [], []

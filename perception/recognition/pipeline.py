@@ -263,7 +263,7 @@ def recognize(
     if pixel_sigma is not None:
         pixel_sigma = real_scalar("pixel_sigma", pixel_sigma, positive=True, maximum=1e6)
     centroid_offset_scale = real_scalar(
-        "centroid_offset_scale", centroid_offset_scale, nonnegative=True, maximum=1e6
+        "centroid_offset_scale", centroid_offset_scale, minimum=0.0, maximum=1e6
     )
     for name, img in (("left", left), ("right", right)):
         _check_image(name, img)

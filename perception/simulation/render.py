@@ -504,8 +504,8 @@ def render_stereo(
     boxes = sequence("boxes", boxes, Box)
     width, height = rig_render_size(rig)
     rng = check_rng("rng", rng)
-    light_noise = real_scalar("light_noise", light_noise, nonnegative=True, maximum=1e6)
-    pixel_noise = real_scalar("pixel_noise", pixel_noise, nonnegative=True, maximum=1e6)
+    light_noise = real_scalar("light_noise", light_noise, minimum=0.0, maximum=1e6)
+    pixel_noise = real_scalar("pixel_noise", pixel_noise, minimum=0.0, maximum=1e6)
     ambient = real_scalar("ambient", ambient, minimum=0.0, maximum=1.0)
     light = real_array("light_direction", light_direction, (3,))
     norm = np.linalg.norm(light)
@@ -587,7 +587,7 @@ def visible_mask(
     import cv2
     pose = check_transform("camera_from_world", camera_from_world)
     boxes = sequence("boxes", boxes, Box)
-    min_area = real_scalar("min_area", min_area, nonnegative=True)
+    min_area = real_scalar("min_area", min_area, minimum=0.0)
     rig_render_size(rig)
     if not boxes:
         return np.zeros(0, dtype=bool)

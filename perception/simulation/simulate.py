@@ -16,7 +16,7 @@ from .._checks import generator as check_rng
 from ..errors import PerceptionError
 from ..frontend.percept import Percept
 from ..head.chain import KinematicChain, check_transform, default_head
-from ..head.stereo import StereoRig
+from ..head.stereo import StereoRig, as_stereo_rig
 from ..head.uncertainty import depth_sigma
 from ..tolerances import TINY
 
@@ -46,7 +46,7 @@ def _types(types: Sequence[str], n: int) -> list[str]:
 def _positions(world_positions: ArrayLike) -> NDArray[np.float64]:
     if isinstance(world_positions, (list, tuple)) and len(world_positions) == 0:
         return np.zeros((0, 3))
-    X = real_array("world_positions", world_positions, (-1, 3))
+    X = real_array("world_positions", world_positions, (None, 3))
     big = np.flatnonzero(np.any(np.abs(X) > MAX_COORD, axis=1))
     if big.size:
         raise PerceptionError(f"world_positions[{big[0]}] = {X[big[0]].tolist()} exceeds {MAX_COORD:g} m")
@@ -334,8 +334,7 @@ def simulate_scan(
     rig = StereoRig.default() if rig is None else rig
     if not isinstance(chain, KinematicChain):
         raise PerceptionError(f"chain must be a KinematicChain, got {type(chain).__name__}")
-    if not isinstance(rig, StereoRig):
-        raise PerceptionError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    rig = as_stereo_rig(rig)
     return_truth = boolean("return_truth", return_truth)
     n_views = integer("n_views", n_views, minimum=1, maximum=MAX_VIEWS)
     depth_factor = _positive("depth_factor", depth_factor)

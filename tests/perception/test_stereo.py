@@ -163,11 +163,11 @@ def test_bad_input() -> None:
     with pytest.raises(BehindCameraError):
         # right image point to the right of the left one: the rays meet behind the cameras
         rig.triangulate([[300.0, 240.0]], [[310.0, 240.0]])
-    with pytest.raises(PerceptionError, match=r"\(N, 3\)"):
+    with pytest.raises(PerceptionError, match=r"\(n, 3\)"):
         rig.project([1.0, 2.0, 3.0])
     with pytest.raises(PerceptionError, match="same shape"):
         rig.triangulate(np.zeros((2, 2)), np.zeros((3, 2)))
-    with pytest.raises(PerceptionError, match=r"\(N, 2\)"):
+    with pytest.raises(PerceptionError, match=r"\(n, 2\)"):
         rig.triangulate(np.zeros((2, 3)), np.zeros((2, 3)))
     with pytest.raises(PerceptionError, match=r"R must be a rotation matrix, but it is scaled or"):
         StereoRig.from_opencv(rig.K1, None, rig.K2, None, 2 * np.eye(3), [0.1, 0, 0], (640, 480))

@@ -260,8 +260,8 @@ def test_budget_exhaustion_is_not_a_certificate(random_scenes):
 @pytest.mark.parametrize("position, exc, name", [
     ([0.0, 0.0], ro.RadialError, r"position must have shape \(3,\), got shape \(2,\)"),
     ([[0.0, 0.0, 0.0]], ro.RadialError, r"position must have shape \(3,\), got shape \(1, 3\)"),
-    ([np.nan, 0.0, 0.0], ro.RadialError, r"position\[0\] = nan must be finite"),
-    ([np.inf, 0.0, 0.0], ro.RadialError, r"position\[0\] = inf must be finite"),
+    ([np.nan, 0.0, 0.0], ro.RadialError, r"position\[0\] must be finite, got nan"),
+    ([np.inf, 0.0, 0.0], ro.RadialError, r"position\[0\] must be finite, got inf"),
     (["a", 0.0, 0.0], ro.RadialError, "position must be an array of real numbers"),
 ])
 def test_bad_position_raises(position, exc, name):

@@ -299,7 +299,7 @@ def test_bad_input_raises_specific_errors():
         ro.meet(s, [0.0, 0.0, 1.0, 0.0, 2.0])  # the plane z = 2
     with pytest.raises(ro.RadialError, match=r"shape \(4,\)"):
         ro.meet(s, [0.0, 0.0, 1.0, 0.0])
-    with pytest.raises(ro.RadialError, match=r"spheres\[1\]\[1\] = nan must be finite"):
+    with pytest.raises(ro.RadialError, match=r"spheres\[1\]\[1\] must be finite, got nan"):
         ro.meet(s, [0.0, np.nan, 1.0, 1.0, 0.0])
     with pytest.raises(ro.RadialError, match=r"\(k, 3, 3\)"):
         ro.meet3_batch(np.zeros((2, 4, 3)), np.zeros((2, 4)))

@@ -154,7 +154,7 @@ def test_region_validation_and_errors():
         ro.Region([0, 3, 0], [1, 2, 3])
     with pytest.raises(ro.RadialError, match=r"shape \(3,\)"):
         ro.Region([0, 0], [1, 2])
-    with pytest.raises(ro.RadialError, match=r"Region.lower\[2\] = -inf must be finite"):
+    with pytest.raises(ro.RadialError, match=r"Region.lower\[2\] must be finite, got -inf"):
         ro.Region([0, 0, -np.inf], [1, 2, 3])
     with pytest.raises(ro.RadialError, match="centres 0 and 1 coincide"):
         ro.generate_hypotheses(spheres_for(np.zeros((3, 3)), [1, 1, 1], 1.0))

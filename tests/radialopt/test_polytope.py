@@ -134,5 +134,5 @@ def test_coincident_centres_raise_naming_the_pair():
         ro.RestrictionPolytope.from_centers([[1, 1, 1], [0, 0, 0], [1, 1, 1]])
     with pytest.raises(ro.RadialError, match=r"\(1, 3\)"):
         ro.RestrictionPolytope.from_centers([[1, 1, 1]])
-    with pytest.raises(ro.RadialError, match=r"centers\[0, 2\] = nan must be finite"):
+    with pytest.raises(ro.RadialError, match=r"centers\[0, 2\] must be finite, got nan"):
         ro.RestrictionPolytope.from_centers([[1, 1, np.nan], [0, 0, 0]])

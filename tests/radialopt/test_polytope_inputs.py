@@ -15,7 +15,7 @@ from radialopt import errors
 # ---------------------------------------------------------------- 6. negative indices do not wrap
 def test_row_name_rejects_a_negative_index() -> None:
     poly = ro.RestrictionPolytope.from_centers(np.eye(3))
-    with pytest.raises(errors.RadialError, match=r"k = -1"):
+    with pytest.raises(errors.RadialError, match=r"k must be >= 0, got -1"):
         poly.row_name(-1)
     assert poly.row_name(len(poly.kinds) - 1).endswith("(1,2)")  # last pair of 3 spheres
 

@@ -55,8 +55,9 @@ def test_conformal_inner_product_gives_centre_distance(c1, r1, c2, r2):
 @pytest.mark.parametrize(
     ("kwargs", "error", "fragment"),
     [
-        ({"center": (0, 0, np.nan), "radius": 1, "sigma": 1}, ro.RadialError, "[2] = nan must be finite"),
-        ({"center": (0, 0, 0), "radius": np.inf, "sigma": 1}, ro.RadialError, "radius = inf must be finite"),
+        ({"center": (0, 0, np.nan), "radius": 1, "sigma": 1}, ro.RadialError, "[2] must be finite, got nan"),
+        ({"center": (0, 0, 0), "radius": np.inf, "sigma": 1}, ro.RadialError,
+         "radius must be finite, got inf"),
         ({"center": (0, 0, 0), "radius": 1, "sigma": 0.0}, ro.RadialError, "sigma = 0.0 must be > 0"),
         ({"center": (0, 0, 0), "radius": 1, "sigma": -2}, ro.RadialError, "sigma = -2.0 must be > 0"),
         ({"center": (0, 0, 0), "radius": -1, "sigma": 1}, ro.RadialError, "radius = -1.0 must be >= 0"),

@@ -338,7 +338,7 @@ def test_bad_inputs_raise_specific_errors() -> None:
         enumerate_vertices((np.ones(3), np.ones(3)))
     with pytest.raises(RadialError, match="polytope must be a RestrictionPolytope or a pair"):
         enumerate_vertices("not a polytope")
-    with pytest.raises(RadialError, match=r"polytope.A\[0, 1\] = nan must be finite"):
+    with pytest.raises(RadialError, match=r"polytope.A\[0, 1\] must be finite, got nan"):
         enumerate_vertices((np.array([[1.0, np.nan], [0, 1]]), np.ones(2)))
     with pytest.raises(RadialError, match="contains a line"):
         enumerate_vertices((np.array([[1.0, 0.0], [-1.0, 0.0]]), np.ones(2)))
@@ -359,7 +359,7 @@ def test_projection_input_errors() -> None:
         project_vform(E, np.ones(4), np.ones(3))
     with pytest.raises(RadialError):
         project_vform(E, np.ones(3), np.array([1.0, 0.0, 1.0]))
-    with pytest.raises(RadialError, match=r"point\[0\] = inf must be finite"):
+    with pytest.raises(RadialError, match=r"point\[0\] must be finite, got inf"):
         certify_projection(E, P, np.ones(3), np.ones(3), np.array([np.inf, 0, 0]))
 
 

@@ -167,9 +167,9 @@ def _good():
 @pytest.mark.parametrize(
     "change, error, name",
     [
-        (dict(ego=np.zeros((5, 2))), WorldGraphError, r"ego_points must have shape \(k, 3\)"),
+        (dict(ego=np.zeros((5, 2))), WorldGraphError, r"ego_points must have shape \(n, 3\)"),
         (dict(world=np.zeros((4, 3))), WorldGraphError, r"world_points must have shape \(5, 3\)"),
-        (dict(C=np.zeros((5, 3))), WorldGraphError, r"covariances must have shape \(k, 3, 3\)"),
+        (dict(C=np.zeros((5, 3))), WorldGraphError, r"covariances must have shape \(n, 3, 3\)"),
         (dict(pose=np.eye(3)), WorldGraphError, r"world_from_ego must have shape \(4, 4\)"),
         (dict(ego=np.full((5, 3), np.nan)), WorldGraphError, r"ego_points\[0, 0\] must be finite"),
         (dict(world=np.full((5, 3), np.inf)), WorldGraphError, r"world_points\[0, 0\] must be finite"),
