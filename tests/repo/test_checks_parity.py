@@ -21,7 +21,7 @@ import pytest
 from perception import _checks as pchecks
 from perception.errors import PerceptionError
 from radialopt import _checks as rchecks
-from radialopt.errors import RadialError
+from radialopt.errors import RadialArgumentError
 from worldgraph import _checks as wchecks
 from worldgraph.errors import WorldGraphError
 
@@ -29,7 +29,7 @@ from worldgraph.errors import WorldGraphError
 MODULES: list[tuple[ModuleType, type[Exception]]] = [
     (pchecks, PerceptionError),
     (wchecks, WorldGraphError),
-    (rchecks, RadialError),
+    (rchecks, RadialArgumentError),
 ]
 #: The functions every module has, with the same rules and messages.
 SHARED = ("real_array", "real_scalar", "integer", "_short")
@@ -226,7 +226,8 @@ def test_radialopt_bounds_array_magnitudes_by_its_length_limit() -> None:
     """The one documented difference: radialopt's ``real_array`` defaults ``max_abs`` to
     ``MAX_LENGTH``; the others leave magnitudes unbounded unless told."""
     big = [0.0, 10 * rchecks.MAX_LENGTH]
-    with pytest.raises(RadialError, match=r"x\[1\] must be <= 1e\+09 in magnitude, got 10000000000\.0"):
+    with pytest.raises(RadialArgumentError,
+                       match=r"x\[1\] must be <= 1e\+09 in magnitude, got 10000000000\.0"):
         rchecks.real_array("x", big)
     assert rchecks.real_array("x", big, max_abs=None)[1] == big[1]
     for module in (pchecks, wchecks):
