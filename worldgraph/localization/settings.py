@@ -64,7 +64,7 @@ class LocalizeSettings:
     tol : AssociationTolerances, optional
         None: :data:`~worldgraph.tolerances.ASSOCIATION_TOLERANCES`.
     region : radialopt.Region or (lower, upper), optional
-        A pair of 3-vectors becomes a Region.  None: :func:`~worldgraph.default_region` of each
+        A pair of 3-vectors becomes a Region.  None: :func:`~worldgraph.localization.default_region` of each
         world (each tile's own).
     max_position_3sigma, max_rotation_3sigma : float
         Metres and radians (> 0; the rotation at most pi).
