@@ -147,8 +147,9 @@ def test_a_dead_worker_costs_time_not_answers(site, tiles, folder, cluster) -> N
     _, percepts = _scan(site, 4)
     with ClusterTiles(folder, client) as remote:
         before = remote.localize(percepts, timeout=120)
-        holders = client.who_has()
-        worker = next(iter(next(iter(holders.values())))) if holders else None
+        own = before.correspondences[0][1]
+        label = next(t.label for t in tiles if own in set(t.index[t.own].tolist()))
+        worker = remote.homes[label]  # the home of the tile that answers
         assert worker is not None
         pid = client.run(os.getpid, workers=[worker])[worker]
         os.kill(pid, signal.SIGKILL)  # the worker holding a tile dies; its nanny starts a fresh one
@@ -156,6 +157,67 @@ def test_a_dead_worker_costs_time_not_answers(site, tiles, folder, cluster) -> N
         after = remote.localize(percepts, timeout=120)
         assert time.perf_counter() - t0 < 120
         _same(before, after)
+        assert remote.homes[label] != worker  # the tile was read again on a live worker
+
+
+def _transfers(client) -> int:
+    """Transfers between workers so far (every worker's incoming log)."""
+    return sum(client.run(lambda dask_worker: len(dask_worker.transfer_incoming_log)).values())
+
+
+def test_a_global_query_runs_each_tile_task_at_home_and_moves_no_tile(site, tiles, folder, cluster) -> None:
+    _, client = cluster
+    scans = [_scan(site, s) for s in (9, 10, 11)]
+    with ClusterTiles(folder, client) as remote:
+        remote.wait(timeout=120)
+        homes = remote.homes
+        assert set(homes.values()) == set(client.scheduler_info()["workers"])  # tiles spread over both
+        before = _transfers(client)
+        with distributed.get_task_stream(client) as stream:
+            got = remote.localize_many([p for _, p in scans])  # no prior: every tile is asked
+        assert _transfers(client) == before  # nothing crossed between workers
+        ran = [(str(t["key"]), t["worker"]) for t in stream.data
+               if str(t["key"]).startswith(("worldgraph-answer-", "worldgraph-summary-"))]
+        assert len(ran) >= 2 * len(scans) * len(tiles), ran  # an answer and a summary per tile and query
+        for key, worker in ran:
+            assert worker == homes[int(key.split("-")[2])], (key, worker, homes)
+        for (_, percepts), res in zip(scans, got, strict=True):
+            assert "visited 3 of 3" in res.message
+            _same(res, localize_tiled(tiles, percepts, workers=1))
+            whole = wg.localize(site.world, percepts)
+            assert res.status == whole.status
+            if whole.status == "ok":
+                np.testing.assert_allclose(res.transformation, whole.transformation, atol=1e-6)
+
+
+def test_a_worker_that_lost_its_tiles_gets_them_again(site, tiles, folder, cluster) -> None:
+    _, client = cluster
+    _, percepts = _scan(site, 12)
+    with ClusterTiles(folder, client) as remote:
+        before = remote.localize(percepts, timeout=120)
+        from worldgraph.tiles import cluster as module
+
+        assert sum(client.run(module._drop, remote._token).values()) == len(tiles)  # every shelf emptied
+        _same(remote.localize(percepts, timeout=120), before)
+
+
+def test_an_unreachable_scheduler_and_an_empty_tile_list_are_named(folder, tmp_path) -> None:
+    import socket
+
+    with socket.socket() as sock:  # a port where nothing listens
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    t0 = time.perf_counter()
+    with pytest.raises(WorldGraphError, match=rf"client = 'tcp://127.0.0.1:{port}': no Dask scheduler "
+                       r"answered there within timeout = 2 s"):
+        ClusterTiles(folder, f"tcp://127.0.0.1:{port}", timeout=2)
+    assert time.perf_counter() - t0 < 10
+    out = str(tmp_path / "empty")
+    with pytest.raises(WorldGraphError, match="tiles is empty: no tile to write"):
+        save_tiles([], out)
+    assert not os.path.exists(os.path.join(out, "index.npz"))
+    with pytest.raises(MalformedFileError, match="no tile index"):
+        read_index(out)
 
 
 def test_missing_and_corrupt_tile_files_are_named(site, tiles, tmp_path, cluster) -> None:

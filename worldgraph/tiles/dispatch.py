@@ -28,10 +28,12 @@ from .ranking import _combine, _globalised_answer, _run_tile, _TileQuery
 from .tiling import Tile, _check_tiles
 
 
-def _client(scheduler: object, name: str = "scheduler", what: str = "None, ") -> tuple[Any, bool]:
+def _client(scheduler: object, name: str = "scheduler", what: str = "None, ", timeout: float | None = None
+            ) -> tuple[Any, bool]:
     """A ``distributed.Client`` for ``scheduler`` (an address or a client; the argument's
     ``name`` and the other values it takes, ``what``, for messages) and whether this call opened
-    it."""
+    it; an address where no scheduler answers within ``timeout`` seconds (None: distributed's
+    connect timeout) raises :class:`WorldGraphError`."""
     try:
         from distributed import Client
     except ImportError as exc:  # pragma: no cover - distributed is in the test extra
@@ -40,7 +42,12 @@ def _client(scheduler: object, name: str = "scheduler", what: str = "None, ") ->
         return scheduler, False
     if isinstance(scheduler, str):
         _checks.name_string(name, scheduler)
-        return Client(scheduler), True
+        try:
+            return Client(scheduler, timeout=timeout), True
+        except (OSError, TimeoutError) as exc:
+            waited = "distributed's connect timeout" if timeout is None else f"timeout = {timeout:g} s"
+            raise WorldGraphError(f"{name} = {scheduler!r}: no Dask scheduler answered there within "
+                                  f"{waited} ({type(exc).__name__}: {exc})") from exc
     raise WorldGraphError(f"{name} must be {what}a scheduler address such as 'tcp://host:8786' or a "
                           f"distributed.Client, got {_checks._short(scheduler)}")
 

@@ -222,6 +222,8 @@ def _write_tiles(tiles: Iterable[Tile], folder: str, summaries: list[TileSummary
         _write_tile(tile, os.path.join(folder, name))
         summaries.append(summarize(tile))
         files.append(name)
+    if not summaries:
+        raise WorldGraphError(f"tiles is empty: no tile to write to {folder} (no index written)")
     _write_index(folder, summaries, files)
     return TileIndex(folder, tuple(TileEntry(sm.label, os.path.join(folder, f), sm)
                                    for sm, f in zip(summaries, files, strict=True)))

@@ -118,20 +118,44 @@ def _globalised_answer(answer: _TileAnswer, tile: Tile) -> _TileAnswer:
     return replace(answer, result=_globalised(answer.result, tile))
 
 
+def _posed(answers: Sequence[_TileAnswer]) -> list[int]:
+    """The answers with a pose, best (lowest robust cost, then first) first."""
+    with_pose = [k for k, a in enumerate(answers) if a.result is not None and a.result.status in _WITH_POSE]
+    return sorted(with_pose, key=lambda k: (answers[k].cost, k))
+
+
+def _chosen(answers: Sequence[_TileAnswer]) -> int | None:
+    """The answer whose result :func:`_combine` builds on: the best with a pose, else the first
+    with the most informative failure (:data:`FAILURE_ORDER`); None when no tile has a result."""
+    posed = _posed(answers)
+    if posed:
+        return posed[0]
+    failed = [k for k, a in enumerate(answers) if a.result is not None]
+    if not failed:
+        return None
+    rank = {s: i for i, s in enumerate(FAILURE_ORDER)}
+    return min(failed, key=lambda j: (rank.get(answers[j].result.status, len(rank)), j))  # type: ignore[union-attr]
+
+
+def _summary(answer: _TileAnswer) -> _TileAnswer:
+    """``answer`` with what the ranking reads and nothing more: its result without the
+    association hypotheses (the bulk of a result; the chosen tile's are fetched apart)."""
+    if answer.result is None or not answer.result.hypotheses:
+        return answer
+    return replace(answer, result=replace(answer.result, hypotheses=()))
+
+
 def _combine(labels: Sequence[int], answers: list[_TileAnswer], tol: AssociationTolerances,
              t_start: float) -> LocalizationResult:
     """The tiles' answers (``answers[k]`` of the tile labelled ``labels[k]``, object indices
     already global: ``_globalised_answer``) ranked together."""
     results = {k: a.result for k, a in enumerate(answers) if a.result is not None}
-    with_pose = [k for k, r in results.items() if r.status in _WITH_POSE]
-    posed = sorted(with_pose, key=lambda k: (answers[k].cost, k))
+    posed = _posed(answers)
     if not posed:
-        failed = list(results)
-        if not failed:
+        k = _chosen(answers)
+        if k is None:
             errors = [a.error for a in answers if a.error is not None]
             raise WorldGraphError(f"no tile has a type of the percepts: {errors[0]}")
-        rank = {s: i for i, s in enumerate(FAILURE_ORDER)}
-        k = min(failed, key=lambda j: (rank.get(results[j].status, len(rank)), j))
         res = results[k]
         timings = dict(res.timings, tiles_total=time.perf_counter() - t_start)
         return replace(res, message=f"no tile found a pose ({len(labels)} tiles); tile {labels[k]}: "
