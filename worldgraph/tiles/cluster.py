@@ -298,9 +298,13 @@ class ClusterTiles:
             batch[:] = [j for j in batch if visit[j.tile].visit]
             for job in batch:
                 self._submit(job)
-        summaries = self._collect([j for batch in batches for j in batch], timeout, t_start)
+        summaries = self._collect([j for batch in batches for j in batch], "summary", timeout, t_start)
+        chosen = [_chosen([summaries[id(j)] for j in batch]) if batch else None for batch in batches]
+        # the chosen tile's whole answer (its hypotheses), from the worker that keeps it
+        wanted = [batch[k] for batch, k in zip(batches, chosen, strict=True) if k is not None]
+        whole = self._collect(wanted, "answer", timeout, t_start)
         out = []
-        for batch, plist, visit in zip(batches, lists, visits, strict=True):
+        for batch, k, plist, visit in zip(batches, chosen, lists, visits, strict=True):
             note = _visited_note(visit)
             if not batch:
                 few = all(v.reason == "no_types" for v in visit)
@@ -309,10 +313,7 @@ class ClusterTiles:
                                       {"total": time.perf_counter() - t_start}, False)
                 out.append(res)
                 continue
-            answers = [summaries[id(j)] for j in batch]
-            best = _chosen(answers)
-            if best is not None and answers[best].result is not None:
-                answers[best] = self._client.gather(batch[best].answer)  # the chosen tile's whole answer
+            answers = [whole[id(j)] if i == k else summaries[id(j)] for i, j in enumerate(batch)]
             for j in batch:
                 j.answer.release()
                 j.summary.release()
@@ -320,10 +321,12 @@ class ClusterTiles:
             out.append(_noted(_combine(labels, answers, settings.tol, t_start), note))
         return out
 
-    def _collect(self, jobs: list[_Job], timeout: float | None, t_start: float) -> dict[int, _TileAnswer]:
-        """Every job's summary (keyed by ``id(job)``), polling the cluster: the tasks of a tile
-        whose home worker died, or whose worker no longer holds it, are sent again after the tile
-        is loaded on a live worker.  A task's own error (a corrupt tile file) is raised as it is."""
+    def _collect(self, jobs: list[_Job], which: str, timeout: float | None, t_start: float
+                 ) -> dict[int, _TileAnswer]:
+        """Every job's ``which`` future's result (``"summary"`` or ``"answer"``, keyed by
+        ``id(job)``), polling the cluster: the tasks of a tile whose home worker died, or whose
+        worker no longer holds it, are sent again after the tile is loaded on a live worker.  A
+        task's own error (a corrupt tile file) is raised as it is."""
         from distributed import wait
 
         out: dict[int, _TileAnswer] = {}
@@ -335,21 +338,24 @@ class ClusterTiles:
                                       f"{timeout:g} s ({len(pending)} of {len(jobs)} tile tasks left)")
             step = POLL_SECONDS if left is None else min(POLL_SECONDS, left)
             try:
-                wait([j.summary for j in pending], timeout=step)
+                wait([getattr(j, which) for j in pending], timeout=step)
             except TimeoutError:
                 pass
             again: list[_Job] = []
             failed: list[_Job] = []
             for j in pending:
-                status = j.summary.status
+                future = getattr(j, which)
+                status = future.status
                 if status == "finished":
-                    out[id(j)] = j.summary.result()
+                    out[id(j)] = future.result()
                     continue
                 if status == "error":
-                    exc = j.summary.exception()
+                    exc = future.exception()
                     if not isinstance(exc, _TileNotHeld):
                         raise exc
                 (failed if status in ("error", "cancelled", "lost") else again).append(j)
+            if not again and not failed:
+                break
             live = self._workers()
             dead = {h for h in self._home if h is not None and h not in live}
             redo = failed + [j for j in again if self._home[j.tile] in dead]
