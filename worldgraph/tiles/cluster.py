@@ -80,6 +80,12 @@ def _answer(key: str, loaded: str, query: _TileQuery) -> _TileAnswer:
     return _globalised_answer(_run_tile(tile.world, query), tile)
 
 
+def _given(query: _TileQuery) -> _TileQuery:
+    """``query`` itself, as a task result on the worker that runs it (the tile tasks of that
+    worker then read it there: a query crosses the network once per worker, not once per tile)."""
+    return query
+
+
 def _drop(token: str, dask_worker: Any = None) -> int:
     """Let go of this worker's tiles of the ClusterTiles ``token``; how many there were."""
     address = str(dask_worker.address) if dask_worker is not None else _worker_address()
@@ -91,11 +97,11 @@ def _drop(token: str, dask_worker: Any = None) -> int:
 
 @dataclass
 class _Job:
-    """One tile's task of one query: the answer's future (kept on the home worker) and the
-    future of its summary (what comes back)."""
+    """One tile's task of one query (its index in the batch): the answer's future (kept on the
+    home worker) and the future of its summary (what comes back)."""
 
     tile: int
-    query: _TileQuery
+    query: int
     answer: Any = None
     summary: Any = None
     resubmitted: int = 0
@@ -157,6 +163,8 @@ class ClusterTiles:
         self._home: list[str | None] = [None] * len(self.index.tiles)
         self._loads: list[Any] = [None] * len(self.index.tiles)
         self._closed = False
+        self._queries: list[_TileQuery] = []  # the batch being answered, and where each query was sent
+        self._sent: dict[tuple[int, str], Any] = {}
         workers = self._workers()
         for k, w in enumerate(_spread(self._sizes, workers)):
             self._load(k, w)
@@ -260,17 +268,22 @@ class ClusterTiles:
     def _key(self, k: int) -> str:
         return f"{self.index.tiles[k].label}-{self._token}"
 
-    def _where(self, k: int) -> str | None:
+    def _where(self, k: int) -> str:
         """Tile ``k``'s home worker, waiting for its load when it went to no worker in particular."""
-        if self._home[k] is None:
-            self._home[k] = self._loads[k].result()
-        return self._home[k]
+        home = self._home[k]
+        if home is None:
+            home = self._home[k] = str(self._loads[k].result())
+        return home
 
     def _submit(self, job: _Job) -> None:
         home = self._where(job.tile)
         at = {"workers": [home], "allow_other_workers": False}
+        query = self._sent.get((job.query, home))
+        if query is None:  # the query's first tile on this worker (or a tile moved here)
+            query = self._sent[(job.query, home)] = self._client.submit(
+                _given, self._queries[job.query], key=f"worldgraph-query-{uuid.uuid4().hex[:12]}", **at)
         tag = f"{self.index.tiles[job.tile].label}-{uuid.uuid4().hex[:8]}"
-        job.answer = self._client.submit(_answer, self._key(job.tile), self._loads[job.tile], job.query,
+        job.answer = self._client.submit(_answer, self._key(job.tile), self._loads[job.tile], query,
                                          key=f"worldgraph-answer-{tag}", **at)
         job.summary = self._client.submit(_summary, job.answer, key=f"worldgraph-summary-{tag}", **at)
 
@@ -290,12 +303,22 @@ class ClusterTiles:
              settings: LocalizeSettings, timeout: float | None, t_start: float) -> list[LocalizationResult]:
         """Submit every query's tile tasks (one search of ``settings``), then gather and rank each
         query's answers."""
-        batches: list[list[_Job]] = []
-        for plist in lists:
-            query = _TileQuery(plist, self._types, settings)
-            batches.append([_Job(k, query) for k in range(len(self.index.tiles))])
-        for batch, visit in zip(batches, visits, strict=True):
-            batch[:] = [j for j in batch if visit[j.tile].visit]
+        self._queries = [_TileQuery(plist, self._types, settings) for plist in lists]
+        batches = [[_Job(k, q) for k, v in enumerate(visit) if v.visit] for q, visit in enumerate(visits)]
+        self._sent = {}  # each query goes once to each worker that holds a tile it visits (_submit)
+        try:
+            return self._ranked(batches, lists, visits, settings, timeout, t_start)
+        finally:
+            sent, self._sent, self._queries = self._sent, {}, []
+            for f in sent.values():
+                f.release()
+
+    def _ranked(self, batches: list[list[_Job]], lists: list[list[Percept]],
+                visits: list[tuple[TileVisit, ...]], settings: LocalizeSettings, timeout: float | None,
+                t_start: float) -> list[LocalizationResult]:
+        """Submit the batches' jobs, gather their summaries, fetch each query's chosen answer and
+        rank."""
+        for batch in batches:
             for job in batch:
                 self._submit(job)
         summaries = self._collect([j for batch in batches for j in batch], "summary", timeout, t_start)
@@ -349,15 +372,16 @@ class ClusterTiles:
                 if status == "finished":
                     out[id(j)] = future.result()
                     continue
-                if status == "error":
-                    exc = future.exception()
-                    if not isinstance(exc, _TileNotHeld):
-                        raise exc
                 (failed if status in ("error", "cancelled", "lost") else again).append(j)
             if not again and not failed:
                 break
             live = self._workers()
             dead = {h for h in self._home if h is not None and h not in live}
+            for j in failed:  # a task's own error, on a live worker that holds its tile: raised
+                future = getattr(j, which)
+                exc = future.exception() if future.status == "error" else None
+                if exc is not None and not isinstance(exc, _TileNotHeld) and self._home[j.tile] not in dead:
+                    raise exc
             redo = failed + [j for j in again if self._home[j.tile] in dead]
             if redo and live:
                 tiles = {j.tile for j in redo} | {k for k, h in enumerate(self._home) if h in dead}
