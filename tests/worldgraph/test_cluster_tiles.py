@@ -176,11 +176,13 @@ def test_a_global_query_runs_each_tile_task_at_home_and_moves_no_tile(site, tile
         with distributed.get_task_stream(client) as stream:
             got = remote.localize_many([p for _, p in scans])  # no prior: every tile is asked
         assert _transfers(client) == before  # nothing crossed between workers
-        ran = [(str(t["key"]), t["worker"]) for t in stream.data
-               if str(t["key"]).startswith(("worldgraph-answer-", "worldgraph-summary-"))]
-        assert len(ran) >= 2 * len(scans) * len(tiles), ran  # an answer and a summary per tile and query
-        for key, worker in ran:
-            assert worker == homes[int(key.split("-")[2])], (key, worker, homes)
+        answered = [t["worker"] for t in stream.data if str(t["key"]).startswith("worldgraph-answers-")]
+        # one task per query and worker that holds tiles, and it ran on that worker: each worker
+        # answered every query once (the tile that answers a query is the one on its shelf)
+        per_worker = {w: answered.count(w) for w in set(homes.values())}
+        assert set(answered) == set(homes.values())
+        assert all(n >= len(scans) for n in per_worker.values()), per_worker
+        assert len(answered) <= 2 * len(scans) * len(per_worker)  # the free search, at most, again
         for (_, percepts), res in zip(scans, got, strict=True):
             assert "visited 3 of 3" in res.message
             _same(res, localize_tiled(tiles, percepts, workers=1))
@@ -199,6 +201,40 @@ def test_a_worker_that_lost_its_tiles_gets_them_again(site, tiles, folder, clust
 
         assert sum(client.run(module._drop, remote._token).values()) == len(tiles)  # every shelf emptied
         _same(remote.localize(percepts, timeout=120), before)
+
+
+def _shelves(client) -> dict[str, list[str]]:
+    """Each worker's held tile keys."""
+    def held(dask_worker) -> list[str]:
+        from worldgraph.tiles import cluster as module
+
+        return sorted(k[1] for k in module._SHELF if k[0] == dask_worker.address)
+
+    return client.run(held)
+
+
+def test_a_worker_that_joins_takes_tiles_and_the_giver_lets_them_go(site, tiles, folder) -> None:
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  memory_limit="2GiB") as c, distributed.Client(c) as client, \
+            ClusterTiles(folder, client) as remote:
+        _, percepts = _scan(site, 13)
+        before = remote.localize(percepts, timeout=120)
+        first = set(remote.homes.values())
+        assert len(first) == 1
+        c.scale(2)
+        client.wait_for_workers(2, timeout=120)
+        after = remote.localize(percepts, timeout=120)
+        _same(before, after)
+        homes = remote.homes
+        assert len(set(homes.values())) == 2  # the newcomer holds tiles now
+        for _ in range(100):  # the giver's copies are let go (a fire-and-forget task)
+            shelves = _shelves(client)
+            if sum(len(v) for v in shelves.values()) == len(tiles):
+                break
+            time.sleep(0.1)
+        for w, keys in shelves.items():
+            held = sorted(int(k.split("-")[0]) for k in keys)
+            assert held == sorted(lb for lb, h in homes.items() if h == w)
 
 
 def test_an_unreachable_scheduler_and_an_empty_tile_list_are_named(folder, tmp_path) -> None:

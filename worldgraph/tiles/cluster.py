@@ -70,20 +70,39 @@ def _hold(path: str, key: str) -> str:
     return address
 
 
-def _answer(key: str, loaded: str, query: _TileQuery) -> _TileAnswer:
-    """The held tile's answer to ``query``, object indices mapped to the whole map's (``loaded``:
-    the hold task's result, which orders this task after the tile's load)."""
+def _answers(keys: list[str], loaded: list[str], query: _TileQuery) -> list[_TileAnswer]:
+    """The answers of this worker's held tiles ``keys`` to ``query``, object indices mapped to the
+    whole map's (``loaded``: the tiles' hold results, which order this task after their loads)."""
     del loaded
-    tile = _SHELF.get((_worker_address(), key))
-    if tile is None:
-        raise _TileNotHeld(key)
-    return _globalised_answer(_run_tile(tile.world, query), tile)
+    address = _worker_address()
+    out = []
+    for key in keys:
+        tile = _SHELF.get((address, key))
+        if tile is None:
+            raise _TileNotHeld(key)
+        out.append(_globalised_answer(_run_tile(tile.world, query), tile))
+    return out
+
+
+def _summaries(answers: list[_TileAnswer]) -> list[_TileAnswer]:
+    """What comes back of a worker's answers: each without its hypotheses (``ranking._summary``)."""
+    return [_summary(a) for a in answers]
+
+
+def _pick(answers: list[_TileAnswer], i: int) -> list[_TileAnswer]:
+    """The ``i``-th of a worker's answers, whole."""
+    return [answers[i]]
 
 
 def _given(query: _TileQuery) -> _TileQuery:
     """``query`` itself, as a task result on the worker that runs it (the tile tasks of that
     worker then read it there: a query crosses the network once per worker, not once per tile)."""
     return query
+
+
+def _forget(key: str) -> bool:
+    """Let go of this worker's copy of the tile ``key`` (it moved to another worker)."""
+    return _SHELF.pop((_worker_address(), key), None) is not None
 
 
 def _drop(token: str, dask_worker: Any = None) -> int:
@@ -97,13 +116,14 @@ def _drop(token: str, dask_worker: Any = None) -> int:
 
 @dataclass
 class _Job:
-    """One tile's task of one query (its index in the batch): the answer's future (kept on the
-    home worker) and the future of its summary (what comes back)."""
+    """One query's tiles on one worker (``query``: its index in the batch): the future of their
+    answers (kept on that worker) and of their summaries (what comes back)."""
 
-    tile: int
     query: int
-    answer: Any = None
-    summary: Any = None
+    tiles: list[int]
+    home: str
+    answers: Any = None
+    summaries: Any = None
     resubmitted: int = 0
 
 
@@ -275,130 +295,197 @@ class ClusterTiles:
             home = self._home[k] = str(self._loads[k].result())
         return home
 
+    def _jobs(self, q: int, tiles: list[int], resubmitted: int = 0) -> list[_Job]:
+        """Query ``q``'s jobs for ``tiles``: one per home worker, submitted."""
+        by_home: dict[str, list[int]] = {}
+        for k in tiles:
+            by_home.setdefault(self._where(k), []).append(k)
+        jobs = [_Job(q, ks, home, resubmitted=resubmitted) for home, ks in sorted(by_home.items())]
+        for job in jobs:
+            self._submit(job)
+        return jobs
+
     def _submit(self, job: _Job) -> None:
-        home = self._where(job.tile)
-        at = {"workers": [home], "allow_other_workers": False}
-        query = self._sent.get((job.query, home))
-        if query is None:  # the query's first tile on this worker (or a tile moved here)
-            query = self._sent[(job.query, home)] = self._client.submit(
+        at = {"workers": [job.home], "allow_other_workers": False}
+        query = self._sent.get((job.query, job.home))
+        if query is None:  # the query's first tiles on this worker (or tiles moved here)
+            query = self._sent[(job.query, job.home)] = self._client.submit(
                 _given, self._queries[job.query], key=f"worldgraph-query-{uuid.uuid4().hex[:12]}", **at)
-        tag = f"{self.index.tiles[job.tile].label}-{uuid.uuid4().hex[:8]}"
-        job.answer = self._client.submit(_answer, self._key(job.tile), self._loads[job.tile], query,
-                                         key=f"worldgraph-answer-{tag}", **at)
-        job.summary = self._client.submit(_summary, job.answer, key=f"worldgraph-summary-{tag}", **at)
+        tag = uuid.uuid4().hex[:12]
+        job.answers = self._client.submit(_answers, [self._key(k) for k in job.tiles],
+                                          [self._loads[k] for k in job.tiles], query,
+                                          key=f"worldgraph-answers-{tag}", **at)
+        job.summaries = self._client.submit(_summaries, job.answers, key=f"worldgraph-summaries-{tag}", **at)
+
+    def _release(self, jobs: list[_Job]) -> None:
+        for job in jobs:
+            job.answers.release()
+            job.summaries.release()
 
     def _reload(self, tiles: set[int], live: list[str]) -> None:
         """Load ``tiles`` again from their files: each on its home worker when that one lives,
         else on the live worker holding the fewest objects, the largest tiles first."""
-        load = {w: sum(s for s, h in zip(self._sizes, self._home, strict=True) if h == w) for w in live}
+        load = self._load_of(live)
         for k in sorted(tiles, key=lambda j: -self._sizes[j]):
             w = self._home[k]
             if w not in load:
                 w = min(live, key=lambda a: (load[a], a))
                 load[w] += self._sizes[k]
-            self._loads[k].release()
-            self._load(k, w)
+            self._move(k, w, live)
+
+    def _balance(self, live: list[str]) -> None:
+        """Move tiles to the live workers that hold none (a worker that joined, or the one that
+        replaced a dead worker), each time the largest tile of the most loaded worker that leaves
+        the receiver no more loaded than the giver."""
+        load = self._load_of(live)
+        for w in [a for a in live if load[a] == 0]:
+            while True:
+                src = max(load, key=lambda a: (load[a], a))
+                fits = [k for k, h in enumerate(self._home) if h == src
+                        and load[w] + self._sizes[k] <= load[src] - self._sizes[k]]
+                if src == w or not fits:
+                    break
+                k = max(fits, key=lambda j: (self._sizes[j], -j))
+                load[src] -= self._sizes[k]
+                load[w] += self._sizes[k]
+                self._move(k, w, live)
+
+    def _load_of(self, live: list[str]) -> dict[str, int]:
+        load = dict.fromkeys(live, 0)
+        for k, h in enumerate(self._home):
+            if h in load:
+                load[h] += self._sizes[k]
+        return load
+
+    def _move(self, k: int, worker: str, live: list[str]) -> None:
+        """Tile ``k`` read from its file on ``worker`` (again, or anew); a live former home lets
+        go of its copy."""
+        from distributed import fire_and_forget
+
+        old = self._home[k]
+        self._loads[k].release()
+        self._load(k, worker)
+        if old is not None and old != worker and old in live:
+            fire_and_forget(self._client.submit(_forget, self._key(k), pure=False, workers=[old],
+                                                allow_other_workers=False))
 
     def _run(self, lists: list[list[Percept]], visits: list[tuple[TileVisit, ...]],
              settings: LocalizeSettings, timeout: float | None, t_start: float) -> list[LocalizationResult]:
         """Submit every query's tile tasks (one search of ``settings``), then gather and rank each
         query's answers."""
         self._queries = [_TileQuery(plist, self._types, settings) for plist in lists]
-        batches = [[_Job(k, q) for k, v in enumerate(visit) if v.visit] for q, visit in enumerate(visits)]
         self._sent = {}  # each query goes once to each worker that holds a tile it visits (_submit)
+        self._balance(self._workers())  # workers that joined since the last call take tiles
         try:
-            return self._ranked(batches, lists, visits, settings, timeout, t_start)
+            return self._ranked(lists, visits, settings, timeout, t_start)
         finally:
             sent, self._sent, self._queries = self._sent, {}, []
             for f in sent.values():
                 f.release()
 
-    def _ranked(self, batches: list[list[_Job]], lists: list[list[Percept]],
-                visits: list[tuple[TileVisit, ...]], settings: LocalizeSettings, timeout: float | None,
-                t_start: float) -> list[LocalizationResult]:
-        """Submit the batches' jobs, gather their summaries, fetch each query's chosen answer and
-        rank."""
-        for batch in batches:
-            for job in batch:
-                self._submit(job)
-        summaries = self._collect([j for batch in batches for j in batch], "summary", timeout, t_start)
-        chosen = [_chosen([summaries[id(j)] for j in batch]) if batch else None for batch in batches]
-        # the chosen tile's whole answer (its hypotheses), from the worker that keeps it
-        wanted = [batch[k] for batch, k in zip(batches, chosen, strict=True) if k is not None]
-        whole = self._collect(wanted, "answer", timeout, t_start)
+    def _ranked(self, lists: list[list[Percept]], visits: list[tuple[TileVisit, ...]],
+                settings: LocalizeSettings, timeout: float | None, t_start: float
+                ) -> list[LocalizationResult]:
+        """Submit the queries' jobs, gather their summaries, fetch each query's chosen answer
+        whole and rank."""
+        asked = [[k for k, v in enumerate(visit) if v.visit] for visit in visits]
+        jobs = [job for q, tiles in enumerate(asked) for job in self._jobs(q, tiles)]
+        summaries, where = self._collect(jobs, "summaries", timeout, t_start)
+        chosen = [_chosen([summaries[(q, k)] for k in tiles]) if tiles else None
+                  for q, tiles in enumerate(asked)]
+        # the chosen tile's whole answer (with its hypotheses), from the worker that keeps it
+        picks = []
+        for q, (tiles, c) in enumerate(zip(asked, chosen, strict=True)):
+            if c is not None:
+                job, i = where[(q, tiles[c])]
+                pick = _Job(q, [tiles[c]], job.home)
+                pick.answers = self._client.submit(_pick, job.answers, i,
+                                                   key=f"worldgraph-pick-{uuid.uuid4().hex[:12]}",
+                                                   workers=[job.home], allow_other_workers=False)
+                picks.append(pick)
+        whole, _ = self._collect(picks, "answers", timeout, t_start)
+        self._release(list({id(j): j for j, _ in where.values()}.values()))
+        for pick in picks:
+            pick.answers.release()
         out = []
-        for batch, k, plist, visit in zip(batches, chosen, lists, visits, strict=True):
+        for q, (tiles, c, plist, visit) in enumerate(zip(asked, chosen, lists, visits, strict=True)):
             note = _visited_note(visit)
-            if not batch:
+            if not tiles:
                 few = all(v.reason == "no_types" for v in visit)
                 status: LocalizeStatus = "too_few_percepts" if few else "no_association"
                 res = poseless_result(status, f"no tile can answer these percepts: {note}", len(plist), (),
                                       {"total": time.perf_counter() - t_start}, False)
                 out.append(res)
                 continue
-            answers = [whole[id(j)] if i == k else summaries[id(j)] for i, j in enumerate(batch)]
-            for j in batch:
-                j.answer.release()
-                j.summary.release()
-            labels = [self.index.tiles[j.tile].label for j in batch]
+            answers = [whole[(q, k)] if i == c else summaries[(q, k)] for i, k in enumerate(tiles)]
+            labels = [self.index.tiles[k].label for k in tiles]
             out.append(_noted(_combine(labels, answers, settings.tol, t_start), note))
         return out
 
     def _collect(self, jobs: list[_Job], which: str, timeout: float | None, t_start: float
-                 ) -> dict[int, _TileAnswer]:
-        """Every job's ``which`` future's result (``"summary"`` or ``"answer"``, keyed by
-        ``id(job)``), polling the cluster: the tasks of a tile whose home worker died, or whose
-        worker no longer holds it, are sent again after the tile is loaded on a live worker.  A
-        task's own error (a corrupt tile file) is raised as it is."""
+                 ) -> tuple[dict[tuple[int, int], _TileAnswer], dict[tuple[int, int], tuple[_Job, int]]]:
+        """Every job's ``which`` results (``"summaries"`` or ``"answers"``) by (query, tile), and
+        the job and place in it that holds each, polling the cluster: the tasks of tiles whose home
+        worker died, or whose worker no longer holds them, are sent again after the tiles are
+        loaded on live workers.  A task's own error (a corrupt tile file) is raised as it is."""
         from distributed import wait
 
-        out: dict[int, _TileAnswer] = {}
+        out: dict[tuple[int, int], _TileAnswer] = {}
+        where: dict[tuple[int, int], tuple[_Job, int]] = {}
         pending = list(jobs)
         while pending:
             left = None if timeout is None else timeout - (time.perf_counter() - t_start)
             if left is not None and left <= 0:
+                n = sum(len(j.tiles) for j in pending)
                 raise WorldGraphError(f"the tile tasks of a query did not finish within timeout = "
-                                      f"{timeout:g} s ({len(pending)} of {len(jobs)} tile tasks left)")
+                                      f"{timeout:g} s ({n} tile answers still missing)")
             step = POLL_SECONDS if left is None else min(POLL_SECONDS, left)
             try:
                 wait([getattr(j, which) for j in pending], timeout=step)
             except TimeoutError:
                 pass
-            again: list[_Job] = []
+            running: list[_Job] = []
             failed: list[_Job] = []
             for j in pending:
                 future = getattr(j, which)
-                status = future.status
-                if status == "finished":
-                    out[id(j)] = future.result()
+                if future.status == "finished":
+                    for i, (k, answer) in enumerate(zip(j.tiles, future.result(), strict=True)):
+                        out[(j.query, k)] = answer
+                        where[(j.query, k)] = (j, i)
                     continue
-                (failed if status in ("error", "cancelled", "lost") else again).append(j)
-            if not again and not failed:
+                (failed if future.status in ("error", "cancelled", "lost") else running).append(j)
+            if not running and not failed:
                 break
             live = self._workers()
             dead = {h for h in self._home if h is not None and h not in live}
-            for j in failed:  # a task's own error, on a live worker that holds its tile: raised
+            for j in failed:  # a task's own error, on a live worker that holds its tiles: raised
                 future = getattr(j, which)
                 exc = future.exception() if future.status == "error" else None
-                if exc is not None and not isinstance(exc, _TileNotHeld) and self._home[j.tile] not in dead:
+                if exc is not None and not isinstance(exc, _TileNotHeld) and j.home not in dead:
                     raise exc
-            redo = failed + [j for j in again if self._home[j.tile] in dead]
-            if redo and live:
-                tiles = {j.tile for j in redo} | {k for k, h in enumerate(self._home) if h in dead}
-                self._reload(tiles, live)
-                for j in redo:
-                    j.resubmitted += 1
-                    if j.resubmitted > MAX_RESUBMITS:
-                        raise WorldGraphError(f"tile {self.index.tiles[j.tile].label}: its task was sent "
-                                              f"{MAX_RESUBMITS} times and its worker lost the tile each time")
-                    j.answer.release()
-                    j.summary.release()
-                    self._submit(j)
-                again = [j for j in again if j not in redo] + redo
-            else:
-                again += failed
+            if live:
+                lost = {k for j in failed for k in j.tiles}
+                lost |= {k for k, h in enumerate(self._home) if h in dead}
+                if lost:
+                    self._reload(lost, live)
+                self._balance(live)
+            moved = [j for j in running if any(self._home[k] != j.home for k in j.tiles)]
+            again = [j for j in running if all(self._home[k] == j.home for k in j.tiles)]
+            for j in failed + moved:
+                tries = j.resubmitted + (j.home in dead or j in failed)
+                if tries > MAX_RESUBMITS:
+                    labels = [self.index.tiles[k].label for k in j.tiles]
+                    raise WorldGraphError(f"tiles {labels}: their task was sent {MAX_RESUBMITS} times and "
+                                          "the worker lost them each time")
+                if not live:  # nowhere to send them yet: the next poll looks again
+                    again.append(j)
+                    continue
+                j.answers.release()
+                if j.summaries is not None:
+                    j.summaries.release()
+                again += self._jobs(j.query, j.tiles, tries)
             pending = again
-        return out
+        return out, where
 
     def close(self) -> None:
         """Release the tiles on the workers (and the client when this object opened it); idempotent."""
