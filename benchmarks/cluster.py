@@ -9,30 +9,40 @@ in memory, ``--robots`` robots per building are drawn (a robot 0.8 m above a ran
 building, random yaw, 8 true percepts within 8 m of its storey, sigma = rho^2 / 1000, 1 false
 percept) and kept with their true poses.
 
+A separate process then loads each tile file in turn (nothing of the map enters the client) and
+times the reference: ``localize`` of each robot on its own tile, and, for ``--global-queries``
+robots spread over the buildings, the task a global query runs on every tile (one search, its
+tilt checked, the ranking's fit cost), each alone in one process.
+
 Then a ``distributed.LocalCluster`` of ``--workers`` worker processes with ``--memory-limit``
 each serves the folder through ``worldgraph.tiles.ClusterTiles``, and the table reports, from one
 run:
 
-* the client process's peak RSS while serving (psutil; the map never enters it);
+* the workers' RSS once the tiles are loaded, and the client process's peak RSS while serving;
 * bytes over loopback per query (``psutil.net_io_counters(pernic=True)["lo"]``, sent + received,
-  which counts both ends of every local connection, heartbeats included);
-* query latency p50 / p95 (each robot with a position prior, ``--prior-radius``, as a WiFi fix
-  gives: the pre-filter then visits the tiles that can see it), next to ``localize`` on the
-  robot's own tile in one process (a
-  separate process loads each tile file in turn: the reference never enters the client), and the
-  tiles visited per query;
-* throughput of 16 robots' queries through ``localize_many`` on a cluster of 2 workers against 1
-  (on the tiles of those 16 robots, written to a second folder, so that one worker can hold
-  them);
-* a worker killed during a batch of queries: every answer still right, and the batch's time
-  against the same batch undisturbed;
-* correct (status "ok", 6D NEES <= 20.06 with the returned covariance, rotation <= 2 deg) and
-  gross ("ok" and > 0.5 m or > 10 deg off) answers.
+  which counts both ends of every local connection, heartbeats included), and the bytes moved
+  between workers (every worker's ``transfer_incoming_log``) over all queries;
+* each robot's query with a position prior (``--prior-radius``, as a WiFi fix gives: the
+  pre-filter then visits the tiles that can see it), and the ``--global-queries`` robots again
+  without one (every tile is asked): latency p50 / p95 against the targets (with a prior, 1.5x
+  the own tile + 50 ms; global, 1.5x tiles visited x own tile / workers + 50 ms) and against the
+  work the query's tile tasks cost alone, over ``min(workers, cores)``; tiles visited; correct
+  (status "ok", 6D NEES <= 20.06 with the returned covariance, rotation <= 2 deg) and gross ("ok"
+  and > 0.5 m or > 10 deg off) answers;
+* a worker SIGKILLed a third of the way into a batch of 16 global queries: every answer the
+  same as the undisturbed batch's, and the batch's time against the undisturbed one plus the time
+  to read the lost tiles' files;
+* throughput of 16 robots' queries with priors through ``localize_many`` on a cluster of 2
+  workers against 1 (on the tiles of those 16 robots, written to a second folder).
 
-Run:  cd benchmarks && python cluster.py [--objects 2000000] [--buildings 10] [--workers 2]
-      [--memory-limit 4GiB] [--robots 4] [--prior-radius 20] [--folder /tmp/site-tiles]
-The table in docs/results/cluster.md: ``--objects 2400000 --buildings 12 --workers 3
---memory-limit 2GiB`` (the map, about 2.5 GB in memory, larger than any worker's limit).
+The reference's tile task times are saved to ``<folder>-task-ms.npy`` for
+``cluster_scaling.py``.
+
+Run:  cd benchmarks && python cluster.py [--objects 2000000] [--buildings 20] [--workers 3]
+      [--memory-limit 2GiB] [--robots 2] [--global-queries 24] [--prior-radius 20]
+      [--folder /tmp/worldgraph-site-tiles] [--reuse]
+The table in docs/results/cluster.md: ``--objects 2000000 --buildings 20 --workers 3
+--memory-limit 2GiB`` (the map, about 2.1 GB in memory, larger than any worker's limit).
 Prints one Markdown table (progress on stderr).
 """
 
@@ -239,7 +249,7 @@ def main() -> None:
     ap.add_argument("--objects", type=int, default=2_000_000)
     ap.add_argument("--buildings", type=int, default=20)
     ap.add_argument("--workers", type=int, default=3)
-    ap.add_argument("--memory-limit", default="1.5GiB")
+    ap.add_argument("--memory-limit", default="2GiB")
     ap.add_argument("--robots", type=int, default=2, help="robots per building")
     ap.add_argument("--global-queries", type=int, default=24,
                     help="robots (spread over the buildings) asked again without a prior")

@@ -75,13 +75,11 @@ def _answers(keys: list[str], loaded: list[str], query: _TileQuery) -> list[_Til
     whole map's (``loaded``: the tiles' hold results, which order this task after their loads)."""
     del loaded
     address = _worker_address()
-    out = []
-    for key in keys:
-        tile = _SHELF.get((address, key))
-        if tile is None:
-            raise _TileNotHeld(key)
-        out.append(_globalised_answer(_run_tile(tile.world, query), tile))
-    return out
+    tiles = [_SHELF.get((address, key)) for key in keys]  # all taken at once: a move may drop them
+    missing = [key for key, tile in zip(keys, tiles, strict=True) if tile is None]
+    if missing:
+        raise _TileNotHeld(missing[0])
+    return [_globalised_answer(_run_tile(tile.world, query), tile) for tile in tiles if tile is not None]
 
 
 def _summaries(answers: list[_TileAnswer]) -> list[_TileAnswer]:
@@ -92,12 +90,6 @@ def _summaries(answers: list[_TileAnswer]) -> list[_TileAnswer]:
 def _pick(answers: list[_TileAnswer], i: int) -> list[_TileAnswer]:
     """The ``i``-th of a worker's answers, whole."""
     return [answers[i]]
-
-
-def _given(query: _TileQuery) -> _TileQuery:
-    """``query`` itself, as a task result on the worker that runs it (the tile tasks of that
-    worker then read it there: a query crosses the network once per worker, not once per tile)."""
-    return query
 
 
 def _forget(key: str) -> bool:
@@ -117,14 +109,21 @@ def _drop(token: str, dask_worker: Any = None) -> int:
 @dataclass
 class _Job:
     """One query's tiles on one worker (``query``: its index in the batch): the future of their
-    answers (kept on that worker) and of their summaries (what comes back)."""
+    answers (kept on that worker) and of their summaries (what comes back), or, for a query that
+    asks one tile only (``whole``), no summaries: its answer comes back whole."""
 
     query: int
     tiles: list[int]
     home: str
+    whole: bool = False
     answers: Any = None
     summaries: Any = None
     resubmitted: int = 0
+
+    @property
+    def result(self) -> Any:
+        """The future whose result comes back to the client."""
+        return self.answers if self.whole else self.summaries
 
 
 def _visited_note(visits: Sequence[TileVisit]) -> str:
@@ -183,8 +182,7 @@ class ClusterTiles:
         self._home: list[str | None] = [None] * len(self.index.tiles)
         self._loads: list[Any] = [None] * len(self.index.tiles)
         self._closed = False
-        self._queries: list[_TileQuery] = []  # the batch being answered, and where each query was sent
-        self._sent: dict[tuple[int, str], Any] = {}
+        self._queries: list[_TileQuery] = []  # the batch being answered
         workers = self._workers()
         for k, w in enumerate(_spread(self._sizes, workers)):
             self._load(k, w)
@@ -295,32 +293,32 @@ class ClusterTiles:
             home = self._home[k] = str(self._loads[k].result())
         return home
 
-    def _jobs(self, q: int, tiles: list[int], resubmitted: int = 0) -> list[_Job]:
+    def _jobs(self, q: int, tiles: list[int], whole: bool = False, resubmitted: int = 0) -> list[_Job]:
         """Query ``q``'s jobs for ``tiles``: one per home worker, submitted."""
         by_home: dict[str, list[int]] = {}
         for k in tiles:
             by_home.setdefault(self._where(k), []).append(k)
-        jobs = [_Job(q, ks, home, resubmitted=resubmitted) for home, ks in sorted(by_home.items())]
+        jobs = [_Job(q, ks, home, whole, resubmitted=resubmitted) for home, ks in sorted(by_home.items())]
         for job in jobs:
             self._submit(job)
         return jobs
 
     def _submit(self, job: _Job) -> None:
         at = {"workers": [job.home], "allow_other_workers": False}
-        query = self._sent.get((job.query, job.home))
-        if query is None:  # the query's first tiles on this worker (or tiles moved here)
-            query = self._sent[(job.query, job.home)] = self._client.submit(
-                _given, self._queries[job.query], key=f"worldgraph-query-{uuid.uuid4().hex[:12]}", **at)
         tag = uuid.uuid4().hex[:12]
         job.answers = self._client.submit(_answers, [self._key(k) for k in job.tiles],
-                                          [self._loads[k] for k in job.tiles], query,
+                                          [self._loads[k] for k in job.tiles], self._queries[job.query],
                                           key=f"worldgraph-answers-{tag}", **at)
-        job.summaries = self._client.submit(_summaries, job.answers, key=f"worldgraph-summaries-{tag}", **at)
+        if not job.whole:
+            job.summaries = self._client.submit(_summaries, job.answers, key=f"worldgraph-summaries-{tag}",
+                                                **at)
 
-    def _release(self, jobs: list[_Job]) -> None:
+    @staticmethod
+    def _release(jobs: list[_Job]) -> None:
         for job in jobs:
             job.answers.release()
-            job.summaries.release()
+            if job.summaries is not None:
+                job.summaries.release()
 
     def _reload(self, tiles: set[int], live: list[str]) -> None:
         """Load ``tiles`` again from their files: each on its home worker when that one lives,
@@ -374,39 +372,33 @@ class ClusterTiles:
         """Submit every query's tile tasks (one search of ``settings``), then gather and rank each
         query's answers."""
         self._queries = [_TileQuery(plist, self._types, settings) for plist in lists]
-        self._sent = {}  # each query goes once to each worker that holds a tile it visits (_submit)
         self._balance(self._workers())  # workers that joined since the last call take tiles
         try:
             return self._ranked(lists, visits, settings, timeout, t_start)
         finally:
-            sent, self._sent, self._queries = self._sent, {}, []
-            for f in sent.values():
-                f.release()
+            self._queries = []
 
     def _ranked(self, lists: list[list[Percept]], visits: list[tuple[TileVisit, ...]],
                 settings: LocalizeSettings, timeout: float | None, t_start: float
                 ) -> list[LocalizationResult]:
-        """Submit the queries' jobs, gather their summaries, fetch each query's chosen answer
-        whole and rank."""
+        """Submit the queries' jobs, gather their summaries (a query of one tile: its answer),
+        fetch each query's chosen answer whole and rank."""
         asked = [[k for k, v in enumerate(visit) if v.visit] for visit in visits]
-        jobs = [job for q, tiles in enumerate(asked) for job in self._jobs(q, tiles)]
-        summaries, where = self._collect(jobs, "summaries", timeout, t_start)
-        chosen = [_chosen([summaries[(q, k)] for k in tiles]) if tiles else None
-                  for q, tiles in enumerate(asked)]
+        jobs = [job for q, tiles in enumerate(asked) for job in self._jobs(q, tiles, whole=len(tiles) == 1)]
+        got, where = self._collect(jobs, timeout, t_start)
+        chosen = [_chosen([got[(q, k)] for k in tiles]) if tiles else None for q, tiles in enumerate(asked)]
         # the chosen tile's whole answer (with its hypotheses), from the worker that keeps it
         picks = []
         for q, (tiles, c) in enumerate(zip(asked, chosen, strict=True)):
-            if c is not None:
+            if c is not None and not where[(q, tiles[c])][0].whole:
                 job, i = where[(q, tiles[c])]
-                pick = _Job(q, [tiles[c]], job.home)
+                pick = _Job(q, [tiles[c]], job.home, whole=True)
                 pick.answers = self._client.submit(_pick, job.answers, i,
                                                    key=f"worldgraph-pick-{uuid.uuid4().hex[:12]}",
                                                    workers=[job.home], allow_other_workers=False)
                 picks.append(pick)
-        whole, _ = self._collect(picks, "answers", timeout, t_start)
-        self._release(list({id(j): j for j, _ in where.values()}.values()))
-        for pick in picks:
-            pick.answers.release()
+        whole, _ = self._collect(picks, timeout, t_start)
+        self._release(list({id(j): j for j, _ in where.values()}.values()) + picks)
         out = []
         for q, (tiles, c, plist, visit) in enumerate(zip(asked, chosen, lists, visits, strict=True)):
             note = _visited_note(visit)
@@ -417,17 +409,18 @@ class ClusterTiles:
                                       {"total": time.perf_counter() - t_start}, False)
                 out.append(res)
                 continue
-            answers = [whole[(q, k)] if i == c else summaries[(q, k)] for i, k in enumerate(tiles)]
+            answers = [whole.get((q, k), got[(q, k)]) if i == c else got[(q, k)] for i, k in enumerate(tiles)]
             labels = [self.index.tiles[k].label for k in tiles]
             out.append(_noted(_combine(labels, answers, settings.tol, t_start), note))
         return out
 
-    def _collect(self, jobs: list[_Job], which: str, timeout: float | None, t_start: float
+    def _collect(self, jobs: list[_Job], timeout: float | None, t_start: float
                  ) -> tuple[dict[tuple[int, int], _TileAnswer], dict[tuple[int, int], tuple[_Job, int]]]:
-        """Every job's ``which`` results (``"summaries"`` or ``"answers"``) by (query, tile), and
-        the job and place in it that holds each, polling the cluster: the tasks of tiles whose home
-        worker died, or whose worker no longer holds them, are sent again after the tiles are
-        loaded on live workers.  A task's own error (a corrupt tile file) is raised as it is."""
+        """Every job's results (:attr:`_Job.result`) by (query, tile), and the job and place in it
+        that holds each, polling the cluster: the tasks of tiles whose home worker died, or whose
+        worker no longer holds them, are sent again after the tiles are loaded on live workers,
+        and those waiting for a worker whose tiles moved (to a worker that joined) are sent to the
+        tiles' new homes.  A task's own error (a corrupt tile file) is raised as it is."""
         from distributed import wait
 
         out: dict[tuple[int, int], _TileAnswer] = {}
@@ -441,51 +434,58 @@ class ClusterTiles:
                                       f"{timeout:g} s ({n} tile answers still missing)")
             step = POLL_SECONDS if left is None else min(POLL_SECONDS, left)
             try:
-                wait([getattr(j, which) for j in pending], timeout=step)
+                wait([j.result for j in pending], timeout=step)
             except TimeoutError:
                 pass
             running: list[_Job] = []
             failed: list[_Job] = []
             for j in pending:
-                future = getattr(j, which)
-                if future.status == "finished":
-                    for i, (k, answer) in enumerate(zip(j.tiles, future.result(), strict=True)):
+                if j.result.status == "finished":
+                    for i, (k, answer) in enumerate(zip(j.tiles, j.result.result(), strict=True)):
                         out[(j.query, k)] = answer
                         where[(j.query, k)] = (j, i)
                     continue
-                (failed if future.status in ("error", "cancelled", "lost") else running).append(j)
+                (failed if j.result.status in ("error", "cancelled", "lost") else running).append(j)
             if not running and not failed:
                 break
             live = self._workers()
             dead = {h for h in self._home if h is not None and h not in live}
             for j in failed:  # a task's own error, on a live worker that holds its tiles: raised
-                future = getattr(j, which)
-                exc = future.exception() if future.status == "error" else None
+                exc = j.result.exception() if j.result.status == "error" else None
                 if exc is not None and not isinstance(exc, _TileNotHeld) and j.home not in dead:
                     raise exc
-            if live:
-                lost = {k for j in failed for k in j.tiles}
-                lost |= {k for k, h in enumerate(self._home) if h in dead}
-                if lost:
-                    self._reload(lost, live)
-                self._balance(live)
-            moved = [j for j in running if any(self._home[k] != j.home for k in j.tiles)]
-            again = [j for j in running if all(self._home[k] == j.home for k in j.tiles)]
-            for j in failed + moved:
+            if not live:  # nowhere to send anything yet: the next poll looks again
+                pending = running + failed
+                continue
+            lost = {k for j in failed for k in j.tiles} | {k for k, h in enumerate(self._home) if h in dead}
+            if lost:
+                self._reload(lost, live)
+            self._balance(live)
+            stale = [j for j in running if j.home in dead or any(self._home[k] != j.home for k in j.tiles)]
+            again = [j for j in running if j not in stale]
+            if any(j.home not in dead for j in stale):  # tiles moved to a newcomer: what runs, stays
+                started = self._executing()
+                kept = [j for j in stale if j.home not in dead
+                        and (j.answers.key in started or j.answers.status == "finished")]
+                again += kept
+                stale = [j for j in stale if j not in kept]
+            for j in failed + stale:
                 tries = j.resubmitted + (j.home in dead or j in failed)
                 if tries > MAX_RESUBMITS:
                     labels = [self.index.tiles[k].label for k in j.tiles]
                     raise WorldGraphError(f"tiles {labels}: their task was sent {MAX_RESUBMITS} times and "
                                           "the worker lost them each time")
-                if not live:  # nowhere to send them yet: the next poll looks again
-                    again.append(j)
-                    continue
-                j.answers.release()
-                if j.summaries is not None:
-                    j.summaries.release()
-                again += self._jobs(j.query, j.tiles, tries)
+                self._release([j])
+                again += self._jobs(j.query, j.tiles, j.whole, tries)
             pending = again
         return out, where
+
+    def _executing(self) -> set[str]:
+        """The keys of the tasks the workers are running now."""
+        def running(dask_worker: Any) -> list[str]:
+            return [str(ts.key) for ts in dask_worker.state.executing]
+
+        return {k for keys in self._client.run(running).values() for k in keys}
 
     def close(self) -> None:
         """Release the tiles on the workers (and the client when this object opened it); idempotent."""
