@@ -53,10 +53,6 @@ MAX_RESUBMITS = 5
 _SHELF: dict[tuple[str, str], Tile] = {}
 
 
-class _TileNotHeld(Exception):
-    """A task ran on a worker whose shelf lacks its tile (the worker was restarted)."""
-
-
 def _worker_address() -> str:
     from distributed import get_worker
 
@@ -70,21 +66,21 @@ def _hold(path: str, key: str) -> str:
     return address
 
 
-def _answers(keys: list[str], loaded: list[str], query: _TileQuery) -> list[_TileAnswer]:
+def _answers(keys: list[str], loaded: list[str], query: _TileQuery) -> list[_TileAnswer] | None:
     """The answers of this worker's held tiles ``keys`` to ``query``, object indices mapped to the
-    whole map's (``loaded``: the tiles' hold results, which order this task after their loads)."""
+    whole map's (``loaded``: the tiles' hold results, which order this task after their loads);
+    None when this worker does not hold them all (it was restarted, or a tile moved away)."""
     del loaded
     address = _worker_address()
     tiles = [_SHELF.get((address, key)) for key in keys]  # all taken at once: a move may drop them
-    missing = [key for key, tile in zip(keys, tiles, strict=True) if tile is None]
-    if missing:
-        raise _TileNotHeld(missing[0])
+    if any(tile is None for tile in tiles):
+        return None
     return [_globalised_answer(_run_tile(tile.world, query), tile) for tile in tiles if tile is not None]
 
 
-def _summaries(answers: list[_TileAnswer]) -> list[_TileAnswer]:
+def _summaries(answers: list[_TileAnswer] | None) -> list[_TileAnswer] | None:
     """What comes back of a worker's answers: each without its hypotheses (``ranking._summary``)."""
-    return [_summary(a) for a in answers]
+    return None if answers is None else [_summary(a) for a in answers]
 
 
 def _pick(answers: list[_TileAnswer], i: int) -> list[_TileAnswer]:
@@ -440,19 +436,21 @@ class ClusterTiles:
             running: list[_Job] = []
             failed: list[_Job] = []
             for j in pending:
-                if j.result.status == "finished":
-                    for i, (k, answer) in enumerate(zip(j.tiles, j.result.result(), strict=True)):
+                got = j.result.result() if j.result.status == "finished" else None
+                if got is not None:
+                    for i, (k, answer) in enumerate(zip(j.tiles, got, strict=True)):
                         out[(j.query, k)] = answer
                         where[(j.query, k)] = (j, i)
                     continue
-                (failed if j.result.status in ("error", "cancelled", "lost") else running).append(j)
+                ended = j.result.status in ("finished", "error", "cancelled", "lost")  # finished: None,
+                (failed if ended else running).append(j)  # the worker lacked a tile
             if not running and not failed:
                 break
             live = self._workers()
             dead = {h for h in self._home if h is not None and h not in live}
             for j in failed:  # a task's own error, on a live worker that holds its tiles: raised
                 exc = j.result.exception() if j.result.status == "error" else None
-                if exc is not None and not isinstance(exc, _TileNotHeld) and j.home not in dead:
+                if exc is not None and j.home not in dead:
                     raise exc
             if not live:  # nowhere to send anything yet: the next poll looks again
                 pending = running + failed
