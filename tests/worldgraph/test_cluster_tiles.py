@@ -193,14 +193,16 @@ def test_a_global_query_runs_each_tile_task_at_home_and_moves_no_tile(site, tile
 
 
 def test_a_worker_that_lost_its_tiles_gets_them_again(site, tiles, folder, cluster) -> None:
-    _, client = cluster
+    c, client = cluster
     _, percepts = _scan(site, 12)
-    with ClusterTiles(folder, client) as remote:
+    with ClusterTiles(folder, c.scheduler_address) as remote:  # an address: the client is its own
         before = remote.localize(percepts, timeout=120)
         from worldgraph.tiles import cluster as module
 
         assert sum(client.run(module._drop, remote._token).values()) == len(tiles)  # every shelf emptied
         _same(remote.localize(percepts, timeout=120), before)
+        own = remote._client
+    assert own is not client and own.status == "closed"
 
 
 def _shelves(client) -> dict[str, list[str]]:

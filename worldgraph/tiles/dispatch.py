@@ -43,7 +43,7 @@ def _client(scheduler: object, name: str = "scheduler", what: str = "None, ", ti
     if isinstance(scheduler, str):
         _checks.name_string(name, scheduler)
         try:
-            return Client(scheduler, timeout=timeout), True
+            return Client(scheduler, **({} if timeout is None else {"timeout": timeout})), True
         except (OSError, TimeoutError) as exc:
             waited = "distributed's connect timeout" if timeout is None else f"timeout = {timeout:g} s"
             raise WorldGraphError(f"{name} = {scheduler!r}: no Dask scheduler answered there within "
