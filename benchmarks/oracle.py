@@ -339,7 +339,8 @@ def oracle(world, percepts: list[Percept], true_pose: np.ndarray, tables: WorldT
 
 def trial_rng(seed: int, kind: str, n_true: int, index: int, stream: int = 0) -> np.random.Generator:
     """One trial's generator: a function of the seed, the kind, n_true and the index alone."""
-    kind_code = list(scenes.LAYOUT_KINDS).index(kind) if kind in scenes.LAYOUT_KINDS else 99
+    kinds = list(scenes.LAYOUT_KINDS + scenes.VARIED_LAYOUT_KINDS)
+    kind_code = kinds.index(kind) if kind in kinds else 99
     return np.random.default_rng([seed, kind_code, n_true, index, stream])
 
 

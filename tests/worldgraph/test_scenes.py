@@ -170,7 +170,7 @@ def _base_widths(scene: trimesh.Scene) -> list[float]:
     return out
 
 
-@pytest.mark.parametrize("kind", scenes.LAYOUT_KINDS)
+@pytest.mark.parametrize("kind", scenes.LAYOUT_KINDS + scenes.VARIED_LAYOUT_KINDS)
 def test_layout_builds_with_room_and_landmarks_only(kind):
     w = scenes.kitchen_layout(kind, seed=0)
     types = set(w.type_names)
@@ -205,7 +205,33 @@ def test_layout_repeats_identical_units(kind):
         assert len(sizes) > len(set(sizes))
 
 
-@pytest.mark.parametrize("kind", scenes.LAYOUT_KINDS)
+def _shared_neighbourhoods(world) -> float:
+    """The fraction of objects whose type and 3 nearest neighbours (type, distance to 1 cm) are
+    another object's too."""
+    from collections import Counter
+
+    from scipy.spatial import cKDTree
+
+    _, idx = cKDTree(world.positions).query(world.positions, 4)
+    sig = [(str(world.types[i]),) + tuple((str(world.types[j]), round(float(np.linalg.norm(
+        world.positions[j] - world.positions[i])) / 0.01)) for j in row[1:]) for i, row in enumerate(idx)]
+    counts = Counter(sig)
+    return float(np.mean([counts[x] > 1 for x in sig]))
+
+
+def test_varied_layouts_repeat_less():
+    repeated = [_shared_neighbourhoods(scenes.kitchen_layout(k, s))
+                for k in scenes.LAYOUT_KINDS for s in range(4)]
+    varied = [_shared_neighbourhoods(scenes.kitchen_layout(k, s))
+              for k in scenes.VARIED_LAYOUT_KINDS for s in range(4)]
+    assert np.mean(varied) <= 0.75 * np.mean(repeated), (np.mean(varied), np.mean(repeated))
+    for kind in scenes.VARIED_LAYOUT_KINDS:  # no bank: a width repeats only where two units drew it
+        for seed in range(4):
+            widths = _base_widths(scenes.kitchen_layout_scene(kind, seed))
+            assert max(widths.count(x) for x in widths) <= len(widths) // 2 + 1, (kind, seed, widths)
+
+
+@pytest.mark.parametrize("kind", scenes.LAYOUT_KINDS + scenes.VARIED_LAYOUT_KINDS)
 def test_layout_is_deterministic_and_seed_dependent(kind):
     a, b = scenes.kitchen_layout(kind, 3), scenes.kitchen_layout(kind, 3)
     assert a == b

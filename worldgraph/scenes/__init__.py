@@ -29,7 +29,8 @@ World frame: z up, the floor at z = 0, the room in ``[0, 10] x [0, 8] x [0, 3]``
 Where things live: :mod:`.builder` (the mesh helpers, the scene builder, :func:`scene_statistics`),
 :mod:`.furniture` (handles, knobs, cabinets, appliances, the room shell, :data:`STRUCTURAL_TYPES`),
 :mod:`.paper_kitchen` (:func:`kitchen_scene`, :func:`kitchen`), :mod:`.layouts` (:data:`LAYOUT_KINDS`,
-:func:`kitchen_layout_scene`, :func:`kitchen_layout`, the planning of their runs) and
+:data:`VARIED_LAYOUT_KINDS`, :func:`kitchen_layout_scene`, :func:`kitchen_layout`, the planning of
+their runs) and
 :mod:`.buildings` (:func:`corridor`, :func:`floor`, :func:`building`, :func:`campus`, :class:`Site`)
 and :mod:`.mjcf` (:func:`scene_mjcf`, :func:`write_mjcf`: a kitchen or layout as a textured MuJoCo
 scene, for simulated head scans).
@@ -53,7 +54,7 @@ from .buildings import (
     floor,
 )
 from .furniture import STRUCTURAL_TYPES
-from .layouts import LAYOUT_KINDS, LAYOUT_TYPES, kitchen_layout, kitchen_layout_scene
+from .layouts import LAYOUT_KINDS, LAYOUT_TYPES, VARIED_LAYOUT_KINDS, kitchen_layout, kitchen_layout_scene
 from .mjcf import scene_mjcf, write_mjcf
 from .paper_kitchen import KITCHEN_ROOM, KITCHEN_TARGETS, kitchen, kitchen_scene
 
@@ -70,6 +71,7 @@ __all__ = [
     "MIN_STOREY_HEIGHT",
     "STRUCTURAL_TYPES",
     "Site",
+    "VARIED_LAYOUT_KINDS",
     "building",
     "building_site",
     "campus",

@@ -28,10 +28,14 @@ from .furniture import (
     _wall_unit,
 )
 
-__all__ = ["LAYOUT_KINDS", "LAYOUT_TYPES", "kitchen_layout", "kitchen_layout_scene"]
+__all__ = ["LAYOUT_KINDS", "LAYOUT_TYPES", "VARIED_LAYOUT_KINDS", "kitchen_layout", "kitchen_layout_scene"]
 
-#: The layouts of :func:`kitchen_layout_scene` (after RoboCasa's kitchen layouts).
+#: The layouts of :func:`kitchen_layout_scene` (after RoboCasa's kitchen layouts), each repeating
+#: 2-3 cabinet modules in banks along its runs.
 LAYOUT_KINDS = ("one_wall", "galley", "l_shape", "u_shape", "island")
+#: Layouts of :func:`kitchen_layout_scene` that repeat less: their runs are single units of mixed
+#: widths, each with fronts of its own (a one-wall kitchen, an L-shaped one, one with an island).
+VARIED_LAYOUT_KINDS = ("mixed_wall", "mixed_l", "mixed_island")
 #: Object types of a layout's world model.
 LAYOUT_TYPES = ("door", "drawer", "handle", "knob", "panel", "oven", "stove", "fridge", "dishwasher",
                 "microwave", "sink")
@@ -39,6 +43,7 @@ LAYOUT_TYPES = ("door", "drawer", "handle", "knob", "panel", "oven", "stove", "f
 _LAYOUT_SCENE_TYPES: dict[str, str | None] = {"cabinet": None, "shelf": None, "plinth": None,
                                               "countertop": None, "backsplash": None}
 _MODULE_WIDTHS = (0.45, 0.5, 0.6, 0.8)  # widths of the repeated cabinet modules
+_MIXED_WIDTHS = (0.3, 0.4, 0.45, 0.5, 0.6, 0.7, 0.8)  # widths of the units of a varied run
 _SLOT_WIDTHS = {"fridge": 0.9, "range": 0.6, "sink": 0.6, "dishwasher": 0.6}
 _COUNTER_DEPTH = 0.62
 _END_PANEL = 0.02  # thickness of the panel closing a run's free end
@@ -62,12 +67,13 @@ def _modules(rng: np.random.Generator) -> list[_Module]:
 
 
 def _plan_run(rng: np.random.Generator, length: float, modules: list[_Module], appliances: tuple[str, ...],
-              optional: tuple[str, ...] = ()) -> list[tuple[str, float, _Module | None]]:
+              optional: tuple[str, ...] = (), banks: bool = True) -> list[tuple[str, float, _Module | None]]:
     """Slots ``(kind, width, module)`` filling a run of ``length`` metres.
 
     The appliances (a fridge goes first), the optional ones if a bank of two of the widest modules
-    still fits, then banks of 2-4 identical modules, in a random order; the rest is one narrow door unit
-    (>= 0.3 m) or a filler panel.
+    still fits, then banks of 2-4 identical modules (``banks=False``: single units of mixed widths,
+    each a module of its own), in a random order; the rest is one narrow door unit (>= 0.3 m) or a
+    filler panel.
     """
     free = length - sum(_SLOT_WIDTHS[a] for a in appliances)
     widest = max(m.width for m in modules)
@@ -79,7 +85,15 @@ def _plan_run(rng: np.random.Generator, length: float, modules: list[_Module], a
     if free < -FIT_SLACK:
         raise WorldGraphError(f"run of {length:.2f} m is too short for {appliances}")
     blocks: list[list[tuple[str, float, _Module | None]]] = [[(a, _SLOT_WIDTHS[a], None)] for a in chosen]
-    while True:
+    while not banks:
+        fits = [w for w in _MIXED_WIDTHS if w <= free + FIT_SLACK]
+        if not fits or free < 0.6:
+            break
+        w = float(fits[int(rng.integers(len(fits)))])
+        blocks.append([("unit", w, _Module(w, "drawers" if rng.random() < 0.4 else "doors",
+                                            int(rng.integers(2**31))))])
+        free -= w
+    while banks:
         fits = [m for m in modules if 2 * m.width <= free + FIT_SLACK]
         if not fits:
             break
@@ -167,8 +181,9 @@ def kitchen_layout_scene(kind: str, seed: int = 0) -> trimesh.Scene:
     Like RoboCasa's kitchen layouts: runs of base cabinets (doors with handles, drawer stacks
     with handles or knobs) under wall cabinets, filler and end panels, and appliances: a fridge,
     a range (oven with its handle, stove top, five knobs) under a microwave, a sink unit, a
-    dishwasher.  Each layout repeats 2-3 cabinet modules (same width, same fronts) in banks of
-    2-4 along all its runs, so many objects have identical neighbourhoods.  The room has a floor,
+    dishwasher.  Each layout of :data:`LAYOUT_KINDS` repeats 2-3 cabinet modules (same width,
+    same fronts) in banks of 2-4 along all its runs, so many objects have identical
+    neighbourhoods.  The room has a floor,
     a ceiling and 4 walls (types ``"floor"``, ``"ceiling"``, ``"wall"``) and a room door.
 
     * ``"one_wall"``: one run along the back wall of a 4-5.5 m wide, 3-5 m deep room (the robot
@@ -177,7 +192,11 @@ def kitchen_layout_scene(kind: str, seed: int = 0) -> trimesh.Scene:
     * ``"l_shape"``: runs along the back and left walls meeting in a corner;
     * ``"u_shape"``: runs along the back, left and right walls, the side runs 1.8-2.8 m apart;
     * ``"island"``: a run along the back wall and an island of two back-to-back runs (a sink
-      on the side facing the wall) 1-1.3 m in front of it.
+      on the side facing the wall) 1-1.3 m in front of it;
+    * ``"mixed_wall"``, ``"mixed_l"``, ``"mixed_island"`` (:data:`VARIED_LAYOUT_KINDS`): the rooms
+      and runs of ``"one_wall"``, ``"l_shape"`` and ``"island"``, but every cabinet a unit of
+      its own (widths 0.3-0.8 m, its own fronts, handles and knobs), so that few objects share a
+      neighbourhood.
 
     Cabinet carcasses, shelves, plinths, countertops and backsplashes are in the scene with node
     metadata type ``None`` (not objects); every other node is typed (:data:`LAYOUT_TYPES` and the
@@ -186,7 +205,7 @@ def kitchen_layout_scene(kind: str, seed: int = 0) -> trimesh.Scene:
     Parameters
     ----------
     kind : str
-        One of :data:`LAYOUT_KINDS`.
+        One of :data:`LAYOUT_KINDS` or :data:`VARIED_LAYOUT_KINDS`.
     seed : int
         Draws the room size, the run lengths, the modules, the order of units and appliances;
         the same seed gives the same scene.
@@ -197,8 +216,11 @@ def kitchen_layout_scene(kind: str, seed: int = 0) -> trimesh.Scene:
         ``scene.metadata`` holds ``"kind"``, ``"seed"``, ``"room_size"`` ``(rx, ry, rz)`` and
         ``"primitive_counts"``.
     """
-    if not isinstance(kind, str) or kind not in LAYOUT_KINDS:
-        raise WorldGraphError(f"kind must be one of {LAYOUT_KINDS}, got {_checks._short(kind)}")
+    if not isinstance(kind, str) or kind not in LAYOUT_KINDS + VARIED_LAYOUT_KINDS:
+        raise WorldGraphError(f"kind must be one of {LAYOUT_KINDS + VARIED_LAYOUT_KINDS}, "
+                              f"got {_checks._short(kind)}")
+    banks = kind in LAYOUT_KINDS
+    shape = {"mixed_wall": "one_wall", "mixed_l": "l_shape", "mixed_island": "island"}.get(kind, kind)
     seed = _seed(seed)
     rng = np.random.default_rng(seed)
     b = _Builder(types=dict(_LAYOUT_SCENE_TYPES))
@@ -213,26 +235,26 @@ def kitchen_layout_scene(kind: str, seed: int = 0) -> trimesh.Scene:
             appliances: tuple[str, ...], optional: tuple[str, ...] = (), **kw: object) -> None:
         frame = _frame(np.array([origin[0], origin[1], 0.0]), normal)
         room_for_panel = _END_PANEL if kw.get("end_panel", True) else 0.0
-        slots = _plan_run(rng, length - room_for_panel, modules, appliances, optional)
+        slots = _plan_run(rng, length - room_for_panel, modules, appliances, optional, banks)
         _build_run(b, rng, apps, frame, slots, rz, **kw)  # type: ignore[arg-type]
 
-    if kind == "one_wall":
+    if shape == "one_wall":
         rx, ry = _uniform(rng, 4.0, 5.5), _uniform(rng, 3.0, 5.0)
         run((rx, ry), back, rx - _uniform(rng, 0.0, 0.5), ("fridge", "range", "sink"), ("dishwasher",))
         door = ((0.0, 0.0), front, _uniform(rng, 0.3, rx - 1.2))
-    elif kind == "galley":
+    elif shape == "galley":
         rx, aisle = _uniform(rng, 3.0, 5.0), _uniform(rng, 1.2, 2.5)
         ry = 2 * d + aisle
         run((rx, ry), back, rx - _uniform(rng, 0.0, 0.5), ("fridge", "range"))
         run((0.0, 0.0), front, rx - _uniform(rng, 0.0, 0.5), ("sink",), ("dishwasher",))
         door = ((rx, 0.0), right, round(ry / 2 - 0.45, 3))
-    elif kind == "l_shape":
+    elif shape == "l_shape":
         rx, ry = _uniform(rng, 3.2, 4.5), _uniform(rng, 3.0, 4.5)
         run((rx, ry), back, rx - d, ("fridge", "range"), end_panel=False)
         run((0.0, ry - d), left, ry - d - _uniform(rng, 0.3, 1.0), ("sink",), ("dishwasher",),
             counter=(d, 0.0))
         door = ((0.0, 0.0), front, _uniform(rng, 0.9, rx - 1.1))
-    elif kind == "u_shape":
+    elif shape == "u_shape":
         rx, ry = round(2 * d + _uniform(rng, 1.8, 2.8), 2), _uniform(rng, 3.0, 4.5)
         run((rx - d, ry), back, rx - 2 * d, ("range",), counter=(d, d), end_panel=False)
         run((0.0, ry - d), left, ry - d - _uniform(rng, 0.3, 1.0), ("sink",), ("dishwasher",))
@@ -248,7 +270,7 @@ def kitchen_layout_scene(kind: str, seed: int = 0) -> trimesh.Scene:
             normal = np.array([0.0, side, 0.0])
             start = centre - np.cross(normal, _UP) * length / 2
             frame = _frame(start, normal)
-            slots = _plan_run(rng, length, modules, appliances)
+            slots = _plan_run(rng, length, modules, appliances, banks=banks)
             _build_run(b, rng, apps, frame, slots, rz, depth=0.48, wall_units=False, counter=None,
                        end_panel=False)
         b.box("countertop", (length + 0.1, 1.1, 0.04), _translate(centre[0], centre[1], 0.88))
