@@ -86,13 +86,13 @@ def _plan_run(rng: np.random.Generator, length: float, modules: list[_Module], a
         raise WorldGraphError(f"run of {length:.2f} m is too short for {appliances}")
     blocks: list[list[tuple[str, float, _Module | None]]] = [[(a, _SLOT_WIDTHS[a], None)] for a in chosen]
     while not banks:
-        fits = [w for w in _MIXED_WIDTHS if w <= free + FIT_SLACK]
-        if not fits or free < 0.6:
+        room = [width for width in _MIXED_WIDTHS if width <= free + FIT_SLACK]
+        if not room or free < 0.6:
             break
-        w = float(fits[int(rng.integers(len(fits)))])
-        blocks.append([("unit", w, _Module(w, "drawers" if rng.random() < 0.4 else "doors",
-                                            int(rng.integers(2**31))))])
-        free -= w
+        width = float(room[int(rng.integers(len(room)))])
+        blocks.append([("unit", width, _Module(width, "drawers" if rng.random() < 0.4 else "doors",
+                                                int(rng.integers(2**31))))])
+        free -= width
     while banks:
         fits = [m for m in modules if 2 * m.width <= free + FIT_SLACK]
         if not fits:
