@@ -443,9 +443,11 @@ def test_fits_at_the_same_pose_widen_the_covariance_instead_of_making_it_ambiguo
     chairs = sorted(o for p, o in res.correspondences if p == 4)
     e = e_of(res)
     assert e @ np.linalg.solve(res.pose_covariance, e) <= chi2.ppf(0.9973, 6)
-    # the premise: without merging the fits at the same pose, the runner-up makes it ambiguous
+    # the premise: without merging the fits at the same pose (nor runners-up within the
+    # tolerances), the runner-up makes it ambiguous
     from worldgraph.localization import validate
     monkeypatch.setattr(validate, "_same_pose", lambda *args: False)
+    monkeypatch.setattr(validate, "_within_tolerance", lambda *args: False)
     alone = localize(world, percepts, up_sigma=math.inf)
     assert alone.status == "ambiguous"
     assert np.linalg.norm(alone.alternatives[0][:3, 3] - alone.position) < 0.01

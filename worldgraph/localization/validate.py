@@ -167,10 +167,17 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     others = _level_enough(ctx, others)
     runners = [f for f in others if f.cost - best.cost < tol.ambiguity_margin
                and pose_nees(best.world_from_ego, best.pose_covariance, f.world_from_ego) > CHI2_6_GATE]
-    spread = _same_pose_spread(best, same)
-    if spread is not None:
+    near = [f for f in runners if _within_tolerance(best.world_from_ego, f.world_from_ego, ctx.settings)]
+    runners = [f for f in runners if not any(f is g for g in near)]
+    spread = _same_pose_spread(best, same + near)
+    if same:
         ctx.notes.append(f"{len(same)} other fit(s) at the same pose (other objects of the percepts' "
                          "types nearby) widen its covariance by their likelihood-weighted spread")
+    if near:
+        ctx.notes.append(f"{len(near)} runner-up fit(s) within the pose tolerances of the answer "
+                         f"({ctx.settings.max_position_3sigma:g} m, "
+                         f"{math.degrees(ctx.settings.max_rotation_3sigma):g} deg) widen its covariance by "
+                         "their likelihood-weighted spread instead of making it ambiguous")
     ambiguous = bool(runners) or incomplete
     if incomplete:
         ctx.notes.append("clique search truncated (max_nodes/max_cliques): the world repeats itself "
@@ -214,6 +221,18 @@ def _same_pose(a: NDArray, b: NDArray, settings: LocalizeSettings) -> bool:
     tol = settings.tol
     return bool(np.linalg.norm(e[:3]) < min(settings.max_position_3sigma / 3.0, tol.distinct_translation)
                 and np.linalg.norm(e[3:]) < min(settings.max_rotation_3sigma / 3.0, tol.distinct_angle))
+
+
+def _within_tolerance(a: NDArray, b: NDArray, settings: LocalizeSettings) -> bool:
+    """Whether a runner-up's pose ``b`` is the answer ``a`` at the resolution the answer is asked
+    for: closer than the pose tolerances (``max_position_3sigma``, ``max_rotation_3sigma``) and
+    the association's ``distinct_translation`` and ``distinct_angle``.  Such a runner-up is not a
+    rival: the truth being there instead is part of the answer's error, which its spread adds to
+    the covariance (and a spread too wide for the tolerances makes the answer "weak")."""
+    e = pose_difference(a, b)
+    tol = settings.tol
+    return bool(np.linalg.norm(e[:3]) < min(settings.max_position_3sigma, tol.distinct_translation)
+                and np.linalg.norm(e[3:]) < min(settings.max_rotation_3sigma, tol.distinct_angle))
 
 
 def _same_pose_spread(best: PoseFit, same: list[PoseFit]) -> NDArray[np.float64] | None:
