@@ -167,8 +167,10 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     others = _level_enough(ctx, others)
     runners = [f for f in others if f.cost - best.cost < tol.ambiguity_margin
                and pose_nees(best.world_from_ego, best.pose_covariance, f.world_from_ego) > CHI2_6_GATE]
-    near = [f for f in runners if _within_tolerance(best.world_from_ego, f.world_from_ego, ctx.settings)]
-    runners = [f for f in runners if not any(f is g for g in near)]
+    # a runner-up within the tolerances is the answer, not a rival
+    close = [_within_tolerance(best.world_from_ego, f.world_from_ego, ctx.settings) for f in runners]
+    near = [f for f, c in zip(runners, close, strict=True) if c]
+    runners = [f for f, c in zip(runners, close, strict=True) if not c]
     spread = _same_pose_spread(best, same + near)
     if same:
         ctx.notes.append(f"{len(same)} other fit(s) at the same pose (other objects of the percepts' "

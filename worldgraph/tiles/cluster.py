@@ -102,7 +102,7 @@ def _drop(token: str, dask_worker: Any = None) -> int:
     return len(keys)
 
 
-@dataclass
+@dataclass(eq=False)  # a job is itself: compared and hashed by identity
 class _Job:
     """One query's tiles on one worker (``query``: its index in the batch): the future of their
     answers (kept on that worker) and of their summaries (what comes back), or, for a query that
@@ -180,8 +180,9 @@ class ClusterTiles:
         self._closed = False
         self._queries: list[_TileQuery] = []  # the batch being answered
         workers = self._workers()
-        for k, w in enumerate(_spread(self._sizes, workers)):
-            self._load(k, w)
+        homes = _spread(dict(enumerate(self._sizes)), dict.fromkeys(workers, 0)) if workers else {}
+        for k in range(len(self.index.tiles)):
+            self._load(k, homes.get(k))  # no worker yet: the scheduler places the load
 
     # ------------------------------------------------------------------------------------------
     @property
@@ -320,12 +321,9 @@ class ClusterTiles:
         """Load ``tiles`` again from their files: each on its home worker when that one lives,
         else on the live worker holding the fewest objects, the largest tiles first."""
         load = self._load_of(live)
+        new = _spread({k: self._sizes[k] for k in sorted(tiles) if self._home[k] not in load}, load)
         for k in sorted(tiles, key=lambda j: -self._sizes[j]):
-            w = self._home[k]
-            if w not in load:
-                w = min(live, key=lambda a: (load[a], a))
-                load[w] += self._sizes[k]
-            self._move(k, w, live)
+            self._move(k, new.get(k) or str(self._home[k]), live)
 
     def _balance(self, live: list[str]) -> None:
         """Move tiles to the live workers that hold none (a worker that joined, or the one that
@@ -394,7 +392,7 @@ class ClusterTiles:
                                                    workers=[job.home], allow_other_workers=False)
                 picks.append(pick)
         whole, _ = self._collect(picks, timeout, t_start)
-        self._release(list({id(j): j for j, _ in where.values()}.values()) + picks)
+        self._release(list({j for j, _ in where.values()}) + picks)
         out = []
         for q, (tiles, c, plist, visit) in enumerate(zip(asked, chosen, lists, visits, strict=True)):
             note = _visited_note(visit)
@@ -530,16 +528,13 @@ def _per_query(near: Any, radius: Any, n: int) -> tuple[list[Any], list[Any]]:
     return out_n, [None if p is None else float(r) for p, r in zip(out_n, rad, strict=True)]
 
 
-def _spread(sizes: list[int], workers: list[str]) -> list[str | None]:
-    """A home worker for each tile: the largest tiles first, each to the worker holding the fewest
-    objects (None for every tile when the cluster has no worker yet: the scheduler then places
-    each load, and the worker that ran it is the tile's home)."""
-    if not workers:
-        return [None] * len(sizes)
-    load = dict.fromkeys(workers, 0)
-    home: list[str | None] = [None] * len(sizes)
-    for k in sorted(range(len(sizes)), key=lambda j: -sizes[j]):
-        w = min(workers, key=lambda a: (load[a], a))
+def _spread(sizes: dict[int, int], load: dict[str, int]) -> dict[int, str]:
+    """A home worker for each tile of ``sizes`` (tile -> objects): the largest tiles first, each to
+    the worker of ``load`` (worker -> objects it holds already) holding the fewest objects."""
+    load = dict(load)
+    home: dict[int, str] = {}
+    for k in sorted(sizes, key=lambda j: (-sizes[j], j)):
+        w = min(load, key=lambda a: (load[a], a))
         home[k] = w
         load[w] += sizes[k]
     return home
