@@ -294,6 +294,52 @@ def test_a_row_of_handles_far_away_is_weak_not_ok() -> None:
         localize(world, percepts, max_position_3sigma=float("nan"))
 
 
+def _row_at_one_height() -> WorldModel:
+    """Six objects of six types in a 2.4 m row along x, their heights within 3 cm: the row leaves
+    the rotation about itself (a horizontal axis) to gravity."""
+    x = np.linspace(0.0, 2.4, 6)
+    pos = np.column_stack([x, np.zeros(6), 0.9 + 0.03 * np.array([0, 1, 0, 1, 1, 0])])
+    return WorldModel.from_arrays(["handle", "knob", "drawer", "door", "panel", "oven"], pos)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_tilt_that_gravity_supplies_is_not_weak(seed: int) -> None:
+    world = _row_at_one_height()
+    pose = facing(np.array([1.2, 2.0, 1.5]), -math.pi / 2)
+    percepts = percepts_of(world, pose, range(6), np.random.default_rng(seed), depth_factor=500.0)
+    free = localize(world, percepts, gravity=None)
+    assert free.status == "weak"
+    assert "rotation 3-sigma" in free.message and "about (1.00, " in free.message, free.message
+    res = localize(world, percepts)  # gravity="auto": the tilt prior pins roll and pitch
+    assert res.status == "ok", res.message
+    # its tilt is as uncertain as gravity's prior says (3 sigma about 5 deg), its yaw and position
+    # are the percepts' and tight, and the pose is where its covariance says
+    tilt_sd = math.sqrt(np.linalg.eigvalsh(res.pose_covariance[3:5, 3:5])[-1])
+    assert math.degrees(3 * tilt_sd) > 4.5
+    assert 3 * math.sqrt(res.pose_covariance[5, 5]) < wl.MAX_ROTATION_3SIGMA
+    e = np.concatenate([pose[:3, 3] - res.position,
+                        Rotation.from_matrix(pose[:3, :3] @ res.transformation[:3, :3].T).as_rotvec()])
+    assert e @ np.linalg.solve(res.pose_covariance, e) <= chi2.ppf(0.9973, 6)
+
+
+def test_a_loose_yaw_is_still_weak() -> None:
+    # six objects within 0.4 m across and 5 mm deep, over 1.5 m of height, 1 m in front of the
+    # robot: height pins the tilt, the narrow spread leaves the yaw to 7 deg (3 sigma)
+    rng = np.random.default_rng(7)
+    pos = np.column_stack([rng.uniform(0, 0.4, 6), rng.uniform(0, 0.05, 6), rng.uniform(0.3, 1.8, 6)])
+    world = WorldModel.from_arrays(["handle", "knob", "drawer", "door", "panel", "oven"], pos)
+    pose = facing(np.array([0.2, 1.0, 1.5]), -math.pi / 2)
+    percepts = [Percept(p.type, p.position, 0.01) for p in percepts_of(world, pose, range(6))]
+    percepts = [Percept(p.type, p.position + r, p.sigma) for p, r in
+                zip(percepts, np.random.default_rng(0).normal(0.0, 0.01, (6, 3)), strict=True)]
+    res = localize(world, percepts)
+    assert res.status == "weak"
+    assert "yaw (rotation about world up) 3-sigma" in res.message and "position 3-sigma" not in res.message
+    yaw3 = 3 * math.sqrt(res.pose_covariance[5, 5])
+    assert yaw3 > wl.MAX_ROTATION_3SIGMA
+    assert localize(world, percepts, max_rotation_3sigma=1.5 * yaw3).status == "ok"
+
+
 def test_exactly_collinear_landmarks_give_no_pose() -> None:
     x = np.linspace(0.0, 2.4, 5)
     world = WorldModel.from_arrays(["handle", "knob", "drawer", "door", "panel"],

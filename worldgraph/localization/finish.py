@@ -14,10 +14,12 @@ import radialopt as ro
 
 from ..errors import WorldGraphError
 from ..pose.certificate import certify_pose
+from ..pose.gravity import TILT_PRIOR_SIGMAS, TILT_SLACK, TiltPrior
 from ..pose.validation import CHI2_3_GATE, constrained_directions, self_check
 from ..tolerances import MIN_INLIER_DIRECTIONS, REGION_SLACK
 from .context import _Answer, _Choice, _Context
 from .result import LOCALIZE_STATUSES, LocalizationResult, _worst_3sigma
+from .settings import LocalizeSettings
 
 
 def _in_region(region: ro.Region, pose: NDArray, cov6: NDArray) -> bool:
@@ -86,8 +88,8 @@ def _status_step(ctx: _Context, answer: _Answer, status: str, n_inl: int, n_dir:
                  ) -> str:
     """The status: the self-check's, then too few inliers (``n_inl`` percepts constraining
     ``n_dir`` directions, fewer than :data:`~worldgraph.tolerances.MIN_INLIER_DIRECTIONS`), the
-    estimator's, ambiguity, the region, and the 3-sigma bounds against the tolerances
-    (``"weak"``), first failure wins."""
+    estimator's, ambiguity, the region, and the 3-sigma bounds of the axes the data must supply
+    against the tolerances (``"weak"``, :func:`_weak_axes`), first failure wins."""
     pose, cov6 = answer.pose, answer.cov6
     if status == "ok" and n_dir < MIN_INLIER_DIRECTIONS:
         status = "inconsistent"
@@ -111,14 +113,57 @@ def _status_step(ctx: _Context, answer: _Answer, status: str, n_inl: int, n_dir:
             status = "weak"
             ctx.notes.append("the matched landmarks do not determine the pose (infinite covariance)")
         else:
-            pos3, rot3 = _worst_3sigma(cov6[:3, :3]), _worst_3sigma(cov6[3:, 3:])
-            if pos3 > ctx.settings.max_position_3sigma or rot3 > ctx.settings.max_rotation_3sigma:
+            weak = _weak_axes(cov6, ctx.settings, answer.tilt_prior)
+            if weak:
                 status = "weak"
-                ctx.notes.append(f"weakly determined: 3-sigma bounds {pos3:.3g} m (tolerance "
-                                 f"{ctx.settings.max_position_3sigma:.3g})"
-                                 f" and {math.degrees(rot3):.3g} deg (tolerance "
-                                 f"{math.degrees(ctx.settings.max_rotation_3sigma):.3g})")
+                ctx.notes.append("weakly determined: " + "; ".join(weak))
     return status
+
+
+def _weak_axes(cov6: NDArray[np.float64], settings: LocalizeSettings, prior: TiltPrior | None) -> list[str]:
+    """The axes of a finite pose covariance whose 3-sigma bound exceeds its tolerance, each
+    described (empty: the pose is determined well enough).
+
+    The data must supply the position (``max_position_3sigma`` along its worst axis) and, without
+    gravity's tilt prior, the rotation (``max_rotation_3sigma`` about its worst axis).  With the
+    prior, roll and pitch are gravity's to supply: the rotation about world up (yaw) is held to
+    ``max_rotation_3sigma``, the tilt (about the worst horizontal axis) only to what the prior
+    itself allows, :data:`~worldgraph.pose.gravity.TILT_PRIOR_SIGMAS` of its standard deviation
+    plus :data:`~worldgraph.pose.gravity.TILT_SLACK` (when that is above ``max_rotation_3sigma``):
+    a level robot whose percepts lie near one height is not weak because they cannot add to what
+    gravity says about its tilt."""
+    out = []
+    w, v = np.linalg.eigh(cov6[:3, :3])
+    pos3 = 3.0 * math.sqrt(max(float(w[-1]), 0.0))
+    if pos3 > settings.max_position_3sigma:
+        out.append(f"position 3-sigma {pos3:.3g} m along {_axis_text(v[:, -1])} (tolerance "
+                   f"{settings.max_position_3sigma:.3g} m)")
+    rot = cov6[3:, 3:]
+    rot_tol = math.degrees(settings.max_rotation_3sigma)
+    if prior is None:
+        w, v = np.linalg.eigh(rot)
+        rot3 = math.degrees(3.0 * math.sqrt(max(float(w[-1]), 0.0)))
+        if rot3 > rot_tol:
+            out.append(f"rotation 3-sigma {rot3:.3g} deg about {_axis_text(v[:, -1])} (tolerance "
+                       f"{rot_tol:.3g} deg)")
+        return out
+    yaw3 = math.degrees(3.0 * math.sqrt(max(float(rot[2, 2]), 0.0)))
+    if yaw3 > rot_tol:
+        out.append(f"yaw (rotation about world up) 3-sigma {yaw3:.3g} deg (tolerance {rot_tol:.3g} deg)")
+    w, v = np.linalg.eigh(rot[:2, :2])
+    tilt3 = math.degrees(3.0 * math.sqrt(max(float(w[-1]), 0.0)))
+    tilt_tol = max(rot_tol, math.degrees(TILT_PRIOR_SIGMAS * prior.sd + TILT_SLACK))
+    if tilt3 > tilt_tol:
+        out.append(f"tilt 3-sigma {tilt3:.3g} deg about {_axis_text(np.append(v[:, -1], 0.0))} (tolerance "
+                   f"{tilt_tol:.3g} deg: gravity's tilt prior, {math.degrees(prior.sd):.3g} deg, "
+                   f"{TILT_PRIOR_SIGMAS:g} times, plus {math.degrees(TILT_SLACK):g} deg)")
+    return out
+
+
+def _axis_text(axis: NDArray[np.float64]) -> str:
+    """A unit axis as world-axis text, its largest component positive: ``"(0.89, -0.44, 0.13)"``."""
+    a = axis if axis[np.argmax(np.abs(axis))] >= 0 else -axis
+    return "(" + ", ".join(f"{c:.2f}" for c in a) + ") in world axes"
 
 
 def _certificate_step(ctx: _Context, answer: _Answer, p_i: NDArray, centers: NDArray
