@@ -34,12 +34,14 @@ Verdicts as in ``benchmarks/association.py``: unique-correct = status "ok", 6D N
 unique-wrong = "ok" otherwise; ambiguous = status "ambiguous"; other = "weak" or a failure.
 
 Run:  python benchmarks/active_validation.py [--trials 200] [--seed 0] [--worlds kitchen:0 ...]
+      [--up-sigma-deg D] [--save trials.json]
 Prints Markdown tables (progress on stderr).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import time
@@ -140,8 +142,10 @@ def _planner(strategy: str, world, choice_rng: np.random.Generator):
     return planner
 
 
-def run(args: argparse.Namespace) -> tuple[list[str], list[float]]:
+def run(args: argparse.Namespace) -> tuple[list[str], list[float], list[dict]]:
     rows: list[str] = []
+    records: list[dict] = []
+    up_sigma = None if args.up_sigma_deg is None else math.radians(args.up_sigma_deg)
     plan_times: list[float] = []
     active.loop.plan_view = _timed_plan_view(plan_times)  # time the loop's own planner where it calls it
     for spec in args.worlds:
@@ -165,11 +169,19 @@ def run(args: argparse.Namespace) -> tuple[list[str], list[float]]:
                         look = _looker(types, pos, pose, np.random.default_rng([look_seed, 99]), depth_factor,
                                        detection, cap)
                         out = active_localize(world, percepts, look, max_looks=2, types=PERCEPT_TYPES,
-                                              planner=planner)
+                                              planner=planner, up_sigma=up_sigma)
                         looks[strategy] += out.looks
+                        verdicts = []
                         for k in range(3):
                             res = out.results[min(k, len(out.results) - 1)]
-                            counts[strategy][k, VERDICTS.index(_judge(res, pose))] += 1
+                            verdicts.append(_judge(res, pose))
+                            counts[strategy][k, VERDICTS.index(verdicts[-1])] += 1
+                        records.append({"world": spec, "scenario": scenario, "n_percepts": n_percepts,
+                                        "trial": trial, "strategy": strategy, "looks": out.looks,
+                                        "verdicts": verdicts,
+                                        "statuses": [r.status for r in out.results],
+                                        "rotation_3sigma_deg": [math.degrees(r.rotation_3sigma)
+                                                                for r in out.results]})
                     if (trial + 1) % 50 == 0:
                         print(f"{spec} {scenario} {n_percepts}: {trial + 1} trials", file=sys.stderr,
                               flush=True)
@@ -182,7 +194,7 @@ def run(args: argparse.Namespace) -> tuple[list[str], list[float]]:
                                 f"| {n_percepts - 1}+1 | {strategy} | {n} | {cells} | {c[2, 3]:.1f} "
                                 f"| {looks[strategy] / n:.2f} |")
                     print(rows[-1], file=sys.stderr, flush=True)
-    return rows, plan_times
+    return rows, plan_times, records
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -197,9 +209,15 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--n-percepts", type=int, nargs="+", default=[5],
                     help="percepts per trial, one of them false (5 = 4 true + 1 false)")
     ap.add_argument("--strategies", nargs="+", default=list(STRATEGIES), choices=STRATEGIES)
+    ap.add_argument("--up-sigma-deg", type=float, default=None,
+                    help="active_localize's up_sigma in degrees (inf: no tilt prior, the 6D fit)")
+    ap.add_argument("--save", default=None, help="write each trial's verdicts, statuses to this JSON")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    rows, plan_times = run(args)
+    rows, plan_times, records = run(args)
+    if args.save:
+        with open(args.save, "w") as f:
+            json.dump(records, f)
     ms = 1e3 * np.array(plan_times)
     print(f"percept types {PERCEPT_TYPES}; looks: fov {FOV_DEG:g} deg, range {MAX_RANGE:g} m, at most 2, "
           "while 'ambiguous' or 'weak' or an 'ok' answer's 3-sigma rotation bound exceeds 2 deg; "

@@ -694,3 +694,34 @@ def test_far_objects_are_left_out_of_the_prediction_without_changing_the_scores(
     slow = _slow_scores(world, poses, w / w.sum(), kinds, dirs, 50.0, 5.0, 0.7, 0.3)
     assert np.allclose(fast, slow, atol=1e-12)
     assert fast.max() > 0.1
+
+
+def test_a_first_view_the_percepts_contradict_explores():
+    # 30 objects of 10 types on a 3 m ring around a level robot; the first view's three percepts
+    # are rotated 90 deg about the ego x axis (no level pose explains them), the looks are true
+    rng = np.random.default_rng(3)
+    kinds = ["door", "handle", "knob", "drawer", "oven", "sink", "panel", "tap", "hob", "fridge"]
+    ang = np.linspace(0.0, 2.0 * np.pi, 30, endpoint=False)
+    world = wg.WorldModel.from_arrays([kinds[i % 10] for i in range(30)],
+                                      np.column_stack([3 * np.cos(ang), 3 * np.sin(ang),
+                                                       rng.uniform(0.3, 2.0, 30)]))
+    pose = np.eye(4)
+    pose[2, 3] = 1.5
+    ego = (world.positions - pose[:3, 3]) @ pose[:3, :3]
+    flip = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    first = [pc.Percept(str(world.types[i]), flip @ ego[i], 0.01) for i in range(3)]
+
+    def look(d: np.ndarray) -> list[pc.Percept]:
+        seen = ego @ d >= math.cos(HALF_FOV) * np.linalg.norm(ego, axis=1)
+        return [pc.Percept(str(t), x, 0.01) for t, x in zip(world.types[seen], ego[seen], strict=True)]
+
+    out = wg.active_localize(world, first, look)
+    assert out.results[0].status == "inconsistent"
+    assert out.reasons[0] == "explore"
+    assert out.result.status == "ok", out.result.message
+    assert np.linalg.norm(out.result.position - pose[:3, 3]) < 0.05
+    assert _angle(out.result.transformation[:3, 0], np.array([1.0, 0.0, 0.0])) < math.radians(2.0)
+    # told not to explore it, the loop stops at the first answer
+    stays = wg.active_localize(world, first, look,
+                               explore_while=[s for s in wg.active.EXPLORE_STATUSES if s != "inconsistent"])
+    assert stays.looks == 0 and stays.result.status == "inconsistent"

@@ -39,10 +39,13 @@ _LOOK_STATUSES: tuple[str, ...] = get_args(LookStatus)
 #: :func:`active_localize` also looks while an "ok" answer's 3-sigma rotation bound is wider than
 #: this (radians): 2 degrees, what a pose judged correct may be off by in the benchmarks.
 GOAL_ROTATION_3SIGMA = math.radians(2.0)
-#: Statuses without a pose that :func:`active_localize` answers by exploring: a look where the
-#: robot has not looked yet.
+#: Statuses without a pose to plan from that :func:`active_localize` answers by exploring: a look
+#: where the robot has not looked yet.  ``"inconsistent"`` is among them: its pose (when it has
+#: one) is one the percepts contradict, e.g. a free-search pose tilted on its side because the
+#: few true percepts of a first view are far and bunched together; more percepts elsewhere
+#: outvote a false one.
 ExploreStatus = Literal["too_few_percepts", "no_association", "degenerate", "degenerate_coplanar",
-                        "degenerate_collinear"]
+                        "degenerate_collinear", "inconsistent"]
 EXPLORE_STATUSES: tuple[str, ...] = get_args(ExploreStatus)
 #: Why :func:`active_localize` took a look: ``"explore"``, no pose yet, towards the widest arc of
 #: ego yaw not looked at; ``"plan"``, from the pose (:func:`plan_view` or the caller's planner).
@@ -234,8 +237,10 @@ def active_localize(world: WorldModel, percepts: Sequence[Percept],
         any look returned (a recogniser that reports a few objects per view).
 
     explore_while : sequence of str
-        Statuses without a pose that call for an exploring look (default :data:`EXPLORE_STATUSES`:
-        too few percepts, no association, degenerate landmarks); ``()`` never explores.
+        Statuses without a pose to plan from that call for an exploring look (default
+        :data:`EXPLORE_STATUSES`: too few percepts, no association, degenerate landmarks, a pose
+        the percepts contradict); ``()`` never explores.  A status in both ``explore_while`` and
+        ``look_while`` is explored.
     scanned_yaw_deg : (float, float) or None
         The neck yaws (degrees) the percepts passed in were swept over (default
         :data:`SCANNED_YAW_DEG`, the default scan's); exploring looks go elsewhere first.
