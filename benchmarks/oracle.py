@@ -37,8 +37,10 @@ as well as the truth does.
   tolerances (0.25 m, 5 deg).  The Cramer-Rao bound at the TRUE pose with the truth's inliers
   (isotropic percepts) and, when gravity is known (``--gravity auto`` or ``up``), gravity's tilt
   prior (``tilt_allowance / 3`` = 1.67 deg about each horizontal axis, the library's default
-  ``up_sigma``) says whether an ideal estimator could meet them; "no rival and determined" is the
-  bound on unique-correct answers (an ideal estimator's covariance, before any calibration).
+  ``up_sigma``) says whether an ideal estimator could meet them, on the axes ``localize``'s "weak"
+  test holds to them (with gravity: position, yaw, and the tilt only to the prior's own 3 sigma
+  plus 1 deg, 6 deg); "no rival and determined" is the bound on unique-correct answers (an ideal
+  estimator's covariance, before any calibration).
 
 The library on the same trial: ``worldgraph.localize(world, percepts, gravity=...)``
 with every other default, judged by ``layouts.verdict`` (unique-correct: "ok", 6D NEES <= 20.06,
@@ -85,6 +87,9 @@ GATE = 14.16  # chi-square, 3 dof, 3 sigma
 DETERMINED_POSITION = 0.25  # m: localize's default max_position_3sigma ...
 DETERMINED_ROTATION_DEG = 5.0  # ... and max_rotation_3sigma
 TILT_PRIOR_SD = math.radians(5.0 / 3.0)  # the library's default up_sigma: tilt_allowance / 3
+# with gravity's prior the tilt is gravity's to supply: held only to the prior's own 3 sigma plus
+# the 1 deg slack of the library's gravity search (its "weak" test on the tilt)
+DETERMINED_TILT_DEG = max(DETERMINED_ROTATION_DEG, 3.0 * math.degrees(TILT_PRIOR_SD) + 1.0)
 REFIT_ROUNDS = 5  # weighted Kabsch refits of a candidate until its assignment is stable
 LOOSE_GATE = 9.0 * GATE  # the pre-screen: three times the gate distance
 DIST_SIGMAS, DIST_FLOOR = 4.0, 0.01
@@ -261,8 +266,9 @@ def determined(x: np.ndarray, s: np.ndarray, objects: np.ndarray, true_pose: np.
                tilt_sd: float | None) -> bool:
     """Whether the Cramer-Rao bound of the pose at the truth (percepts ``x`` matched to
     ``objects``, isotropic ``s``; ``tilt_sd`` radians of gravity's prior on roll and pitch, None:
-    no prior) meets the 3-sigma tolerances :data:`DETERMINED_POSITION` and
-    :data:`DETERMINED_ROTATION_DEG`."""
+    no prior) meets the 3-sigma tolerances :data:`DETERMINED_POSITION` (worst axis) and
+    :data:`DETERMINED_ROTATION_DEG` (worst axis; with the prior: about world up, the tilt about
+    the worst horizontal axis within :data:`DETERMINED_TILT_DEG`), as ``localize``'s "weak" test."""
     if len(x) < 3:
         return False
     R = true_pose[:3, :3]
@@ -280,8 +286,12 @@ def determined(x: np.ndarray, s: np.ndarray, objects: np.ndarray, true_pose: np.
         return False
     C = np.linalg.inv(J)
     pos3 = 3.0 * math.sqrt(float(np.linalg.eigvalsh(C[3:, 3:])[-1]))
-    rot3 = math.degrees(3.0 * math.sqrt(float(np.linalg.eigvalsh(C[:3, :3])[-1])))
-    return pos3 <= DETERMINED_POSITION and rot3 <= DETERMINED_ROTATION_DEG
+    if tilt_sd is None:
+        rot3 = math.degrees(3.0 * math.sqrt(float(np.linalg.eigvalsh(C[:3, :3])[-1])))
+        return pos3 <= DETERMINED_POSITION and rot3 <= DETERMINED_ROTATION_DEG
+    yaw3 = math.degrees(3.0 * math.sqrt(float(C[2, 2])))
+    tilt3 = math.degrees(3.0 * math.sqrt(float(np.linalg.eigvalsh(C[:2, :2])[-1])))
+    return pos3 <= DETERMINED_POSITION and yaw3 <= DETERMINED_ROTATION_DEG and tilt3 <= DETERMINED_TILT_DEG
 
 
 def _rotation_deg(r1: np.ndarray, r2: np.ndarray) -> float:

@@ -9,11 +9,12 @@
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from scipy.stats import chi2
+from scipy.stats import chi2, multivariate_normal
 
 import radialopt as ro
 import worldgraph.localization as wl
@@ -21,9 +22,16 @@ from perception import Percept
 from tests.worlds import skew
 from worldgraph import scenes
 from worldgraph.errors import WorldGraphError
-from worldgraph.localization import LOCALIZE_STATUSES, default_region, localize
+from worldgraph.localization import LOCALIZE_STATUSES, default_region, localize, validate
 from worldgraph.model import WorldModel
-from worldgraph.pose.validation import self_check
+from worldgraph.pose.validation import (
+    CHI2_3_GATE,
+    FALSE_PERCEPT_RATE,
+    MIN_FALSE_PERCEPT_RANGE,
+    PoseFit,
+    false_percept_costs,
+    self_check,
+)
 
 
 def facing(position: np.ndarray, yaw: float) -> np.ndarray:
@@ -522,3 +530,65 @@ def test_lenient_tolerances_never_merge_two_places() -> None:
     res = localize(world, percepts, max_position_3sigma=100.0, max_rotation_3sigma=math.pi)
     assert res.status == "ambiguous"
     assert len(res.alternatives) == 1
+
+
+# ----------------------------------------------------------------------------------------------
+# a runner-up that explains fewer percepts is a rival only when its missing one may be false
+# ----------------------------------------------------------------------------------------------
+def test_false_percept_costs_against_the_mixture_likelihood() -> None:
+    rng = np.random.default_rng(4)
+    ego = rng.uniform(-4.0, 4.0, (6, 3))
+    a = rng.normal(size=(6, 3, 3)) * 0.03
+    covs = a @ a.transpose(0, 2, 1) + 1e-4 * np.eye(3)
+    got = false_percept_costs(ego, covs)
+    eps = FALSE_PERCEPT_RATE
+    volume = 4.0 / 3.0 * math.pi * max(np.linalg.norm(ego, axis=1).max(), MIN_FALSE_PERCEPT_RANGE) ** 3
+    for i in range(6):
+        # -2 log of "false" minus -2 log of "true, exactly at its object", beyond the robust cap
+        true_peak = math.log(1.0 - eps) + multivariate_normal(ego[i], covs[i]).logpdf(ego[i])
+        want = -2.0 * math.log(eps / volume) + 2.0 * true_peak - CHI2_3_GATE
+        assert got[i] == pytest.approx(max(want, 0.0), rel=1e-9, abs=1e-9)
+    assert np.all(got > 0)  # centimetre percepts: far dearer to leave out than the cap says
+    # a needle (a bearing, 100 m along its ray) is charged no more than the cap
+    needle = np.diag([1e-4, 1e-4, 1e4])[None]
+    assert false_percept_costs(np.array([[3.0, 0.0, 0.0]]), needle)[0] == 0.0
+    assert false_percept_costs(np.zeros((0, 3)), np.zeros((0, 3, 3))).shape == (0,)
+    with pytest.raises(WorldGraphError, match="covs"):
+        false_percept_costs(ego, covs[:5])
+
+
+def _choice_fit(pose: np.ndarray, cost: float, d2: np.ndarray) -> PoseFit:
+    cov = np.diag([1e-4, 1e-4, 1e-4, 1e-5, 1e-5, 1e-5])
+    inl = np.flatnonzero(d2 <= 14.0)
+    return PoseFit(pose, np.linalg.inv(cov), cov, tuple((int(i), int(i)) for i in inl), d2,
+                   np.arange(len(d2)), cost)
+
+
+def _choice_ctx(false_costs: np.ndarray) -> SimpleNamespace:
+    settings = wl.LocalizeSettings(gravity=None)
+    return SimpleNamespace(region=ro.Region(np.full(3, -50.0), np.full(3, 50.0)), explicit_region=False,
+                           settings=settings, notes=[], false_costs=false_costs)
+
+
+def test_a_runner_up_that_leaves_a_sharp_percept_unexplained_is_no_rival() -> None:
+    margin = wl.LocalizeSettings().tol.ambiguity_margin
+    best = _choice_fit(facing(np.zeros(3), 0.0), 30.0, np.array([6.0, 6.0, 6.0, 6.0, 6.0]))
+    far = facing(np.array([1.5, 0.0, 0.0]), math.radians(87.0))
+    # 4 of 5 explained; the fifth charged the cap: robust cost 2 above the best's
+    runner = _choice_fit(far, 32.0, np.array([4.5, 4.5, 4.5, 4.5, 50.0]))
+    assert runner.cost - best.cost < margin
+    ego = np.array([[2.0, 0.0, 0.0], [2.0, 1.0, 0.0], [3.0, -1.0, 0.5], [2.5, 0.5, -0.5], [3.0, 0.0, 0.0]])
+    sharp = false_percept_costs(ego, np.broadcast_to(0.02**2 * np.eye(3), (5, 3, 3)))
+    chosen, choice = validate._choose_step(_choice_ctx(sharp), [(best, 0), (runner, 1)], False)
+    assert chosen is best and not choice.ambiguous
+    assert choice.llr == pytest.approx(0.5 * (2.0 + sharp[4]))
+    # the same counts with percepts known to 0.4 m: a false fifth is likely enough, a rival
+    loose = false_percept_costs(ego, np.broadcast_to(0.4**2 * np.eye(3), (5, 3, 3)))
+    assert loose[4] < margin - 2.0
+    _, choice = validate._choose_step(_choice_ctx(loose), [(best, 0), (runner, 1)], False)
+    assert choice.ambiguous and len(choice.alternatives) == 1
+    # a runner-up explaining as many percepts within the margin stays a rival whatever the sigmas
+    even = _choice_fit(far, 32.0, np.full(5, 5.2))
+    assert np.all(even.mahalanobis2 <= CHI2_3_GATE)
+    _, choice = validate._choose_step(_choice_ctx(sharp), [(best, 0), (even, 1)], False)
+    assert choice.ambiguous

@@ -192,7 +192,7 @@ def _ctx(gravity: object) -> SimpleNamespace:
     settings = wg.LocalizeSettings(max_position_3sigma=0.25, max_rotation_3sigma=math.radians(5.0),
                                    gravity=gravity)
     return SimpleNamespace(region=ro.Region(np.full(3, -50.0), np.full(3, 50.0)), explicit_region=False,
-                           settings=settings, notes=[])
+                           settings=settings, notes=[], false_costs=np.zeros(4))
 
 
 def test_a_rival_tilted_beyond_the_allowance_does_not_make_a_gravity_answer_ambiguous() -> None:

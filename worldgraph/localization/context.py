@@ -66,6 +66,7 @@ class _Context(_Call):
     nearest: NearestObjects
     ranges: NDArray[np.float64]  # each percept's Gaussian-sphere radius (Percept.range)
     sigmas: NDArray[np.float64]  # and its sigma
+    false_costs: NDArray[np.float64]  # what leaving each percept unexplained costs beyond the cap
 
 
 @dataclass(frozen=True)

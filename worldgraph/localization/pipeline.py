@@ -65,7 +65,7 @@ from ..pose.gravity import (
     tilt_contradiction,
     unsupported_reason,
 )
-from ..pose.validation import CHI2_3_GATE, NearestObjects, percept_covariances
+from ..pose.validation import CHI2_3_GATE, NearestObjects, false_percept_costs, percept_covariances
 from ..tolerances import RIGID_TOLERANCE, AssociationTolerances
 from .context import _Call, _Context
 from .paper import _paper
@@ -435,4 +435,5 @@ def _measurement_step(call: _Call) -> _Context:
     return _Context(**{f.name: getattr(call, f.name) for f in fields(_Call)}, region=region,
                     explicit_region=explicit, ego=ego, covs=covs, nearest=nearest,
                     ranges=np.array([p.range for p in call.used], dtype=np.float64),
-                    sigmas=np.array([p.sigma for p in call.used], dtype=np.float64))
+                    sigmas=np.array([p.sigma for p in call.used], dtype=np.float64),
+                    false_costs=false_percept_costs(ego, covs))

@@ -112,8 +112,9 @@ class LocalizationResult:
     alternatives : tuple of (4, 4) float
         ``world_from_ego`` of the validated runner-ups within ``ambiguity_margin`` of the best.
     log_likelihood_ratio : float
-        Half the robust-cost difference between the best validated fit at another pose and the
-        chosen pose (inf when there is none).  Fits at the same pose (closer than a third of
+        Half the cost difference between the best validated fit at another pose and the chosen
+        pose (inf when there is none): robust costs with every percept a fit leaves unexplained
+        charged as a false percept (:func:`~worldgraph.pose.validation.false_percept_costs`).  Fits at the same pose (closer than a third of
         ``max_position_3sigma`` and ``max_rotation_3sigma``, and than ``distinct_translation``
         and ``distinct_angle``: a percept matched to one of two neighbouring objects of its
         type) do not make the answer ambiguous: their likelihood-weighted spread is part of
@@ -123,9 +124,9 @@ class LocalizationResult:
         its matches (the rotation SDP of :mod:`worldgraph.pose.certificate`), with the proven
         lower bound and the gap.  None otherwise.
     near_best_costs : tuple of float
-        Robust costs (twice a negative log-likelihood up to a constant) of the validated fits
-        behind ``transformation`` and each of ``alternatives``, in that order (empty for the
-        ``"paper"`` method and when no pose was determined); what
+        Costs (twice a negative log-likelihood up to a constant, as in ``log_likelihood_ratio``)
+        of the validated fits behind ``transformation`` and each of ``alternatives``, in that
+        order (empty for the ``"paper"`` method and when no pose was determined); what
         :func:`worldgraph.active.plan_view` weights the near-best hypotheses with.
     search : {"gravity", "free"}
         Which search answered (:mod:`worldgraph.pose.gravity`): the storey-aware gravity search or

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 from typing import Any, overload
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
@@ -74,12 +74,15 @@ from .gravity import TiltPrior, _check_tilt_prior
 __all__ = [
     "CHI2_3_GATE",
     "CHI2_6_GATE",
+    "FALSE_PERCEPT_RATE",
+    "MIN_FALSE_PERCEPT_RANGE",
     "NearestObjects",
     "PoseFit",
     "calibrated_pose_covariance",
     "constrained_directions",
     "curved_pose_covariance",
     "fit_hypothesis",
+    "false_percept_costs",
     "laplace_inflate",
     "percept_covariances",
     "placed_mahalanobis",
@@ -397,6 +400,59 @@ def _unique_inliers(d2: NDArray, obj: NDArray, second: NDArray, gate: float) -> 
         if clear and int(obj[p]) not in taken:
             taken[int(obj[p])] = int(p)
     return tuple(sorted((p, o) for o, p in taken.items()))
+
+
+#: :func:`false_percept_costs` takes this as the chance that a percept is false: an upper bound
+#: (a recogniser that is wrong half the time), so that a pose explaining fewer percepts is charged
+#: the least its unexplained percepts can cost.
+FALSE_PERCEPT_RATE = 0.5
+#: ... and a false percept to lie anywhere within the farthest percept's range of the head, at
+#: least this (m).
+MIN_FALSE_PERCEPT_RANGE = 1.0
+
+
+def false_percept_costs(ego: ArrayLike, covs: ArrayLike, gate: float = CHI2_3_GATE) -> NDArray[np.float64]:
+    """What leaving each percept unexplained costs a pose beyond the robust cost's cap ``gate``.
+
+    The robust cost of a fit (:attr:`PoseFit.cost`) charges a percept that no object of its type
+    explains the same ``gate`` whatever its covariance.  As twice a negative log-likelihood of a
+    mixture -- a percept is true with probability ``1 - eps`` (a normal density about its object,
+    its covariance ``C``) or false with probability ``eps`` (uniform over the ball of volume ``V``
+    the percepts were seen in) -- leaving it unexplained costs ``2 log(V / eps) + 2 log(1 - eps)
+    - 3 log(2 pi) - log det C`` more than explaining it exactly, far above ``gate`` for a percept
+    known to a few centimetres.  Returned is that excess over ``gate`` (never negative), with
+    ``eps`` = :data:`FALSE_PERCEPT_RATE` and ``V`` the ball through the farthest percept (at least
+    :data:`MIN_FALSE_PERCEPT_RANGE`): a pose that explains fewer percepts than another is then a
+    rival only when its missing percepts are likely enough to be false.
+
+    Parameters
+    ----------
+    ego : (k, 3) float
+        Percept positions (ego frame, m).
+    covs : (k, 3, 3) float
+        Their covariances (m^2).
+    gate : float
+        The robust cost's cap (default :data:`CHI2_3_GATE`).
+
+    Returns
+    -------
+    (k,) float
+        Zero for a percept whose covariance is so wide (a needle, a far stereo point) that the cap
+        already charges it as much.
+    """
+    x = real_array("ego", ego, (None, 3))
+    c = real_array("covs", covs, (len(x), 3, 3))
+    gate = real_scalar("gate", gate, positive=True)
+    if len(x) == 0:
+        return np.zeros(0)
+    r = max(float(np.linalg.norm(x, axis=1).max()), MIN_FALSE_PERCEPT_RANGE)
+    volume = 4.0 / 3.0 * math.pi * r**3
+    eps = FALSE_PERCEPT_RATE
+    sign, logdet = np.linalg.slogdet(c)
+    logdet = np.where(sign > 0, logdet, np.inf)  # a singular covariance: no density to compare
+    normal = 3.0 * math.log(2.0 * math.pi) + logdet  # -2 log of a normal density's peak, less 0
+    excess = 2.0 * math.log(volume / eps) + 2.0 * math.log1p(-eps) - normal - gate
+    return np.maximum(excess, 0.0)
 
 
 def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: NearestObjects,
