@@ -114,11 +114,11 @@ class LocalizationResult:
     log_likelihood_ratio : float
         Half the cost difference between the best validated fit at another pose and the chosen
         pose (inf when there is none): robust costs with every percept a fit leaves unexplained
-        charged as a false percept (:func:`~worldgraph.pose.validation.false_percept_costs`).  Fits at the same pose (closer than a third of
-        ``max_position_3sigma`` and ``max_rotation_3sigma``, and than ``distinct_translation``
-        and ``distinct_angle``: a percept matched to one of two neighbouring objects of its
-        type) do not make the answer ambiguous: their likelihood-weighted spread is part of
-        ``pose_covariance``.
+        charged as a false percept (:func:`~worldgraph.pose.validation.false_percept_costs`).
+        Fits at the same pose (closer than a third of ``max_position_3sigma`` and
+        ``max_rotation_3sigma``, and than ``distinct_translation`` and ``distinct_angle``: a
+        percept matched to one of two neighbouring objects of its type) do not make the answer
+        ambiguous: their likelihood-weighted spread is part of ``pose_covariance``.
     certificate : radialopt.Certificate or None
         With ``certify=True``: whether the pose is proven the global minimum of the ML cost of
         its matches (the rotation SDP of :mod:`worldgraph.pose.certificate`), with the proven

@@ -127,8 +127,8 @@ def _range_step(ctx: _Context, hyps_local: list[AssociationHypothesis], fits: _F
     if len(consistent) < len(fits):
         ctx.notes.append(f"{len(fits) - len(consistent)} hypothesis fit(s) rejected: their ranges do not "
                          "meet (radial projection beyond the chi-square gate)")
-    distinct = sorted(consistent.values(), key=lambda f: (
-        _ranking_cost(ctx, f[0]), _radial_score(radial[f[0].pairs]), -f[0].inliers, f[1]))
+    distinct = sorted(consistent.values(), key=lambda f: (f[0].cost, _radial_score(radial[f[0].pairs]),
+                                                           -f[0].inliers, f[1]))
     order = [h_i for _, h_i in distinct]
     sol_of = dict(of_hyp)
     t0 = time.perf_counter()
@@ -150,7 +150,7 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     caller's), its runners-up within the ambiguity margin and its log-likelihood ratio."""
     inside = [f for f in distinct if _in_region(ctx.region, f[0].world_from_ego, f[0].pose_covariance)]
     if inside and len(inside) < len(distinct):
-        worse_by = _ranking_cost(ctx, inside[0][0]) - _ranking_cost(ctx, distinct[0][0])
+        worse_by = inside[0][0].cost - distinct[0][0].cost
         if ctx.explicit_region or worse_by < ctx.settings.tol.ambiguity_margin:
             if inside[0] is not distinct[0]:
                 ctx.notes.append(f"{len(distinct) - len(inside)} better-fitting pose(s) outside the region "
@@ -160,20 +160,20 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
             ctx.notes.append(f"the best fit lies outside the default region; the best pose inside it fits "
                              f"worse by a robust cost of {worse_by:.3g}, so it was not preferred")
     best = distinct[0][0]
-    best_cost = _ranking_cost(ctx, best)
+    best_cost = _likelihood_cost(ctx, best)
     tol = ctx.settings.tol
     same: list[PoseFit] = []
     others: list[PoseFit] = []
     for f, _ in distinct[1:]:
         (same if _same_pose(best.world_from_ego, f.world_from_ego, ctx.settings) else others).append(f)
     others = _level_enough(ctx, others)
-    runners = [f for f in others if _ranking_cost(ctx, f) - best_cost < tol.ambiguity_margin
+    runners = [f for f in others if _likelihood_cost(ctx, f) - best_cost < tol.ambiguity_margin
                and pose_nees(best.world_from_ego, best.pose_covariance, f.world_from_ego) > CHI2_6_GATE]
     # a runner-up within the tolerances is the answer, not a rival
     close = [_within_tolerance(best.world_from_ego, f.world_from_ego, ctx.settings) for f in runners]
     near = [f for f, c in zip(runners, close, strict=True) if c]
     runners = [f for f, c in zip(runners, close, strict=True) if not c]
-    spread = _same_pose_spread(best_cost, best, [(_ranking_cost(ctx, f), f) for f in same + near])
+    spread = _same_pose_spread(best_cost, best, [(_likelihood_cost(ctx, f), f) for f in same + near])
     if same:
         ctx.notes.append(f"{len(same)} other fit(s) at the same pose (other objects of the percepts' "
                          "types nearby) widen its covariance by their likelihood-weighted spread")
@@ -189,11 +189,11 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     if runners:
         gap = float(np.linalg.norm(runners[0].world_from_ego[:3, 3] - best.world_from_ego[:3, 3]))
         ctx.notes.append(f"association ambiguous: best cost {best_cost:.3g} "
-                         f"({best.inliers} inliers), next {_ranking_cost(ctx, runners[0]):.3g} "
+                         f"({best.inliers} inliers), next {_likelihood_cost(ctx, runners[0]):.3g} "
                          f"({runners[0].inliers} inliers) at a pose {gap:.3g} m away")
-    llr = 0.5 * (_ranking_cost(ctx, others[0]) - best_cost) if others else math.inf
+    llr = 0.5 * (min(_likelihood_cost(ctx, f) for f in others) - best_cost) if others else math.inf
     alternatives = tuple(f.world_from_ego.copy() for f in runners)
-    near_best_costs = (float(best_cost), *(float(_ranking_cost(ctx, f)) for f in runners))
+    near_best_costs = (float(best_cost), *(float(_likelihood_cost(ctx, f)) for f in runners))
     return best, _Choice(ambiguous, alternatives, llr, near_best_costs, spread)
 
 
@@ -254,12 +254,14 @@ def _same_pose_spread(best_cost: float, best: PoseFit, same: list[tuple[float, P
     return (d * w[:, None]).T @ d
 
 
-def _ranking_cost(ctx: _Context, fit: PoseFit) -> float:
+def _likelihood_cost(ctx: _Context, fit: PoseFit) -> float:
     """The fit's robust cost with each percept it leaves unexplained (outside the gate) charged
     as a false percept (:func:`~worldgraph.pose.validation.false_percept_costs`): twice the
-    negative log-likelihood, up to a constant, that ranks the fits and decides ambiguity.  A
-    pose that explains fewer percepts is a rival only when its missing ones are likely enough to
-    be false."""
+    negative log-likelihood, up to a constant, that decides ambiguity.  A pose that explains
+    fewer percepts than the answer is a rival only when its missing ones are likely enough to be
+    false.  The answer itself is still the fit of least robust cost: a sharp false percept (a
+    few millimetres, near the head) would otherwise make any pose that happens to explain it
+    the answer; where the two costs disagree, the runner-up is a rival."""
     return float(fit.cost + ctx.false_costs[fit.mahalanobis2 > CHI2_3_GATE].sum())
 
 
