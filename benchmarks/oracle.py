@@ -53,12 +53,16 @@ Every trial is seeded from ``--seed``, the layout kind, n_true and the trial ind
 same command gives the same trials whatever the library does (compare two versions trial by
 trial with ``--save``).
 
+``--max-height H`` keeps only the landmarks at most H m above the floor (1.0: base cabinets,
+no wall cabinets or upper doors): their percepts lie near one height and leave the tilt to
+gravity's prior.
+
 ``--up-sigma-deg`` sets ``localize``'s ``up_sigma`` (``inf``: the 6D fit without gravity's tilt
 prior, the library before it) and ``--ambiguity-margin`` its ``tol.ambiguity_margin``, to measure
 either choice against the same trials.
 
 Run:  cd benchmarks && python oracle.py [--n-true 5 7] [--poses 40] [--seeds 3] [--seed 0]
-      [--kinds ...] [--tilt-deg 0] [--gravity auto|up|none] [--active] [--up-sigma-deg D]
+      [--kinds ...] [--tilt-deg 0] [--gravity auto|up|none] [--active] [--max-height H] [--up-sigma-deg D]
       [--ambiguity-margin M] [--save trials.json]
 Prints Markdown tables and the no-rival trials the library left on the table (progress on stderr).
 """
@@ -347,6 +351,14 @@ def oracle(world, percepts: list[Percept], true_pose: np.ndarray, tables: WorldT
 # Trials
 
 
+def below(world, max_height: float):
+    """The world's landmarks at most ``max_height`` above its floor (the room's, else the lowest
+    object's): a kitchen without wall cabinets, whose percepts leave the tilt to gravity."""
+    room = getattr(world, "room", None)
+    floor = room.lower[2] if room is not None else world.bounds[0][2]
+    return world.take(np.flatnonzero(world.positions[:, 2] - floor <= max_height))
+
+
 def trial_rng(seed: int, kind: str, n_true: int, index: int, stream: int = 0) -> np.random.Generator:
     """One trial's generator: a function of the seed, the kind, n_true and the index alone."""
     kinds = list(scenes.LAYOUT_KINDS + scenes.VARIED_LAYOUT_KINDS)
@@ -546,6 +558,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--ambiguity-margin", type=float, default=None,
                     help="localize's tol.ambiguity_margin (default: the library's)")
     ap.add_argument("--clearance", type=float, default=0.4)
+    ap.add_argument("--max-height", type=float, default=None,
+                    help="keep the landmarks at most this high above the floor (m; 1.0: no wall cabinets)")
     ap.add_argument("--no-prescreen", dest="prescreen", action="store_false")
     ap.add_argument("--save", help="write per-trial records to this JSON file")
     args = ap.parse_args(argv)
@@ -555,6 +569,8 @@ def main(argv: list[str] | None = None) -> None:
         layouts = []
         for s in range(args.seed, args.seed + args.seeds):
             w = landmark_world(scenes.kitchen_layout(kind, seed=s))
+            if args.max_height is not None:
+                w = below(w, args.max_height)
             layouts.append((s, w, WorldTables(w.positions, w.types)))
         for n_true in args.n_true:
             for index in range(args.poses):
