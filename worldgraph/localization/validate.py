@@ -173,7 +173,7 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     close = [_within_tolerance(best.world_from_ego, f.world_from_ego, ctx.settings) for f in runners]
     near = [f for f, c in zip(runners, close, strict=True) if c]
     runners = [f for f, c in zip(runners, close, strict=True) if not c]
-    spread = _same_pose_spread(best_cost, best, [(_likelihood_cost(ctx, f), f) for f in same + near])
+    spread = _same_pose_spread(best, same + near)
     if same:
         ctx.notes.append(f"{len(same)} other fit(s) at the same pose (other objects of the percepts' "
                          "types nearby) widen its covariance by their likelihood-weighted spread")
@@ -239,18 +239,18 @@ def _within_tolerance(a: NDArray, b: NDArray, settings: LocalizeSettings) -> boo
                 and np.linalg.norm(e[3:]) < min(settings.max_rotation_3sigma, tol.distinct_angle))
 
 
-def _same_pose_spread(best_cost: float, best: PoseFit, same: list[tuple[float, PoseFit]]
-                      ) -> NDArray[np.float64] | None:
-    """``sum_i w_i d_i d_i^T`` over the fits at the same pose as ``best`` (each with its ranking
-    cost): ``d_i`` their pose minus the best's (ROS order), ``w_i`` their likelihood
-    ``exp(-cost_i / 2)`` normalised over them and the best.  Added to the best's covariance, the
-    sum is the mean square error of reporting the best pose when the truth is one of these fits
-    (None without such fits)."""
+def _same_pose_spread(best: PoseFit, same: list[PoseFit]) -> NDArray[np.float64] | None:
+    """``sum_i w_i d_i d_i^T`` over the fits at the same pose as ``best``: ``d_i`` their pose
+    minus the best's (ROS order), ``w_i`` their robust likelihood ``exp(-cost_i / 2)`` normalised
+    over them and the best.  Added to the best's covariance, the sum is the mean square error of
+    reporting the best pose when the truth is one of these fits (None without such fits).  The
+    robust cost, not :func:`_likelihood_cost`: a fit at the same pose that leaves a sharp percept
+    unexplained keeps its weight, which keeps the covariance on the safe side."""
     if not same:
         return None
-    w = np.exp(-0.5 * np.array([c - best_cost for c, _ in same]))
+    w = np.exp(-0.5 * np.array([f.cost - best.cost for f in same]))
     w = w / (1.0 + w.sum())
-    d = np.array([pose_difference(best.world_from_ego, f.world_from_ego) for _, f in same])
+    d = np.array([pose_difference(best.world_from_ego, f.world_from_ego) for f in same])
     return (d * w[:, None]).T @ d
 
 
