@@ -9,7 +9,8 @@ percentiles and ``localize``'s own stage times (``LocalizationResult.timings``, 
 
 ``--against DIR`` also runs the same views with the library of another checkout (``DIR`` first
 on ``PYTHONPATH``, in a subprocess; the two alternate pass by pass, so both see the same machine)
-and checks that both give the same statuses and poses (to 1e-9): before and after in one table.
+and checks that both give the same statuses, correspondences and poses (to 1e-6 m and rad): before
+and after in one table.
 
 Run:  python benchmarks/kitchen_speed.py [--views 40] [--repeats 4] [--against ../before]
 Prints a Markdown table (progress on stderr).
@@ -58,7 +59,7 @@ def one_pass(world, views) -> dict:
         for s in STAGES:
             out["stages"][s].append(res.timings.get(s, 0.0))
         pose = res.transformation.tolist() if res.has_pose else None
-        out["answers"].append([res.status, pose])
+        out["answers"].append([res.status, pose, [list(c) for c in res.correspondences]])
     return out
 
 
@@ -78,12 +79,20 @@ def _merge(passes: list[dict]) -> dict:
     return out
 
 
+#: Two answers are the same when their statuses and correspondences are and their poses agree
+#: to this (m and rad: a thousand times below any covariance the library reports).
+POSE_AGREEMENT = 1e-6
+
+
 def _same(a: list, b: list) -> int:
-    """Number of views whose status or pose differ."""
+    """Number of views whose status, correspondences or pose (to :data:`POSE_AGREEMENT`) differ;
+    an answer without correspondences (an older checkout's) is compared on the others."""
     bad = 0
-    for (sa, pa), (sb, pb) in zip(a, b, strict=True):
-        if sa != sb or (pa is None) != (pb is None) or (
-                pa is not None and not np.allclose(pa, pb, rtol=0.0, atol=1e-9)):
+    for ra, rb in zip(a, b, strict=True):
+        (sa, pa), (sb, pb) = ra[:2], rb[:2]
+        corr_differ = len(ra) > 2 and len(rb) > 2 and ra[2] != rb[2]
+        if sa != sb or corr_differ or (pa is None) != (pb is None) or (
+                pa is not None and not np.allclose(pa, pb, rtol=0.0, atol=POSE_AGREEMENT)):
             bad += 1
     return bad
 
@@ -123,7 +132,8 @@ def main() -> None:
     print(table(rows, len(views), args.repeats))
     if theirs:
         differ = _same(rows[0][1]["answers"], rows[1][1]["answers"])
-        print(f"\nStatuses or poses (1e-9) that differ between the two: {differ} of {len(views)} views.")
+        print(f"\nStatuses, correspondences or poses ({POSE_AGREEMENT:g}) that differ between the two: "
+              f"{differ} of {len(views)} views.")
 
 
 def table(rows: list, n: int, repeats: int) -> str:

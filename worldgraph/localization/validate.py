@@ -21,6 +21,7 @@ from ..pose.validation import (
     CHI2_3_GATE,
     CHI2_6_GATE,
     PoseFit,
+    Refinement,
     calibrated_pose_covariance,
     fit_hypothesis,
     pose_cost,
@@ -85,6 +86,7 @@ def _fit_step(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> _Fits:
     """Step 5: ML fits of the best hypotheses (at most :data:`MAX_VALIDATED` distinct ones)."""
     t0 = time.perf_counter()
     fits: _Fits = {}
+    memo: dict[tuple[tuple[int, int], ...], Refinement] = {}  # inlier sets refined so far
     for h_i, h in enumerate(hyps_local):
         if len(fits) >= MAX_VALIDATED:
             break
@@ -96,7 +98,8 @@ def _fit_step(ctx: _Context, hyps_local: list[AssociationHypothesis]) -> _Fits:
         # object one module over, far from a compact clique) can pull the fit away for good
         starts = (h.pairs,) if h.all_pairs == h.pairs else (h.pairs, h.all_pairs)
         for start in starts:
-            fit = fit_hypothesis(ctx.world, ctx.ego, ctx.covs, ctx.nearest, start, h.world_from_ego)
+            fit = fit_hypothesis(ctx.world, ctx.ego, ctx.covs, ctx.nearest, start, h.world_from_ego,
+                                 memo=memo)
             if fit is not None and fit.pairs not in fits:  # converged to the same inliers: one answer
                 fits[fit.pairs] = (fit, h_i)
     ctx.timings["validation"] = time.perf_counter() - t0

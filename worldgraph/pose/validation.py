@@ -78,6 +78,7 @@ __all__ = [
     "MIN_FALSE_PERCEPT_RANGE",
     "NearestObjects",
     "PoseFit",
+    "Refinement",
     "calibrated_pose_covariance",
     "constrained_directions",
     "curved_pose_covariance",
@@ -455,17 +456,32 @@ def false_percept_costs(ego: ArrayLike, covs: ArrayLike, gate: float = CHI2_3_GA
     return np.maximum(excess, 0.0)
 
 
+#: What :func:`fit_hypothesis` keeps of one refinement of an inlier set, for its ``memo``: the
+#: fit and the inliers it re-associates (None: the set fixes no pose).
+Refinement = tuple[PoseFit, tuple[tuple[int, int], ...]] | None
+
+
 def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: NearestObjects,
                    pairs: tuple[tuple[int, int], ...], start: NDArray, max_rounds: int = 4,
-                   gate: float = CHI2_3_GATE) -> PoseFit | None:
+                   gate: float = CHI2_3_GATE, *,
+                   memo: dict[tuple[tuple[int, int], ...], Refinement] | None = None) -> PoseFit | None:
     """ML pose of ``pairs`` from ``start``, then re-associated inliers until stable.
 
     Returns None when fewer than three inliers remain or they fix no pose.
+
+    ``memo`` (a dict shared by the calls of one localisation: the same world, percepts,
+    covariances, nearest-object index and gate) holds every inlier set refined so far; a set
+    refined before is not refined again, its first refinement is reused.  The fits of one
+    localisation's hypotheses mostly converge to a few inlier sets, each refined once: the pose
+    of a reused refinement was started elsewhere and differs from a fresh one by the
+    refinement's own convergence (about 1e-7).
     """
     if not isinstance(world, WorldModel):
         raise WorldGraphError(f"world must be a WorldModel, got {type(world).__name__}")
     if not isinstance(nearest, NearestObjects):
         raise WorldGraphError(f"nearest must be a NearestObjects, got {type(nearest).__name__}")
+    if memo is not None and not isinstance(memo, dict):
+        raise WorldGraphError(f"memo must be None or a dict, got {type(memo).__name__}")
     T, ego, covs, _ = _inputs(start, ego, covs, pose_name="start")
     max_rounds = integer("max_rounds", max_rounds, minimum=1, maximum=1000)
     gate = real_scalar("gate", gate, positive=True)
@@ -482,21 +498,36 @@ def fit_hypothesis(world: WorldModel, ego: NDArray, covs: NDArray, nearest: Near
     for _ in range(max_rounds):
         if len(current) < 3:
             break
-        p_rows = np.array([a for a, _ in current])
-        o_rows = np.array([b for _, b in current])
-        try:
-            T_new, info = _refine_pose(ego[p_rows], world.positions[o_rows], covs[p_rows], T)
-            cov6 = ros_pose_covariance(info)
-        except PoseError:
+        if memo is not None and current in memo:
+            done = memo[current]
+        else:
+            done = _refinement(world, ego, covs, nearest, current, T, gate)
+            if memo is not None:
+                memo[current] = done
+        if done is None:
             break
-        d2, obj, second = nearest.query(T_new, ego, covs, cov6)
-        fit = PoseFit(T_new, info, cov6, current, d2, obj, float(np.minimum(d2, gate).sum()))
-        T = T_new
-        new = _unique_inliers(d2, obj, second, gate)
+        fit, new = done
+        T = fit.world_from_ego
         if new == current or len(new) < 3:
             break
         current = new
     return fit
+
+
+def _refinement(world: WorldModel, ego: NDArray, covs: NDArray, nearest: NearestObjects,
+                current: tuple[tuple[int, int], ...], start: NDArray, gate: float) -> Refinement:
+    """One round of :func:`fit_hypothesis`: the ML pose of the inlier set ``current`` from
+    ``start`` and the inliers re-associated under it (None when the set fixes no pose)."""
+    p_rows = np.array([a for a, _ in current])
+    o_rows = np.array([b for _, b in current])
+    try:
+        T_new, info = _refine_pose(ego[p_rows], world.positions[o_rows], covs[p_rows], start)
+        cov6 = ros_pose_covariance(info)
+    except PoseError:
+        return None
+    d2, obj, second = nearest.query(T_new, ego, covs, cov6)
+    fit = PoseFit(T_new, info, cov6, current, d2, obj, float(np.minimum(d2, gate).sum()))
+    return fit, _unique_inliers(d2, obj, second, gate)
 
 
 def laplace_inflate(world_from_ego: NDArray, ego: NDArray, covs: NDArray, world_points: NDArray,
