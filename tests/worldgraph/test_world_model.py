@@ -884,3 +884,16 @@ def test_distinct_types_at_one_point_build_or_refuse_before_the_work() -> None:
     with pytest.raises(wg.WorldGraphError, match=r"max_link_length = 5 m .*49,995,000 object pairs "
                                                  r"\(10,000 objects"):
         WorldModel.from_arrays([f"part{k}" for k in range(n)], np.zeros((n, 3)))
+
+
+def test_a_graph_too_large_for_networkx_is_refused_up_front() -> None:
+    from worldgraph.model.links import MAX_GRAPH_EDGES
+
+    n = 1500  # at one point: every pair a link, 1,124,250 edges
+    assert n * (n - 1) // 2 > MAX_GRAPH_EDGES
+    world = WorldModel.from_arrays([f"t{i}" for i in range(n)], np.zeros((n, 3)))
+    assert len(world.links) == n * (n - 1) // 2  # the link tables hold them all
+    with pytest.raises(wg.WorldGraphError, match=r"1,124,250 edges .*MAX_GRAPH_EDGES.*world\.links"):
+        _ = world.graph  # refused before a single edge is added
+    small = WorldModel.from_arrays([f"t{i}" for i in range(300)], np.zeros((300, 3)))
+    assert small.graph.number_of_edges() == 300 * 299 // 2

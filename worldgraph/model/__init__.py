@@ -90,7 +90,8 @@ Where things live (the names are importable from here, as before):
 * :mod:`worldgraph.model.scene_files`: reading scene files (glTF, OBJ, PLY, STL, OFF, DAE, MJCF)
   into typed scenes, for :meth:`WorldModel.from_file` (the public names are in
   :mod:`worldgraph.importers`);
-* :mod:`worldgraph.model.links`: :class:`LinkTable`, :data:`MAX_LINK_LENGTH`, :data:`MAX_LINKS`;
+* :mod:`worldgraph.model.links`: :class:`LinkTable`, :data:`MAX_LINK_LENGTH`, :data:`MAX_LINKS`,
+  :data:`MAX_GRAPH_EDGES`;
 * :mod:`worldgraph.model.far_pairs`: :class:`FarPairIndex` and the ``FAR_PAIR_*`` limits (set
   them on that module: the far-pair code reads them there);
 * :mod:`worldgraph.model.persistence`: the file format (:data:`FILE_FORMAT`, :data:`FILE_VERSION`);
@@ -109,7 +110,7 @@ from .far_pairs import (  # noqa: F401 - re-exported
     FAR_TYPE_BLOCK,
     FarPairIndex,
 )
-from .links import MAX_LINK_LENGTH, MAX_LINKS, LinkTable  # noqa: F401 - re-exported
+from .links import MAX_GRAPH_EDGES, MAX_LINK_LENGTH, MAX_LINKS, LinkTable  # noqa: F401 - re-exported
 from .objects import DEFAULT_SIZE, MAX_COORDINATE, ObjectModel, ObjectTable, box_vertices  # noqa: F401 - re-exported
 from .persistence import FILE_FORMAT, FILE_VERSION
 from .scene_nodes import DEFAULT_ROOM_HEIGHT, ROOM_TYPES, room_from_trimesh

@@ -1,6 +1,7 @@
 """The link look-up table of a world model: :class:`LinkTable` (the object pairs of one type
 pair, sorted by length), the mapping of all of them (``_LinkTables``), how the world
-builds it (``_build_links``) and its limits :data:`MAX_LINK_LENGTH` and :data:`MAX_LINKS`."""
+builds it (``_build_links``) and its limits :data:`MAX_LINK_LENGTH`, :data:`MAX_LINKS` and
+:data:`MAX_GRAPH_EDGES`."""
 
 from __future__ import annotations
 
@@ -25,6 +26,10 @@ MAX_LINK_LENGTH = 1e7
 #: Most object pairs a world's link table may hold (about 1 GB of link arrays; a 1M-object campus
 #: at 5 m holds about 28 million).
 MAX_LINKS = 40_000_000
+#: Most edges :attr:`WorldModel.graph <worldgraph.model.WorldModel.graph>` builds: a networkx edge
+#: with its attribute dict costs about 0.5 kB and 12 us to add (12.5 million edges, 5,000 objects
+#: at one point: 144 s), so more is refused up front; the link tables hold any number as arrays.
+MAX_GRAPH_EDGES = 1_000_000
 
 
 # ----------------------------------------------------------------------------------------------
@@ -181,6 +186,10 @@ class _LinkTables(Mapping[tuple[str, str], LinkTable]):
 
     def __len__(self) -> int:
         return len(self._present)
+
+    def count_shorter(self, hi: float) -> int:
+        """How many links, of every type pair, are shorter than ``hi`` (m)."""
+        return int(np.count_nonzero(self._length < hi))
 
     def __repr__(self) -> str:
         return f"<link tables: {len(self)} linked type pairs, {len(self._length)} links>"

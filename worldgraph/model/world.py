@@ -36,7 +36,7 @@ from .far_pairs import (
     _build_world_far_pairs,
     _world_far_pair_index,
 )
-from .links import MAX_LINK_LENGTH, LinkTable, _build_world_links, _LinkTables
+from .links import MAX_GRAPH_EDGES, MAX_LINK_LENGTH, LinkTable, _build_world_links, _LinkTables
 from .objects import (
     ObjectModel,
     ObjectTable,
@@ -264,7 +264,16 @@ class WorldModel:
     @cached_property
     def graph(self) -> nx.Graph:
         """Proximity graph: node = object index (attributes id, type, position, size), edge =
-        pair closer than ``max_link_length`` (attribute ``length``)."""
+        pair closer than ``max_link_length`` (attribute ``length``).  A graph of more than
+        :data:`~worldgraph.model.links.MAX_GRAPH_EDGES` edges is refused
+        (:class:`~worldgraph.errors.WorldGraphError`): :attr:`links` holds them as arrays."""
+        edges = self._links.count_shorter(self.max_link_length)
+        if edges > MAX_GRAPH_EDGES:
+            raise WorldGraphError(
+                f"world.graph would hold {edges:,} edges ({len(self):,} objects, max_link_length = "
+                f"{self.max_link_length:g} m), more than MAX_GRAPH_EDGES = {MAX_GRAPH_EDGES:,} (a networkx "
+                "edge costs about 0.5 kB and 12 us): read the pairs from world.links (arrays per type "
+                "pair) or lower max_link_length")
         g: nx.Graph[int] = nx.Graph()
         g.add_nodes_from((k, {"id": o.id, "type": o.type, "position": self._positions[k], "size": o.size})
                          for k, o in enumerate(self.objects))
