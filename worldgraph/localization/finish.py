@@ -133,31 +133,35 @@ def _weak_axes(cov6: NDArray[np.float64], settings: LocalizeSettings, prior: Til
     a level robot whose percepts lie near one height is not weak because they cannot add to what
     gravity says about its tilt."""
     out = []
-    w, v = np.linalg.eigh(cov6[:3, :3])
-    pos3 = 3.0 * math.sqrt(max(float(w[-1]), 0.0))
+    pos3, axis = _worst_axis(cov6[:3, :3])
     if pos3 > settings.max_position_3sigma:
-        out.append(f"position 3-sigma {pos3:.3g} m along {_axis_text(v[:, -1])} (tolerance "
+        out.append(f"position 3-sigma {pos3:.3g} m along {_axis_text(axis)} (tolerance "
                    f"{settings.max_position_3sigma:.3g} m)")
     rot = cov6[3:, 3:]
     rot_tol = math.degrees(settings.max_rotation_3sigma)
     if prior is None:
-        w, v = np.linalg.eigh(rot)
-        rot3 = math.degrees(3.0 * math.sqrt(max(float(w[-1]), 0.0)))
-        if rot3 > rot_tol:
-            out.append(f"rotation 3-sigma {rot3:.3g} deg about {_axis_text(v[:, -1])} (tolerance "
+        rot3, axis = _worst_axis(rot)
+        if math.degrees(rot3) > rot_tol:
+            out.append(f"rotation 3-sigma {math.degrees(rot3):.3g} deg about {_axis_text(axis)} (tolerance "
                        f"{rot_tol:.3g} deg)")
         return out
     yaw3 = math.degrees(3.0 * math.sqrt(max(float(rot[2, 2]), 0.0)))
     if yaw3 > rot_tol:
         out.append(f"yaw (rotation about world up) 3-sigma {yaw3:.3g} deg (tolerance {rot_tol:.3g} deg)")
-    w, v = np.linalg.eigh(rot[:2, :2])
-    tilt3 = math.degrees(3.0 * math.sqrt(max(float(w[-1]), 0.0)))
+    tilt3, axis = _worst_axis(rot[:2, :2])
     tilt_tol = max(rot_tol, math.degrees(TILT_PRIOR_SIGMAS * prior.sd + TILT_SLACK))
-    if tilt3 > tilt_tol:
-        out.append(f"tilt 3-sigma {tilt3:.3g} deg about {_axis_text(np.append(v[:, -1], 0.0))} (tolerance "
-                   f"{tilt_tol:.3g} deg: gravity's tilt prior, {math.degrees(prior.sd):.3g} deg, "
+    if math.degrees(tilt3) > tilt_tol:
+        out.append(f"tilt 3-sigma {math.degrees(tilt3):.3g} deg about {_axis_text(np.append(axis, 0.0))} "
+                   f"(tolerance {tilt_tol:.3g} deg: gravity's tilt prior, {math.degrees(prior.sd):.3g} deg, "
                    f"{TILT_PRIOR_SIGMAS:g} times, plus {math.degrees(TILT_SLACK):g} deg)")
     return out
+
+
+def _worst_axis(block: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+    """Three standard deviations along the worst axis of a finite covariance block (as
+    ``_worst_3sigma``), and that axis."""
+    w, v = np.linalg.eigh(block)
+    return 3.0 * math.sqrt(max(float(w[-1]), 0.0)), v[:, -1]
 
 
 def _axis_text(axis: NDArray[np.float64]) -> str:

@@ -170,7 +170,8 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     for f, _ in distinct[1:]:
         (same if _same_pose(best.world_from_ego, f.world_from_ego, ctx.settings) else others).append(f)
     others = _level_enough(ctx, others)
-    runners = [f for f in others if _likelihood_cost(ctx, f) - best_cost < tol.ambiguity_margin
+    cost_of = {id(f): _likelihood_cost(ctx, f) for f in others}
+    runners = [f for f in others if cost_of[id(f)] - best_cost < tol.ambiguity_margin
                and pose_nees(best.world_from_ego, best.pose_covariance, f.world_from_ego) > CHI2_6_GATE]
     # a runner-up within the tolerances is the answer, not a rival
     close = [_within_tolerance(best.world_from_ego, f.world_from_ego, ctx.settings) for f in runners]
@@ -192,11 +193,11 @@ def _choose_step(ctx: _Context, distinct: list[tuple[PoseFit, int]], incomplete:
     if runners:
         gap = float(np.linalg.norm(runners[0].world_from_ego[:3, 3] - best.world_from_ego[:3, 3]))
         ctx.notes.append(f"association ambiguous: best cost {best_cost:.3g} "
-                         f"({best.inliers} inliers), next {_likelihood_cost(ctx, runners[0]):.3g} "
+                         f"({best.inliers} inliers), next {cost_of[id(runners[0])]:.3g} "
                          f"({runners[0].inliers} inliers) at a pose {gap:.3g} m away")
-    llr = 0.5 * (min(_likelihood_cost(ctx, f) for f in others) - best_cost) if others else math.inf
+    llr = 0.5 * (min(cost_of.values()) - best_cost) if others else math.inf
     alternatives = tuple(f.world_from_ego.copy() for f in runners)
-    near_best_costs = (float(best_cost), *(float(_likelihood_cost(ctx, f)) for f in runners))
+    near_best_costs = (float(best_cost), *(float(cost_of[id(f)]) for f in runners))
     return best, _Choice(ambiguous, alternatives, llr, near_best_costs, spread)
 
 
